@@ -1,0 +1,73 @@
+"""The ``robodyn`` command line.
+
+Each subcommand lives in its own module of this package, exposing
+``add_parser(subparsers)`` and ``run(args) -> int``; heavy imports happen inside ``run``.
+Only the command line prints, writes files and picks exit codes: library code raises
+:class:`robodyn.RobodynError`, whose ``exit_code`` is returned here after one line on
+stderr. Exit codes: 0 ok, 1 check mismatch, 2 bad input, 3 diverged, 4 missing optional
+dependency, 5 resource unavailable (e.g. a port in use), 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Sequence
+
+from robodyn import __version__
+from robodyn.errors import RobodynError
+
+# Subcommand -> module in robodyn.cli, in the order shown by --help.
+SUBCOMMANDS = {
+    "info": "info",
+    "params": "params",
+    "check": "check",
+    "simulate": "simulate",
+    "view": "view",
+    "bench": "bench",
+    "run": "run",
+}
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with exit code 2 and a one-line message on bad usage (its default, kept explicit)."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.print_usage(sys.stderr)
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def get_argument_parser() -> argparse.ArgumentParser:
+    """Build the parser with every available subcommand."""
+    parser = _Parser(prog="robodyn", description=__doc__.splitlines()[0] if __doc__ else None)
+    parser.add_argument("--version", action="version", version=f"robodyn {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub.required = True
+    for name, module_name in SUBCOMMANDS.items():
+        try:
+            module = importlib.import_module(f"robodyn.cli.{module_name}")
+        except ModuleNotFoundError as exc:
+            if exc.name == f"robodyn.cli.{module_name}":
+                continue  # subcommand not built in this version
+            raise
+        module.add_parser(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; return the process exit code."""
+    parser = get_argument_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.handler(args))
+    except RobodynError as exc:
+        print(f"robodyn {args.command}: error: {exc}", file=sys.stderr)
+        return exc.exit_code
+    except KeyboardInterrupt:
+        print(f"robodyn {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

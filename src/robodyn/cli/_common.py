@@ -1,0 +1,105 @@
+"""Argument types and helpers shared by the subcommands."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+
+def float_list(text: str) -> np.ndarray:
+    """argparse type: ``"0.1,-2,3e-3"`` -> float array (one line of error otherwise)."""
+    try:
+        values = [float(x) for x in text.replace(" ", "").split(",") if x != ""]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers like 0.1,-2, got {text!r}") from None
+    if not values:
+        raise argparse.ArgumentTypeError("expected at least one number")
+    if not np.all(np.isfinite(values)):
+        raise argparse.ArgumentTypeError(f"expected finite numbers, got {text!r}")
+    return np.array(values, dtype=np.float64)
+
+
+def positive_float(text: str) -> float:
+    """argparse type: a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
+    if not np.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
+    return value
+
+
+def positive_int(text: str) -> int:
+    """argparse type: an integer >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive whole number, got {text!r}")
+    return value
+
+
+def non_negative_int(text: str) -> int:
+    """argparse type: an integer >= 0."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}")
+    return value
+
+
+def add_model_arguments(parser: argparse.ArgumentParser) -> None:
+    """The positional model (built-in name, example-robot-data name or URDF path) and its options."""
+    parser.add_argument(
+        "model",
+        metavar="URDF_OR_NAME",
+        help="built-in model (geared_arm, cart_pole, pendubot), an example-robot-data robot (panda, talos, ...) "
+        "or a path to a .urdf file",
+    )
+    parser.add_argument("--srdf", type=Path, default=None, help="SRDF file (default: same stem as the URDF)")
+    parser.add_argument("--free-flyer", action="store_true", help="mount the root on a free-flyer joint")
+
+
+def load_robot(args: argparse.Namespace, **options: Any) -> Any:
+    """Load the robot named by ``args.model`` with the common options."""
+    from robodyn.models import load
+
+    return load(args.model, srdf=args.srdf, free_flyer=args.free_flyer, **options)
+
+
+def writable_path(path: Path) -> Path:
+    """Return ``path`` after checking that its folder exists (created if needed) and is writable."""
+    from robodyn.errors import InputError
+
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with path.open("ab"):
+            pass
+    except OSError as exc:
+        raise InputError(f"cannot write {path}: {exc.strerror}") from None
+    return path
+
+
+def print_json(obj: Any) -> None:
+    """Print ``obj`` as indented JSON on stdout."""
+    json.dump(obj, sys.stdout, indent=2, default=_json_default)
+    sys.stdout.write("\n")
+
+
+def _json_default(obj: Any) -> Any:
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(f"cannot serialise {type(obj).__name__}")

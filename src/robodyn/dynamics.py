@@ -1,0 +1,135 @@
+"""The one place that calls Pinocchio's algorithms.
+
+Every function takes a Pinocchio ``model`` and a ``data`` made from it, checks nothing
+(the :class:`robodyn.Robot` methods validate user input), and returns fresh float64
+arrays: values read from ``data`` are live views that the next call overwrites, so they
+are copied before they leave this module.
+
+Units: q [rad | m], v [rad/s | m/s], a [rad/s^2 | m/s^2], tau [N m | N],
+M [kg m^2 | kg], energies [J].
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+from numpy.typing import NDArray
+
+Array = NDArray[np.float64]
+
+
+def mass_matrix(model: pin.Model, data: pin.Data, q: Array) -> Array:
+    """Joint-space inertia matrix M(q) by CRBA (symmetrised; armature included), shape (nv, nv)."""
+    pin.crba(model, data, q)
+    M = np.array(data.M)
+    return np.triu(M) + np.triu(M, 1).T
+
+
+def coriolis_matrix(model: pin.Model, data: pin.Data, q: Array, v: Array) -> Array:
+    """Christoffel-form Coriolis matrix C(q, v): dM/dt - 2C is skew. Shape (nv, nv)."""
+    return np.array(pin.computeCoriolisMatrix(model, data, q, v))
+
+
+def gravity(model: pin.Model, data: pin.Data, q: Array) -> Array:
+    """Generalised gravity G(q) = dV/dq [N m | N], shape (nv,)."""
+    return np.array(pin.computeGeneralizedGravity(model, data, q))
+
+
+def nonlinear_effects(model: pin.Model, data: pin.Data, q: Array, v: Array) -> Array:
+    """C(q, v) v + G(q) by RNEA with zero acceleration, shape (nv,)."""
+    return np.array(pin.nonLinearEffects(model, data, q, v))
+
+
+def rnea(model: pin.Model, data: pin.Data, q: Array, v: Array, a: Array) -> Array:
+    """Inverse dynamics tau = M a + C v + G by RNEA, shape (nv,)."""
+    return np.array(pin.rnea(model, data, q, v, a))
+
+
+def aba(model: pin.Model, data: pin.Data, q: Array, v: Array, tau: Array) -> Array:
+    """Forward dynamics by the articulated-body algorithm, shape (nv,)."""
+    return np.array(pin.aba(model, data, q, v, tau))
+
+
+def crba_solve(model: pin.Model, data: pin.Data, q: Array, v: Array, tau: Array) -> Array:
+    """Forward dynamics as M^-1 (tau - nle) with CRBA and a Cholesky solve.
+
+    Serves models whose ABA is refused (mimic joints) and is an independent check of ABA.
+    """
+    M = mass_matrix(model, data, q)
+    b = nonlinear_effects(model, data, q, v)
+    factor = np.linalg.cholesky(M)
+    y = np.linalg.solve(factor, tau - b)
+    return np.linalg.solve(factor.T, y)
+
+
+def aba_derivatives(
+    model: pin.Model, data: pin.Data, q: Array, v: Array, tau: Array
+) -> tuple[Array, Array, Array]:
+    """Analytical derivatives of ABA: (da/dq, da/dv, da/dtau), each (nv, nv)."""
+    pin.computeABADerivatives(model, data, q, v, tau)
+    return np.array(data.ddq_dq), np.array(data.ddq_dv), np.array(data.Minv)
+
+
+def kinetic_energy(model: pin.Model, data: pin.Data, q: Array, v: Array) -> float:
+    """Kinetic energy 1/2 v^T M v [J], the one to trust: it includes rotor armature."""
+    M = mass_matrix(model, data, q)
+    return 0.5 * float(v @ M @ v)
+
+
+def pinocchio_kinetic_energy(model: pin.Model, data: pin.Data, q: Array, v: Array) -> float:
+    """Pinocchio's ``computeKineticEnergy`` [J], kept for cross-checking only.
+
+    In pin 4.1 it leaves out armature on revolute joints with a non-canonical axis.
+    """
+    return float(pin.computeKineticEnergy(model, data, q, v))
+
+
+def potential_energy(model: pin.Model, data: pin.Data, q: Array) -> float:
+    """Gravitational potential energy [J] (zero at world height 0), from Pinocchio."""
+    return float(pin.computePotentialEnergy(model, data, q))
+
+
+def integrate(model: pin.Model, q: Array, dq: Array) -> Array:
+    """Configuration q (+) dq on the configuration manifold, shape (nq,)."""
+    return np.array(pin.integrate(model, q, dq))
+
+
+def difference(model: pin.Model, q0: Array, q1: Array) -> Array:
+    """Tangent vector dq with q0 (+) dq = q1, shape (nv,)."""
+    return np.array(pin.difference(model, q0, q1))
+
+
+def neutral(model: pin.Model) -> Array:
+    """The neutral configuration, shape (nq,)."""
+    return np.array(pin.neutral(model))
+
+
+def random_configuration(model: pin.Model, rng: np.random.Generator) -> Array:
+    """A configuration drawn with ``rng``: joint angles uniform in [-pi, pi] around neutral.
+
+    Pinocchio's own random generator is not seeded through NumPy, so this draws a tangent
+    vector from ``rng`` and integrates it from the neutral configuration.
+    """
+    dq = rng.uniform(-np.pi, np.pi, model.nv)
+    return integrate(model, neutral(model), dq)
+
+
+def frame_placements(model: pin.Model, data: pin.Data, q: Array) -> list[Array]:
+    """Homogeneous transforms (4, 4) of every frame in world, in ``model.frames`` order."""
+    pin.framesForwardKinematics(model, data, q)
+    return [np.array(f.homogeneous) for f in data.oMf]
+
+
+def geometry_placements(
+    model: pin.Model, data: pin.Data, geom_model: pin.GeometryModel, q: Array
+) -> list[Array]:
+    """World transforms (4, 4) of every geometry object at configuration q."""
+    geom_data = geom_model.createData()
+    pin.forwardKinematics(model, data, q)
+    pin.updateGeometryPlacements(model, data, geom_model, geom_data)
+    return [np.array(m.homogeneous) for m in geom_data.oMg]
+
+
+def center_of_mass(model: pin.Model, data: pin.Data, q: Array) -> Array:
+    """Whole-body centre of mass in world [m], shape (3,)."""
+    return np.array(pin.centerOfMass(model, data, q))

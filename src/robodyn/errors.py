@@ -1,0 +1,88 @@
+"""Exceptions raised by robodyn.
+
+Every error derives from :class:`RobodynError` and carries an ``exit_code`` that the
+command line returns. Messages are one line: what was wrong, and what was expected.
+
+Exit codes (documented in the README):
+
+* 0 -- success;
+* 1 -- a check found a mismatch (returned by ``robodyn check``, not raised);
+* 2 -- bad input: a missing or malformed file, wrong vector lengths, an unknown name;
+* 3 -- a simulation diverged (partial results are written first);
+* 4 -- an optional dependency is missing;
+* 5 -- a resource is unavailable (e.g. a port in use).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+EXIT_OK = 0
+EXIT_MISMATCH = 1
+EXIT_BAD_INPUT = 2
+EXIT_DIVERGED = 3
+EXIT_MISSING_DEPENDENCY = 4
+EXIT_UNAVAILABLE = 5
+
+
+class RobodynError(Exception):
+    """Base class of every robodyn error."""
+
+    exit_code = EXIT_BAD_INPUT
+
+
+class ModelError(RobodynError):
+    """A URDF/SRDF is missing, malformed or physically impossible."""
+
+    def __init__(self, message: str, *, path: object = None) -> None:
+        self.path = path
+        super().__init__(f"{path}: {message}" if path is not None else message)
+
+
+class InputError(RobodynError, ValueError):
+    """A value given by the user has the wrong shape, sign or type."""
+
+
+class UnknownNameError(RobodynError, KeyError):
+    """A name does not resolve in a registry; the message lists what exists."""
+
+    def __init__(self, what: str, name: str, choices: Iterable[str]) -> None:
+        self.what = what
+        self.name = name
+        self.choices = tuple(sorted(choices))
+        super().__init__(f"unknown {what} {name!r}; expected one of: {', '.join(self.choices)}")
+
+    def __str__(self) -> str:  # KeyError would quote the message otherwise
+        return str(self.args[0])
+
+
+class AssumptionError(ModelError):
+    """A model breaks an assumption of a hand-derived formula (joint type, axis, COM line...)."""
+
+
+class FormulaError(RobodynError):
+    """A user's formula file fails to import or returns values of the wrong shape."""
+
+
+class DivergenceError(RobodynError):
+    """A simulation diverged. ``trajectory`` holds the states up to the failing step."""
+
+    exit_code = EXIT_DIVERGED
+
+    def __init__(self, message: str, *, step: int, time: float, trajectory: object = None) -> None:
+        self.step = step
+        self.time = time
+        self.trajectory = trajectory
+        super().__init__(message)
+
+
+class MissingDependencyError(RobodynError, ImportError):
+    """An optional dependency is not installed; the message says how to install it."""
+
+    exit_code = EXIT_MISSING_DEPENDENCY
+
+
+class UnavailableError(RobodynError):
+    """A resource such as a network port cannot be used."""
+
+    exit_code = EXIT_UNAVAILABLE

@@ -1,0 +1,224 @@
+"""The :class:`Robot`: a loaded Pinocchio model with validated, unit-documented dynamics."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from robodyn import dynamics
+from robodyn.errors import InputError, UnknownNameError
+
+if TYPE_CHECKING:
+    import pinocchio as pin
+
+Array = NDArray[np.float64]
+
+FORWARD_BACKENDS = ("aba", "crba")
+
+
+def as_vector(value: ArrayLike, size: int, name: str) -> Array:
+    """``value`` as a float64 vector of length ``size``, or an :class:`InputError` naming ``name``."""
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be a vector of {size} numbers, got {value!r}") from None
+    if arr.ndim == 0 and size == 1:
+        arr = arr.reshape(1)
+    if arr.shape != (size,):
+        raise InputError(f"{name} must have {size} entries, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise InputError(f"{name} must be finite, got {arr}")
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class JointInfo:
+    """One moving joint: its name, Pinocchio type, index ranges in q and v, and axis."""
+
+    name: str
+    kind: str
+    idx_q: int
+    nq: int
+    idx_v: int
+    nv: int
+    actuated: bool
+
+
+@dataclass(frozen=True, eq=False)
+class Robot:
+    """A rigid-body model loaded into Pinocchio.
+
+    Create with :func:`robodyn.load`. Every method validates its inputs and returns fresh
+    float64 arrays. Units: q [rad | m], v [rad/s | m/s], tau [N m | N], M [kg m^2 | kg].
+
+    ``forward_dynamics`` and ``inverse_dynamics`` are the rigid-body equations
+    M a + C v + G = tau; joint damping and friction are applied by :func:`robodyn.simulate`.
+    """
+
+    name: str
+    model: pin.Model
+    urdf_path: Path | None
+    srdf_path: Path | None
+    joints: tuple[JointInfo, ...]
+    data: pin.Data = field(repr=False)
+
+    @classmethod
+    def from_model(
+        cls,
+        model: pin.Model,
+        *,
+        name: str,
+        urdf_path: Path | None = None,
+        srdf_path: Path | None = None,
+        passive_joints: tuple[str, ...] = (),
+    ) -> Robot:
+        """Wrap a Pinocchio model; ``passive_joints`` names joints without an actuator."""
+        joints = tuple(
+            JointInfo(
+                name=str(model.names[j]),
+                kind=str(model.joints[j].shortname()),
+                idx_q=int(model.joints[j].idx_q),
+                nq=int(model.joints[j].nq),
+                idx_v=int(model.joints[j].idx_v),
+                nv=int(model.joints[j].nv),
+                actuated=str(model.names[j]) not in passive_joints,
+            )
+            for j in range(1, model.njoints)
+        )
+        return cls(name, model, urdf_path, srdf_path, joints, model.createData())
+
+    # ----------------------------------------------------------------- sizes and names
+    @property
+    def nq(self) -> int:
+        """Size of the configuration vector q."""
+        return int(self.model.nq)
+
+    @property
+    def nv(self) -> int:
+        """Size of the velocity vector v (degrees of freedom)."""
+        return int(self.model.nv)
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        """Names of the moving joints, in model order."""
+        return tuple(j.name for j in self.joints)
+
+    @property
+    def actuated(self) -> NDArray[np.bool_]:
+        """Boolean mask over v: True where an actuator can apply torque."""
+        mask = np.zeros(self.nv, dtype=bool)
+        for j in self.joints:
+            mask[j.idx_v : j.idx_v + j.nv] = j.actuated
+        return mask
+
+    @property
+    def passive_joints(self) -> tuple[str, ...]:
+        """Names of the joints that no actuator drives."""
+        return tuple(j.name for j in self.joints if not j.actuated)
+
+    @property
+    def damping(self) -> Array:
+        """Viscous joint damping from the URDF [N m s/rad | N s/m], shape (nv,)."""
+        return np.array(self.model.damping, dtype=np.float64)
+
+    @property
+    def friction(self) -> Array:
+        """Coulomb joint friction from the URDF [N m | N], shape (nv,)."""
+        return np.array(self.model.friction, dtype=np.float64)
+
+    @property
+    def armature(self) -> Array:
+        """Reflected rotor inertia J_m n^2 added to M's diagonal [kg m^2], shape (nv,)."""
+        return np.array(self.model.armature, dtype=np.float64)
+
+    @property
+    def total_mass(self) -> float:
+        """Sum of the masses of all bodies [kg]."""
+        return float(sum(self.model.inertias[j].mass for j in range(1, self.model.njoints)))
+
+    @property
+    def nq_equals_nv(self) -> bool:
+        """True when every coordinate is a plain number (no quaternion or cos/sin pair)."""
+        return self.nq == self.nv
+
+    def joint(self, name: str) -> JointInfo:
+        """The moving joint called ``name``."""
+        for j in self.joints:
+            if j.name == name:
+                return j
+        raise UnknownNameError("joint", name, self.joint_names)
+
+    def neutral(self) -> Array:
+        """The neutral configuration, shape (nq,)."""
+        return dynamics.neutral(self.model)
+
+    # ----------------------------------------------------------------- validation
+    def q_(self, q: ArrayLike) -> Array:
+        """Validate a configuration (nq,)."""
+        return as_vector(q, self.nq, "q")
+
+    def v_(self, v: ArrayLike, name: str = "v") -> Array:
+        """Validate a velocity-sized vector (nv,)."""
+        return as_vector(v, self.nv, name)
+
+    # ----------------------------------------------------------------- dynamics
+    def M(self, q: ArrayLike) -> Array:
+        """Mass matrix M(q) [kg m^2 | kg], shape (nv, nv), armature included."""
+        return dynamics.mass_matrix(self.model, self.data, self.q_(q))
+
+    def C(self, q: ArrayLike, v: ArrayLike) -> Array:
+        """Christoffel-form Coriolis matrix C(q, v), shape (nv, nv)."""
+        return dynamics.coriolis_matrix(self.model, self.data, self.q_(q), self.v_(v))
+
+    def G(self, q: ArrayLike) -> Array:
+        """Generalised gravity G(q) [N m | N], shape (nv,)."""
+        return dynamics.gravity(self.model, self.data, self.q_(q))
+
+    def nle(self, q: ArrayLike, v: ArrayLike) -> Array:
+        """Nonlinear effects C(q, v) v + G(q) [N m | N], shape (nv,)."""
+        return dynamics.nonlinear_effects(self.model, self.data, self.q_(q), self.v_(v))
+
+    def inverse_dynamics(self, q: ArrayLike, v: ArrayLike, a: ArrayLike) -> Array:
+        """tau = M(q) a + C(q, v) v + G(q) by RNEA [N m | N], shape (nv,)."""
+        return dynamics.rnea(self.model, self.data, self.q_(q), self.v_(v), self.v_(a, "a"))
+
+    def forward_dynamics(self, q: ArrayLike, v: ArrayLike, tau: ArrayLike, *, backend: str = "aba") -> Array:
+        """Accelerations a = M^-1 (tau - C v - G) [rad/s^2 | m/s^2], shape (nv,).
+
+        ``backend`` is ``"aba"`` (Pinocchio's articulated-body algorithm) or ``"crba"``
+        (CRBA + Cholesky, which also serves models with mimic joints).
+        """
+        q_, v_, tau_ = self.q_(q), self.v_(v), self.v_(tau, "tau")
+        if backend == "aba":
+            return dynamics.aba(self.model, self.data, q_, v_, tau_)
+        if backend == "crba":
+            return dynamics.crba_solve(self.model, self.data, q_, v_, tau_)
+        raise UnknownNameError("forward-dynamics backend", backend, FORWARD_BACKENDS)
+
+    def kinetic_energy(self, q: ArrayLike, v: ArrayLike) -> float:
+        """Kinetic energy 1/2 v^T M(q) v [J] (includes rotor armature)."""
+        return dynamics.kinetic_energy(self.model, self.data, self.q_(q), self.v_(v))
+
+    def potential_energy(self, q: ArrayLike) -> float:
+        """Gravitational potential energy [J], zero at world height 0."""
+        return dynamics.potential_energy(self.model, self.data, self.q_(q))
+
+    def integrate(self, q: ArrayLike, dq: ArrayLike) -> Array:
+        """q (+) dq on the configuration manifold (plain addition for angles and slides)."""
+        return dynamics.integrate(self.model, self.q_(q), self.v_(dq, "dq"))
+
+    def random_state(self, rng: np.random.Generator, *, speed: float = 2.0) -> tuple[Array, Array]:
+        """A configuration and a velocity (uniform in [-speed, speed]) drawn with ``rng``."""
+        q = dynamics.random_configuration(self.model, rng)
+        v = rng.uniform(-speed, speed, self.nv)
+        return q, v
+
+    def view(self, trajectory: object = None, **options: object) -> object:
+        """Show the robot, or play ``trajectory`` back, in meshcat (see :mod:`robodyn.viewer`)."""
+        from robodyn import viewer
+
+        return viewer.show(self, trajectory, **options)  # type: ignore[arg-type]

@@ -1,0 +1,137 @@
+"""The :class:`Trajectory`: a simulated motion with its energy books, saved to ``.npz``."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robodyn.errors import InputError
+
+Array = NDArray[np.float64]
+
+FORMAT_VERSION = 1
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """A simulated trajectory, sampled at ``n = len(t)`` instants.
+
+    Arrays: ``t`` (n,) [s]; ``q`` (n, nq); ``v``, ``a``, ``tau`` (n, nv) in joint units;
+    ``kinetic``, ``potential`` (n,) [J]; ``work_input``, ``work_damping`` (n,) [J],
+    cumulative work done by the applied torque and by damping/friction since t[0]
+    (the damping work is negative: it removes energy).
+
+    The books follow the principle of work and energy, U12 = T2 - T1, with gravity moved
+    to the left as a potential: E(t) - E(0) = W_input(t) + W_damping(t). ``ledger_residual``
+    is what is left over; it is zero up to the integrator's accuracy.
+
+    ``meta`` records the model (name, URDF path), the integrator, dt and backend, and
+    ``wall_time_s`` and ``evaluations`` (dynamics calls) the cost of the run. ``status``
+    is ``"ok"`` or ``"diverged"`` (then ``message`` says where and why).
+    """
+
+    t: Array
+    q: Array
+    v: Array
+    a: Array
+    tau: Array
+    kinetic: Array
+    potential: Array
+    work_input: Array
+    work_damping: Array
+    wall_time_s: float = 0.0
+    evaluations: int = 0
+    status: str = "ok"
+    message: str = ""
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def energy(self) -> Array:
+        """Total mechanical energy T + V [J], shape (n,)."""
+        return self.kinetic + self.potential
+
+    @property
+    def ledger_residual(self) -> Array:
+        """E(t) - E(0) - W_input(t) - W_damping(t) [J], shape (n,)."""
+        e = self.energy
+        return e - e[0] - self.work_input - self.work_damping
+
+    @property
+    def energy_drift(self) -> float:
+        """max |E(t) - E(0)| [J]."""
+        e = self.energy
+        return float(np.max(np.abs(e - e[0])))
+
+    @property
+    def relative_energy_drift(self) -> float:
+        """max |E(t) - E(0)| / max(|E(0)|, max T) (dimensionless)."""
+        scale = max(abs(float(self.energy[0])), float(np.max(self.kinetic)), 1e-300)
+        return self.energy_drift / scale
+
+    @property
+    def n_steps(self) -> int:
+        """Number of steps taken (samples minus one)."""
+        return len(self.t) - 1
+
+    @property
+    def diverged(self) -> bool:
+        """True when the run stopped early because the state blew up."""
+        return self.status == "diverged"
+
+    # ------------------------------------------------------------------ persistence
+    _ARRAYS = ("t", "q", "v", "a", "tau", "kinetic", "potential", "work_input", "work_damping")
+
+    def save(self, path: str | Path) -> Path:
+        """Write to ``.npz`` (arrays plus ``energy`` and JSON metadata); return the path."""
+        path = Path(path)
+        arrays = {name: getattr(self, name) for name in self._ARRAYS}
+        info = {
+            "format_version": FORMAT_VERSION,
+            "wall_time_s": self.wall_time_s,
+            "evaluations": self.evaluations,
+            "status": self.status,
+            "message": self.message,
+            "meta": self.meta,
+        }
+        with path.open("wb") as fh:
+            np.savez_compressed(fh, energy=self.energy, metadata=np.array(json.dumps(info)), **arrays)
+        return path
+
+    def save_csv(self, path: str | Path) -> Path:
+        """Write one row per sample: t, q_i, v_i, tau_i, kinetic, potential, energy, works, residual."""
+        path = Path(path)
+        nq, nv = self.q.shape[1], self.v.shape[1]
+        header = (
+            ["t"]
+            + [f"q{i}" for i in range(nq)]
+            + [f"v{i}" for i in range(nv)]
+            + [f"tau{i}" for i in range(nv)]
+            + ["kinetic", "potential", "energy", "work_input", "work_damping", "ledger_residual"]
+        )
+        table = np.column_stack(
+            [self.t, self.q, self.v, self.tau, self.kinetic, self.potential, self.energy,
+             self.work_input, self.work_damping, self.ledger_residual]
+        )
+        np.savetxt(path, table, delimiter=",", header=",".join(header), comments="", fmt="%.17g")
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path) -> Trajectory:
+        """Read a trajectory written by :meth:`save`."""
+        path = Path(path)
+        if not path.is_file():
+            raise InputError(f"{path}: no such trajectory file (expected an .npz written by robodyn simulate)")
+        try:
+            with np.load(path, allow_pickle=False) as npz:
+                arrays = {name: np.array(npz[name], dtype=np.float64) for name in cls._ARRAYS}
+                info = json.loads(str(npz["metadata"]))
+        except (OSError, ValueError, KeyError) as exc:
+            raise InputError(f"{path}: not a robodyn trajectory ({exc})") from None
+        known = {f.name for f in fields(cls)}
+        extra = {k: v for k, v in info.items() if k in known}
+        return cls(**arrays, **extra)

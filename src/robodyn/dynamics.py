@@ -133,3 +133,21 @@ def geometry_placements(
 def center_of_mass(model: pin.Model, data: pin.Data, q: Array) -> Array:
     """Whole-body centre of mass in world [m], shape (3,)."""
     return np.array(pin.centerOfMass(model, data, q))
+
+
+def joint_frames(model: pin.Model, data: pin.Data, q: Array) -> list[tuple[Array, Array, Array]]:
+    """For every joint j >= 1: (world placement (4, 4), linear axis, angular axis) at q.
+
+    The axes are the joint's motion subspace S (its first column) expressed in world
+    coordinates: a revolute joint has angular axis = its unit axis and linear axis 0, a
+    prismatic joint the reverse. Multi-DoF joints report their first column.
+    """
+    pin.computeJointJacobians(model, data, q)
+    frames = []
+    for j in range(1, model.njoints):
+        oMi = data.oMi[j]
+        J = np.array(pin.getJointJacobian(model, data, j, pin.ReferenceFrame.LOCAL)).reshape(6, model.nv)
+        S = J[:, model.joints[j].idx_v]
+        R = np.array(oMi.rotation)
+        frames.append((np.array(oMi.homogeneous), R @ S[:3], R @ S[3:]))
+    return frames

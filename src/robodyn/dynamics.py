@@ -151,3 +151,23 @@ def joint_frames(model: pin.Model, data: pin.Data, q: Array) -> list[tuple[Array
         R = np.array(oMi.rotation)
         frames.append((np.array(oMi.homogeneous), R @ S[:3], R @ S[3:]))
     return frames
+
+
+def aba_batch(pool: pin.ModelPool, q: Array, v: Array, tau: Array, *, threads: int) -> Array:
+    """Forward dynamics of a batch of states by ABA in C++ threads, shape (n, nv).
+
+    ``q`` is (n, nq), ``v`` and ``tau`` (n, nv); ``pool`` a ``pin.ModelPool`` of at least
+    ``threads`` model/data pairs. pin 4.1.0's ``abaInParallel`` crashes the process (SIGSEGV)
+    on a model with one degree of freedom, so such models (and a batch of one) are evaluated
+    state by state with ``pin.aba`` instead.
+    """
+    model = pool.getModel(0)
+    if model.nv < 2 or q.shape[0] < 2:
+        data = model.createData()
+        return np.array([pin.aba(model, data, qi, vi, ti) for qi, vi, ti in zip(q, v, tau, strict=True)]).reshape(
+            q.shape[0], model.nv
+        )
+    a = np.zeros((model.nv, q.shape[0]), order="F")
+    threads = max(1, min(int(threads), int(pool.size())))
+    pin.abaInParallel(threads, pool, np.asfortranarray(q.T), np.asfortranarray(v.T), np.asfortranarray(tau.T), a)
+    return np.array(a.T)

@@ -32,27 +32,28 @@ if TYPE_CHECKING:
     from robodyn.models import load
     from robodyn.robot import Robot
 
-# Public name -> module that defines it; imported on first access (PEP 562).
-_LAZY = {
-    "load": "robodyn.models",
-    "Robot": "robodyn.robot",
-    "check": "robodyn.check",
-    "CheckReport": "robodyn.check",
-    "extract_params": "robodyn.params",
-    "formulas": "robodyn.formulas",
-    "simulate": "robodyn.simulate",
-    "Trajectory": "robodyn.trajectory",
-    "integrators": "robodyn.integrators",
-    "viewer": "robodyn.viewer",
+# Public name -> (module, attribute); attribute None means the module itself.
+# Imported on first access (PEP 562) so that ``import robodyn`` stays light.
+_LAZY: dict[str, tuple[str, str | None]] = {
+    "load": ("robodyn.models", "load"),
+    "Robot": ("robodyn.robot", "Robot"),
+    "check": ("robodyn.check", "check"),
+    "CheckReport": ("robodyn.check", "CheckReport"),
+    "extract_params": ("robodyn.params", "extract"),
+    "formulas": ("robodyn.formulas", None),
+    "simulate": ("robodyn.simulate", "simulate"),
+    "Trajectory": ("robodyn.trajectory", "Trajectory"),
+    "integrators": ("robodyn.integrators", None),
+    "viewer": ("robodyn.viewer", None),
 }
 
 
 def __getattr__(name: str) -> Any:
-    module_name = _LAZY.get(name)
-    if module_name is None:
+    if name not in _LAZY:
         raise AttributeError(f"module 'robodyn' has no attribute {name!r}")
+    module_name, attribute = _LAZY[name]
     module = importlib.import_module(module_name)
-    value = module if module_name.endswith("." + name) else getattr(module, name)
+    value = module if attribute is None else getattr(module, attribute)
     globals()[name] = value
     return value
 

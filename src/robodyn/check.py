@@ -1,0 +1,406 @@
+"""``robodyn check``: Pinocchio's dynamics against hand-derived formulas and against itself.
+
+Over seeded random states (q uniform in [-pi, pi] around neutral, v and a uniform in
+[-2, 2], tau uniform in [-1, 1]) the check compares
+
+* with a formula: M, C, G, C v + G, inverse and forward dynamics, kinetic and potential
+  energy (the latter up to a constant);
+* always, the structural properties: M symmetric positive definite, dM/dt - 2C skew,
+  G = dV/dq, and Pinocchio's identities C v + G = RNEA(q, v, 0), M^-1 (tau - nle) = ABA,
+  RNEA(ABA(tau)) = tau, CRBA = columns of RNEA;
+* Pinocchio's routines with each other: 1/2 v^T M v against ``computeKineticEnergy``.
+  Disagreements there are Pinocchio's own gaps; they are reported plainly but do not fail
+  the check, because robodyn uses 1/2 v^T M v.
+
+Errors are relative to the largest magnitude the quantity takes over the sampled states.
+Finite differences (dM/dt, dV/dq) use a central step of ``FD_STEP`` and are held to
+``FD_TOL``.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robodyn import dynamics
+from robodyn.errors import InputError
+from robodyn.formulas import Formula, resolve
+from robodyn.params import Params, extract
+from robodyn.robot import Robot
+
+Array = NDArray[np.float64]
+
+GROUP_ORDER = ("formula", "structure", "identity", "pinocchio")
+DEFAULT_RTOL = 1e-9  # formula vs Pinocchio, and Pinocchio vs itself: round-off only
+FD_STEP = 1e-6  # central finite differences: truncation ~ h^2 = 1e-12, round-off ~ eps/h = 2e-10
+FD_TOL = 1e-6  # what the finite-difference rows are held to (above their error, far below a misprint)
+SPEED = 2.0  # |v|, |a| sampled up to this [rad/s, rad/s^2 | m/s, m/s^2]
+TORQUE = 1.0  # |tau| sampled up to this [N m | N]
+
+
+@dataclass(frozen=True)
+class CheckRow:
+    """One compared quantity: the worst error over the samples, and where it happened."""
+
+    quantity: str
+    group: str  # "formula", "structure", "identity" or "pinocchio"
+    unit: str
+    max_abs_error: float
+    max_rel_error: float
+    tolerance: float
+    worst_sample: int
+    worst_q: Array
+    worst_v: Array
+    entry: tuple[int, ...]  # index of the worst entry; () for a scalar
+    expected: float  # reference value at the worst entry (Pinocchio, or exact property)
+    got: float  # compared value at the worst entry
+    counts: bool = True  # False: reported, but does not fail the check (Pinocchio's own gaps)
+    note: str = ""
+
+    @property
+    def passed(self) -> bool:
+        """True when the worst relative error is within tolerance."""
+        return bool(self.max_rel_error <= self.tolerance)
+
+    @property
+    def status(self) -> str:
+        """``pass``, ``FAIL`` or, for a row that does not count, ``gap``."""
+        if self.passed:
+            return "pass"
+        return "FAIL" if self.counts else "gap"
+
+    def entry_name(self) -> str:
+        """E.g. ``M[0,1]`` or ``G[1]`` or ``T``."""
+        symbol = self.quantity.split(" ")[0]
+        return f"{symbol}[{','.join(str(i) for i in self.entry)}]" if self.entry else symbol
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready dict."""
+        return {
+            "quantity": self.quantity,
+            "group": self.group,
+            "unit": self.unit,
+            "max_abs_error": self.max_abs_error,
+            "max_rel_error": self.max_rel_error,
+            "tolerance": self.tolerance,
+            "status": self.status,
+            "counts": self.counts,
+            "worst_sample": self.worst_sample,
+            "worst_q": self.worst_q.tolist(),
+            "worst_v": self.worst_v.tolist(),
+            "entry": list(self.entry),
+            "expected": self.expected,
+            "got": self.got,
+            "note": self.note,
+        }
+
+
+@dataclass(frozen=True)
+class CheckReport:
+    """Everything ``robodyn check`` found."""
+
+    model: str
+    urdf: str
+    formula: str | None  # kind name or formula file, None for identities only
+    kind: str | None
+    params: dict[str, float]
+    samples: int
+    seed: int
+    rtol: float
+    rows: tuple[CheckRow, ...]
+    wall_time_s: float
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def passed(self) -> bool:
+        """True when every row that counts is within tolerance."""
+        return all(r.passed for r in self.rows if r.counts)
+
+    @property
+    def failures(self) -> tuple[CheckRow, ...]:
+        """Rows that fail the check."""
+        return tuple(r for r in self.rows if r.counts and not r.passed)
+
+    @property
+    def gaps(self) -> tuple[CheckRow, ...]:
+        """Rows where Pinocchio disagrees with itself (reported, not failing)."""
+        return tuple(r for r in self.rows if not r.counts and not r.passed)
+
+    def row(self, quantity: str) -> CheckRow:
+        """The row called ``quantity``."""
+        for r in self.rows:
+            if r.quantity == quantity:
+                return r
+        raise KeyError(quantity)
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready dict."""
+        return {
+            "model": self.model,
+            "urdf": self.urdf,
+            "formula": self.formula,
+            "kind": self.kind,
+            "params": self.params,
+            "samples": self.samples,
+            "seed": self.seed,
+            "rtol": self.rtol,
+            "passed": self.passed,
+            "wall_time_s": self.wall_time_s,
+            "notes": list(self.notes),
+            "rows": [r.as_dict() for r in self.rows],
+        }
+
+
+@dataclass(frozen=True)
+class _Sample:
+    q: Array
+    v: Array
+    a: Array
+    tau: Array
+
+
+class _Accumulator:
+    """Collect (reference, value) pairs per sample and reduce them to a CheckRow."""
+
+    def __init__(self, quantity: str, group: str, unit: str, tolerance: float, *, counts: bool = True, note: str = ""):
+        self.quantity, self.group, self.unit, self.tolerance = quantity, group, unit, tolerance
+        self.counts, self.note = counts, note
+        self.pairs: list[tuple[Array, Array]] = []
+
+    def add(self, reference: Array | float, value: Array | float) -> None:
+        self.pairs.append((np.atleast_1d(np.asarray(reference, dtype=np.float64)), np.atleast_1d(np.asarray(value, dtype=np.float64))))
+
+    def row(self, samples: list[_Sample], scalar: bool = False) -> CheckRow:
+        scale = max(float(np.max(np.abs(ref))) for ref, _ in self.pairs)
+        errors = [np.abs(val - ref) for ref, val in self.pairs]
+        worst = int(np.argmax([e.max() for e in errors]))
+        abs_err = float(errors[worst].max())
+        rel_err = 0.0 if abs_err == 0.0 else (abs_err / scale if scale > 0 else float("inf"))
+        ref, val = self.pairs[worst]
+        entry = np.unravel_index(int(np.argmax(errors[worst])), errors[worst].shape)
+        return CheckRow(
+            self.quantity, self.group, self.unit, abs_err, rel_err, self.tolerance, worst,
+            samples[worst].q.copy(), samples[worst].v.copy(),
+            () if scalar else tuple(int(i) for i in entry),
+            float(ref[entry]), float(val[entry]), self.counts, self.note,
+        )  # fmt: skip
+
+
+def _draw_samples(robot: Robot, samples: int, seed: int) -> list[_Sample]:
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(samples):
+        q, v = robot.random_state(rng, speed=SPEED)
+        out.append(_Sample(q, v, rng.uniform(-SPEED, SPEED, robot.nv), rng.uniform(-TORQUE, TORQUE, robot.nv)))
+    return out
+
+
+def _mdot(mass: Callable[[Array], Array], integrate: Callable[[Array, Array], Array], q: Array, v: Array) -> Array:
+    """dM/dt along v by a central difference of step FD_STEP."""
+    return (mass(integrate(q, FD_STEP * v)) - mass(integrate(q, -FD_STEP * v))) / (2 * FD_STEP)
+
+
+def _grad(potential: Callable[[Array], float], integrate: Callable[[Array, Array], Array], q: Array, nv: int) -> Array:
+    """dV/dq by central differences of step FD_STEP along each tangent direction."""
+    grad = np.empty(nv)
+    for i in range(nv):
+        e = np.zeros(nv)
+        e[i] = FD_STEP
+        grad[i] = (potential(integrate(q, e)) - potential(integrate(q, -e))) / (2 * FD_STEP)
+    return grad
+
+
+def _formula_rows(robot: Robot, formula: Formula, p: Params, samples: list[_Sample], rtol: float) -> list[CheckRow]:
+    model, data = robot.model, robot.data
+    fd_tol = max(rtol, FD_TOL)
+    acc = {
+        "M": _Accumulator("M", "formula", "kg m^2 (kg on slides)", rtol),
+        "C": _Accumulator("C", "formula", "kg m^2/s", rtol),
+        "G": _Accumulator("G", "formula", "N m (N on slides)", rtol),
+        "nle": _Accumulator("nle = C v + G", "formula", "N m", rtol),
+        "id": _Accumulator("tau (inverse dynamics)", "formula", "N m", rtol),
+        "fd": _Accumulator("a (forward dynamics)", "formula", "rad/s^2 (m/s^2 on slides)", rtol),
+        "T": _Accumulator("T = 1/2 v^T M v", "formula", "J", rtol),
+        "skew": _Accumulator("N = dM/dt - 2C skew (formula)", "structure", "kg m^2/s", fd_tol),
+    }
+    if formula.potential_energy is not None:
+        acc["V"] = _Accumulator("V - V(q0)", "formula", "J", rtol)
+        acc["dV"] = _Accumulator("G = dV/dq (formula)", "structure", "N m", fd_tol)
+    q_anchor = dynamics.neutral(model)
+    add = lambda a, b: a + b  # noqa: E731 -- the formulas' coordinates are plain numbers
+    for s in samples:
+        M_p = dynamics.mass_matrix(model, data, s.q)
+        M_f = formula.mass_matrix(s.q, p)
+        C_f = formula.coriolis_matrix(s.q, s.v, p)
+        G_f = formula.gravity(s.q, p)
+        acc["M"].add(M_p, M_f)
+        acc["C"].add(dynamics.coriolis_matrix(model, data, s.q, s.v), C_f)
+        acc["G"].add(dynamics.gravity(model, data, s.q), G_f)
+        acc["nle"].add(dynamics.nonlinear_effects(model, data, s.q, s.v), C_f @ s.v + G_f)
+        acc["id"].add(dynamics.rnea(model, data, s.q, s.v, s.a), M_f @ s.a + C_f @ s.v + G_f)
+        acc["fd"].add(dynamics.aba(model, data, s.q, s.v, s.tau), np.linalg.solve(M_f, s.tau - C_f @ s.v - G_f))
+        acc["T"].add(0.5 * s.v @ M_p @ s.v, 0.5 * s.v @ M_f @ s.v)
+        N = _mdot(lambda q: formula.mass_matrix(q, p), add, s.q, s.v) - 2 * C_f
+        acc["skew"].add(np.zeros_like(N), N + N.T)
+        if formula.potential_energy is not None:
+            V_f = formula.potential_energy
+            acc["V"].add(
+                dynamics.potential_energy(model, data, s.q) - dynamics.potential_energy(model, data, q_anchor),
+                V_f(s.q, p) - V_f(q_anchor, p),
+            )
+            acc["dV"].add(G_f, _grad(lambda q: float(V_f(q, p)), add, s.q, robot.nv))
+    scalars = {"T", "V"}
+    rows = [a.row(samples, scalar=k in scalars) for k, a in acc.items()]
+    skew = acc["skew"]
+    # dM/dt - 2C skew has no reference scale of its own: measure it against |dM/dt|.
+    mdot_scale = max(float(np.abs(_mdot(lambda q: formula.mass_matrix(q, p), add, s.q, s.v)).max()) for s in samples)
+    rows[list(acc).index("skew")] = _rescale(skew.row(samples), mdot_scale)
+    return rows
+
+
+def _rescale(row: CheckRow, scale: float) -> CheckRow:
+    """Express a row whose reference is zero relative to ``scale`` instead."""
+    if row.max_abs_error == 0.0:
+        rel = 0.0
+    elif scale > 0:
+        rel = row.max_abs_error / scale
+    else:
+        rel = float("inf")
+    return CheckRow(**{**row.__dict__, "max_rel_error": rel})
+
+
+def _structure_rows(robot: Robot, samples: list[_Sample], rtol: float) -> list[CheckRow]:
+    model, data = robot.model, robot.data
+    fd_tol = max(rtol, FD_TOL)
+    integrate = lambda q, dq: dynamics.integrate(model, q, dq)  # noqa: E731
+    mass = lambda q: dynamics.mass_matrix(model, data, q)  # noqa: E731
+    spd = _Accumulator("M symmetric positive definite", "structure", "kg m^2", rtol)
+    skew = _Accumulator("N = dM/dt - 2C skew", "structure", "kg m^2/s", fd_tol)
+    grad = _Accumulator("G = dV/dq", "structure", "N m", fd_tol)
+    nle = _Accumulator("C v + G = RNEA(q, v, 0)", "identity", "N m", rtol)
+    columns = _Accumulator("CRBA = RNEA columns", "identity", "kg m^2", rtol)
+    inverse = _Accumulator("RNEA(q, v, ABA(q, v, tau)) = tau", "identity", "N m", rtol)
+    forward = _Accumulator("M^-1 (tau - nle) = ABA", "identity", "rad/s^2", rtol)
+    kinetic = _Accumulator(
+        "1/2 v^T M v = computeKineticEnergy", "pinocchio", "J", rtol, counts=False,
+        note="Pinocchio's computeKineticEnergy leaves out armature on joints with a non-canonical axis; "
+        "robodyn uses 1/2 v^T M v",
+    )  # fmt: skip
+    mdot_scale = 0.0
+    min_eig_ratio = np.inf
+    aba_ok = True
+    for s in samples:
+        M = mass(s.q)
+        raw = np.array(M)
+        eig = np.linalg.eigvalsh(raw)
+        min_eig_ratio = min(min_eig_ratio, eig[0] / eig[-1])
+        # Positive definiteness: a non-positive eigenvalue shows as an error of its size.
+        spd.add(np.zeros(1), np.array([max(0.0, -eig[0]) + (eig[-1] if eig[0] <= 0 else 0.0)]))
+        C = dynamics.coriolis_matrix(model, data, s.q, s.v)
+        G = dynamics.gravity(model, data, s.q)
+        Mdot = _mdot(mass, integrate, s.q, s.v)
+        mdot_scale = max(mdot_scale, float(np.abs(Mdot).max()))
+        N = Mdot - 2 * C
+        skew.add(np.zeros_like(N), N + N.T)
+        grad.add(G, _grad(lambda q: dynamics.potential_energy(model, data, q), integrate, s.q, robot.nv))
+        b = dynamics.nonlinear_effects(model, data, s.q, s.v)
+        nle.add(b, C @ s.v + G)
+        zero = np.zeros(robot.nv)
+        cols = np.column_stack([dynamics.rnea(model, data, s.q, zero, e) - G for e in np.eye(robot.nv)])
+        columns.add(M, cols)
+        a_crba = dynamics.crba_solve(model, data, s.q, s.v, s.tau)
+        try:
+            a_aba = dynamics.aba(model, data, s.q, s.v, s.tau)
+        except (RuntimeError, ValueError):
+            aba_ok, a_aba = False, a_crba
+        forward.add(a_aba, a_crba)
+        inverse.add(s.tau, dynamics.rnea(model, data, s.q, s.v, a_crba))
+        kinetic.add(0.5 * s.v @ M @ s.v, dynamics.pinocchio_kinetic_energy(model, data, s.q, s.v))
+    rows = [
+        spd.row(samples),
+        _rescale(skew.row(samples), mdot_scale),
+        grad.row(samples),
+        nle.row(samples),
+        columns.row(samples),
+        inverse.row(samples),
+    ]
+    forward_row = forward.row(samples)
+    if not aba_ok:
+        forward_row = CheckRow(**{**forward_row.__dict__, "counts": False, "note": "ABA refuses this model (mimic joints); CRBA + Cholesky used"})
+    rows.append(forward_row)
+    kinetic_row = kinetic.row(samples, scalar=True)
+    if kinetic_row.passed:
+        kinetic_row = CheckRow(**{**kinetic_row.__dict__, "note": ""})
+    else:
+        unaligned = [j.name for j in robot.joints if "Unaligned" in j.kind and robot.armature[j.idx_v] != 0]
+        if unaligned:
+            kinetic_row = CheckRow(
+                **{**kinetic_row.__dict__,
+                   "note": f"Pinocchio's computeKineticEnergy leaves out the armature of joint(s) {', '.join(unaligned)} "
+                   "(non-canonical axis, RevoluteUnaligned); 1/2 v^T M v includes it and is what robodyn uses"}
+            )  # fmt: skip
+        else:
+            kinetic_row = CheckRow(**{**kinetic_row.__dict__, "note": "Pinocchio's kinetic-energy routine disagrees with 1/2 v^T M v"})
+    rows.append(kinetic_row)
+    # Report the SPD row's relative error against the largest eigenvalue scale.
+    rows[0] = CheckRow(**{**rows[0].__dict__, "note": f"min over samples of lambda_min / lambda_max = {min_eig_ratio:.3g}"})
+    return rows
+
+
+def check(
+    robot: Robot,
+    formula: Formula | str | None = None,
+    *,
+    samples: int = 100,
+    seed: int = 0,
+    rtol: float = DEFAULT_RTOL,
+) -> CheckReport:
+    """Compare ``robot``'s Pinocchio dynamics with ``formula`` and with its own identities.
+
+    Args:
+        robot: a loaded model (see :func:`robodyn.load`).
+        formula: a kind name (``"pendubot"``...), a path to a user's formula file, a
+            :class:`robodyn.formulas.Formula`, or None for the structural checks only.
+        samples: number of random states (>= 1).
+        seed: seed of the random states.
+        rtol: relative tolerance for exact comparisons (finite-difference rows use
+            ``max(rtol, FD_TOL)``).
+
+    Raises:
+        AssumptionError: the model is not of the formula's kind.
+        FormulaError: a user's formula file fails to import or returns wrong shapes.
+    """
+    if samples < 1:
+        raise InputError(f"samples must be >= 1, got {samples}")
+    if not (rtol > 0 and np.isfinite(rtol)):
+        raise InputError(f"rtol must be a positive number, got {rtol}")
+    start = time.perf_counter()
+    states = _draw_samples(robot, samples, seed)
+    rows: list[CheckRow] = []
+    params: dict[str, float] = {}
+    kind = None
+    source = None
+    if formula is not None:
+        resolved = resolve(formula) if isinstance(formula, str) else formula
+        p = extract(robot, resolved.kind)
+        params, kind, source = p.as_dict(), resolved.kind, (formula if isinstance(formula, str) else resolved.source)
+        rows += _formula_rows(robot, resolved, p, states, rtol)
+    rows += _structure_rows(robot, states, rtol)
+    rows.sort(key=lambda r: GROUP_ORDER.index(r.group))  # stable: keeps the order within a group
+    return CheckReport(
+        model=robot.name,
+        urdf=str(robot.urdf_path),
+        formula=source,
+        kind=kind,
+        params=params,
+        samples=samples,
+        seed=seed,
+        rtol=rtol,
+        rows=tuple(rows),
+        wall_time_s=time.perf_counter() - start,
+    )

@@ -171,3 +171,34 @@ def aba_batch(pool: pin.ModelPool, q: Array, v: Array, tau: Array, *, threads: i
     threads = max(1, min(int(threads), int(pool.size())))
     pin.abaInParallel(threads, pool, np.asfortranarray(q.T), np.asfortranarray(v.T), np.asfortranarray(tau.T), a)
     return np.array(a.T)
+
+
+def kinetic_energies(model: pin.Model, data: pin.Data, q: Array, v: Array) -> Array:
+    """Kinetic energies 1/2 v_k^T M(q_k) v_k [J] of a batch: q (n, nq), v (n, nv) -> (n,).
+
+    M comes from CRBA (armature included); one CRBA per sample, the quadratic forms at once.
+    """
+    n, nv = v.shape
+    upper = np.empty((n, nv, nv))
+    for k in range(n):
+        pin.crba(model, data, q[k])
+        upper[k] = data.M
+    upper = np.triu(upper)  # CRBA fills the upper triangle; the lower one is not to be read
+    return 0.5 * (2.0 * np.einsum("ni,nij,nj->n", v, upper, v) - np.einsum("nii,ni,ni->n", upper, v, v))
+
+
+def potential_energies(model: pin.Model, data: pin.Data, q: Array) -> Array:
+    """Gravitational potential energies [J] of a batch of configurations q (n, nq) -> (n,)."""
+    return np.array([pin.computePotentialEnergy(model, data, qk) for qk in q], dtype=np.float64)
+
+
+def kinetic_energy_rnea(model: pin.Model, data: pin.Data, q: Array, v: Array) -> float:
+    """1/2 v^T (M v) with M v = rnea(q, 0, v) - G(q): an RNEA cross-check of the CRBA energy [J]."""
+    zero = np.zeros(model.nv)
+    Mv = np.array(pin.rnea(model, data, q, zero, v)) - np.array(pin.rnea(model, data, q, zero, zero))
+    return 0.5 * float(v @ Mv)
+
+
+def gravity_vector(model: pin.Model) -> Array:
+    """The model's gravitational acceleration in world [m/s^2], shape (3,)."""
+    return np.array(model.gravity.linear, dtype=np.float64)

@@ -1,8 +1,31 @@
-"""Physical consistency of a model's inertials: what a real body can and cannot have."""
+"""Physical consistency of a model: what a real body, joint and file can and cannot have.
+
+Findings come in two severities: ``"error"`` (no real body has it: :func:`robodyn.load`
+refuses such a model unless ``check_physics=False``) and ``"warning"`` (legal but
+suspicious, or a file that is missing). Each carries a short ``code`` for machines:
+
+=================  =======  ====================================================
+code               level    meaning
+=================  =======  ====================================================
+negative_mass      error    a body's mass is below zero
+inertia_not_psd    error    a rotational inertia with a negative eigenvalue
+triangle           error    Ixx + Iyy >= Izz (or a permutation) is broken
+zero_mass          warning  a moving body with zero mass
+massless_subtree   error    a joint that moves nothing with mass or inertia: M is singular
+inertia_singular   warning  a body with mass whose inertia is not positive definite
+negative_joint     error    negative armature, damping or friction on a joint
+limits_reversed    error    a joint's lower position limit is above its upper one
+mesh_missing       warning  a mesh file the URDF refers to does not exist
+=================  =======  ====================================================
+
+Inertias are checked per Pinocchio body (the links welded to one joint, merged), which is
+what the dynamics sees; a moving body may have zero mass as long as its subtree has some.
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -11,17 +34,26 @@ import pinocchio as pin
 # printed with 4-6 significant digits, so a violation smaller than this is rounding.
 RELATIVE_SLACK = 1e-6
 
+# Absolute slack [kg m^2] on the same tests and the floor below which an inertia counts as
+# zero: 1e-12 kg m^2 is a 1 g bead at 30 um radius; URDF exporters leave 1e-18 dust.
+INERTIA_FLOOR = 1e-12
+
 
 @dataclass(frozen=True)
 class Finding:
-    """One physical-consistency finding about a body of the model."""
+    """One physical-consistency finding about a body, joint or file of the model."""
 
     body: str
     severity: str  # "error" (impossible) or "warning" (suspicious)
     message: str
+    code: str = ""
 
     def __str__(self) -> str:
         return f"{self.body}: {self.message}"
+
+    def as_dict(self) -> dict[str, str]:
+        """The finding as plain JSON-able values."""
+        return {"where": self.body, "severity": self.severity, "code": self.code, "message": self.message}
 
 
 def _body_name(model: pin.Model, joint_id: int) -> str:
@@ -31,42 +63,135 @@ def _body_name(model: pin.Model, joint_id: int) -> str:
     return str(model.names[joint_id])
 
 
-def inertial_findings(model: pin.Model) -> list[Finding]:
-    """All findings: non-positive mass, non-PSD inertia, triangle inequality, massless links."""
+def _inertia_findings(name: str, mass: float, I: np.ndarray) -> list[Finding]:  # noqa: E741
     findings: list[Finding] = []
+    slack = max(RELATIVE_SLACK * float(np.abs(I).max()), INERTIA_FLOOR)
+    if mass < 0:
+        findings.append(Finding(name, "error", f"negative mass {mass:g} kg (expected > 0)", "negative_mass"))
+    eig = np.linalg.eigvalsh(0.5 * (I + I.T))
+    if eig.min() < -slack:
+        findings.append(
+            Finding(
+                name,
+                "error",
+                f"inertia not positive semi-definite (eigenvalues {np.array2string(eig, precision=4)} kg m^2)",
+                "inertia_not_psd",
+            )
+        )
+        return findings
+    d = np.diag(I)
+    axes = "xyz"
+    for a, b, c in ((1, 2, 0), (0, 2, 1), (0, 1, 2)):
+        if d[a] + d[b] < d[c] - slack:
+            findings.append(
+                Finding(
+                    name,
+                    "error",
+                    f"inertia breaks the triangle inequality I{axes[a] * 2} + I{axes[b] * 2} >= I{axes[c] * 2} "
+                    f"({d[a]:.6g} + {d[b]:.6g} < {d[c]:.6g} kg m^2)",
+                    "triangle",
+                )
+            )
+    if mass > 0 and eig.min() <= slack:
+        what = "a point mass" if eig.max() <= INERTIA_FLOOR else "a thin rod or flat plate"
+        findings.append(
+            Finding(
+                name,
+                "warning",
+                f"inertia not positive definite (eigenvalues {np.array2string(eig, precision=4)} kg m^2): {what}",
+                "inertia_singular",
+            )
+        )
+    return findings
+
+
+def _subtree_has_inertia(model: pin.Model) -> list[bool]:
+    """For each joint: does its subtree carry any mass or rotational inertia?"""
+    has = [False] * model.njoints
+    for j in range(model.njoints - 1, 0, -1):
+        inertia = model.inertias[j]
+        own = float(inertia.mass) > 0 or float(np.abs(np.array(inertia.inertia)).max()) > INERTIA_FLOOR
+        has[j] = has[j] or own
+        parent = int(model.parents[j])
+        has[parent] = has[parent] or has[j]
+    return has
+
+
+def inertial_findings(model: pin.Model) -> list[Finding]:
+    """Findings about the bodies: mass, positive (semi-)definiteness, triangle inequality, massless."""
+    findings: list[Finding] = []
+    subtree = _subtree_has_inertia(model)
     for joint_id in range(1, model.njoints):
         inertia = model.inertias[joint_id]
         name = _body_name(model, joint_id)
         mass = float(inertia.mass)
-        I = np.array(inertia.inertia)
-        scale = max(float(np.abs(I).max()), 1e-300)
-        if mass < 0:
-            findings.append(Finding(name, "error", f"negative mass {mass:g} kg (expected > 0)"))
-        elif mass == 0:
-            findings.append(Finding(name, "warning", "moving body with zero mass (its joint carries no inertia)"))
-        eig = np.linalg.eigvalsh(0.5 * (I + I.T))
-        if eig.min() < -RELATIVE_SLACK * scale:
+        findings += _inertia_findings(name, mass, np.array(inertia.inertia))
+        if mass == 0 and model.joints[joint_id].nv > 0:
+            findings.append(Finding(name, "warning", "moving body with zero mass", "zero_mass"))
+        armature = np.asarray(model.armature)[model.joints[joint_id].idx_v : model.joints[joint_id].idx_v + 1]
+        if not subtree[joint_id] and not np.any(armature > 0):
             findings.append(
-                Finding(name, "error", f"inertia not positive semi-definite (eigenvalues {np.array2string(eig, precision=4)} kg m^2)")
+                Finding(
+                    str(model.names[joint_id]),
+                    "error",
+                    "joint moves no mass, inertia or armature: the mass matrix is singular",
+                    "massless_subtree",
+                )
             )
-        else:
-            d = np.diag(I)
-            for i, (a, b, c) in enumerate(((1, 2, 0), (0, 2, 1), (0, 1, 2))):
-                if d[a] + d[b] < d[c] - RELATIVE_SLACK * scale:
-                    axes = "xyz"
-                    findings.append(
-                        Finding(
-                            name,
-                            "error",
-                            f"inertia breaks the triangle inequality I{axes[a]*2} + I{axes[b]*2} >= I{axes[c]*2} "
-                            f"({d[a]:.6g} + {d[b]:.6g} < {d[c]:.6g} kg m^2)",
-                        )
+    return findings
+
+
+def joint_findings(model: pin.Model) -> list[Finding]:
+    """Findings about the joints: negative armature, damping, friction; reversed limits."""
+    findings: list[Finding] = []
+    for joint_id in range(1, model.njoints):
+        joint = model.joints[joint_id]
+        name = str(model.names[joint_id])
+        vs = slice(joint.idx_v, joint.idx_v + joint.nv)
+        for what, values in (
+            ("armature", model.armature),
+            ("damping", model.damping),
+            ("friction", model.friction),
+        ):
+            bad = np.asarray(values)[vs]
+            if np.any(bad < 0):
+                findings.append(
+                    Finding(name, "error", f"negative {what} {bad.min():g} (expected >= 0)", "negative_joint")
+                )
+        if joint.nq == joint.nv:
+            qs = slice(joint.idx_q, joint.idx_q + joint.nq)
+            lower, upper = np.asarray(model.lowerPositionLimit)[qs], np.asarray(model.upperPositionLimit)[qs]
+            if np.any(lower > upper):
+                findings.append(
+                    Finding(
+                        name,
+                        "error",
+                        f"lower position limit {lower.max():g} is above the upper one {upper.min():g}",
+                        "limits_reversed",
                     )
-        if mass > 0 and np.all(eig <= 0):
-            findings.append(Finding(name, "warning", "body with mass but zero rotational inertia (a point mass)"))
+                )
+    return findings
+
+
+def mesh_findings(urdf: Path) -> list[Finding]:
+    """One warning per mesh file the URDF names that cannot be found (no mesh is parsed)."""
+    from robodyn.models import mesh_references
+
+    return [
+        Finding(ref.link, "warning", f"{ref.kind} mesh {ref.uri!r} not found", "mesh_missing")
+        for ref in mesh_references(urdf)
+        if ref.path is None
+    ]
+
+
+def all_findings(model: pin.Model, *, urdf: Path | None = None, geometry: bool = False) -> list[Finding]:
+    """Every finding about ``model``; mesh files are looked for only when ``geometry`` is True."""
+    findings = inertial_findings(model) + joint_findings(model)
+    if geometry and urdf is not None:
+        findings += mesh_findings(urdf)
     return findings
 
 
 def impossible_inertials(model: pin.Model) -> list[Finding]:
     """The findings that no real body can have."""
-    return [f for f in inertial_findings(model) if f.severity == "error"]
+    return [f for f in inertial_findings(model) + joint_findings(model) if f.severity == "error"]

@@ -1,12 +1,20 @@
 """From a URDF (+ SRDF) on disk, or a built-in name, to a :class:`robodyn.Robot`.
 
 The built-in models live in the top-level ``models/`` folder of the source tree and are
-shipped inside the wheel as ``robodyn/models``. An SRDF with the same stem as the URDF
-(next to it, or in a sibling ``srdf/`` folder as example-robot-data lays them out) is
-picked up automatically. From the SRDF robodyn reads
+shipped inside the wheel as ``robodyn/models``; variants of them (the geared arm with its
+rotor as a body, the cart-pole with a point bob) live in ``models/variants/``. Every robot
+of example-robot-data is reachable by name too (see :mod:`robodyn.robot_library`).
 
-* ``<rotor_params>`` through ``pinocchio.loadRotorParameters`` (armature += J_m n^2), and
-* ``<passive_joint name="..."/>``: joints that no actuator drives.
+An SRDF with the same stem as the URDF (next to it, or in a sibling ``srdf/`` folder as
+example-robot-data lays them out) is picked up automatically. From the SRDF robodyn reads
+
+* ``<rotor_params>`` through ``pinocchio.loadRotorParameters`` (armature = J_m n^2),
+* ``<passive_joint name="..."/>``: joints that no actuator drives (names of joints the
+  model does not have are skipped: one SRDF often serves several URDFs of a robot), and
+* ``<group_state>``: named configurations, see :func:`reference_configurations`.
+
+``load(..., lock=..., keep=...)`` returns the minimal model of a scene: the joints not kept
+are locked through ``pinocchio.buildReducedModel`` (see :mod:`robodyn.reduce`).
 
 Dynamics never parses meshes: geometry is loaded only by :func:`load_geometry`.
 """
@@ -15,12 +23,13 @@ from __future__ import annotations
 
 import importlib.resources
 import xml.etree.ElementTree as ET
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
+from numpy.typing import ArrayLike
 
 from robodyn.errors import InputError, ModelError
 from robodyn.registry import Registry
@@ -28,14 +37,22 @@ from robodyn.robot import Robot
 
 BUILTIN_NAMES = ("cart_pole", "geared_arm", "pendubot")
 
+# Variants of the built-ins, for the fidelity study (models/variants/<name>.urdf).
+VARIANT_NAMES = ("cart_pole_point_bob", "geared_arm_rotor")
+
 
 @dataclass(frozen=True)
 class ModelSource:
-    """Where a named model comes from: its URDF, optional SRDF and a one-line description."""
+    """Where a named model comes from: its URDF, optional SRDF and a one-line description.
+
+    ``free_flyer_hint`` is True for robots that example-robot-data mounts on a free flyer
+    (legged robots, humanoids, drones); robodyn loads them fixed-base unless asked.
+    """
 
     urdf: Path
     srdf: Path | None
     description: str
+    free_flyer_hint: bool = False
 
 
 def models_dir() -> Path:
@@ -50,23 +67,25 @@ _DESCRIPTIONS = {
     "geared_arm": "single link driven by a DC motor through an n:1 gear train (seed Example 6.1.1)",
     "cart_pole": "cart on a rail with a passive pole (seed Example 2)",
     "pendubot": "two-link planar arm, joint 1 actuated, joint 2 passive (Spong and Block)",
+    "geared_arm_rotor": "geared_arm with the rotor as its own body, coupled to the link by a mimic joint",
+    "cart_pole_point_bob": "cart_pole with the pole's mass as a point bob at its centre of mass",
 }
 
 
 def _builtin_sources() -> Registry[ModelSource]:
     registry: Registry[ModelSource] = Registry("model")
-    folder = models_dir()
-    for name in BUILTIN_NAMES:
-        srdf = folder / f"{name}.srdf"
-        registry.register(
-            name,
-            ModelSource(folder / f"{name}.urdf", srdf if srdf.is_file() else None, _DESCRIPTIONS[name]),
-        )
+    for folder, names in ((models_dir(), BUILTIN_NAMES), (models_dir() / "variants", VARIANT_NAMES)):
+        for name in names:
+            urdf = folder / f"{name}.urdf"
+            if not urdf.is_file():
+                continue
+            srdf = folder / f"{name}.srdf"
+            registry.register(name, ModelSource(urdf, srdf if srdf.is_file() else None, _DESCRIPTIONS[name]))
     return registry
 
 
 def model_sources() -> Registry[ModelSource]:
-    """Every model reachable by name: the built-ins, then the robots of example-robot-data."""
+    """Every model reachable by name: the built-ins and variants, then example-robot-data."""
     from robodyn import robot_library
 
     registry = _builtin_sources()
@@ -92,7 +111,7 @@ def resolve(name_or_path: str | Path, *, srdf: str | Path | None = None) -> Mode
         return ModelSource(urdf, found, f"URDF file {urdf.name}")
     source = model_sources().get(str(name_or_path))
     if srdf is not None:
-        return ModelSource(source.urdf, Path(srdf), source.description)
+        return ModelSource(source.urdf, Path(srdf), source.description, source.free_flyer_hint)
     return source
 
 
@@ -131,6 +150,8 @@ def read_srdf(path: Path) -> SrdfInfo:
 def _check_urdf_root(root: ET.Element, path: Path) -> None:
     if root.tag != "robot":
         raise ModelError(f"root element is <{root.tag}>, expected <robot>", path=path)
+    if not root.get("name"):
+        raise ModelError("<robot> has no name attribute (an empty xacro stub?)", path=path)
     if root.find("link") is None:
         raise ModelError("the URDF has no <link>", path=path)
 
@@ -142,6 +163,9 @@ def load(
     free_flyer: bool = False,
     mimic: bool = False,
     check_physics: bool = True,
+    lock: Mapping[str, float | Sequence[float]] | None = None,
+    keep: Iterable[str] | None = None,
+    reference: ArrayLike | str | None = None,
 ) -> Robot:
     """Load a built-in model by name or any URDF by path into a :class:`Robot`.
 
@@ -151,13 +175,21 @@ def load(
         srdf: SRDF path; by default one with the URDF's stem is looked for.
         free_flyer: mount the root on a free-flyer joint (nq += 7, nv += 6).
         mimic: keep URDF mimic joints as mimic joints (ABA refuses them; use CRBA).
-        check_physics: refuse physically impossible inertials (non-positive mass with
-            inertia, an inertia that is not positive semi-definite or breaks the triangle
-            inequality). ``robodyn info`` turns this off to report them instead.
+        check_physics: refuse physically impossible inertials (negative mass, an inertia
+            that is not positive semi-definite or breaks the triangle inequality).
+            ``robodyn info`` turns this off to report them instead.
+        lock: joint name -> value [rad | m] at which that joint is locked (a sequence of
+            nq values for a multi-coordinate joint). The returned robot is the reduced model.
+        keep: names of the joints that stay; every other joint is locked at ``reference``
+            (or at its value in ``lock``).
+        reference: full configuration (nq,) or the name of an SRDF group state at which
+            the locked joints are held; Pinocchio's neutral configuration by default.
 
     Raises:
         ModelError: a missing or malformed file, or an impossible inertia.
-        UnknownNameError: a name that is neither built in nor in example-robot-data.
+        UnknownNameError: a name that is neither built in nor in example-robot-data, or a
+            locked/kept joint the model does not have.
+        InputError: a lock value of the wrong size or outside the joint's limits.
     """
     source = resolve(name_or_path, srdf=srdf)
     _check_urdf_root(_parse_xml(source.urdf, "URDF"), source.urdf)
@@ -169,21 +201,37 @@ def load(
         info = read_srdf(source.srdf)
         if info.has_rotor_params:
             _load_rotor_parameters(model, source.srdf)
-        passive = info.passive_joints
+        known = set(list(model.names)[1:])
+        passive = tuple(name for name in info.passive_joints if name in known)
+    reducing = lock is not None or keep is not None
     if check_physics:
-        from robodyn.consistency import impossible_inertials
-
-        problems = impossible_inertials(model)
-        if problems:
-            raise ModelError(f"impossible inertia: {problems[0]}", path=source.urdf)
+        # A joint that moves nothing makes M singular, unless the scene locks it.
+        _refuse_impossible(model, source.urdf, skip=("massless_subtree",) if reducing else ())
     name = str(name_or_path) if not looks_like_path(name_or_path) else source.urdf.stem
-    return Robot.from_model(
+    robot = Robot.from_model(
         model,
         name=name,
         urdf_path=source.urdf,
         srdf_path=source.srdf,
-        passive_joints=_validate_passive(model, passive, source.srdf),
+        passive_joints=passive,
     )
+    if not reducing:
+        return robot
+    from robodyn.reduce import reduce
+
+    reduced = reduce(robot, lock=lock, keep=keep, reference=reference).reduced
+    if check_physics:
+        _refuse_impossible(reduced.model, source.urdf, skip=())
+    return reduced
+
+
+def _refuse_impossible(model: pin.Model, urdf: Path, *, skip: tuple[str, ...]) -> None:
+    from robodyn.consistency import impossible_inertials
+
+    problems = [f for f in impossible_inertials(model) if f.code not in skip]
+    if problems:
+        more = f" (and {len(problems) - 1} more; see robodyn info)" if len(problems) > 1 else ""
+        raise ModelError(f"physically impossible model: {problems[0]}{more}", path=urdf)
 
 
 def build_model(urdf: Path, *, free_flyer: bool = False, mimic: bool = False) -> pin.Model:
@@ -202,23 +250,77 @@ def _load_rotor_parameters(model: pin.Model, srdf: Path) -> None:
         pin.loadRotorParameters(model, str(srdf), False)
     except (RuntimeError, ValueError) as exc:
         raise ModelError(f"bad <rotor_params>: {str(exc).strip().splitlines()[0]}", path=srdf) from None
+    # pin >= 3 sets armature itself; older releases only filled rotorInertia/rotorGearRatio.
+    reflected = np.asarray(model.rotorInertia) * np.square(np.asarray(model.rotorGearRatio))
+    armature = np.asarray(model.armature, dtype=np.float64)
+    model.armature = np.where(armature == 0.0, reflected, armature)
 
 
-def _validate_passive(model: pin.Model, names: Iterable[str], srdf: Path | None) -> tuple[str, ...]:
-    known = list(model.names)[1:]
-    for name in names:
-        if name not in known:
-            raise ModelError(
-                f"<passive_joint name={name!r}> names no joint of the model; joints are: {', '.join(known)}",
-                path=srdf,
-            )
-    return tuple(names)
+def unknown_passive_joints(robot: Robot) -> tuple[str, ...]:
+    """Passive joints named by the robot's SRDF that the model does not have (skipped at load)."""
+    if robot.srdf_path is None or not robot.srdf_path.is_file():
+        return ()
+    known = set(robot.joint_names)
+    return tuple(n for n in read_srdf(robot.srdf_path).passive_joints if n not in known)
+
+
+def reference_configurations(robot: Robot) -> dict[str, np.ndarray]:
+    """The SRDF's named ``<group_state>`` configurations of ``robot``, each shape (nq,).
+
+    Joints a group state does not mention keep their neutral value. Empty without SRDF.
+    Works on reduced robots too (the state is read joint by joint by name).
+    """
+    if robot.srdf_path is None or not robot.srdf_path.is_file():
+        return {}
+    root = _parse_xml(robot.srdf_path, "SRDF")
+    neutral = robot.neutral()
+    states: dict[str, np.ndarray] = {}
+    for group_state in root.iter("group_state"):
+        name = group_state.get("name")
+        if not name:
+            continue
+        q = neutral.copy()
+        for el in group_state.iter("joint"):
+            joint_name, value = el.get("name", ""), el.get("value", "")
+            if joint_name not in robot.joint_names:
+                continue
+            joint = robot.joint(joint_name)
+            try:
+                values = [float(x) for x in value.split()]
+            except ValueError:
+                raise ModelError(
+                    f"<group_state {name!r}> joint {joint_name!r} has value {value!r}, expected numbers",
+                    path=robot.srdf_path,
+                ) from None
+            q[joint.idx_q : joint.idx_q + joint.nq] = joint_coordinates(joint.kind, joint.nq, values)
+        states.setdefault(name, q)
+    return states
+
+
+def joint_coordinates(kind: str, nq: int, values: Sequence[float]) -> np.ndarray:
+    """The nq coordinates of a joint from a user's values.
+
+    One angle for a continuous joint (stored as cos, sin), one value for a 1-coordinate
+    joint, or all nq values.
+    """
+    vals = np.asarray(values, dtype=np.float64).reshape(-1)
+    if vals.size == nq:
+        return vals
+    if vals.size == 1 and nq == 2 and kind.startswith("JointModelRUB"):
+        return np.array([np.cos(vals[0]), np.sin(vals[0])])
+    raise InputError(f"a {kind} joint takes {nq} value(s), got {vals.size}")
 
 
 def load_geometry(robot: Robot, *, kind: str = "visual") -> pin.GeometryModel:
-    """Load the visual or collision geometry of ``robot`` (parses meshes; slow on big robots)."""
+    """Load the visual or collision geometry of ``robot`` (parses meshes; slow on big robots).
+
+    Works on reduced robots: the frames of locked links survive the reduction, so each
+    mesh is attached where it belongs.
+    """
     if kind not in ("visual", "collision"):
         raise InputError(f"geometry kind must be 'visual' or 'collision', got {kind!r}")
+    if robot.urdf_path is None:
+        raise InputError(f"robot {robot.name!r} was not loaded from a URDF: it has no geometry to load")
     geometry_type = pin.GeometryType.VISUAL if kind == "visual" else pin.GeometryType.COLLISION
     from robodyn import robot_library
 
@@ -226,7 +328,50 @@ def load_geometry(robot: Robot, *, kind: str = "visual") -> pin.GeometryModel:
     try:
         return pin.buildGeomFromUrdf(robot.model, str(robot.urdf_path), geometry_type, package_dirs=package_dirs)
     except (RuntimeError, ValueError) as exc:
-        raise ModelError(f"cannot load {kind} geometry: {str(exc).strip().splitlines()[0]}", path=robot.urdf_path) from None
+        raise ModelError(
+            f"cannot load {kind} geometry: {str(exc).strip().splitlines()[0]}", path=robot.urdf_path
+        ) from None
+
+
+@dataclass(frozen=True)
+class MeshReference:
+    """One ``<mesh filename=...>`` of a URDF: the link, visual or collision, URI and file."""
+
+    link: str
+    kind: str  # "visual" or "collision"
+    uri: str
+    path: Path | None  # the file it resolves to, or None when no candidate exists
+
+
+def mesh_references(urdf: Path) -> list[MeshReference]:
+    """Every mesh a URDF refers to, resolved like :func:`load_geometry` would (no mesh is read)."""
+    from robodyn import robot_library
+
+    root = _parse_xml(urdf, "URDF")
+    dirs = robot_library.package_dirs(urdf)
+    refs: list[MeshReference] = []
+    for link in root.findall("link"):
+        for kind in ("visual", "collision"):
+            for element in link.iter(kind):
+                for mesh in element.iter("mesh"):
+                    uri = mesh.get("filename", "")
+                    refs.append(MeshReference(link.get("name", ""), kind, uri, _resolve_uri(uri, urdf, dirs)))
+    return refs
+
+
+def _resolve_uri(uri: str, urdf: Path, package_dirs: list[Path]) -> Path | None:
+    if uri.startswith("package://"):
+        relative = uri[len("package://") :]
+        candidates = [d / relative for d in package_dirs]
+    elif uri.startswith("file://"):
+        candidates = [Path(uri[len("file://") :])]
+    else:
+        path = Path(uri)
+        candidates = [path if path.is_absolute() else urdf.parent / path]
+    for candidate in candidates:
+        if candidate.is_file():
+            return candidate
+    return None
 
 
 def default_configuration(robot: Robot) -> np.ndarray:

@@ -2,13 +2,25 @@
 
 The PyPI wheel of example-robot-data carries URDF, SRDF and meshes under
 ``cmeel.prefix/share/example-robot-data/robots`` but no Python loader, so robodyn indexes
-that folder itself: every URDF is reachable by its file stem, and a few short aliases
-follow example-robot-data's own loader names (``talos``, ``ur5``, ``hyq``...).
+that folder itself:
+
+* every URDF is reachable by its file stem (``talos_reduced``, ``ur5_robot``...);
+* the short names of example-robot-data's own loader (``talos``, ``ur5``, ``hyq``...) are
+  aliases, and each comes with the SRDF that loader pairs with it. That pairing matters:
+  ``talos_reduced.urdf`` has no ``talos_reduced.srdf``; its rotor parameters (armature
+  0.1 kg m^2 on every arm, leg and torso joint) live in ``talos.srdf``.
+
+Robots that the loader mounts on a free flyer (legged robots, humanoids, drones) carry
+``free_flyer_hint=True``; robodyn still loads them fixed-base unless ``free_flyer=True``
+is asked for, and ``robodyn info`` says so.
+
+:func:`not_loadable` lists the robots of the package that robodyn cannot load, with why.
 """
 
 from __future__ import annotations
 
 import importlib.metadata
+from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -16,20 +28,121 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from robodyn.models import ModelSource
 
-# Loader-style short names -> URDF stem (where the stem is not the obvious name).
-ALIASES = {
-    "talos": "talos_reduced",
-    "talos_full": "talos_full_v2",
-    "ur3": "ur3_robot",
-    "ur5": "ur5_robot",
-    "ur10": "ur10_robot",
-    "hyq": "hyq_no_sensors",
-    "romeo": "romeo_small",
-    "tiago": "tiago",
-    "quadrotor": "quadrotor_base",
-    "alexander": "alexander_v1.lowerBodyOnly",
-    "g1": "g1_29dof_rev_1_0",
-    "anymal": "anymal_b",
+
+@dataclass(frozen=True)
+class LoaderEntry:
+    """How example-robot-data's loader builds one named robot."""
+
+    urdf: str  # path under robots/, e.g. "talos_data/robots/talos_reduced.urdf"
+    srdf: str | None  # path under robots/, or None
+    free_flyer: bool
+
+
+def _e(urdf: str, srdf: str | None = None, free_flyer: bool = False) -> LoaderEntry:
+    return LoaderEntry(urdf, srdf, free_flyer)
+
+
+_TALOS_SRDF = "talos_data/srdf/talos.srdf"
+
+# example-robot-data's loader names (robots_loader.ROBOTS, version 4.x-6.x), plus the
+# robots added to the data since then under their folder's name.
+LOADERS: dict[str, LoaderEntry] = {
+    "a1": _e("a1_description/urdf/a1.urdf", "a1_description/srdf/a1.srdf", True),
+    "alex": _e("alex_description/urdf/alex_nub_hands.urdf", "alex_description/srdf/alex_nub_hands.srdf"),
+    "alexander": _e(
+        "alexander_description/urdf/alexander_v1.lowerBodyOnly.urdf", "alexander_description/srdf/alexander.srdf", True
+    ),
+    "allegro_left_hand": _e("allegro_hand_description/urdf/allegro_left_hand.urdf"),
+    "allegro_right_hand": _e("allegro_hand_description/urdf/allegro_right_hand.urdf"),
+    "anymal": _e(
+        "anymal_b_simple_description/robots/anymal.urdf", "anymal_b_simple_description/srdf/anymal.srdf", True
+    ),
+    "anymal_c": _e(
+        "anymal_c_simple_description/urdf/anymal.urdf", "anymal_c_simple_description/srdf/anymal.srdf", True
+    ),
+    "anymal_kinova": _e(
+        "anymal_b_simple_description/robots/anymal-kinova.urdf",
+        "anymal_b_simple_description/srdf/anymal-kinova.srdf",
+        True,
+    ),
+    "asr_twodof": _e("asr_twodof_description/urdf/TwoDofs.urdf"),
+    "b1": _e("b1_description/urdf/b1.urdf", "b1_description/srdf/b1.srdf", True),
+    "b1_z1": _e("b1_description/urdf/b1-z1.urdf", "b1_description/srdf/b1-z1.srdf", True),
+    "baxter": _e("baxter_description/urdf/baxter.urdf"),
+    "bolt": _e("bolt_description/robots/bolt.urdf", "bolt_description/srdf/bolt.srdf", True),
+    "borinot": _e(
+        "borinot_description/urdf/borinot_flying_arm_2.urdf", "borinot_description/srdf/borinot_flying_arm_2.srdf", True
+    ),
+    "centauro": _e("centauro_description/urdf/centauro.urdf", "centauro_description/srdf/centauro.srdf", True),
+    "double_pendulum": _e("double_pendulum_description/urdf/double_pendulum.urdf"),
+    "double_pendulum_continuous": _e("double_pendulum_description/urdf/double_pendulum_continuous.urdf"),
+    "double_pendulum_simple": _e("double_pendulum_description/urdf/double_pendulum_simple.urdf"),
+    "finger_edu": _e("finger_edu_description/robots/finger_edu.urdf", "finger_edu_description/srdf/finger_edu.srdf"),
+    "g1": _e("g1_description/urdf/g1_29dof_rev_1_0.urdf", None, True),
+    "g1_with_hand": _e("g1_description/urdf/g1_29dof_with_hand_rev_1_0.urdf", None, True),
+    "go1": _e("go1_description/urdf/go1.urdf", "go1_description/srdf/go1.srdf", True),
+    "go2": _e("go2_description/urdf/go2.urdf", "go2_description/srdf/go2.srdf", True),
+    "hector": _e("hector_description/robots/quadrotor_base.urdf", None, True),
+    "hextilt": _e(
+        "hextilt_description/urdf/hextilt_flying_arm_5.urdf", "hextilt_description/srdf/hextilt_flying_arm_5.srdf", True
+    ),
+    "human": _e("human_description/robots/human.urdf", None, True),
+    "hyq": _e("hyq_description/robots/hyq_no_sensors.urdf", "hyq_description/srdf/hyq.srdf", True),
+    "icub": _e("icub_description/robots/icub.urdf", "icub_description/srdf/icub.srdf", True),
+    "icub_reduced": _e("icub_description/robots/icub_reduced.urdf", "icub_description/srdf/icub.srdf", True),
+    "iris": _e("iris_description/robots/iris_simple.urdf", None, True),
+    "kinova": _e("kinova_description/robots/kinova.urdf", "kinova_description/srdf/kinova.srdf"),
+    "laikago": _e("laikago_description/urdf/laikago.urdf", None, True),
+    "panda": _e("panda_description/urdf/panda.urdf", "panda_description/srdf/panda.srdf"),
+    "panda_collision": _e("panda_description/urdf/panda_collision.urdf", "panda_description/srdf/panda.srdf"),
+    "pr2": _e("pr2_description/urdf/pr2.urdf", "pr2_description/srdf/pr2.srdf"),
+    "quadruped": _e("quadruped_description/urdf/quadruped.urdf", None, True),
+    "romeo": _e("romeo_description/urdf/romeo.urdf", None, True),
+    "romeo_small": _e("romeo_description/urdf/romeo_small.urdf", "romeo_description/srdf/romeo_small.srdf", True),
+    "simple_humanoid": _e(
+        "simple_humanoid_description/urdf/simple_humanoid.urdf",
+        "simple_humanoid_description/srdf/simple_humanoid.srdf",
+        True,
+    ),
+    "simple_humanoid_classical": _e(
+        "simple_humanoid_description/urdf/simple_humanoid_classical.urdf",
+        "simple_humanoid_description/srdf/simple_humanoid_classical.srdf",
+        True,
+    ),
+    "so100": _e("so_arm_description/urdf/so100.urdf"),
+    "so101": _e("so_arm_description/urdf/so101.urdf"),
+    "solo8": _e("solo_description/robots/solo.urdf", "solo_description/srdf/solo.srdf", True),
+    "solo12": _e("solo_description/robots/solo12.urdf", "solo_description/srdf/solo.srdf", True),
+    "talos": _e("talos_data/robots/talos_reduced.urdf", _TALOS_SRDF, True),
+    "talos_box": _e("talos_data/robots/talos_reduced_box.urdf", _TALOS_SRDF, True),
+    "talos_corrected": _e("talos_data/robots/talos_reduced_corrected.urdf", _TALOS_SRDF, True),
+    "talos_arm": _e("talos_data/robots/talos_left_arm.urdf", _TALOS_SRDF),
+    "talos_full": _e("talos_data/robots/talos_full_v2.urdf", _TALOS_SRDF, True),
+    "talos_full_box": _e("talos_data/robots/talos_full_v2_box.urdf", _TALOS_SRDF, True),
+    "tiago": _e("tiago_description/robots/tiago.urdf"),
+    "tiago_dual": _e("tiago_description/robots/tiago_dual.urdf"),
+    "tiago_no_hand": _e("tiago_description/robots/tiago_no_hand.urdf"),
+    "tiago_pro": _e("tiago_pro_description/robots/tiago_pro.urdf"),
+    "ur3": _e("ur_description/urdf/ur3_robot.urdf"),
+    "ur3_gripper": _e("ur_description/urdf/ur3_gripper.urdf", "ur_description/srdf/ur3_gripper.srdf"),
+    "ur3_limited": _e("ur_description/urdf/ur3_joint_limited_robot.urdf"),
+    "ur5": _e("ur_description/urdf/ur5_robot.urdf", "ur_description/srdf/ur5.srdf"),
+    "ur5_gripper": _e("ur_description/urdf/ur5_gripper.urdf", "ur_description/srdf/ur5_gripper.srdf"),
+    "ur5_limited": _e(
+        "ur_description/urdf/ur5_joint_limited_robot.urdf", "ur_description/srdf/ur5_joint_limited_robot.srdf"
+    ),
+    "ur10": _e("ur_description/urdf/ur10_robot.urdf"),
+    "ur10_limited": _e("ur_description/urdf/ur10_joint_limited_robot.urdf"),
+    "xarm7": _e("xarm_description/urdf/xarm7.urdf", "xarm_description/srdf/xarm7.srdf"),
+    "z1": _e("z1_description/urdf/z1.urdf", "z1_description/srdf/z1.srdf"),
+}
+
+# Robots of the package robodyn cannot load, with the reason (checked by tests/test_robot_library.py).
+NOT_LOADABLE: dict[str, str] = {
+    "cassie": "ships only SDF files (cassie_description/robots/cassie.sdf) and robodyn reads URDF; "
+    "Pinocchio's SDF parser needs a build with sdformat, which the PyPI wheel pin 4.1 lacks",
+    "ur3.urdf": "ur_description/urdf/ur3.urdf is an empty xacro stub (<robot> with no name and no link); "
+    "the UR3 itself loads as 'ur3' (ur3_robot.urdf)",
 }
 
 
@@ -44,34 +157,75 @@ def robots_dir() -> Path | None:
     return folder if folder.is_dir() else None
 
 
-def _name_for(urdf: Path, stems: dict[str, int]) -> str:
+def _stem_name(urdf: Path, stems: dict[str, int]) -> str:
     # Two packages ship an "anymal.urdf": disambiguate with the package folder.
     if stems[urdf.stem] > 1:
-        package = urdf.parent.parent.name.removesuffix("_description").removesuffix("_simple")
-        return package
+        return urdf.parent.parent.name.removesuffix("_description").removesuffix("_simple")
     return urdf.stem
+
+
+def _is_stub(urdf: Path) -> bool:
+    return urdf.name in NOT_LOADABLE
 
 
 @lru_cache(maxsize=1)
 def sources() -> dict[str, ModelSource]:
-    """Name -> :class:`ModelSource` for every URDF in example-robot-data (empty if absent)."""
+    """Name -> :class:`ModelSource` for every URDF in example-robot-data (empty if absent).
+
+    Loader names (``talos``, ``ur5``...) come first with their SRDF; every other URDF
+    follows under its file stem, paired with an SRDF of the same stem if one exists.
+    """
     from robodyn.models import ModelSource, find_srdf
 
     folder = robots_dir()
     if folder is None:
         return {}
-    urdfs = sorted(folder.glob("*/*/*.urdf"))
+    table: dict[str, ModelSource] = {}
+    by_urdf: dict[Path, LoaderEntry] = {}
+    for name, entry in sorted(LOADERS.items()):
+        urdf = folder / entry.urdf
+        if not urdf.is_file():
+            continue
+        srdf = folder / entry.srdf if entry.srdf is not None and (folder / entry.srdf).is_file() else None
+        table[name] = ModelSource(urdf, srdf, f"example-robot-data {entry.urdf}", free_flyer_hint=entry.free_flyer)
+        by_urdf.setdefault(urdf, entry)
+    urdfs = [u for u in sorted(folder.glob("*/*/*.urdf")) if not _is_stub(u)]
     stems: dict[str, int] = {}
     for urdf in urdfs:
         stems[urdf.stem] = stems.get(urdf.stem, 0) + 1
-    table: dict[str, ModelSource] = {}
     for urdf in urdfs:
-        name = _name_for(urdf, stems)
-        table[name] = ModelSource(urdf, find_srdf(urdf), f"example-robot-data {urdf.parent.parent.name}/{urdf.name}")
-    for alias, target in ALIASES.items():
-        if target in table and alias not in table:
-            table[alias] = table[target]
+        name = _stem_name(urdf, stems)
+        if name in table:
+            continue
+        entry = by_urdf.get(urdf)
+        if entry is not None:  # same file as a loader name: same SRDF and free-flyer hint
+            srdf = folder / entry.srdf if entry.srdf is not None else None
+            hint = entry.free_flyer
+        else:
+            srdf, hint = find_srdf(urdf), False
+        rel = urdf.relative_to(folder).as_posix()
+        table[name] = ModelSource(urdf, srdf, f"example-robot-data {rel}", free_flyer_hint=hint)
     return table
+
+
+def loader_names() -> tuple[str, ...]:
+    """The example-robot-data loader names whose files are installed, sorted."""
+    available = sources()
+    return tuple(name for name in sorted(LOADERS) if name in available)
+
+
+def distinct_robots() -> tuple[str, ...]:
+    """One name per distinct URDF file of the package (loader name where there is one), sorted."""
+    seen: dict[Path, str] = {}
+    for name in (*loader_names(), *sorted(sources())):
+        urdf = sources()[name].urdf
+        seen.setdefault(urdf, name)
+    return tuple(sorted(seen.values()))
+
+
+def not_loadable() -> dict[str, str]:
+    """Robots (or files) of example-robot-data that robodyn cannot load -> the reason."""
+    return dict(NOT_LOADABLE)
 
 
 def package_dirs(urdf: Path) -> list[Path]:
@@ -79,5 +233,6 @@ def package_dirs(urdf: Path) -> list[Path]:
     dirs = [urdf.resolve().parent, urdf.resolve().parent.parent, urdf.resolve().parent.parent.parent]
     folder = robots_dir()
     if folder is not None:
-        dirs.append(folder)
+        # URIs read package://example-robot-data/robots/...: resolved from the share/ folder.
+        dirs += [folder, folder.parent.parent]
     return dirs

@@ -241,8 +241,16 @@ def build_model(urdf: Path, *, free_flyer: bool = False, mimic: bool = False) ->
             return pin.buildModelFromUrdf(str(urdf), pin.JointModelFreeFlyer(), mimic=mimic)
         return pin.buildModelFromUrdf(str(urdf), mimic=mimic)
     except (RuntimeError, ValueError) as exc:
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise ModelError(f"Pinocchio cannot parse this URDF: {first}", path=urdf) from None
+        raise ModelError(f"Pinocchio cannot parse this URDF: {pinocchio_message(exc)}", path=urdf) from None
+
+
+def pinocchio_message(exc: BaseException) -> str:
+    """One line from a Pinocchio exception: its ``message:`` and ``hint:`` lines when it has them."""
+    lines = [line.strip() for line in str(exc).strip().splitlines() if line.strip()]
+    picked = [line for line in lines if line.startswith(("message:", "hint:"))]
+    if picked:
+        return " ".join(picked)
+    return lines[0] if lines else type(exc).__name__
 
 
 def _load_rotor_parameters(model: pin.Model, srdf: Path) -> None:

@@ -7,7 +7,7 @@ Read as M q'' + C q' + G = tau, the second equation's "- m l sin th y' th'" term
 -m l sin th th' in C21. It is a misprint: that term cancels between d/dt dL/dth' and
 dL/dth. The seed's bob is a point (I = 0), so check this against a point-bob cart-pole:
 
-    robodyn check models/variants/cart_pole_point_bob.urdf --formula examples/formulas/cart_pole_seed.py
+    robodyn check examples/urdf/cart_pole_point_bob.urdf --formula examples/formulas/cart_pole_seed.py
 """
 
 import numpy as np

@@ -20,7 +20,7 @@ Finite differences (dM/dt, dV/dq) use a central step of ``FD_STEP`` and are held
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 from robodyn import dynamics
 from robodyn.errors import InputError
 from robodyn.formulas import Formula, resolve
-from robodyn.params import Params, extract
+from robodyn.params import Params, extract, from_mapping
 from robodyn.robot import Robot
 
 Array = NDArray[np.float64]
@@ -173,7 +173,9 @@ class _Accumulator:
         self.pairs: list[tuple[Array, Array]] = []
 
     def add(self, reference: Array | float, value: Array | float) -> None:
-        self.pairs.append((np.atleast_1d(np.asarray(reference, dtype=np.float64)), np.atleast_1d(np.asarray(value, dtype=np.float64))))
+        self.pairs.append(
+            (np.atleast_1d(np.asarray(reference, dtype=np.float64)), np.atleast_1d(np.asarray(value, dtype=np.float64)))
+        )
 
     def row(self, samples: list[_Sample], scalar: bool = False) -> CheckRow:
         scale = max(float(np.max(np.abs(ref))) for ref, _ in self.pairs)
@@ -331,7 +333,13 @@ def _structure_rows(robot: Robot, samples: list[_Sample], rtol: float) -> list[C
     ]
     forward_row = forward.row(samples)
     if not aba_ok:
-        forward_row = CheckRow(**{**forward_row.__dict__, "counts": False, "note": "ABA refuses this model (mimic joints); CRBA + Cholesky used"})
+        forward_row = CheckRow(
+            **{
+                **forward_row.__dict__,
+                "counts": False,
+                "note": "ABA refuses this model (mimic joints); CRBA + Cholesky used",
+            }
+        )
     rows.append(forward_row)
     kinetic_row = kinetic.row(samples, scalar=True)
     if kinetic_row.passed:
@@ -345,10 +353,14 @@ def _structure_rows(robot: Robot, samples: list[_Sample], rtol: float) -> list[C
                    "(non-canonical axis, RevoluteUnaligned); 1/2 v^T M v includes it and is what robodyn uses"}
             )  # fmt: skip
         else:
-            kinetic_row = CheckRow(**{**kinetic_row.__dict__, "note": "Pinocchio's kinetic-energy routine disagrees with 1/2 v^T M v"})
+            kinetic_row = CheckRow(
+                **{**kinetic_row.__dict__, "note": "Pinocchio's kinetic-energy routine disagrees with 1/2 v^T M v"}
+            )
     rows.append(kinetic_row)
     # Report the SPD row's relative error against the largest eigenvalue scale.
-    rows[0] = CheckRow(**{**rows[0].__dict__, "note": f"min over samples of lambda_min / lambda_max = {min_eig_ratio:.3g}"})
+    rows[0] = CheckRow(
+        **{**rows[0].__dict__, "note": f"min over samples of lambda_min / lambda_max = {min_eig_ratio:.3g}"}
+    )
     return rows
 
 
@@ -359,6 +371,7 @@ def check(
     samples: int = 100,
     seed: int = 0,
     rtol: float = DEFAULT_RTOL,
+    params: Mapping[str, float] | None = None,
 ) -> CheckReport:
     """Compare ``robot``'s Pinocchio dynamics with ``formula`` and with its own identities.
 
@@ -370,6 +383,8 @@ def check(
         seed: seed of the random states.
         rtol: relative tolerance for exact comparisons (finite-difference rows use
             ``max(rtol, FD_TOL)``).
+        params: the formula's parameters as given by the user (e.g. from a datasheet)
+            instead of those read from the model; the model's kind is still checked.
 
     Raises:
         AssumptionError: the model is not of the formula's kind.
@@ -382,13 +397,15 @@ def check(
     start = time.perf_counter()
     states = _draw_samples(robot, samples, seed)
     rows: list[CheckRow] = []
-    params: dict[str, float] = {}
+    used: dict[str, float] = {}
     kind = None
     source = None
     if formula is not None:
         resolved = resolve(formula) if isinstance(formula, str) else formula
         p = extract(robot, resolved.kind)
-        params, kind, source = p.as_dict(), resolved.kind, (formula if isinstance(formula, str) else resolved.source)
+        if params is not None:
+            p = from_mapping(resolved.kind, params)
+        used, kind, source = p.as_dict(), resolved.kind, (formula if isinstance(formula, str) else resolved.source)
         rows += _formula_rows(robot, resolved, p, states, rtol)
     rows += _structure_rows(robot, states, rtol)
     rows.sort(key=lambda r: GROUP_ORDER.index(r.group))  # stable: keeps the order within a group
@@ -397,7 +414,7 @@ def check(
         urdf=str(robot.urdf_path),
         formula=source,
         kind=kind,
-        params=params,
+        params=used,
         samples=samples,
         seed=seed,
         rtol=rtol,

@@ -62,9 +62,7 @@ def crba_solve(model: pin.Model, data: pin.Data, q: Array, v: Array, tau: Array)
     return np.linalg.solve(factor.T, y)
 
 
-def aba_derivatives(
-    model: pin.Model, data: pin.Data, q: Array, v: Array, tau: Array
-) -> tuple[Array, Array, Array]:
+def aba_derivatives(model: pin.Model, data: pin.Data, q: Array, v: Array, tau: Array) -> tuple[Array, Array, Array]:
     """Analytical derivatives of ABA: (da/dq, da/dv, da/dtau), each (nv, nv)."""
     pin.computeABADerivatives(model, data, q, v, tau)
     return np.array(data.ddq_dq), np.array(data.ddq_dv), np.array(data.Minv)
@@ -120,9 +118,7 @@ def frame_placements(model: pin.Model, data: pin.Data, q: Array) -> list[Array]:
     return [np.array(f.homogeneous) for f in data.oMf]
 
 
-def geometry_placements(
-    model: pin.Model, data: pin.Data, geom_model: pin.GeometryModel, q: Array
-) -> list[Array]:
+def geometry_placements(model: pin.Model, data: pin.Data, geom_model: pin.GeometryModel, q: Array) -> list[Array]:
     """World transforms (4, 4) of every geometry object at configuration q."""
     geom_data = geom_model.createData()
     pin.forwardKinematics(model, data, q)

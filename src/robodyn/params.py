@@ -106,7 +106,7 @@ def _same(a: Array, b: Array) -> bool:
 
 
 def _fmt(x: Array) -> str:
-    return "(" + " ".join(f"{c:.6g}" for c in x) + ")"
+    return "(" + " ".join(f"{c + 0.0:.6g}" for c in x) + ")"  # + 0.0 prints -0 as 0
 
 
 def _require_joints(kind: str, bodies: list[_Body], expected: tuple[str, ...]) -> None:
@@ -185,10 +185,18 @@ def _pendubot(robot: Robot) -> dict[str, float]:
     lc1 = _along(kind, f"the centre of mass of link 1 ({b1.name})", b1.com - b1.origin, EX, axis)
     lc2 = _along(kind, f"the centre of mass of link 2 ({b2.name})", b2.com - b2.origin, EX, axis)
     if l1 <= 0:
-        raise _fail(kind, f"link 1 must point along +x at q = 0 (joint {b2.name} is at x = {l1:.6g} m from joint {b1.name})")
+        raise _fail(
+            kind, f"link 1 must point along +x at q = 0 (joint {b2.name} is at x = {l1:.6g} m from joint {b1.name})"
+        )
     return {
-        "m1": b1.mass, "m2": b2.mass, "l1": l1, "lc1": lc1, "lc2": lc2,
-        "I1": _axis_inertia(b1, axis), "I2": _axis_inertia(b2, axis), "g": g,
+        "m1": b1.mass,
+        "m2": b2.mass,
+        "l1": l1,
+        "lc1": lc1,
+        "lc2": lc2,
+        "I1": _axis_inertia(b1, axis),
+        "I2": _axis_inertia(b2, axis),
+        "g": g,
     }
 
 
@@ -241,6 +249,29 @@ def extract(robot: Robot, kind: str) -> Params:
     """The parameters of ``kind`` read from ``robot``; AssumptionError if it is not one."""
     values = EXTRACTORS.get(kind)(robot)
     return Params(kind, values)
+
+
+def from_mapping(kind: str, values: Mapping[str, object]) -> Params:
+    """Parameters given by the user (e.g. a datasheet), checked against the kind's names."""
+    from robodyn.errors import InputError
+    from robodyn.formulas import get
+
+    names = get(kind).param_names
+    missing = [n for n in names if n not in values]
+    extra = [n for n in values if n not in names]
+    if missing or extra:
+        raise InputError(
+            f"{kind} parameters must be exactly {', '.join(names)}"
+            + (f"; missing {', '.join(missing)}" if missing else "")
+            + (f"; unknown {', '.join(extra)}" if extra else "")
+        )
+    out: dict[str, float] = {}
+    for n in names:
+        value = values[n]
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+            raise InputError(f"parameter {n} must be a finite number, got {value!r}")
+        out[n] = float(value)
+    return Params(kind, out)
 
 
 def detect_kind(robot: Robot) -> str | None:

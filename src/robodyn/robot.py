@@ -183,7 +183,7 @@ class Robot:
         return dynamics.nonlinear_effects(self.model, self.data, self.q_(q), self.v_(v))
 
     def inverse_dynamics(self, q: ArrayLike, v: ArrayLike, a: ArrayLike) -> Array:
-        """tau = M(q) a + C(q, v) v + G(q) by RNEA [N m | N], shape (nv,)."""
+        """Tau = M(q) a + C(q, v) v + G(q) by RNEA [N m | N], shape (nv,)."""
         return dynamics.rnea(self.model, self.data, self.q_(q), self.v_(v), self.v_(a, "a"))
 
     def forward_dynamics(self, q: ArrayLike, v: ArrayLike, tau: ArrayLike, *, backend: str = "aba") -> Array:
@@ -208,7 +208,7 @@ class Robot:
         return dynamics.potential_energy(self.model, self.data, self.q_(q))
 
     def integrate(self, q: ArrayLike, dq: ArrayLike) -> Array:
-        """q (+) dq on the configuration manifold (plain addition for angles and slides)."""
+        """Q (+) dq on the configuration manifold (plain addition for angles and slides)."""
         return dynamics.integrate(self.model, self.q_(q), self.v_(dq, "dq"))
 
     def random_state(self, rng: np.random.Generator, *, speed: float = 2.0) -> tuple[Array, Array]:

@@ -12,7 +12,7 @@ import numpy as np
 
 
 def float_list(text: str) -> np.ndarray:
-    """argparse type: ``"0.1,-2,3e-3"`` -> float array (one line of error otherwise)."""
+    """Argparse type: ``"0.1,-2,3e-3"`` -> float array (one line of error otherwise)."""
     try:
         values = [float(x) for x in text.replace(" ", "").split(",") if x != ""]
     except ValueError:
@@ -25,7 +25,7 @@ def float_list(text: str) -> np.ndarray:
 
 
 def positive_float(text: str) -> float:
-    """argparse type: a finite number > 0."""
+    """Argparse type: a finite number > 0."""
     try:
         value = float(text)
     except ValueError:
@@ -36,7 +36,7 @@ def positive_float(text: str) -> float:
 
 
 def positive_int(text: str) -> int:
-    """argparse type: an integer >= 1."""
+    """Argparse type: an integer >= 1."""
     try:
         value = int(text)
     except ValueError:
@@ -47,7 +47,7 @@ def positive_int(text: str) -> int:
 
 
 def non_negative_int(text: str) -> int:
-    """argparse type: an integer >= 0."""
+    """Argparse type: an integer >= 0."""
     try:
         value = int(text)
     except ValueError:

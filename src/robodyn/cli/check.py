@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import json
+from pathlib import Path
 from typing import Any
 
 from robodyn.cli._common import add_model_arguments, load_robot, positive_float, positive_int, print_json
-from robodyn.errors import EXIT_MISMATCH, EXIT_OK
+from robodyn.errors import EXIT_MISMATCH, EXIT_OK, InputError
 
 
 def add_parser(sub: Any) -> None:
@@ -28,6 +30,13 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--samples", type=positive_int, default=100, help="number of random states (default 100)")
     p.add_argument("--seed", type=int, default=0, help="seed of the random states (default 0)")
     p.add_argument("--rtol", type=positive_float, default=1e-9, help="relative tolerance (default 1e-9)")
+    p.add_argument(
+        "--params",
+        type=Path,
+        metavar="FILE.json",
+        help="use these formula parameters (a JSON object, or the output of robodyn params) instead of "
+        "reading them from the model: checks a URDF against numbers you trust",
+    )
     p.add_argument("--json", action="store_true", help="print the report as JSON")
     p.set_defaults(handler=run)
 
@@ -37,12 +46,30 @@ def run(args: argparse.Namespace) -> int:
     from robodyn.check import check
 
     robot = load_robot(args)
-    report = check(robot, args.formula, samples=args.samples, seed=args.seed, rtol=args.rtol)
+    if args.params is not None and args.formula is None:
+        raise InputError("--params needs --formula: parameters belong to a formula kind")
+    given = read_params(args.params) if args.params is not None else None
+    report = check(robot, args.formula, samples=args.samples, seed=args.seed, rtol=args.rtol, params=given)
     if args.json:
         print_json(report.as_dict())
     else:
         print(format_report(report, robot))
     return EXIT_OK if report.passed else EXIT_MISMATCH
+
+
+def read_params(path: Path) -> dict[str, Any]:
+    """Read ``{"m1": ..}`` or robodyn params' ``{"params": {"m1": ..}}`` from a JSON file."""
+    try:
+        data = json.loads(path.read_text())
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read parameters: {exc.strerror}") from None
+    except json.JSONDecodeError as exc:
+        raise InputError(f"{path}: not valid JSON ({exc.msg} at line {exc.lineno})") from None
+    if isinstance(data, dict) and isinstance(data.get("params"), dict):
+        data = data["params"]
+    if not isinstance(data, dict):
+        raise InputError(f"{path}: expected a JSON object of parameter names to numbers")
+    return data
 
 
 PARAM_UNITS = {
@@ -63,7 +90,10 @@ def format_report(report: Any, robot: Any) -> str:
         f"   samples: {report.samples}   seed: {report.seed}   rtol: {report.rtol:g}",
     ]
     if report.params:
-        params = ", ".join(f"{k} = {v:.6g}{' ' + PARAM_UNITS.get(k, '') if PARAM_UNITS.get(k) else ''}" for k, v in report.params.items())
+        params = ", ".join(
+            f"{k} = {v:.6g}{' ' + PARAM_UNITS.get(k, '') if PARAM_UNITS.get(k) else ''}"
+            for k, v in report.params.items()
+        )
         lines.append(f"parameters read from the model: {params}")
     if report.formula is None:
         from robodyn.params import detect_kind
@@ -93,7 +123,9 @@ def format_report(report: Any, robot: Any) -> str:
         )
         if r.note:
             lines.append(f"    {r.note}")
-    verdict = "PASS: everything agrees within tolerance" if report.passed else f"FAIL: {len(report.failures)} mismatch(es)"
+    verdict = (
+        "PASS: everything agrees within tolerance" if report.passed else f"FAIL: {len(report.failures)} mismatch(es)"
+    )
     lines.append("")
     lines.append(f"{verdict}  ({report.wall_time_s:.2f} s)")
     return "\n".join(lines)

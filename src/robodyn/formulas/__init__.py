@@ -58,11 +58,11 @@ class Formula:
         return self.coriolis_matrix(q, v, p) @ v + self.gravity(q, p)
 
     def inverse_dynamics(self, q: Array, v: Array, a: Array, p: Params) -> Array:
-        """tau = M a + C v + G."""
+        """Tau = M a + C v + G."""
         return self.mass_matrix(q, p) @ a + self.nle(q, v, p)
 
     def forward_dynamics(self, q: Array, v: Array, tau: Array, p: Params) -> Array:
-        """a = M^-1 (tau - C v - G), by a linear solve."""
+        """A = M^-1 (tau - C v - G), by a linear solve."""
         return np.linalg.solve(self.mass_matrix(q, p), tau - self.nle(q, v, p))
 
     def kinetic_energy(self, q: Array, v: Array, p: Params) -> float:
@@ -101,7 +101,9 @@ REQUIRED_FUNCTIONS = ("mass_matrix", "coriolis_matrix", "gravity")
 
 def _import_file(path: Path) -> ModuleType:
     if not path.is_file():
-        raise FormulaError(f"{path}: no such formula file (expected a .py file defining KIND, mass_matrix, coriolis_matrix, gravity)")
+        raise FormulaError(
+            f"{path}: no such formula file (expected a .py file defining KIND, mass_matrix, coriolis_matrix, gravity)"
+        )
     name = f"robodyn_user_formula_{abs(hash(str(path.resolve())))}"
     spec = importlib.util.spec_from_file_location(name, path)
     if spec is None or spec.loader is None:
@@ -138,7 +140,9 @@ def load_user_formula(path: str | Path) -> Formula:
         raise FormulaError(f"{path}: KIND = {kind!r} is not a known kind; expected one of {', '.join(KINDS.names())}")
     missing = [f for f in REQUIRED_FUNCTIONS if not callable(getattr(module, f, None))]
     if missing:
-        raise FormulaError(f"{path}: missing function(s) {', '.join(missing)}; define mass_matrix(q, p), coriolis_matrix(q, v, p), gravity(q, p)")
+        raise FormulaError(
+            f"{path}: missing function(s) {', '.join(missing)}; define mass_matrix(q, p), coriolis_matrix(q, v, p), gravity(q, p)"
+        )
     builtin = get(kind)
     n = builtin.dof
     source = str(path)

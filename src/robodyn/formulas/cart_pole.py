@@ -46,4 +46,6 @@ def potential_energy(q: Array, p: Params) -> float:
     return float(p["m"] * p["g"] * p["l"] * np.cos(q[1]))
 
 
-FORMULA = Formula("cart_pole", "robodyn.formulas.cart_pole", PARAMS, mass_matrix, coriolis_matrix, gravity, potential_energy, 2)
+FORMULA = Formula(
+    "cart_pole", "robodyn.formulas.cart_pole", PARAMS, mass_matrix, coriolis_matrix, gravity, potential_energy, 2
+)

@@ -98,4 +98,6 @@ def from_motor_coordinates(
     return M, C, G, V
 
 
-FORMULA = Formula("geared_arm", "robodyn.formulas.geared_arm", PARAMS, mass_matrix, coriolis_matrix, gravity, potential_energy, 1)
+FORMULA = Formula(
+    "geared_arm", "robodyn.formulas.geared_arm", PARAMS, mass_matrix, coriolis_matrix, gravity, potential_energy, 1
+)

@@ -49,7 +49,12 @@ def gravity(q: Array, p: Params) -> Array:
 
 def potential_energy(q: Array, p: Params) -> float:
     """V(q) [J], zero with both links horizontal."""
-    return float((p["m1"] * p["lc1"] + p["m2"] * p["l1"]) * p["g"] * np.sin(q[0]) + p["m2"] * p["lc2"] * p["g"] * np.sin(q[0] + q[1]))
+    return float(
+        (p["m1"] * p["lc1"] + p["m2"] * p["l1"]) * p["g"] * np.sin(q[0])
+        + p["m2"] * p["lc2"] * p["g"] * np.sin(q[0] + q[1])
+    )
 
 
-FORMULA = Formula("pendubot", "robodyn.formulas.pendubot", PARAMS, mass_matrix, coriolis_matrix, gravity, potential_energy, 2)
+FORMULA = Formula(
+    "pendubot", "robodyn.formulas.pendubot", PARAMS, mass_matrix, coriolis_matrix, gravity, potential_energy, 2
+)

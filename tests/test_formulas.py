@@ -1,0 +1,163 @@
+"""The hand formulas against an independent symbolic Lagrangian derivation (sympy).
+
+sympy starts from positions of the centres of mass, builds T and V, and applies Lagrange's
+equations; M is the Hessian of T in the velocities, C the Christoffel symbols of M, G the
+gradient of V. The NumPy formulas must agree at seeded random states.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from robodyn import formulas
+from robodyn.errors import FormulaError, UnknownNameError
+
+RTOL = 1e-12  # same expressions evaluated two ways: round-off only
+N_STATES = 20
+
+
+def _christoffel(M: sp.Matrix, q: list, v: list) -> sp.Matrix:
+    n = len(q)
+    C = sp.zeros(n, n)
+    for k in range(n):
+        for j in range(n):
+            C[k, j] = sum(
+                sp.Rational(1, 2) * (sp.diff(M[k, j], q[i]) + sp.diff(M[k, i], q[j]) - sp.diff(M[i, j], q[k])) * v[i]
+                for i in range(n)
+            )
+    return C.applyfunc(sp.simplify)
+
+
+def _lagrange(T, V, q, v):
+    M = sp.Matrix([[sp.diff(T, vi, vj) for vj in v] for vi in v]).applyfunc(sp.simplify)
+    return M, _christoffel(M, q, v), sp.Matrix([sp.diff(V, qi) for qi in q])
+
+
+def _symbolic(kind: str):
+    g = sp.Symbol("g")
+    if kind == "pendubot":
+        q1, q2, v1, v2 = sp.symbols("q1 q2 v1 v2")
+        m1, m2, l1, lc1, lc2, I1, I2 = sp.symbols("m1 m2 l1 lc1 lc2 I1 I2")
+        t = sp.Symbol("t")
+        Q1, Q2 = sp.Function("Q1")(t), sp.Function("Q2")(t)
+        r1 = sp.Matrix([lc1 * sp.cos(Q1), lc1 * sp.sin(Q1)])
+        r2 = sp.Matrix([l1 * sp.cos(Q1) + lc2 * sp.cos(Q1 + Q2), l1 * sp.sin(Q1) + lc2 * sp.sin(Q1 + Q2)])
+        sub = {sp.Derivative(Q1, t): v1, sp.Derivative(Q2, t): v2}
+        d1, d2 = r1.diff(t).subs(sub), r2.diff(t).subs(sub)
+        T = sp.Rational(1, 2) * (m1 * d1.dot(d1) + m2 * d2.dot(d2) + I1 * v1**2 + I2 * (v1 + v2) ** 2)
+        T = T.subs({Q1: q1, Q2: q2})
+        V = g * (m1 * r1[1] + m2 * r2[1]).subs({Q1: q1, Q2: q2})
+        syms = dict(m1=m1, m2=m2, l1=l1, lc1=lc1, lc2=lc2, I1=I1, I2=I2, g=g)
+        return [q1, q2], [v1, v2], T, V, syms
+    if kind == "cart_pole":
+        y, th, vy, vth = sp.symbols("y th vy vth")
+        M_, m, l, I = sp.symbols("M m l I")
+        xb, zb = y + l * sp.sin(th), l * sp.cos(th)
+        xd = vy + l * sp.cos(th) * vth
+        zd = -l * sp.sin(th) * vth
+        T = sp.Rational(1, 2) * (M_ * vy**2 + m * (xd**2 + zd**2) + I * vth**2)
+        V = m * g * zb
+        return [y, th], [vy, vth], T, V, dict(M=M_, m=m, l=l, I=I, g=g)
+    th, w = sp.symbols("th w")
+    J_m, J_l, n, M_, l = sp.symbols("J_m J_l n M l")
+    T = sp.Rational(1, 2) * (J_m * (n * w) ** 2 + J_l * w**2)  # motor turns n times faster
+    V = M_ * g * l * (1 - sp.cos(th))
+    return [th], [w], T, V, dict(J_m=J_m, J_l=J_l, n=n, M=M_, l=l, g=g)
+
+
+PARAMS = {
+    "pendubot": dict(m1=1.3, m2=0.45, l1=0.17, lc1=0.09, lc2=0.12, I1=0.006, I2=0.0027, g=9.81),
+    "cart_pole": dict(M=1.2, m=0.15, l=0.45, I=0.004, g=9.81),
+    "geared_arm": dict(J_m=1.1e-6, J_l=7.3e-3, n=50.0, M=0.25, l=0.15, g=9.81),
+}
+
+
+@pytest.mark.parametrize("kind", sorted(PARAMS))
+def test_formula_matches_symbolic_lagrangian(kind):
+    q, v, T, V, syms = _symbolic(kind)
+    M, C, G = _lagrange(T, V, q, v)
+    values = {syms[k]: val for k, val in PARAMS[kind].items()}
+    f_M = sp.lambdify([q], M.subs(values), "numpy")
+    f_C = sp.lambdify([q, v], C.subs(values), "numpy")
+    f_G = sp.lambdify([q], G.subs(values), "numpy")
+    f_V = sp.lambdify([q], V.subs(values), "numpy")
+    formula = formulas.get(kind)
+    p = PARAMS[kind]
+    rng = np.random.default_rng(7)
+    q0 = np.zeros(len(q))
+    for _ in range(N_STATES):
+        qs, vs = rng.uniform(-3, 3, len(q)), rng.uniform(-2, 2, len(q))
+        np.testing.assert_allclose(formula.mass_matrix(qs, p), np.array(f_M(qs), dtype=float), rtol=RTOL, atol=1e-15)
+        np.testing.assert_allclose(
+            formula.coriolis_matrix(qs, vs, p), np.array(f_C(qs, vs), dtype=float), rtol=RTOL, atol=1e-15
+        )
+        np.testing.assert_allclose(
+            formula.gravity(qs, p), np.array(f_G(qs), dtype=float).ravel(), rtol=RTOL, atol=1e-15
+        )
+        dV = formula.potential_energy(qs, p) - formula.potential_energy(q0, p)
+        np.testing.assert_allclose(dV, float(f_V(qs)) - float(f_V(q0)), rtol=RTOL, atol=1e-14)
+
+
+@pytest.mark.parametrize("kind", sorted(PARAMS))
+def test_christoffel_form_makes_mdot_minus_2c_skew(kind):
+    formula, p = formulas.get(kind), PARAMS[kind]
+    rng = np.random.default_rng(3)
+    h = 1e-6  # central difference: error ~ h^2
+    for _ in range(10):
+        q, v = rng.uniform(-3, 3, formula.dof), rng.uniform(-2, 2, formula.dof)
+        Mdot = (formula.mass_matrix(q + h * v, p) - formula.mass_matrix(q - h * v, p)) / (2 * h)
+        N = Mdot - 2 * formula.coriolis_matrix(q, v, p)
+        np.testing.assert_allclose(N + N.T, 0.0, atol=1e-8)
+
+
+def test_geared_arm_motor_and_link_coordinates_are_one_equation():
+    from robodyn.formulas import geared_arm as ga
+
+    p = PARAMS["geared_arm"]
+    n = p["n"]
+    rng = np.random.default_rng(11)
+    for _ in range(10):
+        q = rng.uniform(-3, 3, 1)
+        theta_m, _ = ga.link_to_motor(q, q, p)
+        np.testing.assert_allclose(ga.mass_matrix(q, p), n**2 * ga.mass_matrix_motor(theta_m, p), rtol=1e-14)
+        np.testing.assert_allclose(ga.gravity(q, p), n * ga.gravity_motor(theta_m, p), rtol=1e-14)
+        np.testing.assert_allclose(ga.potential_energy(q, p), ga.potential_energy_motor(theta_m, p), rtol=1e-14)
+
+
+def test_unknown_kind_lists_the_kinds():
+    with pytest.raises(UnknownNameError, match="cart_pole, geared_arm, pendubot"):
+        formulas.get("double_pendulum")
+
+
+def test_user_formula_errors_are_one_line(tmp_path):
+    bad = tmp_path / "bad.py"
+    bad.write_text(
+        "KIND = 'pendubot'\ndef mass_matrix(q, p):\n  return [[1, 2, 3]]\n"
+        "def coriolis_matrix(q, v, p):\n  return [[0, 0], [0, 0]]\ndef gravity(q, p):\n  return [0, 0]\n"
+    )
+    f = formulas.load_user_formula(bad)
+    with pytest.raises(FormulaError, match=r"mass_matrix returned shape \(1, 3\), expected \(2, 2\)"):
+        f.mass_matrix(np.zeros(2), PARAMS["pendubot"])
+    syntax = tmp_path / "syntax.py"
+    syntax.write_text("KIND = 'pendubot'\ndef mass_matrix(q, p)\n  pass\n")
+    with pytest.raises(FormulaError, match="syntax.py:2: the formula file has a syntax error"):
+        formulas.load_user_formula(syntax)
+    nokind = tmp_path / "nokind.py"
+    nokind.write_text("def mass_matrix(q, p):\n  return 1\n")
+    with pytest.raises(FormulaError, match="define KIND"):
+        formulas.load_user_formula(nokind)
+    missing = tmp_path / "missing.py"
+    missing.write_text("KIND = 'cart_pole'\ndef mass_matrix(q, p):\n  return 1\n")
+    with pytest.raises(FormulaError, match="missing function.*coriolis_matrix, gravity"):
+        formulas.load_user_formula(missing)
+    with pytest.raises(FormulaError, match="no such formula file"):
+        formulas.load_user_formula(tmp_path / "absent.py")
+    raising = tmp_path / "raising.py"
+    raising.write_text(
+        "KIND = 'geared_arm'\ndef mass_matrix(q, p):\n  return p['mass']\n"
+        "def coriolis_matrix(q, v, p):\n  return [[0]]\ndef gravity(q, p):\n  return [0]\n"
+    )
+    with pytest.raises(FormulaError, match=r"mass_matrix raised KeyError: 'mass' \(line 3\)"):
+        formulas.load_user_formula(raising).mass_matrix(np.zeros(1), PARAMS["geared_arm"])

@@ -57,11 +57,15 @@ def non_negative_int(text: str) -> int:
     return value
 
 
-def add_model_arguments(parser: argparse.ArgumentParser) -> None:
-    """The positional model (built-in name, example-robot-data name or URDF path) and its options."""
+def add_model_arguments(parser: argparse.ArgumentParser, *, many: bool = False) -> None:
+    """The positional model (built-in name, example-robot-data name or URDF path) and its options.
+
+    With ``many`` the positional is ``models`` and takes one or more.
+    """
     parser.add_argument(
-        "model",
+        "models" if many else "model",
         metavar="URDF_OR_NAME",
+        nargs="+" if many else None,
         help="built-in model (geared_arm, cart_pole, pendubot), an example-robot-data robot (panda, talos, ...) "
         "or a path to a .urdf file",
     )
@@ -69,11 +73,11 @@ def add_model_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--free-flyer", action="store_true", help="mount the root on a free-flyer joint")
 
 
-def load_robot(args: argparse.Namespace, **options: Any) -> Any:
-    """Load the robot named by ``args.model`` with the common options."""
+def load_robot(args: argparse.Namespace, model: str | None = None, **options: Any) -> Any:
+    """Load the robot named by ``model`` (default ``args.model``) with the common options."""
     from robodyn.models import load
 
-    return load(args.model, srdf=args.srdf, free_flyer=args.free_flyer, **options)
+    return load(args.model if model is None else model, srdf=args.srdf, free_flyer=args.free_flyer, **options)
 
 
 def writable_path(path: Path) -> Path:

@@ -20,12 +20,13 @@ def add_parser(sub: Any) -> None:
         "hand-derived formula over seeded random states, and check the structural properties "
         "(M SPD, dM/dt - 2C skew, G = dV/dq). Exit 0: all agree; 1: a mismatch; 2: bad input.",
     )
-    add_model_arguments(p)
+    add_model_arguments(p, many=True)
     p.add_argument(
         "--formula",
         metavar="KIND_OR_FILE",
-        help="built-in kind (geared_arm, cart_pole, pendubot) or a .py file with your own derivation; "
-        "without it only the structural properties and Pinocchio's identities are checked",
+        help="built-in kind (geared_arm, cart_pole, pendubot), 'auto' (the kind each model meets, if any) or a "
+        ".py file with your own derivation; without it only the structural properties and Pinocchio's "
+        "identities are checked",
     )
     p.add_argument("--samples", type=positive_int, default=100, help="number of random states (default 100)")
     p.add_argument("--seed", type=int, default=0, help="seed of the random states (default 0)")
@@ -42,19 +43,28 @@ def add_parser(sub: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the check and print the table (or JSON); exit 1 on a mismatch."""
+    """Check each model, print a table (or JSON) per model; exit 1 if any mismatches."""
     from robodyn.check import check
+    from robodyn.params import detect_kind
 
-    robot = load_robot(args)
-    if args.params is not None and args.formula is None:
-        raise InputError("--params needs --formula: parameters belong to a formula kind")
+    if args.params is not None and args.formula in (None, "auto"):
+        raise InputError("--params needs --formula KIND: parameters belong to one formula kind")
     given = read_params(args.params) if args.params is not None else None
-    report = check(robot, args.formula, samples=args.samples, seed=args.seed, rtol=args.rtol, params=given)
+    robots = [load_robot(args, name) for name in args.models]  # bad input fails before any work
+    reports = []
+    for robot in robots:
+        formula = detect_kind(robot) if args.formula == "auto" else args.formula
+        report = check(robot, formula, samples=args.samples, seed=args.seed, rtol=args.rtol, params=given)
+        reports.append(report)
+        if not args.json:
+            if len(robots) > 1:
+                print(f"{'=' * 30} {robot.name} {'=' * 30}")
+            print(format_report(report, robot))
     if args.json:
-        print_json(report.as_dict())
-    else:
-        print(format_report(report, robot))
-    return EXIT_OK if report.passed else EXIT_MISMATCH
+        print_json(reports[0].as_dict() if len(reports) == 1 else [r.as_dict() for r in reports])
+    elif len(reports) > 1:
+        print("\nsummary: " + ", ".join(f"{r.model} {'pass' if r.passed else 'FAIL'}" for r in reports))
+    return EXIT_OK if all(r.passed for r in reports) else EXIT_MISMATCH
 
 
 def read_params(path: Path) -> dict[str, Any]:

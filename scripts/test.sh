@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# Set up and run robodyn's whole test suite on a fresh machine with Python 3.11:
+# headless Chromium for the browser tests (Debian's package, when run as root), a virtual
+# environment in .venv with robodyn and its test extra, then pytest.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+if ! command -v chromium >/dev/null 2>&1; then
+  if [ "$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then
+    echo "installing Debian's chromium for the browser tests"
+    apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null
+  else
+    echo "warning: chromium is not installed; the browser tests will say so (install Debian's chromium)" >&2
+  fi
+fi
+
+python3 -m venv .venv
+.venv/bin/python -m pip install --quiet --upgrade pip
+.venv/bin/python -m pip install --quiet ".[test]"
+.venv/bin/python -m pytest -q "$@"

@@ -26,6 +26,7 @@ import xml.etree.ElementTree as ET
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
@@ -34,6 +35,9 @@ from numpy.typing import ArrayLike
 from robodyn.errors import InputError, ModelError
 from robodyn.registry import Registry
 from robodyn.robot import Robot
+
+if TYPE_CHECKING:
+    from robodyn.reduce import Reduction
 
 BUILTIN_NAMES = ("cart_pole", "geared_arm", "pendubot")
 
@@ -206,7 +210,7 @@ def load(
     reducing = lock is not None or keep is not None
     if check_physics:
         # A joint that moves nothing makes M singular, unless the scene locks it.
-        _refuse_impossible(model, source.urdf, skip=("massless_subtree",) if reducing else ())
+        refuse_impossible(model, source.urdf, skip=("massless_subtree",) if reducing else ())
     name = str(name_or_path) if not looks_like_path(name_or_path) else source.urdf.stem
     robot = Robot.from_model(
         model,
@@ -221,11 +225,41 @@ def load(
 
     reduced = reduce(robot, lock=lock, keep=keep, reference=reference).reduced
     if check_physics:
-        _refuse_impossible(reduced.model, source.urdf, skip=())
+        refuse_impossible(reduced.model, source.urdf)
     return reduced
 
 
-def _refuse_impossible(model: pin.Model, urdf: Path, *, skip: tuple[str, ...]) -> None:
+def load_reduction(
+    name_or_path: str | Path,
+    *,
+    srdf: str | Path | None = None,
+    free_flyer: bool = False,
+    mimic: bool = False,
+    check_physics: bool = True,
+    lock: Mapping[str, float | Sequence[float]] | None = None,
+    keep: Iterable[str] | None = None,
+    reference: ArrayLike | str | None = None,
+) -> Reduction:
+    """As :func:`load` with ``lock``/``keep``, but return the whole :class:`robodyn.reduce.Reduction`.
+
+    The full model is checked for impossible inertias except joints that move nothing;
+    the reduced model must have none left.
+    """
+    from robodyn.reduce import reduce
+
+    if lock is None and keep is None:
+        raise InputError("load_reduction needs lock or keep (the joints to lock or to keep)")
+    full = load(name_or_path, srdf=srdf, free_flyer=free_flyer, mimic=mimic, check_physics=False)
+    if check_physics:
+        refuse_impossible(full.model, full.urdf_path or Path(str(name_or_path)), skip=("massless_subtree",))
+    reduction = reduce(full, lock=lock, keep=keep, reference=reference)
+    if check_physics:
+        refuse_impossible(reduction.reduced.model, full.urdf_path or Path(str(name_or_path)))
+    return reduction
+
+
+def refuse_impossible(model: pin.Model, urdf: Path, *, skip: tuple[str, ...] = ()) -> None:
+    """Raise :class:`ModelError` on the first impossible finding whose code is not in ``skip``."""
     from robodyn.consistency import impossible_inertials
 
     problems = [f for f in impossible_inertials(model) if f.code not in skip]

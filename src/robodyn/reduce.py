@@ -15,7 +15,7 @@ proof compares it, and trajectories built on it, with the reduced model.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -304,14 +304,15 @@ def prove_exact(
     *,
     duration: float,
     dt: float,
-    tau: ArrayLike | None = None,
+    tau: ArrayLike | Callable[[float, Array, Array], ArrayLike] | None = None,
     method: str = "rk4",
 ) -> ExactnessReport:
     """Integrate the reduced model and the constrained full model side by side.
 
-    Both use the integrator ``method`` with step ``dt`` [s] for ``duration`` [s], constant
-    joint torques ``tau`` (nv_red,) [N m | N] (zero by default) and each model's viscous
-    damping (-damping * v). The reduced model runs on ABA; the full model on the KKT solve
+    Both use the integrator ``method`` with step ``dt`` [s] for ``duration`` [s], joint
+    torques ``tau`` on the reduced joints [N m | N]: zero by default, a constant (nv_red,),
+    or a controller tau(t, q_red, v_red) (the full model feeds it its kept coordinates),
+    and each model's viscous damping (-damping * v). The reduced model runs on ABA; the full model on the KKT solve
     of :func:`locked_acceleration`. Exactness means the errors are round-off.
     """
     import time
@@ -320,19 +321,33 @@ def prove_exact(
 
     red, full = reduction.reduced, reduction.full
     q0_, v0_ = red.q_(q0), red.v_(v0)
-    tau_red = np.zeros(red.nv) if tau is None else red.v_(tau, "tau")
-    tau_full = reduction.full_v(tau_red)
+    if callable(tau):
+        controller = tau
+
+        def torque_reduced(t: float, q: Array, v: Array) -> Array:
+            return red.v_(controller(t, q, v), "tau")
+
+    else:
+        constant = np.zeros(red.nv) if tau is None else red.v_(tau, "tau")
+
+        def torque_reduced(t: float, q: Array, v: Array) -> Array:
+            return constant
+
     if not (np.isfinite(duration) and duration > 0):
         raise InputError(f"duration must be a positive number of seconds, got {duration!r}")
+    if not (np.isfinite(dt) and dt > 0):
+        raise InputError(f"dt must be a positive number of seconds, got {dt!r}")
     n_steps = max(1, round(duration / dt))
     damping_red, damping_full = red.damping, full.damping
 
     def accel_reduced(t: float, q: Array, v: Array) -> Array:
-        return dynamics.aba(red.model, red.data, q, v, tau_red - damping_red * v)
+        return dynamics.aba(red.model, red.data, q, v, torque_reduced(t, q, v) - damping_red * v)
 
     lock_torque = [0.0]
 
     def accel_full(t: float, q: Array, v: Array) -> Array:
+        tau_full = np.zeros(full.nv)
+        tau_full[reduction.kept_v] = torque_reduced(t, q[reduction.kept_q], v[reduction.kept_v])
         a, lam = locked_acceleration(reduction, q, v, tau_full - damping_full * v)
         lock_torque[0] = max(lock_torque[0], float(np.abs(lam).max(initial=0.0)))
         return a
@@ -372,3 +387,55 @@ def prove_exact(
         wall_time_reduced_s=mid - start,
         wall_time_full_s=end - mid,
     )
+
+
+@dataclass(frozen=True)
+class CostComparison:
+    """Mean wall time per dynamics call [s] on the full and the reduced model.
+
+    ``full`` and ``reduced`` map "M", "C", "G", "ABA" to seconds per call, measured on
+    ``repeat`` seeded random states each.
+    """
+
+    nv_full: int
+    nv_reduced: int
+    full: dict[str, float]
+    reduced: dict[str, float]
+    repeat: int
+
+    def speedup(self, what: str) -> float:
+        """How many times faster the reduced model computes ``what``."""
+        return self.full[what] / self.reduced[what]
+
+
+def time_calls(robot: Robot, *, repeat: int = 200, seed: int = 0) -> dict[str, float]:
+    """Mean wall time [s] of one M (CRBA), C, G and ABA call of ``robot`` over ``repeat`` states."""
+    import time
+
+    if repeat < 1:
+        raise InputError(f"repeat must be >= 1, got {repeat}")
+    rng = np.random.default_rng(seed)
+    model, data = robot.model, robot.data
+    states = [robot.random_state(rng) for _ in range(repeat)]
+    taus = [rng.uniform(-1.0, 1.0, robot.nv) for _ in range(repeat)]
+    calls: dict[str, Callable[[Array, Array, Array], object]] = {
+        "M": lambda q, v, tau: dynamics.mass_matrix(model, data, q),
+        "C": lambda q, v, tau: dynamics.coriolis_matrix(model, data, q, v),
+        "G": lambda q, v, tau: dynamics.gravity(model, data, q),
+        "ABA": lambda q, v, tau: dynamics.aba(model, data, q, v, tau),
+    }
+    out = {}
+    for name, call in calls.items():
+        call(*states[0], taus[0])  # warm up (first-call allocations)
+        start = time.perf_counter()
+        for (q, v), tau in zip(states, taus, strict=True):
+            call(q, v, tau)
+        out[name] = (time.perf_counter() - start) / repeat
+    return out
+
+
+def compare_cost(reduction: Reduction, *, repeat: int = 200, seed: int = 0) -> CostComparison:
+    """Time M, C, G and ABA on the full and the reduced model side by side."""
+    full = time_calls(reduction.full, repeat=repeat, seed=seed)
+    reduced = time_calls(reduction.reduced, repeat=repeat, seed=seed)
+    return CostComparison(reduction.full.nv, reduction.reduced.nv, full, reduced, repeat)

@@ -198,3 +198,14 @@ def kinetic_energy_rnea(model: pin.Model, data: pin.Data, q: Array, v: Array) ->
 def gravity_vector(model: pin.Model) -> Array:
     """The model's gravitational acceleration in world [m/s^2], shape (3,)."""
     return np.array(model.gravity.linear, dtype=np.float64)
+
+
+def momentum_rate(model: pin.Model, data: pin.Data, q: Array, v: Array, tau: Array) -> Array:
+    """dp/dt for the momentum p = M(q) v: tau + C(q, v)^T v - G(q) [N m | N], shape (nv,).
+
+    From M a + C v + G = tau and dM/dt = C + C^T (Christoffel C): dp/dt = M a + dM/dt v.
+    It is -dH/dq + tau, the force of Hamilton's equations that symplectic methods step.
+    """
+    C = np.array(pin.computeCoriolisMatrix(model, data, q, v))
+    G = np.array(pin.computeGeneralizedGravity(model, data, q))
+    return tau + C.T @ v - G

@@ -1,0 +1,242 @@
+"""Charts of benchmark and stability results (the only module that imports matplotlib).
+
+matplotlib is imported inside each function with the non-interactive Agg backend, so
+``import robodyn`` stays light and charts render without a display. Every function takes
+finished results (it never runs numerics), writes ``<stem>.png`` and ``<stem>.svg``, and
+returns both paths.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from robodyn.errors import MissingDependencyError
+
+if TYPE_CHECKING:
+    from robodyn.bench import BenchResult, EnergySeries
+
+# One colour per integrator, one marker per backend: the same run looks the same on every chart.
+_COLOURS = {
+    "euler": "#d62728",
+    "symplectic_euler": "#ff7f0e",
+    "heun": "#8c564b",
+    "rk4": "#1f77b4",
+    "implicit_midpoint": "#2ca02c",
+    "dopri5": "#9467bd",
+    "scipy_rk45": "#e377c2",
+    "scipy_dop853": "#17becf",
+    "scipy_radau": "#7f7f7f",
+    "scipy_bdf": "#bcbd22",
+    "scipy_lsoda": "#000000",
+}
+_MARKERS = {"aba": "o", "crba": "s", "formula": "^", "fast": "*"}
+_LINES = {"aba": "-", "crba": "--", "formula": ":", "fast": "-."}
+
+
+def _pyplot() -> Any:
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:  # pragma: no cover - matplotlib is a declared dependency
+        raise MissingDependencyError("charts need matplotlib: pip install matplotlib") from None
+    return plt
+
+
+def _save(fig: Any, stem: Path) -> tuple[Path, Path]:
+    stem = Path(stem)
+    stem.parent.mkdir(parents=True, exist_ok=True)
+    png, svg = stem.with_suffix(".png"), stem.with_suffix(".svg")
+    fig.tight_layout()
+    fig.savefig(png, dpi=110)
+    fig.savefig(svg)
+    _pyplot().close(fig)
+    return png, svg
+
+
+def _groups(results: Sequence[BenchResult]) -> dict[tuple[str, str], list[BenchResult]]:
+    groups: dict[tuple[str, str], list[BenchResult]] = {}
+    for r in results:
+        groups.setdefault((r.integrator, r.backend), []).append(r)
+    return groups
+
+
+def _finite(results: Sequence[BenchResult]) -> list[BenchResult]:
+    return [r for r in results if not r.diverged and np.isfinite(r.error) and r.error > 0]
+
+
+def work_precision(results: Sequence[BenchResult], stem: Path, *, title: str = "") -> tuple[Path, Path]:
+    """Error against wall time per simulated second, log--log (the work--precision diagram)."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(8.5, 6))
+    for (name, backend), runs in sorted(_groups(_finite(results)).items()):
+        runs = sorted(runs, key=lambda r: r.wall_time_s)
+        ax.loglog(
+            [r.wall_time_s for r in runs],
+            [r.error for r in runs],
+            marker=_MARKERS.get(backend, "x"),
+            linestyle=_LINES.get(backend, "-"),
+            color=_COLOURS.get(name, None),
+            label=f"{name} / {backend}",
+            markersize=7 if backend == "fast" else 5,
+        )
+    ax.set_xlabel("wall time per simulated second [s/s]")
+    ax.set_ylabel("relative state error vs DOP853 reference")
+    ax.set_title(title or "work-precision: lower left is better")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7, ncol=2)
+    return _save(fig, stem)
+
+
+def error_vs_dt(
+    results: Sequence[BenchResult], stem: Path, *, orders: Mapping[str, float | None], title: str = ""
+) -> tuple[Path, Path]:
+    """Error against dt for the fixed-step methods (ABA backend), with reference slopes.
+
+    ``orders`` maps integrator -> measured order (printed in the legend next to the declared one).
+    """
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(8, 6))
+    fixed = [r for r in _finite(results) if r.dt is not None and r.backend == "aba"]
+    declared: dict[str, int] = {}
+    for (name, _backend), runs in sorted(_groups(fixed).items()):
+        runs = sorted(runs, key=lambda r: r.dt or 0.0)
+        declared[name] = runs[0].order
+        measured = orders.get(name)
+        text = f"measured {measured:.2f}" if measured is not None else "no asymptotic points"
+        ax.loglog(
+            [r.dt for r in runs],
+            [r.error for r in runs],
+            marker="o",
+            color=_COLOURS.get(name, None),
+            label=f"{name}: declared {runs[0].order}, {text}",
+        )
+    if fixed:
+        dts = np.array(sorted({r.dt for r in fixed if r.dt is not None}))
+        anchor_err = float(np.median([r.error for r in fixed]))
+        anchor_dt = float(np.exp(np.mean(np.log(dts))))
+        for p in sorted(set(declared.values())):
+            ax.loglog(dts, anchor_err * (dts / anchor_dt) ** p, color="0.6", linewidth=0.8, linestyle="--")
+            ax.annotate(f"slope {p}", (dts[-1], anchor_err * (dts[-1] / anchor_dt) ** p), fontsize=8, color="0.4")
+    ax.set_xlabel("dt [s]")
+    ax.set_ylabel("relative state error vs DOP853 reference")
+    ax.set_title(title or "convergence: error against step")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    return _save(fig, stem)
+
+
+def energy_error(series: Sequence[EnergySeries], stem: Path, *, title: str = "") -> tuple[Path, Path]:
+    """|E - E0 - W| / scale against time, one line per integrator (semi-log)."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(8, 5))
+    floor = 1e-17
+    for s in series:
+        ax.semilogy(
+            s.t,
+            np.maximum(np.abs(s.error), floor),
+            color=_COLOURS.get(s.integrator, None),
+            linewidth=0.9,
+            label=f"{s.integrator} / {s.backend}, dt = {s.dt:g} s",
+        )
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("|E - E0 - W| / energy scale")
+    ax.set_title(title or "energy error against time")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    return _save(fig, stem)
+
+
+def stability(
+    cases: Sequence[Mapping[str, Any]],
+    regions: Mapping[str, tuple[Sequence[float], Sequence[float], Sequence[Sequence[float]]]],
+    stem: Path,
+) -> tuple[Path, Path]:
+    """Left: stability regions |Phi| <= 1 in the h-lambda plane. Right: measured vs predicted dt_max.
+
+    ``cases`` are the per-(case, integrator) records of ``stability.json`` (keys ``case``,
+    ``integrator``, ``predicted_dt_max``, ``measured_dt_max``); ``regions`` maps integrator ->
+    (re grid, im grid, spectral radius on the grid).
+    """
+    plt = _pyplot()
+    fig, (left, right) = plt.subplots(1, 2, figsize=(12, 5.5))
+    for name, (re, im, rho) in regions.items():
+        rho_arr = np.asarray(rho, dtype=float)
+        left.contour(re, im, rho_arr, levels=[1.0], colors=[_COLOURS.get(name, "k")], linewidths=1.4)
+        left.plot([], [], color=_COLOURS.get(name, "k"), label=name)  # legend entry for the contour
+    left.axhline(0, color="0.7", linewidth=0.6)
+    left.axvline(0, color="0.7", linewidth=0.6)
+    left.set_xlabel("Re(h lambda)")
+    left.set_ylabel("Im(h lambda)")
+    left.set_title("stability regions (inside the curve: stable)")
+    left.set_aspect("equal")
+    left.legend(fontsize=8, loc="upper left")
+    markers = ["o", "s", "^", "D", "v", "P"]
+    case_names = sorted({str(c["case"]) for c in cases})
+    lo, hi = np.inf, 0.0
+    for c in cases:
+        p, m = c.get("predicted_dt_max"), c.get("measured_dt_max")
+        if not isinstance(p, float) or not isinstance(m, float) or not (p > 0 and m > 0):
+            continue
+        if not (np.isfinite(p) and np.isfinite(m)):
+            continue
+        lo, hi = min(lo, p, m), max(hi, p, m)
+        right.loglog(
+            p,
+            m,
+            marker=markers[case_names.index(str(c["case"])) % len(markers)],
+            color=_COLOURS.get(str(c["integrator"]), "k"),
+            linestyle="none",
+            label=f"{c['case']}: {c['integrator']}",
+        )
+    if np.isfinite(lo):
+        x = np.array([lo / 2, hi * 2])
+        right.loglog(x, x, color="0.5", linewidth=0.8)
+        right.fill_between(x, 0.9 * x, 1.1 * x, color="0.85", label="within 10 %")
+    right.set_xlabel("predicted largest stable dt [s] (linearisation)")
+    right.set_ylabel("measured largest stable dt [s] (bisection)")
+    right.set_title("where methods fail: theory against measurement")
+    right.grid(True, which="both", alpha=0.3)
+    right.legend(fontsize=7)
+    return _save(fig, stem)
+
+
+def lyapunov(
+    t: Sequence[float], running: Sequence[float], gap_t: Sequence[float], gap: Sequence[float], stem: Path
+) -> tuple[Path, Path]:
+    """Left: running Lyapunov estimate. Right: separation of two runs one ulp apart (semi-log)."""
+    plt = _pyplot()
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.5))
+    left.plot(t, running)
+    left.set_xlabel("t [s]")
+    left.set_ylabel("running estimate of lambda_max [1/s]")
+    left.grid(True, alpha=0.3)
+    right.semilogy(gap_t, np.maximum(np.asarray(gap, dtype=float), 1e-17))
+    right.set_xlabel("t [s]")
+    right.set_ylabel("max |q_a - q_b| [rad]")
+    right.set_title("two runs whose starts differ by one ulp")
+    right.grid(True, which="both", alpha=0.3)
+    return _save(fig, stem)
+
+
+def speed_bars(
+    labels: Sequence[str], values: Sequence[float], stem: Path, *, unit: str, title: str
+) -> tuple[Path, Path]:
+    """Horizontal bars (log scale) of one cost per path, e.g. microseconds per step."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(8, 0.6 * len(labels) + 1.5))
+    y = np.arange(len(labels))
+    ax.barh(y, values, color="#1f77b4")
+    ax.set_yticks(y, labels)
+    ax.set_xscale("log")
+    for yi, v in zip(y, values, strict=True):
+        ax.annotate(f"{v:.3g}", (v, yi), xytext=(3, -3), textcoords="offset points", fontsize=8)
+    ax.set_xlabel(unit)
+    ax.set_title(title)
+    ax.grid(True, axis="x", which="both", alpha=0.3)
+    return _save(fig, stem)

@@ -1,0 +1,70 @@
+"""Loading: built-ins, variants, paths, SRDF pairing, errors, geometry on demand."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from robodyn.errors import ModelError, UnknownNameError
+from robodyn.models import (
+    BUILTIN_NAMES,
+    VARIANT_NAMES,
+    load,
+    mesh_references,
+    reference_configurations,
+    resolve,
+)
+
+# geared arm, armature vs rotor-as-a-body: identical physics, so CRBA agrees to round-off.
+ROUNDOFF_RTOL = 1e-12
+
+
+@pytest.mark.parametrize("name", BUILTIN_NAMES + VARIANT_NAMES)
+def test_builtins_and_variants_load(name):
+    robot = load(name, mimic=name == "geared_arm_rotor")
+    assert robot.nv >= 1
+
+
+def test_geared_arm_rotor_variant_equals_armature_model():
+    minimal, rotor = load("geared_arm"), load("geared_arm_rotor", mimic=True)
+    assert rotor.nv == 1 and rotor.armature[0] == 0.0 and minimal.armature[0] == pytest.approx(1.08e-6 * 50**2)
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        q, v = minimal.random_state(rng)
+        np.testing.assert_allclose(rotor.M(q), minimal.M(q), rtol=ROUNDOFF_RTOL)
+        np.testing.assert_allclose(rotor.nle(q, v), minimal.nle(q, v), rtol=ROUNDOFF_RTOL)
+
+
+def test_point_bob_variant_differs_only_in_pole_inertia():
+    rod, bob = load("cart_pole"), load("cart_pole_point_bob")
+    q = np.array([0.0, 0.0])
+    # M[1,1] about the hinge: m l^2 + I_rod (8.3333333e-3 kg m^2) against m l^2
+    assert rod.M(q)[1, 1] - bob.M(q)[1, 1] == pytest.approx(8.3333333e-3, rel=1e-9)
+    np.testing.assert_allclose(rod.G(q), bob.G(q))
+    assert bob.passive_joints == ("hinge",)
+
+
+def test_path_and_srdf_pairing(tmp_path):
+    robot = load(resolve("panda").urdf)
+    assert robot.name == "panda" and robot.srdf_path is not None
+    assert set(reference_configurations(robot)) == {"default"}
+
+
+def test_errors_name_the_problem(tmp_path):
+    with pytest.raises(UnknownNameError, match="expected one of: .*geared_arm"):
+        load("pandaa")
+    with pytest.raises(ModelError, match="no such URDF file"):
+        load(tmp_path / "missing.urdf")
+    bad = tmp_path / "bad.urdf"
+    bad.write_text("<robot name='x'><link name='a'>")
+    with pytest.raises(ModelError, match="malformed URDF XML"):
+        load(bad)
+    notrobot = tmp_path / "n.urdf"
+    notrobot.write_text("<sdf/>")
+    with pytest.raises(ModelError, match="expected <robot>"):
+        load(notrobot)
+
+
+def test_mesh_references_resolve_without_parsing_meshes():
+    refs = mesh_references(resolve("panda").urdf)
+    assert refs and all(r.path is not None and r.path.is_file() for r in refs)

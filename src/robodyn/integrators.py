@@ -73,7 +73,11 @@ class SecondOrderProblem(Protocol):
         nv: size of the velocity v (the tangent space of q).
         nw: number of running integrals carried after v in u (0 when none).
         flat: True when ``integrate(q, dq)`` is plain ``q + dq`` (nq == nv).
-        evaluations: number of ``rates`` calls so far.
+        evaluations: number of ``rates`` and ``momentum_rates`` calls so far.
+
+    The symplectic methods step the canonical pair (q, p = M(q) v) with
+    dp/dt = momentum_rates(...) (for a mechanical system tau + C^T v - G); an
+    :class:`ArrayProblem` has M = I, so p = v and dp/dt = a.
     """
 
     nq: int
@@ -92,6 +96,14 @@ class SecondOrderProblem(Protocol):
 
     def jacobian(self, t: float, q: Array, u: Array) -> tuple[Array, Array]:
         """(da/dq, da/dv), each (nv, nv): needed by the implicit methods only."""
+        ...
+
+    def mass_matrix(self, q: Array) -> Array:
+        """M(q) (nv, nv), defining the momentum p = M(q) v of the symplectic methods."""
+        ...
+
+    def momentum_rates(self, t: float, q: Array, u: Array) -> Array:
+        """[dp/dt (nv,), dw/dt (nw,)] at (t, q, u): the force of Hamilton's equations."""
         ...
 
 
@@ -136,6 +148,14 @@ class ArrayProblem:
         if self.jacobian_fn is not None:
             return self.jacobian_fn(t, q, u)
         return finite_difference_jacobian(self, t, q, u)
+
+    def mass_matrix(self, q: Array) -> Array:
+        """The identity: on plain arrays the momentum is the velocity."""
+        return np.eye(self.nv)
+
+    def momentum_rates(self, t: float, q: Array, u: Array) -> Array:
+        """dp/dt = a, since p = v."""
+        return self.rates(t, q, u)
 
 
 def finite_difference_jacobian(problem: SecondOrderProblem, t: float, q: Array, u: Array) -> tuple[Array, Array]:
@@ -335,11 +355,11 @@ class ExplicitEuler(FixedStepIntegrator):
 
 
 @dataclass(frozen=True)
-class SymplecticEuler(FixedStepIntegrator):
-    """Semi-implicit Euler: kick the velocity first, then drift with the new velocity.
+class SemiImplicitEuler(FixedStepIntegrator):
+    """Kick-drift Euler in (q, v): v1 = v + h a(t, q, v), then q1 = q (+) h v1.
 
-    v1 = v + h a(t, q, v);  q1 = q (+) h v1. Symplectic for forces that derive from a
-    potential (no damping, no time-varying torque), first order.
+    Symplectic only when M is constant (e.g. a single joint, or plain arrays); on robots
+    whose M(q) varies (the Pendubot) its energy drifts. First order, one evaluation a step.
     """
 
     def step(self, problem: SecondOrderProblem, t: float, q: Array, u: Array, h: float) -> tuple[Array, Array, Array]:
@@ -348,6 +368,50 @@ class SymplecticEuler(FixedStepIntegrator):
         u1 = u + h * k  # 1. kick: new velocity from the old configuration
         q1 = problem.integrate(q, h * u1[: problem.nv])  # 2. drift: move with the NEW velocity
         return q1, u1, k
+
+
+def _converged(size: float, previous: float, tol: float) -> bool:
+    """A fixed-point or Newton iteration is done: below tol, or stalled just above it."""
+    return size <= tol or (size >= previous and size <= NEWTON_STALL * tol)
+
+
+@dataclass(frozen=True)
+class SymplecticEuler(FixedStepIntegrator):
+    """Symplectic Euler in canonical coordinates (q, p = M(q) v): first order, symplectic.
+
+    p1 = p0 + h F(t, q0, v*) with v* = M(q0)^-1 p1 (solved by fixed-point iteration:
+    explicit when F does not depend on v), then q1 = q0 (+) h v*, and the new velocity
+    v1 = M(q1)^-1 p1. F = dp/dt = tau + C^T v - G (``problem.momentum_rates``). The
+    running integrals take the rate at (q0, v*).
+    """
+
+    def step(self, problem: SecondOrderProblem, t: float, q: Array, u: Array, h: float) -> tuple[Array, Array, Array]:
+        """One step; raises :class:`StepError` if the fixed-point iteration fails."""
+        nv = problem.nv
+        k0 = problem.rates(t, q, u)
+        M0 = problem.mass_matrix(q)
+        p0 = M0 @ u[:nv]
+        us = u + h * k0  # predictor for v* (and a placeholder tail)
+        previous = np.inf
+        for _ in range(NEWTON_MAX_ITER):
+            f = problem.momentum_rates(t, q, us)  # 1. momentum kick at the OLD configuration...
+            p1 = p0 + h * f[:nv]
+            vs = np.linalg.solve(M0, p1)  # ...and the velocity it implies there
+            size = float(np.max(np.abs(vs - us[:nv])))
+            us[:nv] = vs
+            if _converged(size, previous, NEWTON_RTOL * (float(np.max(np.abs(vs))) + 1e-300)):
+                q1 = problem.integrate(q, h * vs)  # 2. drift with v*
+                u1 = u + h * f
+                u1[:nv] = np.linalg.solve(problem.mass_matrix(q1), p1)  # 3. velocity at q1
+                return q1, u1, k0
+            if not np.isfinite(size):
+                break
+            previous = size
+        raise StepError(
+            f"symplectic Euler: the momentum iteration did not converge at t = {t:.6g} s with dt = {h:g} s; "
+            "try a smaller dt",
+            time=t,
+        )
 
 
 @dataclass(frozen=True)
@@ -397,42 +461,41 @@ class ExplicitRungeKutta(FixedStepIntegrator):
 
 @dataclass(frozen=True)
 class ImplicitMidpoint(FixedStepIntegrator):
-    """Implicit midpoint rule y1 = y0 + h f((y0 + y1) / 2): second order, symplectic.
+    """Implicit midpoint rule in canonical coordinates (q, p = M(q) v): second order, symplectic.
 
-    With the midpoint velocity vm = (v0 + v1) / 2 as the unknown, the step solves
-    vm = v0 + h/2 a(t + h/2, q0 (+) h/2 vm, vm) by Newton's method with the Jacobian
-    I - h/2 (h/2 da/dq + da/dv) (analytical ABA derivatives for a robot), starting from
-    an explicit Euler predictor; then q1 = q0 (+) h vm, v1 = 2 vm - v0 and the running
-    integrals take the midpoint rate. Newton stops at a relative update of ``NEWTON_RTOL``.
+    The unknown is the midpoint velocity vm, with qm = q0 (+) h/2 vm:
+    M(qm) vm = p0 + h/2 F(t + h/2, qm, vm). Newton's method on
+    vm - M(qm)^-1 (p0 + h/2 F) = 0 uses the Jacobian I - h/2 (h/2 da/dq + da/dv) from the
+    problem's analytical derivatives (Pinocchio's ABA derivatives for a robot), starting
+    from an explicit Euler predictor. Then q1 = q0 (+) h vm, p1 = p0 + h F and
+    v1 = M(q1)^-1 p1; the running integrals take the midpoint rate.
     """
 
     def step(self, problem: SecondOrderProblem, t: float, q: Array, u: Array, h: float) -> tuple[Array, Array, Array]:
         """One implicit midpoint step; raises :class:`StepError` if Newton fails."""
         nv = problem.nv
-        v0 = u[:nv]
         k0 = problem.rates(t, q, u)
+        p0 = problem.mass_matrix(q) @ u[:nv]
         tm = t + 0.5 * h
-        vm = v0 + 0.5 * h * k0[:nv]  # predictor: explicit Euler to the midpoint
-        um = u.copy()
+        um = u + 0.5 * h * k0  # predictor: explicit Euler to the midpoint
         eye = np.eye(nv)
         previous = np.inf
         for _ in range(NEWTON_MAX_ITER):
-            um[:nv] = vm
+            vm = um[:nv].copy()
             qm = problem.integrate(q, 0.5 * h * vm)
-            km = problem.rates(tm, qm, um)
-            residual = vm - v0 - 0.5 * h * km[:nv]
+            fm = problem.momentum_rates(tm, qm, um)
+            residual = vm - np.linalg.solve(problem.mass_matrix(qm), p0 + 0.5 * h * fm[:nv])
             size = float(np.max(np.abs(residual)))
-            tol = NEWTON_RTOL * (float(np.max(np.abs(vm))) + 0.5 * h * float(np.max(np.abs(km[:nv]))) + 1e-300)
-            # Converged, or stalled at rounding level a little above the tolerance.
-            if size <= tol or (size >= previous and size <= NEWTON_STALL * tol):
-                u1 = u + h * km
-                u1[:nv] = 2.0 * vm - v0
-                return problem.integrate(q, h * vm), u1, k0
+            if _converged(size, previous, NEWTON_RTOL * (float(np.max(np.abs(vm))) + 1e-300)):
+                q1 = problem.integrate(q, h * vm)
+                u1 = u + h * fm
+                u1[:nv] = np.linalg.solve(problem.mass_matrix(q1), p0 + h * fm[:nv])
+                return q1, u1, k0
             if not np.isfinite(size):
                 break
             previous = size
             da_dq, da_dv = problem.jacobian(tm, qm, um)
-            vm = vm - np.linalg.solve(eye - 0.5 * h * (0.5 * h * da_dq + da_dv), residual)
+            um[:nv] = vm - np.linalg.solve(eye - 0.5 * h * (0.5 * h * da_dq + da_dv), residual)
         raise StepError(
             f"implicit midpoint: Newton did not converge in {NEWTON_MAX_ITER} iterations at t = {t:.6g} s "
             f"with dt = {h:g} s; try a smaller dt",
@@ -677,9 +740,25 @@ INTEGRATORS.register(
     ExplicitEuler("euler", 1, False, False, False, "explicit Euler: q += h v, v += h a(q, v); energy grows"),
 )
 INTEGRATORS.register(
+    "semi_implicit_euler",
+    SemiImplicitEuler(
+        "semi_implicit_euler",
+        1,
+        False,
+        False,
+        False,
+        "kick-drift Euler in (q, v): v += h a(q, v), then q += h v; symplectic only for constant M",
+    ),
+)
+INTEGRATORS.register(
     "symplectic_euler",
     SymplecticEuler(
-        "symplectic_euler", 1, True, False, False, "semi-implicit Euler: v += h a(q, v), then q += h v (new v)"
+        "symplectic_euler",
+        1,
+        True,
+        False,
+        True,
+        "symplectic Euler in (q, p = M v): p += h F(q, v*), q += h v*; fixed-point for v*",
     ),
 )
 INTEGRATORS.register("heun", ExplicitRungeKutta("heun", 2, False, False, False, "Heun's method (explicit RK2)", HEUN))
@@ -689,7 +768,7 @@ INTEGRATORS.register(
 INTEGRATORS.register(
     "implicit_midpoint",
     ImplicitMidpoint(
-        "implicit_midpoint", 2, True, False, True, "implicit midpoint rule, Newton with analytical ABA derivatives"
+        "implicit_midpoint", 2, True, False, True, "implicit midpoint in (q, p = M v), Newton with ABA derivatives"
     ),
 )
 INTEGRATORS.register(

@@ -1,0 +1,97 @@
+"""The energy and work ledger of a simulated motion.
+
+The principle of work and energy for a system of rigid bodies, U12 = T2 - T1, with the
+work of gravity moved to the left as a potential V, reads
+
+    E(t) - E(0) = W_input(t) + W_damping(t),   E = T + V,
+
+and its rate form P = dE/dt = tau_in . v + tau_loss . v. ``T = 1/2 v^T M(q) v`` [J] with
+M from CRBA, which includes the rotors' reflected inertia (armature); Pinocchio's own
+``computeKineticEnergy`` leaves that out on non-canonical axes, so robodyn never relies on
+a single energy routine: :func:`cross_check` compares CRBA with RNEA for T and
+``computePotentialEnergy`` with the centre of mass for V before every run.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robodyn import dynamics
+from robodyn.errors import ModelError
+
+if TYPE_CHECKING:
+    from robodyn.robot import Robot
+
+Array = NDArray[np.float64]
+
+# Two routes to the same energy agree to this relative tolerance (different algorithms,
+# same float64 arithmetic on O(1) numbers: ~100 ulps).
+CROSS_CHECK_RTOL = 1e-10
+
+# The energy scale of a robot at rest: lifting its whole mass by this height [m].
+REFERENCE_HEIGHT = 0.1
+
+
+@dataclass(frozen=True)
+class EnergyCheck:
+    """The two routes to T and V at one state, and their largest relative disagreement."""
+
+    kinetic_crba: float
+    kinetic_rnea: float
+    potential_pinocchio: float
+    potential_com: float
+    relative_error: float
+
+
+def kinetic(robot: Robot, q: Array, v: Array) -> Array:
+    """T = 1/2 v^T M(q) v [J] for a batch q (n, nq), v (n, nv) -> (n,)."""
+    return dynamics.kinetic_energies(robot.model, robot.data, q, v)
+
+
+def potential(robot: Robot, q: Array) -> Array:
+    """Gravitational potential energy V(q) [J] for a batch q (n, nq) -> (n,)."""
+    return dynamics.potential_energies(robot.model, robot.data, q)
+
+
+def cross_check(robot: Robot, q: Array, v: Array) -> EnergyCheck:
+    """Compare T by CRBA with T by RNEA, and V by Pinocchio with -m g . c(q), at one state.
+
+    Raises:
+        ModelError: the two routes disagree by more than ``CROSS_CHECK_RTOL`` (relative to
+            the larger of |T|, |V| and the reference energy m g h_ref).
+    """
+    model, data = robot.model, robot.data
+    t_crba = float(dynamics.kinetic_energies(model, data, q[None, :], v[None, :])[0])
+    t_rnea = dynamics.kinetic_energy_rnea(model, data, q, v)
+    v_pin = dynamics.potential_energy(model, data, q)
+    v_com = -robot.total_mass * float(dynamics.gravity_vector(model) @ dynamics.center_of_mass(model, data, q))
+    scale = max(abs(t_crba), abs(v_pin), reference_energy(robot))
+    err = max(abs(t_crba - t_rnea), abs(v_pin - v_com)) / scale
+    check = EnergyCheck(t_crba, t_rnea, v_pin, v_com, err)
+    if err > CROSS_CHECK_RTOL:
+        raise ModelError(
+            f"energy routines disagree on {robot.name}: T = {t_crba:.12g} J (CRBA) vs {t_rnea:.12g} J (RNEA), "
+            f"V = {v_pin:.12g} J (Pinocchio) vs {v_com:.12g} J (centre of mass)",
+            path=robot.urdf_path,
+        )
+    return check
+
+
+def reference_energy(robot: Robot) -> float:
+    """m_total |g| h_ref [J]: the energy scale of a robot that starts at rest."""
+    g = float(np.linalg.norm(dynamics.gravity_vector(robot.model)))
+    return max(robot.total_mass * max(g, 1.0) * REFERENCE_HEIGHT, 1e-12)
+
+
+def energy_scale(robot: Robot, kinetic0: float, potential0: float) -> float:
+    """Scale against which energy errors are judged [J]: max(T0 + |V0|, m |g| h_ref)."""
+    return max(kinetic0 + abs(potential0), reference_energy(robot))
+
+
+def ledger_residual(energy: Array, work_input: Array, work_damping: Array) -> Array:
+    """E(t) - E(0) - W_input(t) - W_damping(t) [J]: zero up to the integrator's error."""
+    return energy - energy[0] - work_input - work_damping

@@ -44,7 +44,7 @@ def test_api_matches_pinocchio_identities(robot):
 
 def test_returned_arrays_are_fresh_copies(robot):
     rng = np.random.default_rng(1)
-    q1, v1 = robot.random_state(rng)
+    q1, _ = robot.random_state(rng)
     q2, _ = robot.random_state(rng)
     M1 = robot.M(q1)
     kept = M1.copy()

@@ -54,7 +54,7 @@ def _symbolic(kind: str):
     if kind == "cart_pole":
         y, th, vy, vth = sp.symbols("y th vy vth")
         M_, m, l, I = sp.symbols("M m l I")
-        xb, zb = y + l * sp.sin(th), l * sp.cos(th)
+        zb = l * sp.cos(th)  # the pole's centre of mass is at (y + l sin th, l cos th)
         xd = vy + l * sp.cos(th) * vth
         zd = -l * sp.sin(th) * vth
         T = sp.Rational(1, 2) * (M_ * vy**2 + m * (xd**2 + zd**2) + I * vth**2)

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -255,7 +255,7 @@ def _formula_rows(robot: Robot, formula: Formula, p: Params, samples: list[_Samp
                 dynamics.potential_energy(model, data, s.q) - dynamics.potential_energy(model, data, q_anchor),
                 V_f(s.q, p) - V_f(q_anchor, p),
             )
-            acc["dV"].add(G_f, _grad(lambda q: float(V_f(q, p)), add, s.q, robot.nv))
+            acc["dV"].add(G_f, _grad(lambda q, V=V_f: float(V(q, p)), add, s.q, robot.nv))
     scalars = {"T", "V"}
     rows = [a.row(samples, scalar=k in scalars) for k, a in acc.items()]
     skew = acc["skew"]
@@ -273,7 +273,7 @@ def _rescale(row: CheckRow, scale: float) -> CheckRow:
         rel = row.max_abs_error / scale
     else:
         rel = float("inf")
-    return CheckRow(**{**row.__dict__, "max_rel_error": rel})
+    return replace(row, max_rel_error=rel)
 
 
 def _structure_rows(robot: Robot, samples: list[_Sample], rtol: float) -> list[CheckRow]:
@@ -333,34 +333,25 @@ def _structure_rows(robot: Robot, samples: list[_Sample], rtol: float) -> list[C
     ]
     forward_row = forward.row(samples)
     if not aba_ok:
-        forward_row = CheckRow(
-            **{
-                **forward_row.__dict__,
-                "counts": False,
-                "note": "ABA refuses this model (mimic joints); CRBA + Cholesky used",
-            }
+        forward_row = replace(
+            forward_row, counts=False, note="ABA refuses this model (mimic joints); CRBA + Cholesky used"
         )
     rows.append(forward_row)
     kinetic_row = kinetic.row(samples, scalar=True)
     if kinetic_row.passed:
-        kinetic_row = CheckRow(**{**kinetic_row.__dict__, "note": ""})
+        kinetic_row = replace(kinetic_row, note="")
     else:
         unaligned = [j.name for j in robot.joints if "Unaligned" in j.kind and robot.armature[j.idx_v] != 0]
         if unaligned:
-            kinetic_row = CheckRow(
-                **{**kinetic_row.__dict__,
-                   "note": f"Pinocchio's computeKineticEnergy leaves out the armature of joint(s) {', '.join(unaligned)} "
-                   "(non-canonical axis, RevoluteUnaligned); 1/2 v^T M v includes it and is what robodyn uses"}
-            )  # fmt: skip
-        else:
-            kinetic_row = CheckRow(
-                **{**kinetic_row.__dict__, "note": "Pinocchio's kinetic-energy routine disagrees with 1/2 v^T M v"}
+            kinetic_row = replace(
+                kinetic_row,
+                note=f"Pinocchio's computeKineticEnergy leaves out the armature of joint(s) {', '.join(unaligned)} "
+                "(non-canonical axis, RevoluteUnaligned); 1/2 v^T M v includes it and is what robodyn uses",
             )
+        else:
+            kinetic_row = replace(kinetic_row, note="Pinocchio's kinetic-energy routine disagrees with 1/2 v^T M v")
     rows.append(kinetic_row)
-    # Report the SPD row's relative error against the largest eigenvalue scale.
-    rows[0] = CheckRow(
-        **{**rows[0].__dict__, "note": f"min over samples of lambda_min / lambda_max = {min_eig_ratio:.3g}"}
-    )
+    rows[0] = replace(rows[0], note=f"min over samples of lambda_min / lambda_max = {min_eig_ratio:.3g}")
     return rows
 
 

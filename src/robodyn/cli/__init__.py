@@ -44,7 +44,7 @@ def get_argument_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"robodyn {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
-    for name, module_name in SUBCOMMANDS.items():
+    for module_name in SUBCOMMANDS.values():
         try:
             module = importlib.import_module(f"robodyn.cli.{module_name}")
         except ModuleNotFoundError as exc:

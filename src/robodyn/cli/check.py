@@ -119,9 +119,8 @@ def format_report(report: Any, robot: Any) -> str:
         if r.group != group:
             group = r.group
             lines.append(f"-- {_GROUP_TITLES[group]}")
-        lines.append(
-            f"{r.quantity:<{width}}{r.max_abs_error:>12.3e}  {r.max_rel_error:>11.3e}  {r.tolerance:>7.0e}  {r.status:<6}  {r.unit}"
-        )
+        errors = f"{r.max_abs_error:>12.3e}  {r.max_rel_error:>11.3e}  {r.tolerance:>7.0e}"
+        lines.append(f"{r.quantity:<{width}}{errors}  {r.status:<6}  {r.unit}")
     for r in report.failures + report.gaps:
         label = "MISMATCH" if r.counts else "PINOCCHIO GAP"
         ref = "Pinocchio" if r.group == "formula" else "expected"

@@ -141,7 +141,8 @@ def load_user_formula(path: str | Path) -> Formula:
     missing = [f for f in REQUIRED_FUNCTIONS if not callable(getattr(module, f, None))]
     if missing:
         raise FormulaError(
-            f"{path}: missing function(s) {', '.join(missing)}; define mass_matrix(q, p), coriolis_matrix(q, v, p), gravity(q, p)"
+            f"{path}: missing function(s) {', '.join(missing)}; "
+            "define mass_matrix(q, p), coriolis_matrix(q, v, p), gravity(q, p)"
         )
     builtin = get(kind)
     n = builtin.dof

@@ -101,7 +101,7 @@ def default_plan(*, quick: bool = False) -> SweepPlan:
             sample_interval=0.02,
             dts=(0.02, 0.01, 0.005, 0.0025),
             rtols=(1e-4, 1e-6, 1e-8),
-            fixed=("euler", "symplectic_euler", "rk4"),
+            fixed=("euler", "semi_implicit_euler", "rk4"),
             adaptive=("dopri5",),
             backends=("aba", "crba", "formula", "fast"),
             all_backends_for=("rk4",),
@@ -112,10 +112,10 @@ def default_plan(*, quick: bool = False) -> SweepPlan:
         sample_interval=0.02,
         dts=(0.02, 0.01, 0.005, 0.0025, 0.00125, 0.000625),
         rtols=(1e-3, 1e-5, 1e-7, 1e-9, 1e-11),
-        fixed=("euler", "symplectic_euler", "heun", "rk4", "implicit_midpoint"),
+        fixed=("euler", "semi_implicit_euler", "symplectic_euler", "heun", "rk4", "implicit_midpoint"),
         adaptive=("dopri5", "scipy_rk45", "scipy_dop853", "scipy_radau"),
         backends=("aba", "crba", "formula", "fast"),
-        all_backends_for=("symplectic_euler", "rk4"),
+        all_backends_for=("semi_implicit_euler", "rk4"),
     )
 
 

@@ -22,7 +22,8 @@ if TYPE_CHECKING:
 # One colour per integrator, one marker per backend: the same run looks the same on every chart.
 _COLOURS = {
     "euler": "#d62728",
-    "symplectic_euler": "#ff7f0e",
+    "semi_implicit_euler": "#ff7f0e",
+    "symplectic_euler": "#bf5b17",
     "heun": "#8c564b",
     "rk4": "#1f77b4",
     "implicit_midpoint": "#2ca02c",

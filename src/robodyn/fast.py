@@ -48,7 +48,7 @@ KINDS: dict[str, tuple[int, tuple[str, ...]]] = {
     "cart_pole": (1, ("M", "m", "l", "I", "g")),
     "geared_arm": (2, ("J_m", "J_l", "n", "M", "l", "g")),
 }
-METHODS = ("rk4", "symplectic_euler")
+METHODS = ("rk4", "semi_implicit_euler")
 
 # Closed form against Pinocchio's ABA, relative to the largest acceleration: both are exact
 # formulas evaluated in float64, so they differ by a few hundred ulps at most.
@@ -115,7 +115,7 @@ def _kernels() -> dict[str, Any]:
 
     @njit
     def run(kind, method, p, b, nv, q, v, tau, dt, n, Q, V, A):  # type: ignore[no-untyped-def]
-        """Fill Q, V, A (n + 1, 2) from (q, v); method 0 = RK4, 1 = symplectic Euler."""
+        """Fill Q, V, A (n + 1, 2) from (q, v); method 0 = RK4, 1 = semi-implicit Euler."""
         q0, q1, v0, v1 = q[0], q[1], v[0], v[1]
         t0, t1 = tau[0], tau[1]
         h = dt
@@ -146,7 +146,7 @@ def _kernels() -> dict[str, Any]:
                 v0 = v0 + h / 6.0 * (a0 + 2.0 * b0 + 2.0 * c0 + d0)
                 v1 = v1 + h / 6.0 * (a1 + 2.0 * b1 + 2.0 * c1 + d1)
             else:
-                # Symplectic (semi-implicit) Euler: the velocity first, then the position with the new velocity.
+                # Semi-implicit Euler: kick the velocity first, then drift the position with the new velocity.
                 v0 = v0 + h * a0
                 v1 = v1 + h * a1
                 q0 = q0 + h * v0
@@ -314,7 +314,8 @@ class FastDynamics:
         """Fixed-step run from (q0, v0) for ``duration`` [s] at step ``dt`` [s] under a constant ``tau``.
 
         ``method`` is ``"rk4"`` (classical Runge-Kutta, order 4, 4 evaluations a step) or
-        ``"symplectic_euler"`` (velocity then position, order 1, 1 evaluation a step). The
+        ``"semi_implicit_euler"`` (kick then drift in (q, v), order 1, 1 evaluation a step), the
+        same methods as the integrators of those names. The
         :class:`Trajectory` carries ``wall_time_s`` (the compiled loop only) and ``evaluations``;
         a blow-up stops the run with ``status == "diverged"``.
         """

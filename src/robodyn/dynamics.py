@@ -209,3 +209,20 @@ def momentum_rate(model: pin.Model, data: pin.Data, q: Array, v: Array, tau: Arr
     C = np.array(pin.computeCoriolisMatrix(model, data, q, v))
     G = np.array(pin.computeGeneralizedGravity(model, data, q))
     return tau + C.T @ v - G
+
+
+def mechanical_energies(model: pin.Model, data: pin.Data, q: Array, v: Array) -> tuple[Array, Array]:
+    """Pinocchio's (kinetic, potential) energies [J] of a batch q (n, nq), v (n, nv): two (n,) arrays.
+
+    One ``computeMechanicalEnergy`` per sample: fast, but its kinetic energy leaves out the
+    armature on non-canonical revolute axes; trust it only where it matches
+    :func:`kinetic_energies` (``robodyn.energy`` checks that per model).
+    """
+    n = q.shape[0]
+    kinetic = np.empty(n)
+    potential = np.empty(n)
+    for k in range(n):
+        pin.computeMechanicalEnergy(model, data, q[k], v[k])
+        kinetic[k] = data.kinetic_energy
+        potential[k] = data.potential_energy
+    return kinetic, potential

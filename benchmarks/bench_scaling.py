@@ -1,0 +1,181 @@
+"""Cost against nv, from the 1-DoF geared arm up to Talos, with and without reduction.
+
+Measured side by side in one run, for every model:
+
+* per dynamics call: M (CRBA), C, G and ABA, mean over seeded random states [s];
+* per simulated second: wall time of robodyn.simulate for 1 s (RK4, dt = 1 ms) [s];
+* load time: dynamics only (robodyn.load: no mesh is read) against dynamics plus visual
+  geometry (robodyn.models.load_geometry parses every mesh) [s].
+
+    python benchmarks/bench_scaling.py --out bench-out
+
+prints a table and writes bench-out/scaling.json, scaling.png and scaling.svg.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import time
+from pathlib import Path
+
+import numpy as np
+
+import robodyn
+from robodyn.models import load, load_geometry
+from robodyn.reduce import time_calls
+from robodyn.simulate import simulate
+
+# (label, model, load options). Reduced entries keep the joints a scene would move.
+CASES = [
+    ("geared_arm", "geared_arm", {}),
+    ("cart_pole", "cart_pole", {}),
+    ("pendubot", "pendubot", {}),
+    ("panda keep 3", "panda", {"keep": ["panda_joint2", "panda_joint4", "panda_joint6"], "reference": "default"}),
+    ("ur5", "ur5", {}),
+    ("talos_arm", "talos_arm", {}),
+    ("panda", "panda", {}),
+    (
+        "talos keep 7 (left arm)",
+        "talos",
+        {"keep": [f"arm_left_{i}_joint" for i in range(1, 8)], "reference": "half_sitting"},
+    ),
+    ("solo12 free flyer", "solo12", {"free_flyer": True}),
+    ("talos", "talos", {}),
+    ("talos free flyer", "talos", {"free_flyer": True}),
+]
+
+
+def best_of(fn, repeat: int) -> float:
+    times = []
+    for _ in range(repeat):
+        start = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - start)
+    return min(times)
+
+
+def measure(label: str, name: str, options: dict, *, calls: int, sim_seconds: float, load_repeat: int) -> dict:
+    robot = load(name, **options)
+    runs = [time_calls(robot, repeat=calls, seed=0) for _ in range(3)]  # best of 3: a shared machine is noisy
+    per_call = {what: min(run[what] for run in runs) for what in runs[0]}
+    q0 = robot.neutral()
+    if "reference" in options:
+        from robodyn.models import reference_configurations
+
+        q0 = reference_configurations(robot).get(options["reference"], q0)
+    traj = simulate(
+        robot, q0, np.zeros(robot.nv), duration=sim_seconds, dt=1e-3, integrator="rk4", max_energy_growth=None
+    )
+    load_dynamics = best_of(lambda: load(name, **options), load_repeat)
+    load_full = best_of(lambda: load_geometry(load(name, **options)), load_repeat)
+    row = {
+        "label": label,
+        "model": name,
+        "nv": robot.nv,
+        "per_call_s": per_call,
+        "per_simulated_second_s": traj.wall_time_s / sim_seconds,
+        "simulate_status": traj.status,
+        "load_dynamics_s": load_dynamics,
+        "load_with_geometry_s": load_full,
+    }
+    return row
+
+
+def chart(rows: list[dict], out: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.8))
+    nv = np.array([r["nv"] for r in rows])
+    order = np.argsort(nv, kind="stable")
+    ax = axes[0]
+    for what, marker in (("M", "o"), ("C", "s"), ("G", "^"), ("ABA", "D")):
+        ax.plot(
+            nv[order], [rows[i]["per_call_s"][what] * 1e6 for i in order], marker=marker, linestyle="none", label=what
+        )
+    ax.set(
+        xscale="log",
+        yscale="log",
+        xlabel="nv (degrees of freedom)",
+        ylabel="time per call [us]",
+        title="per dynamics call",
+    )
+    ax.legend()
+    ax = axes[1]
+    ax.plot(nv[order], [rows[i]["per_simulated_second_s"] for i in order], marker="o", linestyle="none")
+    for i in order:
+        ax.annotate(rows[i]["label"], (nv[i], rows[i]["per_simulated_second_s"]), fontsize=7, rotation=20)
+    ax.set(
+        xscale="log",
+        yscale="log",
+        xlabel="nv",
+        ylabel="wall time per simulated second [s]",
+        title="simulate (RK4, dt = 1 ms)",
+    )
+    ax = axes[2]
+    ax.plot(
+        nv[order],
+        [rows[i]["load_dynamics_s"] * 1e3 for i in order],
+        marker="o",
+        linestyle="none",
+        label="dynamics only",
+    )
+    ax.plot(
+        nv[order],
+        [rows[i]["load_with_geometry_s"] * 1e3 for i in order],
+        marker="s",
+        linestyle="none",
+        label="with meshes",
+    )
+    ax.set(xscale="log", yscale="log", xlabel="nv", ylabel="load time [ms]", title="load")
+    ax.legend()
+    fig.suptitle(f"robodyn {robodyn.__version__}: cost against nv ({platform.processor() or platform.machine()})")
+    fig.tight_layout()
+    for ext in ("png", "svg"):
+        fig.savefig(out / f"scaling.{ext}", dpi=120)
+    plt.close(fig)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=Path("bench-out"))
+    parser.add_argument("--calls", type=int, default=2000, help="random states per dynamics call timing")
+    parser.add_argument("--sim-seconds", type=float, default=1.0, help="simulated time per model [s]")
+    parser.add_argument("--load-repeat", type=int, default=3, help="loads per model (best kept)")
+    args = parser.parse_args()
+    args.out.mkdir(parents=True, exist_ok=True)
+    rows = []
+    header = (
+        f"{'model':26s} {'nv':>4s} {'M us':>8s} {'C us':>8s} {'G us':>8s} {'ABA us':>8s} "
+        f"{'sim s/s':>8s} {'load ms':>8s} {'+mesh ms':>9s}"
+    )
+    print(header)
+    for label, name, options in CASES:
+        row = measure(
+            label, name, options, calls=args.calls, sim_seconds=args.sim_seconds, load_repeat=args.load_repeat
+        )
+        rows.append(row)
+        c = row["per_call_s"]
+        print(
+            f"{label:26s} {row['nv']:4d} {c['M'] * 1e6:8.2f} {c['C'] * 1e6:8.2f} {c['G'] * 1e6:8.2f} "
+            f"{c['ABA'] * 1e6:8.2f} {row['per_simulated_second_s']:8.4f} {row['load_dynamics_s'] * 1e3:8.2f} "
+            f"{row['load_with_geometry_s'] * 1e3:9.2f}"
+        )
+    result = {
+        "robodyn": robodyn.__version__,
+        "machine": platform.platform(),
+        "calls": args.calls,
+        "sim_seconds": args.sim_seconds,
+        "rows": rows,
+    }
+    (args.out / "scaling.json").write_text(json.dumps(result, indent=2) + "\n")
+    chart(rows, args.out)
+    print(f"wrote {args.out / 'scaling.json'}, scaling.png, scaling.svg")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,180 @@
+"""``robodyn view URDF_OR_NAME [TRAJ.npz]``: the robot, or its motion, in the browser (meshcat).
+
+With a trajectory the motion is baked into one meshcat animation and sent once; the
+browser plays it with meshcat's own time slider and play/pause. ``--html`` writes one
+self-contained file that replays offline; otherwise a meshcat server is started on a free
+localhost port (or ``--zmq-url`` names a running one) and the command waits for Ctrl-C.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import webbrowser
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from robodyn.cli._common import (
+    add_model_arguments,
+    float_list,
+    load_robot,
+    positive_float,
+    positive_int,
+    writable_path,
+)
+from robodyn.errors import InputError, UnavailableError
+
+if TYPE_CHECKING:
+    from robodyn.robot import Robot
+    from robodyn.trajectory import Trajectory
+    from robodyn.viewer import Playback
+
+
+def add_parser(sub: Any) -> None:
+    """Register ``robodyn view``."""
+    p = sub.add_parser(
+        "view",
+        help="show a robot, or play a simulated trajectory back, in the browser (meshcat)",
+        description="Show a robot in meshcat, or play a trajectory written by 'robodyn simulate --out' back as one "
+        "meshcat animation (time slider, play/pause) with the path of a frame and a small energy chart. "
+        "--html writes one self-contained HTML file that replays offline; otherwise a meshcat server runs on "
+        "127.0.0.1 until Ctrl-C. Exit codes: 0 ok, 2 bad input, 4 meshcat missing, 5 port in use or no server.",
+    )
+    add_model_arguments(p)
+    p.add_argument(
+        "trajectory",
+        nargs="?",
+        type=Path,
+        default=None,
+        metavar="TRAJ.npz",
+        help="trajectory to play (from robodyn simulate --out); without it the robot is shown still",
+    )
+    p.add_argument("--speed", type=positive_float, default=1.0, help="playback speed, 1 = real time (default 1)")
+    p.add_argument(
+        "--fps", type=positive_float, default=30.0, help="rendered frames per second of playback (default 30)"
+    )
+    p.add_argument("--q", type=float_list, default=None, metavar="Q1,Q2,...", help="pose to show without a trajectory")
+    p.add_argument(
+        "--trace", metavar="FRAME", default=None, help="frame whose path is drawn (default: the one that moves most)"
+    )
+    p.add_argument("--no-trace", action="store_true", help="draw no frame path")
+    p.add_argument("--loop", action="store_true", help="repeat the animation forever instead of playing it once")
+    p.add_argument(
+        "--html", type=Path, default=None, metavar="OUT.html", help="write a self-contained HTML replay; no server"
+    )
+    p.add_argument("--open", action="store_true", help="open the page (or the --html file) in the web browser")
+    p.add_argument(
+        "--zmq-url", default=None, metavar="URL", help="send to a running meshcat server, e.g. tcp://127.0.0.1:6000"
+    )
+    p.add_argument(
+        "--port", type=positive_int, default=None, help="web port of the server robodyn starts (default: free)"
+    )
+    p.set_defaults(handler=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Build the scene, then write the HTML file or serve it until Ctrl-C."""
+    from robodyn import viewer
+    from robodyn.trajectory import Trajectory
+
+    if args.html is not None and (args.zmq_url is not None or args.port is not None):
+        raise InputError("--html writes a file and starts no server; leave out --zmq-url and --port")
+    if args.zmq_url is not None and args.port is not None:
+        raise InputError("--port is for the server robodyn starts; with --zmq-url the running server keeps its own")
+    trajectory = Trajectory.load(args.trajectory) if args.trajectory is not None else None
+    if trajectory is not None and args.q is not None:
+        raise InputError("--q shows a still pose; leave it out when playing a trajectory")
+    robot = load_robot(args)
+    if trajectory is not None:
+        _note_trajectory(robot, trajectory, args.trajectory)
+    playback = viewer.build(
+        robot,
+        trajectory,
+        q=args.q,
+        speed=args.speed,
+        fps=args.fps,
+        trace_frame=args.trace,
+        trace=not args.no_trace,
+        loop=args.loop,
+    )
+    _describe(playback)
+    if args.html is not None:
+        path = writable_path(args.html)
+        path.write_text(viewer.to_html(playback), encoding="utf-8")
+        print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB): open it in a browser, no server needed")
+        if args.open:
+            webbrowser.open(path.resolve().as_uri())
+        return 0
+    return _serve(playback, open_browser=args.open, zmq_url=args.zmq_url, port=args.port)
+
+
+def serve_and_play(
+    robot: Robot,
+    trajectory: Trajectory,
+    *,
+    speed: float = 1.0,
+    open_browser: bool = False,
+    zmq_url: str | None = None,
+    trace_frame: str | None = None,
+) -> int:
+    """Play ``trajectory`` in meshcat and block until Ctrl-C; return the exit code (0).
+
+    Starts a meshcat server on a free localhost port (stopped cleanly on Ctrl-C), or sends
+    the animation to the running server at ``zmq_url`` and returns at once.
+
+    Raises:
+        UnavailableError: the server does not start or nobody answers at ``zmq_url`` (exit 5).
+        MissingDependencyError: meshcat is not installed (exit 4).
+    """
+    from robodyn import viewer
+
+    playback = viewer.build(robot, trajectory, speed=speed, trace_frame=trace_frame)
+    _describe(playback)
+    return _serve(playback, open_browser=open_browser, zmq_url=zmq_url, port=None)
+
+
+def _serve(playback: Playback, *, open_browser: bool, zmq_url: str | None, port: int | None) -> int:
+    from robodyn import viewer
+
+    server = viewer.serve(playback, zmq_url=zmq_url, port=port)
+    try:
+        print(f"meshcat: open {server.url}", flush=True)
+        if open_browser:
+            webbrowser.open(server.url)
+        if not server.owned:
+            print(f"sent to the meshcat server at {zmq_url}; it keeps the scene", flush=True)
+            return 0
+        print("serving; press Ctrl-C to stop", flush=True)
+        code = server.wait()
+        raise UnavailableError(f"the meshcat server stopped by itself (exit code {code})")
+    except KeyboardInterrupt:
+        print("stopped the meshcat server", file=sys.stderr, flush=True)
+        return 0
+    finally:
+        server.close()
+
+
+def _note_trajectory(robot: Robot, trajectory: Trajectory, path: Path) -> None:
+    """One line on stderr when the file names another model or ended early (not an error)."""
+    recorded = trajectory.meta.get("model") if isinstance(trajectory.meta, dict) else None
+    if isinstance(recorded, dict):
+        recorded = recorded.get("name")
+    if isinstance(recorded, str) and recorded not in (robot.name, str(robot.urdf_path)):
+        print(
+            f"robodyn view: note: {path} was simulated with model {recorded!r}, shown on {robot.name!r}",
+            file=sys.stderr,
+        )
+    if trajectory.diverged:
+        print(f"robodyn view: note: {path} stops early: {trajectory.message}", file=sys.stderr)
+
+
+def _describe(playback: Playback) -> None:
+    if playback.skipped:
+        print(f"robodyn view: note: not drawn (unsupported shape): {', '.join(playback.skipped)}", file=sys.stderr)
+    if playback.animation is not None:
+        trace = f", tracing frame {playback.trace_frame!r}" if playback.trace_frame else ""
+        print(
+            f"{playback.robot_name}: {playback.n_frames} frames, {playback.duration:.2f} s of playback "
+            f"at x{playback.speed:g}{trace}",
+            flush=True,
+        )

@@ -63,7 +63,7 @@ def _body_name(model: pin.Model, joint_id: int) -> str:
     return str(model.names[joint_id])
 
 
-def _inertia_findings(name: str, mass: float, I: np.ndarray) -> list[Finding]:  # noqa: E741
+def _inertia_findings(name: str, mass: float, I: np.ndarray) -> list[Finding]:
     findings: list[Finding] = []
     slack = max(RELATIVE_SLACK * float(np.abs(I).max()), INERTIA_FLOOR)
     if mass < 0:

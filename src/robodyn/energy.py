@@ -9,7 +9,9 @@ and its rate form P = dE/dt = tau_in . v + tau_loss . v. ``T = 1/2 v^T M(q) v`` 
 M from CRBA, which includes the rotors' reflected inertia (armature); Pinocchio's own
 ``computeKineticEnergy`` leaves that out on non-canonical axes, so robodyn never relies on
 a single energy routine: :func:`cross_check` compares CRBA with RNEA for T and
-``computePotentialEnergy`` with the centre of mass for V before every run.
+``computePotentialEnergy`` with the centre of mass for V before every run, and
+:class:`EnergyMeter` uses Pinocchio's fast ``computeMechanicalEnergy`` along a trajectory
+only on models where it matches 1/2 v^T M v (else one CRBA per sample).
 """
 
 from __future__ import annotations
@@ -79,6 +81,38 @@ def cross_check(robot: Robot, q: Array, v: Array) -> EnergyCheck:
             path=robot.urdf_path,
         )
     return check
+
+
+@dataclass(frozen=True)
+class EnergyMeter:
+    """Energies along a trajectory by the fastest route that agrees with 1/2 v^T M v.
+
+    ``fast`` is True when ``computeMechanicalEnergy`` matched CRBA's 1/2 v^T M v (to
+    ``CROSS_CHECK_RTOL``) at probe states with every joint moving, so that it counts the
+    armature of this model; otherwise every sample takes a CRBA.
+    """
+
+    robot: Robot
+    fast: bool
+
+    @classmethod
+    def for_robot(cls, robot: Robot, q: Array) -> EnergyMeter:
+        """Probe ``robot`` at q with two fixed velocity patterns and choose the route."""
+        model, data = robot.model, robot.data
+        nv = robot.nv
+        probes = np.stack([np.linspace(1.0, 2.0, nv), np.where(np.arange(nv) % 2 == 0, 1.0, -1.5)])
+        Q = np.stack([q, q])
+        t_crba = dynamics.kinetic_energies(model, data, Q, probes)
+        t_pin, _ = dynamics.mechanical_energies(model, data, Q, probes)
+        fast = bool(np.all(np.abs(t_pin - t_crba) <= CROSS_CHECK_RTOL * np.abs(t_crba)))
+        return cls(robot, fast)
+
+    def __call__(self, q: Array, v: Array) -> tuple[Array, Array]:
+        """(T, V) [J] for a batch q (n, nq), v (n, nv)."""
+        model, data = self.robot.model, self.robot.data
+        if self.fast:
+            return dynamics.mechanical_energies(model, data, q, v)
+        return dynamics.kinetic_energies(model, data, q, v), dynamics.potential_energies(model, data, q)
 
 
 def reference_energy(robot: Robot) -> float:

@@ -140,6 +140,16 @@ def _time_grid(duration: float, dt: float) -> Array:
     return t
 
 
+def _step_sizes(t: Array) -> list[float]:
+    """Every step exactly dt = t[1] - t[0], but a last, shorter one that lands on t[-1]."""
+    dt = float(t[1] - t[0])
+    steps = [dt] * (t.size - 1)
+    last = float(t[-1] - t[-2])
+    if abs(last - dt) > 1e-9 * dt:
+        steps[-1] = last
+    return steps
+
+
 def likely_cause(method: Integrator, dt: float, system: RobotSystem) -> str:
     """A one-line guess at why ``method`` diverged at step ``dt`` [s]."""
     if method.name == "euler":
@@ -156,7 +166,7 @@ def likely_cause(method: Integrator, dt: float, system: RobotSystem) -> str:
 
 
 class _Run:
-    """One simulation: preallocated records, the stepping loop, divergence checks."""
+    """One simulation: the stepping loop, the records, the divergence checks."""
 
     def __init__(
         self,
@@ -183,6 +193,7 @@ class _Run:
         self.U[0, :nv] = v0
         self.U[0, nv:] = 0.0
         self.stepper = method.start(system, float(t[0]), q0, self.U[0].copy(), t_end=float(t[-1]), rtol=rtol, atol=atol)
+        self.meter = energy.EnergyMeter.for_robot(robot, q0)
         self.n = n  # samples kept (shrinks on failure)
         self.failure: tuple[int, float, str] | None = None
         self._energies(0, 1)
@@ -192,8 +203,7 @@ class _Run:
 
     def _energies(self, lo: int, hi: int) -> None:
         nv = self.system.nv
-        self.kinetic[lo:hi] = energy.kinetic(self.robot, self.Q[lo:hi], self.U[lo:hi, :nv])
-        self.potential[lo:hi] = energy.potential(self.robot, self.Q[lo:hi])
+        self.kinetic[lo:hi], self.potential[lo:hi] = self.meter(self.Q[lo:hi], self.U[lo:hi, :nv])
 
     def _residual(self, lo: int, hi: int) -> Array:
         nv = self.system.nv
@@ -202,55 +212,69 @@ class _Run:
         return e - (self.kinetic[0] + self.potential[0]) - w
 
     def integrate(self) -> None:
-        """Step through the time grid, checking every ``CHECK_EVERY`` steps."""
-        t, Q, U, A = self.t, self.Q, self.U, self.A
-        nv = self.system.nv
+        """Step through the time grid; every ``CHECK_EVERY`` steps store the block and check it."""
+        times = self.t.tolist()
+        steps = _step_sizes(self.t)
         advance = self.stepper.advance
-        q, u = Q[0].copy(), U[0].copy()
-        n_steps = t.size - 1
+        q, u = self.Q[0].copy(), self.U[0].copy()
+        n_steps = len(steps)
         with np.errstate(all="ignore"):
             for lo in range(0, n_steps, CHECK_EVERY):
                 hi = min(lo + CHECK_EVERY, n_steps)
-                k = lo
+                qs: list[Array] = []
+                us: list[Array] = []
+                ks: list[Array | None] = []
+                failed: BaseException | None = None
                 try:
                     for k in range(lo, hi):
-                        q, u, k_start = advance(t[k], q, u, t[k + 1] - t[k])
-                        Q[k + 1] = q
-                        U[k + 1] = u
-                        if k_start is not None:
-                            A[k] = k_start[:nv]
+                        q, u, k_start = advance(times[k], q, u, steps[k])
+                        qs.append(q)
+                        us.append(u)
+                        ks.append(k_start)
                 except (StepError, np.linalg.LinAlgError) as exc:
-                    self._check_block(lo + 1, k + 1)
-                    if self.failure is None:
-                        self._fail(k + 1, k + 1, f"{exc}")
-                    return
-                self._check_block(lo + 1, hi + 1)
+                    failed = exc
+                done = lo + len(qs)
+                self._store(lo, qs, us, ks)
+                self._check_block(lo + 1, done + 1)
+                if self.failure is None and failed is not None:
+                    self._fail(done + 1, done + 1, f"{failed}")
                 if self.failure is not None:
                     return
 
+    def _store(self, lo: int, qs: list[Array], us: list[Array], ks: list[Array | None]) -> None:
+        """Samples lo+1 .. lo+len(qs) and the rates at samples lo .. lo+len(qs)-1."""
+        if not qs:
+            return
+        hi = lo + len(qs)
+        self.Q[lo + 1 : hi + 1] = qs
+        self.U[lo + 1 : hi + 1] = us
+        nv = self.system.nv
+        if all(k is not None for k in ks):
+            self.A[lo:hi] = np.asarray(ks)[:, :nv]
+        else:
+            for i, k in enumerate(ks):
+                if k is not None:
+                    self.A[lo + i] = k[:nv]
+
     def _check_block(self, lo: int, hi: int) -> None:
-        """Samples lo..hi-1 are new: find the first non-finite or over-energetic one."""
+        """Samples lo .. hi-1 are new: find the first non-finite or over-energetic one."""
         if hi <= lo:
             return
         finite = np.isfinite(self.Q[lo:hi]).all(axis=1) & np.isfinite(self.U[lo:hi]).all(axis=1)
-        if not finite.all():
-            first = lo + int(np.argmin(finite))
-            self._energies(lo, first)
-            bad = self._over_bound(lo, first)
-            if bad is not None:
-                return
-            self._fail(first, first, "the state is not finite (q or v is inf or NaN)")
+        end = hi if finite.all() else lo + int(np.argmin(finite))
+        self._energies(lo, end)
+        if self._over_bound(lo, end):
             return
-        self._energies(lo, hi)
-        self._over_bound(lo, hi)
+        if end < hi:
+            self._fail(end, end, "the state is not finite (q or v is inf or NaN)")
 
-    def _over_bound(self, lo: int, hi: int) -> int | None:
+    def _over_bound(self, lo: int, hi: int) -> bool:
         if hi <= lo or not np.isfinite(self.bound):
-            return None
+            return False
         residual = np.abs(self._residual(lo, hi))
         over = ~(residual <= self.bound)
         if not over.any():
-            return None
+            return False
         first = lo + int(np.argmax(over))
         self._fail(
             first,
@@ -258,7 +282,7 @@ class _Run:
             f"the energy error |E - E0 - W| = {residual[first - lo]:.3g} J exceeds the bound {self.bound:.3g} J "
             f"(max_energy_growth x the energy scale {self.scale:.3g} J)",
         )
-        return first
+        return True
 
     def _fail(self, step: int, keep: int, what: str) -> None:
         """Stop at ``step``; keep samples [0, keep)."""

@@ -160,8 +160,9 @@ class RobotSystem:
         self._formula = _formula(self.robot) if self.backend == "formula" else None
         self._forward = _backend(self.robot, self.backend, self._formula)
         self._lossy = bool(np.any(self.damping) or np.any(self.friction))
-        if self.nw == 0:
-            self.rates = self._rates_free  # type: ignore[method-assign]
+        self._model, self._data = self.robot.model, self.robot.data
+        if self.nw == 0:  # nothing to book: u is v, and the rates are the acceleration alone
+            self.rates = self._rates_free_aba if self.backend == "aba" else self._rates_free  # type: ignore[method-assign]
 
     # ------------------------------------------------------------------ forces
     def input_torque(self, t: float, q: Array, v: Array) -> Array:
@@ -196,6 +197,10 @@ class RobotSystem:
     def _rates_free(self, t: float, q: Array, u: Array) -> Array:
         self.evaluations += 1
         return self._forward(q, u, self._zero)
+
+    def _rates_free_aba(self, t: float, q: Array, u: Array) -> Array:
+        self.evaluations += 1
+        return dynamics.aba(self._model, self._data, q, u, self._zero)
 
     def rates(self, t: float, q: Array, u: Array) -> Array:
         """du/dt = [a, P_input, P_damping] at (t, q, u)."""

@@ -63,15 +63,20 @@ class Trajectory:
 
     @property
     def energy_drift(self) -> float:
-        """max |E(t) - E(0)| [J]."""
+        """Largest |E(t) - E(0)| [J]."""
         e = self.energy
         return float(np.max(np.abs(e - e[0])))
 
     @property
     def relative_energy_drift(self) -> float:
-        """max |E(t) - E(0)| / max(|E(0)|, max T) (dimensionless)."""
+        """Largest |E(t) - E(0)| over max(|E(0)|, max T) (dimensionless)."""
         scale = max(abs(float(self.energy[0])), float(np.max(self.kinetic)), 1e-300)
         return self.energy_drift / scale
+
+    @property
+    def max_ledger_residual(self) -> float:
+        """Largest |E(t) - E(0) - W_input(t) - W_damping(t)| [J]."""
+        return float(np.max(np.abs(self.ledger_residual)))
 
     @property
     def n_steps(self) -> int:
@@ -82,6 +87,30 @@ class Trajectory:
     def diverged(self) -> bool:
         """True when the run stopped early because the state blew up."""
         return self.status == "diverged"
+
+    def summary(self) -> dict[str, Any]:
+        """The figures ``robodyn simulate`` prints: steps, cost, final state, energy books."""
+        e = self.energy
+        return {
+            "model": self.meta.get("model"),
+            "integrator": self.meta.get("integrator"),
+            "dt": self.meta.get("dt"),
+            "status": self.status,
+            "message": self.message,
+            "steps": self.n_steps,
+            "t_final": float(self.t[-1]),
+            "wall_time_s": self.wall_time_s,
+            "evaluations": self.evaluations,
+            "q_final": self.q[-1].tolist(),
+            "v_final": self.v[-1].tolist(),
+            "energy_initial": float(e[0]),
+            "energy_final": float(e[-1]),
+            "energy_drift": self.energy_drift,
+            "relative_energy_drift": self.relative_energy_drift,
+            "work_input": float(self.work_input[-1]),
+            "work_damping": float(self.work_damping[-1]),
+            "max_ledger_residual": self.max_ledger_residual,
+        }
 
     # ------------------------------------------------------------------ persistence
     _ARRAYS = ("t", "q", "v", "a", "tau", "kinetic", "potential", "work_input", "work_damping")
@@ -113,10 +142,8 @@ class Trajectory:
             + [f"tau{i}" for i in range(nv)]
             + ["kinetic", "potential", "energy", "work_input", "work_damping", "ledger_residual"]
         )
-        table = np.column_stack(
-            [self.t, self.q, self.v, self.tau, self.kinetic, self.potential, self.energy,
-             self.work_input, self.work_damping, self.ledger_residual]
-        )
+        columns = [self.t, self.q, self.v, self.tau, self.kinetic, self.potential, self.energy]
+        table = np.column_stack([*columns, self.work_input, self.work_damping, self.ledger_residual])
         np.savetxt(path, table, delimiter=",", header=",".join(header), comments="", fmt="%.17g")
         return path
 
@@ -132,6 +159,13 @@ class Trajectory:
                 info = json.loads(str(npz["metadata"]))
         except (OSError, ValueError, KeyError) as exc:
             raise InputError(f"{path}: not a robodyn trajectory ({exc})") from None
+        n = arrays["t"].shape[0]
+        for name in cls._ARRAYS:
+            if arrays[name].shape[:1] != (n,):
+                raise InputError(f"{path}: array {name!r} has {arrays[name].shape[0]} rows, expected {n} (one per t)")
+        for name in ("q", "v", "a", "tau"):
+            if arrays[name].ndim != 2:
+                raise InputError(f"{path}: array {name!r} must be 2-D (samples x coordinates)")
         known = {f.name for f in fields(cls)}
         extra = {k: v for k, v in info.items() if k in known}
         return cls(**arrays, **extra)

@@ -1,0 +1,166 @@
+"""``robodyn simulate``: integrate a model, print the energy books, save the trajectory.
+
+Exit codes: 0 the run finished; 2 bad input (wrong vector lengths, non-positive dt or
+duration, an unknown integrator or backend, an unwritable output path); 3 the run
+diverged (the trajectory up to the failing step is written first).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from robodyn.cli._common import float_list, load_robot, positive_float, print_json, writable_path
+from robodyn.errors import EXIT_DIVERGED, EXIT_OK, InputError
+
+
+def add_parser(sub: Any) -> None:
+    """Register the subcommand."""
+    p = sub.add_parser(
+        "simulate",
+        help="integrate a model's motion and keep the energy and work books",
+        description="Integrate M a + C v + G = tau + tau_damping from (q0, v0), print the steps, wall time, final "
+        "state, energy drift and ledger residual E - E0 - W_input - W_damping, and save the trajectory. "
+        "Exit 0: done; 2: bad input; 3: diverged (the trajectory up to that step is still written).",
+    )
+    p.add_argument(
+        "model",
+        metavar="URDF_OR_NAME",
+        nargs="?",
+        help="built-in model (geared_arm, cart_pole, pendubot), an example-robot-data robot (panda, ...) "
+        "or a path to a .urdf file",
+    )
+    p.add_argument("--srdf", type=Path, default=None, help="SRDF file (default: same stem as the URDF)")
+    p.add_argument("--free-flyer", action="store_true", help="mount the root on a free-flyer joint")
+    p.add_argument("--q0", type=float_list, help="initial configuration a,b,... [rad | m] (default: neutral)")
+    p.add_argument("--v0", type=float_list, help="initial velocity c,d,... [rad/s | m/s] (default: zero)")
+    p.add_argument("--duration", type=float, default=2.0, help="simulated time [s] (default 2)")
+    p.add_argument("--dt", type=float, default=1e-3, help="time step, or output interval of adaptive methods [s]")
+    p.add_argument("--integrator", default="rk4", help="integration method (default rk4); 'list' names them and exits")
+    p.add_argument(
+        "--torque",
+        type=float_list,
+        help="constant input torque x,y,... [N m | N]: one per velocity (0 on passive joints) or one per "
+        "actuated joint",
+    )
+    p.add_argument(
+        "--backend", choices=("aba", "crba", "formula"), default="aba", help="forward dynamics (default aba)"
+    )
+    p.add_argument("--rtol", type=positive_float, default=1e-9, help="relative tolerance, adaptive methods")
+    p.add_argument("--atol", type=positive_float, default=1e-12, help="absolute tolerance, adaptive methods")
+    p.add_argument("--no-damping", action="store_true", help="ignore the URDF's joint damping and friction")
+    p.add_argument(
+        "--max-energy-growth",
+        type=positive_float,
+        default=1.0,
+        help="stop as diverged when |E - E0 - W| exceeds this times the energy scale (default 1)",
+    )
+    p.add_argument("--out", type=Path, help="write the trajectory to this .npz file")
+    p.add_argument("--csv", type=Path, metavar="PATH", help="also write the trajectory as CSV")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.add_argument("--view", action="store_true", help="afterwards, play the motion in the browser (meshcat)")
+    p.set_defaults(handler=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Simulate, print the summary, write the files; return 0, or 3 if the run diverged."""
+    from robodyn import integrators
+
+    if args.integrator == "list":
+        _print_integrators(integrators, as_json=args.json)
+        return EXIT_OK
+    if args.model is None:
+        raise InputError("missing URDF_OR_NAME: a built-in model name or a path to a .urdf file")
+    method = integrators.get(args.integrator)  # an unknown name fails before anything is loaded
+    out = writable_path(args.out) if args.out is not None else None
+    csv = writable_path(args.csv) if args.csv is not None else None
+    robot = load_robot(args)
+    q0 = args.q0 if args.q0 is not None else robot.neutral()
+    v0 = args.v0 if args.v0 is not None else np.zeros(robot.nv)
+
+    from robodyn.errors import DivergenceError
+    from robodyn.simulate import simulate
+
+    try:
+        trajectory = simulate(
+            robot,
+            q0,
+            v0,
+            duration=args.duration,
+            dt=args.dt,
+            integrator=method,
+            torque=args.torque,
+            backend=args.backend,
+            losses=not args.no_damping,
+            rtol=args.rtol,
+            atol=args.atol,
+            max_energy_growth=args.max_energy_growth,
+        )
+        failure = None
+    except DivergenceError as exc:
+        trajectory, failure = exc.trajectory, exc
+    _write(trajectory, out, csv)
+    _report(trajectory, out, csv, as_json=args.json)
+    if failure is not None:
+        print(f"robodyn simulate: {failure}", file=sys.stderr)
+        return EXIT_DIVERGED
+    if args.view:
+        from robodyn.cli.view import serve_and_play
+
+        return serve_and_play(robot, trajectory, speed=1.0, open_browser=False, zmq_url=None)
+    return EXIT_OK
+
+
+def _write(trajectory: Any, out: Path | None, csv: Path | None) -> None:
+    if out is not None:
+        trajectory.save(out)
+    if csv is not None:
+        trajectory.save_csv(csv)
+
+
+def _print_integrators(integrators: Any, *, as_json: bool) -> None:
+    rows = [integrators.get(name).summary() for name in integrators.names()]
+    if as_json:
+        print_json(rows)
+        return
+    print(f"{'name':<20} {'order':>5}  {'symplectic':<10} {'adaptive':<8} {'implicit':<8} description")
+    for r in rows:
+        flags = [("yes" if r[k] else "no") for k in ("symplectic", "adaptive", "implicit")]
+        print(f"{r['name']:<20} {r['order']:>5}  {flags[0]:<10} {flags[1]:<8} {flags[2]:<8} {r['description']}")
+
+
+def _vec(x: Any) -> str:
+    return np.array2string(np.asarray(x), precision=6, separator=", ", max_line_width=200)
+
+
+def _report(trajectory: Any, out: Path | None, csv: Path | None, *, as_json: bool) -> None:
+    s = trajectory.summary()
+    if out is not None:
+        s["out"] = str(out)
+    if csv is not None:
+        s["csv"] = str(csv)
+    if as_json:
+        print_json(s)
+        return
+    meta = trajectory.meta
+    print(
+        f"{s['model']}: {s['integrator']} (order {meta.get('order')}), dt = {s['dt']:g} s, "
+        f"{s['steps']} steps to t = {s['t_final']:g} s in {s['wall_time_s']:.3f} s wall "
+        f"({s['evaluations']} dynamics evaluations, backend {meta.get('backend')})"
+    )
+    print(f"final state: q = {_vec(s['q_final'])}, v = {_vec(s['v_final'])}")
+    print(
+        f"energy: E0 = {s['energy_initial']:.9g} J, E(t) = {s['energy_final']:.9g} J, "
+        f"drift max|E - E0| = {s['energy_drift']:.3e} J (relative {s['relative_energy_drift']:.3e})"
+    )
+    print(
+        f"ledger: W_input = {s['work_input']:.9g} J, W_damping = {s['work_damping']:.9g} J, "
+        f"residual max|E - E0 - W_input - W_damping| = {s['max_ledger_residual']:.3e} J"
+    )
+    for label, path in (("trajectory", out), ("CSV", csv)):
+        if path is not None:
+            print(f"wrote {label} {path}")

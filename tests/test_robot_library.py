@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from robodyn import robot_library
-from robodyn.check import DEFAULT_RTOL, check
+from robodyn.crosscheck import DEFAULT_RTOL, check
 from robodyn.cli import main
 from robodyn.consistency import all_findings
 from robodyn.errors import ModelError

@@ -28,7 +28,7 @@ from robodyn.errors import (
 __version__ = "0.1.0"
 
 if TYPE_CHECKING:
-    from robodyn.check import CheckReport, check
+    from robodyn.crosscheck import CheckReport, check
     from robodyn.models import load
     from robodyn.robot import Robot
 
@@ -37,8 +37,8 @@ if TYPE_CHECKING:
 _LAZY: dict[str, tuple[str, str | None]] = {
     "load": ("robodyn.models", "load"),
     "Robot": ("robodyn.robot", "Robot"),
-    "check": ("robodyn.check", "check"),
-    "CheckReport": ("robodyn.check", "CheckReport"),
+    "check": ("robodyn.crosscheck", "check"),
+    "CheckReport": ("robodyn.crosscheck", "CheckReport"),
     "extract_params": ("robodyn.params", "extract"),
     "formulas": ("robodyn.formulas", None),
     "simulate": ("robodyn.simulate", "simulate"),

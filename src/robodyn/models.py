@@ -35,6 +35,7 @@ from numpy.typing import ArrayLike
 from robodyn.errors import InputError, ModelError
 from robodyn.registry import Registry
 from robodyn.robot import Robot
+from robodyn.urdf_check import validate_urdf
 
 if TYPE_CHECKING:
     from robodyn.reduce import Reduction
@@ -196,7 +197,9 @@ def load(
         InputError: a lock value of the wrong size or outside the joint's limits.
     """
     source = resolve(name_or_path, srdf=srdf)
-    _check_urdf_root(_parse_xml(source.urdf, "URDF"), source.urdf)
+    root = _parse_xml(source.urdf, "URDF")
+    _check_urdf_root(root, source.urdf)
+    validate_urdf(root, source.urdf)
     model = build_model(source.urdf, free_flyer=free_flyer, mimic=mimic)
     passive: tuple[str, ...] = ()
     if source.srdf is not None:

@@ -194,7 +194,10 @@ class Robot:
         """
         q_, v_, tau_ = self.q_(q), self.v_(v), self.v_(tau, "tau")
         if backend == "aba":
-            return dynamics.aba(self.model, self.data, q_, v_, tau_)
+            try:
+                return dynamics.aba(self.model, self.data, q_, v_, tau_)
+            except RuntimeError as exc:
+                raise InputError(f"ABA refuses this model ({exc}); use backend='crba'") from None
         if backend == "crba":
             return dynamics.crba_solve(self.model, self.data, q_, v_, tau_)
         raise UnknownNameError("forward-dynamics backend", backend, FORWARD_BACKENDS)

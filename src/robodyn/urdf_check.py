@@ -40,7 +40,9 @@ def _owner(parents: dict[ET.Element, ET.Element], element: ET.Element) -> str:
 def validate_urdf(root: ET.Element, path: Path) -> None:
     """Raise :class:`ModelError` on the first malformed number or joint type in ``root``."""
     parents = {child: parent for parent in root.iter() for child in parent}
-    for element in root.iter():
+    # Only the robot's own links and joints: <transmission> and <gazebo> blocks reuse tag names.
+    elements = [e for top in (*root.findall("link"), *root.findall("joint")) for e in top.iter()]
+    for element in elements:
         for attribute, count in _NUMERIC.get(element.tag, ()):
             text = element.get(attribute)
             if text is None:
@@ -60,7 +62,7 @@ def validate_urdf(root: ET.Element, path: Path) -> None:
                 raise ModelError(
                     f"{_owner(parents, element)}: <{element.tag} {attribute}={text!r}> is not {expected}", path=path
                 )
-    for joint in root.iter("joint"):
+    for joint in root.findall("joint"):
         kind = joint.get("type")
         if kind not in JOINT_TYPES:
             raise ModelError(

@@ -44,7 +44,7 @@ def add_parser(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Check each model, print a table (or JSON) per model; exit 1 if any mismatches."""
-    from robodyn.check import check
+    from robodyn.crosscheck import check
     from robodyn.params import detect_kind
 
     if args.params is not None and args.formula in (None, "auto"):

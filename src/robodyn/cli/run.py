@@ -77,7 +77,7 @@ def _jsonable(obj: Any) -> Any:
 
 
 def _check(scene: Any, robot: Any, reduction: Any, q0: Any, v0: Any, torque: Any, summary: dict[str, Any]) -> int:
-    from robodyn.check import check
+    from robodyn.crosscheck import check
     from robodyn.reduce import prove_exact
 
     c = scene.check

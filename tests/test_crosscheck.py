@@ -11,7 +11,7 @@ import pytest
 
 import robodyn
 from robodyn import formulas
-from robodyn.check import check
+from robodyn.crosscheck import check
 from robodyn.params import extract
 
 from . import _urdf

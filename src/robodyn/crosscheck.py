@@ -182,7 +182,9 @@ class _Accumulator:
         errors = [np.abs(val - ref) for ref, val in self.pairs]
         worst = int(np.argmax([e.max() for e in errors]))
         abs_err = float(errors[worst].max())
-        rel_err = 0.0 if abs_err == 0.0 else (abs_err / scale if scale > 0 else float("inf"))
+        # A reference that is zero at every sample (C of a constant M) leaves only round-off:
+        # then the error is measured against 1 in the row's unit.
+        rel_err = 0.0 if abs_err == 0.0 else (abs_err / scale if scale > 0 else abs_err)
         ref, val = self.pairs[worst]
         entry = np.unravel_index(int(np.argmax(errors[worst])), errors[worst].shape)
         return CheckRow(
@@ -259,20 +261,28 @@ def _formula_rows(robot: Robot, formula: Formula, p: Params, samples: list[_Samp
     scalars = {"T", "V"}
     rows = [a.row(samples, scalar=k in scalars) for k, a in acc.items()]
     skew = acc["skew"]
-    # dM/dt - 2C skew has no reference scale of its own: measure it against |dM/dt|.
-    mdot_scale = max(float(np.abs(_mdot(lambda q: formula.mass_matrix(q, p), add, s.q, s.v)).max()) for s in samples)
-    rows[list(acc).index("skew")] = _rescale(skew.row(samples), mdot_scale)
+    # dM/dt - 2C has no reference of its own: measure it against the larger of |dM/dt| and |2C|.
+    skew_scale = max(
+        max(
+            float(np.abs(_mdot(lambda q: formula.mass_matrix(q, p), add, s.q, s.v)).max()),
+            2 * float(np.abs(formula.coriolis_matrix(s.q, s.v, p)).max()),
+        )
+        for s in samples
+    )
+    rows[list(acc).index("skew")] = _rescale(skew.row(samples), skew_scale)
     return rows
 
 
 def _rescale(row: CheckRow, scale: float) -> CheckRow:
-    """Express a row whose reference is zero relative to ``scale`` instead."""
+    """Express a row whose reference is zero relative to ``scale`` instead.
+
+    With ``scale`` zero (M constant and C zero: nothing moves the metric) only round-off
+    can be left, so the error is measured against 1 in the row's unit.
+    """
     if row.max_abs_error == 0.0:
         rel = 0.0
-    elif scale > 0:
-        rel = row.max_abs_error / scale
     else:
-        rel = float("inf")
+        rel = row.max_abs_error / scale if scale > 0 else row.max_abs_error
     return replace(row, max_rel_error=rel)
 
 
@@ -293,7 +303,7 @@ def _structure_rows(robot: Robot, samples: list[_Sample], rtol: float) -> list[C
         note="Pinocchio's computeKineticEnergy leaves out armature on joints with a non-canonical axis; "
         "robodyn uses 1/2 v^T M v",
     )  # fmt: skip
-    mdot_scale = 0.0
+    skew_scale = 0.0  # N's reference: the larger of |dM/dt| and |2C| over the samples
     min_eig_ratio = np.inf
     aba_ok = True
     for s in samples:
@@ -306,7 +316,7 @@ def _structure_rows(robot: Robot, samples: list[_Sample], rtol: float) -> list[C
         C = dynamics.coriolis_matrix(model, data, s.q, s.v)
         G = dynamics.gravity(model, data, s.q)
         Mdot = _mdot(mass, integrate, s.q, s.v)
-        mdot_scale = max(mdot_scale, float(np.abs(Mdot).max()))
+        skew_scale = max(skew_scale, float(np.abs(Mdot).max()), 2 * float(np.abs(C).max()))
         N = Mdot - 2 * C
         skew.add(np.zeros_like(N), N + N.T)
         grad.add(G, _grad(lambda q: dynamics.potential_energy(model, data, q), integrate, s.q, robot.nv))
@@ -325,7 +335,7 @@ def _structure_rows(robot: Robot, samples: list[_Sample], rtol: float) -> list[C
         kinetic.add(0.5 * s.v @ M @ s.v, dynamics.pinocchio_kinetic_energy(model, data, s.q, s.v))
     rows = [
         spd.row(samples),
-        _rescale(skew.row(samples), mdot_scale),
+        _rescale(skew.row(samples), skew_scale),
         grad.row(samples),
         nle.row(samples),
         columns.row(samples),

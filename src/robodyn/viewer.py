@@ -73,7 +73,8 @@ CAMERA_DIRECTION = np.array([0.15, -1.0, 0.3]) / np.linalg.norm([0.15, -1.0, 0.3
 _ASSUMED_ASPECT = 1.25  # the narrowest browser pane we fit the scene into (width / height)
 
 SERVER_START_TIMEOUT_S = 30.0
-REPLY_TIMEOUT_MS = 30_000
+REPLY_TIMEOUT_MS = 30_000  # robodyn's own server: big meshes take a while to pass through
+CONNECT_TIMEOUT_MS = 10_000  # a server named by zmq_url: how long to wait for its first answer
 
 
 # --------------------------------------------------------------------------- meshcat import
@@ -869,7 +870,7 @@ def show(
     playback = build(robot, trajectory, q=q, speed=speed, fps=fps, trace_frame=trace_frame, trace=trace, loop=loop)
     url = None
     if zmq_url is not None:
-        client = _Client(zmq_url)
+        client = _Client(zmq_url, timeout_ms=CONNECT_TIMEOUT_MS)
         try:
             url = client.web_url()
             client.send_playback(playback)
@@ -998,7 +999,7 @@ def serve(playback: Playback, *, zmq_url: str | None = None, port: int | None = 
         UnavailableError: ``port`` is in use, the server does not start, or nobody answers at ``zmq_url``.
     """
     if zmq_url is not None:
-        client = _Client(zmq_url, timeout_ms=10_000)
+        client = _Client(zmq_url, timeout_ms=CONNECT_TIMEOUT_MS)
         try:
             url = client.web_url()
             client.send_playback(playback)

@@ -263,14 +263,25 @@ def _formula_rows(robot: Robot, formula: Formula, p: Params, samples: list[_Samp
     skew = acc["skew"]
     # dM/dt - 2C has no reference of its own: measure it against the larger of |dM/dt| and |2C|.
     skew_scale = max(
-        max(
-            float(np.abs(_mdot(lambda q: formula.mass_matrix(q, p), add, s.q, s.v)).max()),
-            2 * float(np.abs(formula.coriolis_matrix(s.q, s.v, p)).max()),
+        _skew_scale(
+            _mdot(lambda q: formula.mass_matrix(q, p), add, s.q, s.v),
+            formula.coriolis_matrix(s.q, s.v, p),
+            formula.mass_matrix(s.q, p),
+            s.v,
         )
         for s in samples
     )
     rows[list(acc).index("skew")] = _rescale(skew.row(samples), skew_scale)
     return rows
+
+
+def _skew_scale(Mdot: Array, C: Array, M: Array, v: Array) -> float:
+    """Reference magnitude for N = dM/dt - 2C: the largest of |dM/dt|, |2C| and |M| |v|.
+
+    |M| |v| keeps the scale meaningful when M is (nearly) constant and C vanishes, where
+    |dM/dt| alone would be round-off and any round-off in N would look like a 100 % error.
+    """
+    return max(float(np.abs(Mdot).max()), 2 * float(np.abs(C).max()), float(np.abs(M).max() * np.abs(v).max()))
 
 
 def _rescale(row: CheckRow, scale: float) -> CheckRow:
@@ -303,7 +314,7 @@ def _structure_rows(robot: Robot, samples: list[_Sample], rtol: float) -> list[C
         note="Pinocchio's computeKineticEnergy leaves out armature on joints with a non-canonical axis; "
         "robodyn uses 1/2 v^T M v",
     )  # fmt: skip
-    skew_scale = 0.0  # N's reference: the larger of |dM/dt| and |2C| over the samples
+    skew_scale = 0.0  # N's reference magnitude over the samples (see _skew_scale)
     min_eig_ratio = np.inf
     aba_ok = True
     for s in samples:
@@ -316,7 +327,7 @@ def _structure_rows(robot: Robot, samples: list[_Sample], rtol: float) -> list[C
         C = dynamics.coriolis_matrix(model, data, s.q, s.v)
         G = dynamics.gravity(model, data, s.q)
         Mdot = _mdot(mass, integrate, s.q, s.v)
-        skew_scale = max(skew_scale, float(np.abs(Mdot).max()), 2 * float(np.abs(C).max()))
+        skew_scale = max(skew_scale, _skew_scale(Mdot, C, M, s.v))
         N = Mdot - 2 * C
         skew.add(np.zeros_like(N), N + N.T)
         grad.add(G, _grad(lambda q: dynamics.potential_energy(model, data, q), integrate, s.q, robot.nv))

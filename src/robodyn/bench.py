@@ -89,7 +89,8 @@ class SweepPlan:
         for name in (*self.fixed, *self.adaptive):
             method = integrators.get(name)
             if method.adaptive != (name in self.adaptive):
-                raise InputError(f"integrator {name!r} is listed as {'fixed' if method.adaptive else 'adaptive'}-step")
+                kind, other = ("adapts its step", "adaptive") if method.adaptive else ("takes fixed steps", "fixed")
+                raise InputError(f"integrator {name!r} {kind}; list it under {other}")
 
 
 def default_plan(*, quick: bool = False) -> SweepPlan:

@@ -226,3 +226,21 @@ def mechanical_energies(model: pin.Model, data: pin.Data, q: Array, v: Array) ->
         kinetic[k] = data.kinetic_energy
         potential[k] = data.potential_energy
     return kinetic, potential
+
+
+_CRBA_FILLS_LOWER: bool | None = None
+
+
+def inertia_matrix(model: pin.Model, data: pin.Data, q: Array) -> Array:
+    """M(q) by CRBA, shape (nv, nv), for hot loops: :func:`mass_matrix` without the re-symmetrising.
+
+    pin's Python ``crba`` returns both triangles filled; that is checked on the first call
+    (on a model with nv >= 2), and the matrix is symmetrised by hand if a version does not.
+    """
+    global _CRBA_FILLS_LOWER
+    M = np.array(pin.crba(model, data, q))
+    if _CRBA_FILLS_LOWER is None and model.nv >= 2:
+        _CRBA_FILLS_LOWER = bool(np.array_equal(M, M.T)) and bool(np.any(np.tril(M, -1)))
+    if _CRBA_FILLS_LOWER is False:
+        return np.triu(M) + np.triu(M, 1).T
+    return M

@@ -392,13 +392,14 @@ class SymplecticEuler(FixedStepIntegrator):
         nv = problem.nv
         k0 = problem.rates(t, q, u)
         M0 = problem.mass_matrix(q)
+        M0_inv = np.linalg.inv(M0)  # one inverse a step; the iteration only multiplies
         p0 = M0 @ u[:nv]
         us = u + h * k0  # predictor for v* (and a placeholder tail)
         previous = np.inf
         for _ in range(NEWTON_MAX_ITER):
             f = problem.momentum_rates(t, q, us)  # 1. momentum kick at the OLD configuration...
             p1 = p0 + h * f[:nv]
-            vs = np.linalg.solve(M0, p1)  # ...and the velocity it implies there
+            vs = M0_inv @ p1  # ...and the velocity it implies there
             size = float(np.max(np.abs(vs - us[:nv])))
             us[:nv] = vs
             if _converged(size, previous, NEWTON_RTOL * (float(np.max(np.abs(vs))) + 1e-300)):
@@ -692,9 +693,17 @@ class ScipyIntegrator(Integrator):
     manifold around q0 (exact for revolute, prismatic and continuous joints). Output
     samples come from the solver's dense output. Implicit methods get the analytical
     Jacobian from ``problem.jacobian``. ``order`` is the method's highest order.
+
+    ``fixed_step`` [s] (explicit methods only) turns error control off and takes steps of
+    exactly that size -- how the tests measure the order of RK45 and DOP853.
     """
 
     method: str = "RK45"
+    fixed_step: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.fixed_step is not None and (self.implicit or not self.fixed_step > 0):
+            raise ValueError(f"{self.name}: fixed_step needs an explicit method and a step > 0")
 
     def start(
         self,
@@ -734,6 +743,8 @@ class _ScipyStepper(Stepper):
         y0 = np.concatenate([np.zeros(nv), u0])
         cls = getattr(sp_integrate, method.method)
         options: dict[str, Any] = {"rtol": rtol, "atol": atol}
+        if method.fixed_step is not None:  # every step accepted, none longer than fixed_step
+            options = {"rtol": 1e10, "atol": 1e10, "first_step": method.fixed_step, "max_step": method.fixed_step}
         if method.implicit:
             options["jac"] = self._jac
         self.solver = cls(self._fun, t0, y0, t_end, **options)

@@ -36,7 +36,7 @@ import uuid
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import IO, TYPE_CHECKING, Any
+from typing import IO, TYPE_CHECKING, Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -514,7 +514,7 @@ def _trace_commands(mc: Any, dense: Array, xyz: Array, size: float) -> list[Any]
     ]
 
 
-def _rgb(color: int) -> Array:
+def _rgb(color: int) -> NDArray[np.float32]:
     return np.array([(color >> 16) & 255, (color >> 8) & 255, color & 255], dtype=np.float32) / 255.0
 
 
@@ -889,7 +889,7 @@ class _Client:
 
         self.url = zmq_url
         self.timeout_ms = timeout_ms
-        self.socket = zmq.Context.instance().socket(zmq.REQ)
+        self.socket: Any = zmq.Context.instance().socket(zmq.REQ)
         self.socket.setsockopt(zmq.LINGER, 0)
         self.socket.setsockopt(zmq.RCVTIMEO, timeout_ms)
         self.socket.setsockopt(zmq.SNDTIMEO, timeout_ms)
@@ -1028,7 +1028,7 @@ def _start_server(port: int | None) -> tuple[subprocess.Popen[bytes], str, str, 
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=log, start_new_session=True)
     lines: list[str] = []
     deadline = time.monotonic() + SERVER_START_TIMEOUT_S
-    stdout: IO[bytes] = process.stdout  # type: ignore[assignment]  (stdout=PIPE above)
+    stdout = cast(IO[bytes], process.stdout)  # stdout=PIPE above
     while len(lines) < 2 and time.monotonic() < deadline:
         ready, _, _ = select.select([stdout], [], [], 0.2)
         if ready:

@@ -164,6 +164,13 @@ def _note_trajectory(robot: Robot, trajectory: Trajectory, path: Path) -> None:
             f"robodyn view: note: {path} was simulated with model {recorded!r}, shown on {robot.name!r}",
             file=sys.stderr,
         )
+    names = trajectory.meta.get("joint_names") if isinstance(trajectory.meta, dict) else None
+    if isinstance(names, list) and len(names) == robot.nq and tuple(names) != robot.joint_names:
+        print(
+            f"robodyn view: note: {path} names joints {', '.join(map(str, names))}; the model has "
+            f"{', '.join(robot.joint_names)}",
+            file=sys.stderr,
+        )
     if trajectory.diverged:
         print(f"robodyn view: note: {path} stops early: {trajectory.message}", file=sys.stderr)
 

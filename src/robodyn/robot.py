@@ -15,6 +15,9 @@ from robodyn.errors import InputError, UnknownNameError
 if TYPE_CHECKING:
     import pinocchio as pin
 
+    from robodyn.trajectory import Trajectory
+    from robodyn.viewer import Replay
+
 Array = NDArray[np.float64]
 
 FORWARD_BACKENDS = ("aba", "crba")
@@ -220,8 +223,34 @@ class Robot:
         v = rng.uniform(-speed, speed, self.nv)
         return q, v
 
-    def view(self, trajectory: object = None, **options: object) -> object:
-        """Show the robot, or play ``trajectory`` back, in meshcat (see :mod:`robodyn.viewer`)."""
+    def view(
+        self,
+        trajectory: Trajectory | None = None,
+        *,
+        q: ArrayLike | None = None,
+        speed: float = 1.0,
+        fps: float = 30.0,
+        trace_frame: str | None = None,
+        trace: bool = True,
+        loop: bool = False,
+        zmq_url: str | None = None,
+        height: int = 420,
+    ) -> Replay:
+        """Show the robot at ``q``, or play ``trajectory`` back, in meshcat (see :mod:`robodyn.viewer`).
+
+        In a notebook the returned replay displays inline; nothing blocks.
+        """
         from robodyn import viewer
 
-        return viewer.show(self, trajectory, **options)  # type: ignore[arg-type]
+        return viewer.show(
+            self,
+            trajectory,
+            q=q,
+            speed=speed,
+            fps=fps,
+            trace_frame=trace_frame,
+            trace=trace,
+            loop=loop,
+            zmq_url=zmq_url,
+            height=height,
+        )

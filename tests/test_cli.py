@@ -1,0 +1,34 @@
+"""The command-line frame: subcommands, usage errors, negative vector values."""
+
+from __future__ import annotations
+
+import pytest
+
+from robodyn.cli import _attach_negative_values, get_argument_parser, main
+
+
+def test_every_subcommand_is_registered():
+    parser = get_argument_parser()
+    sub = next(a for a in parser._actions if a.dest == "command")
+    assert set(sub.choices) == {"info", "params", "check", "simulate", "view", "bench", "run"}
+
+
+def test_negative_vector_values_attach_to_their_option():
+    assert _attach_negative_values(["simulate", "pendubot", "--q0", "-1.2,0.3", "--v0", "-.5,0"]) == [
+        "simulate", "pendubot", "--q0=-1.2,0.3", "--v0=-.5,0",
+    ]  # fmt: skip
+    assert _attach_negative_values(["check", "x", "--samples", "5"]) == ["check", "x", "--samples", "5"]
+
+
+def test_usage_errors_exit_2(capsys):
+    for argv in ([], ["frobnicate"], ["check"], ["check", "pendubot", "--samples", "many"]):
+        with pytest.raises(SystemExit) as exc:
+            main(argv)
+        assert exc.value.code == 2
+    assert "error" in capsys.readouterr().err
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0 and "robodyn 0.1.0" in capsys.readouterr().out

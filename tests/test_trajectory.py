@@ -1,0 +1,87 @@
+"""Trajectory: the ledger arithmetic, .npz and CSV round trips, refusing what is not one."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import robodyn
+from robodyn.errors import InputError
+from robodyn.simulate import simulate
+from robodyn.trajectory import Trajectory
+
+
+def hand_made() -> Trajectory:
+    t = np.array([0.0, 0.5, 1.0])
+    z = np.zeros((3, 1))
+    return Trajectory(
+        t=t,
+        q=np.array([[0.0], [0.1], [0.3]]),
+        v=np.array([[0.0], [0.4], [0.4]]),
+        a=z,
+        tau=np.ones((3, 1)),
+        kinetic=np.array([0.0, 1.0, 2.0]),
+        potential=np.array([5.0, 4.5, 4.5]),
+        work_input=np.array([0.0, 1.0, 2.5]),
+        work_damping=np.array([0.0, -0.5, -1.0]),
+        meta={"model": "hand", "urdf": None, "integrator": "none", "dt": 0.5},
+    )
+
+
+def test_ledger_arithmetic() -> None:
+    traj = hand_made()
+    np.testing.assert_array_equal(traj.energy, [5.0, 5.5, 6.5])
+    # E - E0 - W_in - W_d: 0; 0.5 - 1 + 0.5 = 0; 1.5 - 2.5 + 1 = 0
+    np.testing.assert_array_equal(traj.ledger_residual, [0.0, 0.0, 0.0])
+    assert traj.energy_drift == 1.5 and traj.max_ledger_residual == 0.0
+    assert traj.n_steps == 2 and not traj.diverged
+
+
+def test_npz_round_trip_keeps_arrays_and_metadata(tmp_path: Path) -> None:
+    robot = robodyn.load("pendubot")
+    traj = simulate(robot, [0.3, -0.2], [0.1, 0.0], duration=0.2, dt=1e-3, torque=[0.2])
+    path = traj.save(tmp_path / "traj.npz")
+    with np.load(path) as npz:
+        for name in ("t", "q", "v", "tau", "energy"):
+            assert name in npz.files
+        np.testing.assert_array_equal(npz["energy"], traj.energy)
+        meta = json.loads(str(npz["metadata"]))["meta"]
+    assert meta["model"] == "pendubot" and meta["integrator"] == "rk4" and meta["dt"] == 1e-3
+    assert meta["urdf"].endswith("pendubot.urdf")
+    back = Trajectory.load(path)
+    for name in ("t", "q", "v", "a", "tau", "kinetic", "potential", "work_input", "work_damping"):
+        np.testing.assert_array_equal(getattr(back, name), getattr(traj, name))
+    assert back.meta == traj.meta and back.evaluations == traj.evaluations and back.status == "ok"
+    assert robodyn.Trajectory.load(path).n_steps == 200
+
+
+def test_csv_has_one_row_per_sample(tmp_path: Path) -> None:
+    traj = hand_made()
+    path = traj.save_csv(tmp_path / "traj.csv")
+    lines = path.read_text().splitlines()
+    assert lines[0].split(",")[:4] == ["t", "q0", "v0", "tau0"]
+    assert lines[0].endswith("ledger_residual") and len(lines) == 4
+    table = np.loadtxt(path, delimiter=",", skiprows=1)
+    np.testing.assert_array_equal(table[:, 0], traj.t)
+
+
+def test_load_refuses_what_is_not_a_trajectory(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="no such trajectory"):
+        Trajectory.load(tmp_path / "missing.npz")
+    junk = tmp_path / "junk.npz"
+    junk.write_bytes(b"not a zip")
+    with pytest.raises(InputError, match="not a robodyn trajectory"):
+        Trajectory.load(junk)
+    other = tmp_path / "other.npz"
+    np.savez(other, t=np.arange(3.0))
+    with pytest.raises(InputError, match="not a robodyn trajectory"):
+        Trajectory.load(other)
+
+
+def test_summary_names_the_figures_the_cli_prints() -> None:
+    s = hand_made().summary()
+    assert s["steps"] == 2 and s["energy_final"] == 6.5 and s["work_damping"] == -1.0
+    assert s["q_final"] == [0.3] and s["max_ledger_residual"] == 0.0

@@ -462,7 +462,7 @@ class ExplicitRungeKutta(FixedStepIntegrator):
             hb = h * bj
             dq = hb * U[j][:nv] if dq is None else dq + hb * U[j][:nv]
             du = hb * K[j] if du is None else du + hb * K[j]
-        return problem.integrate(q, dq), u + du, K[0]  # type: ignore[arg-type]
+        return problem.integrate(q, dq), u + du, K[0]  # type: ignore[arg-type,operator]
 
 
 @dataclass(frozen=True)
@@ -892,7 +892,7 @@ def solve(
         raise InputError(f"n_steps must be >= 1, got {n_steps!r}")
     problem = accel if isinstance(accel, SecondOrderProblem) else ArrayProblem(accel, q.size, v.size)
     integrator = get(method) if isinstance(method, str) else method
-    t_grid = t0 + dt * np.arange(n_steps + 1)
+    t_grid = np.asarray(t0 + dt * np.arange(n_steps + 1), dtype=np.float64)
     Q = np.empty((n_steps + 1, q.size))
     V = np.empty((n_steps + 1, v.size))
     Q[0], V[0] = q, v

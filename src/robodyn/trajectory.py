@@ -168,4 +168,4 @@ class Trajectory:
                 raise InputError(f"{path}: array {name!r} must be 2-D (samples x coordinates)")
         known = {f.name for f in fields(cls)}
         extra = {k: v for k, v in info.items() if k in known}
-        return cls(**arrays, **extra)
+        return cls(**arrays, **extra)  # type: ignore[arg-type]

@@ -85,6 +85,7 @@ def run(args: argparse.Namespace) -> int:
     from robodyn.errors import DivergenceError
     from robodyn.simulate import simulate
 
+    trajectory: Any
     try:
         trajectory = simulate(
             robot,

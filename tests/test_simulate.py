@@ -322,3 +322,17 @@ def test_momentum_rate_is_the_derivative_of_m_v(rk4_runs: dict) -> None:
     p = [dynamics.mass_matrix(robot.model, robot.data, traj.q[i]) @ traj.v[i] for i in (k - 1, k + 1)]
     rate = dynamics.momentum_rate(robot.model, robot.data, traj.q[k], traj.v[k], np.zeros(2))
     np.testing.assert_allclose((p[1] - p[0]) / (2 * dt), rate, rtol=0, atol=1e-6)
+
+
+def test_coulomb_friction_is_applied_and_booked(tmp_path: Path) -> None:
+    folder = Path(robodyn.load("geared_arm").urdf_path).parent  # type: ignore[arg-type]
+    urdf = tmp_path / "geared_arm.urdf"
+    urdf.write_text((folder / "geared_arm.urdf").read_text().replace('friction="0"', 'friction="0.02"'))
+    (tmp_path / "geared_arm.srdf").write_text((folder / "geared_arm.srdf").read_text())
+    robot = robodyn.load(urdf)
+    assert robot.friction[0] == 0.02
+    traj = simulate(robot, [1.0], [0.0], duration=2.0, dt=1e-4)
+    lossless = simulate(robot, [1.0], [0.0], duration=2.0, dt=1e-4, losses=False)
+    assert traj.work_damping[-1] < -0.01  # friction took energy out...
+    assert traj.energy[-1] < lossless.energy[-1] - 0.01
+    assert traj.max_ledger_residual < 1e-8 * traj.meta["energy_scale"]  # ...and the books still close

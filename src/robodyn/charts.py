@@ -76,7 +76,7 @@ def work_precision(results: Sequence[BenchResult], stem: Path, *, title: str = "
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(8.5, 6))
     for (name, backend), runs in sorted(_groups(_finite(results)).items()):
-        runs = sorted(runs, key=lambda r: r.wall_time_s)
+        runs = sorted(runs, key=lambda r: -(r.dt if r.dt is not None else r.rtol or 0.0))  # along the ladder
         ax.loglog(
             [r.wall_time_s for r in runs],
             [r.error for r in runs],

@@ -19,10 +19,15 @@ Array = NDArray[np.float64]
 
 
 def mass_matrix(model: pin.Model, data: pin.Data, q: Array) -> Array:
-    """Joint-space inertia matrix M(q) by CRBA (symmetrised; armature included), shape (nv, nv)."""
-    pin.crba(model, data, q)
-    M = np.array(data.M)
-    return np.triu(M) + np.triu(M, 1).T
+    """Joint-space inertia matrix M(q) by CRBA (armature included), shape (nv, nv).
+
+    pin's Python ``crba`` returns both triangles filled (pin 4.1); should a release return
+    only the upper one, the matrix is symmetrised from it. The test costs ~1 us.
+    """
+    M = np.array(pin.crba(model, data, q))
+    if not np.array_equal(M, M.T):
+        M = np.triu(M) + np.triu(M, 1).T
+    return M
 
 
 def coriolis_matrix(model: pin.Model, data: pin.Data, q: Array, v: Array) -> Array:
@@ -226,21 +231,3 @@ def mechanical_energies(model: pin.Model, data: pin.Data, q: Array, v: Array) ->
         kinetic[k] = data.kinetic_energy
         potential[k] = data.potential_energy
     return kinetic, potential
-
-
-_CRBA_FILLS_LOWER: bool | None = None
-
-
-def inertia_matrix(model: pin.Model, data: pin.Data, q: Array) -> Array:
-    """M(q) by CRBA, shape (nv, nv), for hot loops: :func:`mass_matrix` without the re-symmetrising.
-
-    pin's Python ``crba`` returns both triangles filled; that is checked on the first call
-    (on a model with nv >= 2), and the matrix is symmetrised by hand if a version does not.
-    """
-    global _CRBA_FILLS_LOWER
-    M = np.array(pin.crba(model, data, q))
-    if _CRBA_FILLS_LOWER is None and model.nv >= 2:
-        _CRBA_FILLS_LOWER = bool(np.array_equal(M, M.T)) and bool(np.any(np.tril(M, -1)))
-    if _CRBA_FILLS_LOWER is False:
-        return np.triu(M) + np.triu(M, 1).T
-    return M

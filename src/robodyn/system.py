@@ -219,7 +219,7 @@ class RobotSystem:
         """M(q) [kg m^2 | kg] (nv, nv) from the backend (CRBA, or the formula), armature included."""
         if self._formula is not None:
             return self._formula[0].mass_matrix(q, self._formula[1])
-        return dynamics.inertia_matrix(self._model, self._data, q)
+        return dynamics.mass_matrix(self._model, self._data, q)
 
     def momentum_rates(self, t: float, q: Array, u: Array) -> Array:
         """[dp/dt, P_input, P_damping] with dp/dt = tau + C^T v - G for p = M(q) v."""

@@ -285,7 +285,7 @@ def _jobs(plan: SweepPlan, backends: Sequence[str]) -> list[tuple[str, str, floa
     """(integrator, backend, dt, rtol) for every run of the plan."""
     from robodyn.fast import METHODS as FAST_METHODS
 
-    jobs = []
+    jobs: list[tuple[str, str, float | None, float | None]] = []
     for name in plan.fixed:
         for backend in backends if name in plan.all_backends_for else ("aba",):
             if backend == "fast" and name not in FAST_METHODS:

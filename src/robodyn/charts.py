@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from robodyn.errors import MissingDependencyError
 
@@ -155,7 +156,7 @@ def energy_error(series: Sequence[EnergySeries], stem: Path, *, title: str = "")
 
 def stability(
     cases: Sequence[Mapping[str, Any]],
-    regions: Mapping[str, tuple[Sequence[float], Sequence[float], Sequence[Sequence[float]]]],
+    regions: Mapping[str, tuple[ArrayLike, ArrayLike, ArrayLike]],
     stem: Path,
 ) -> tuple[Path, Path]:
     """Left: stability regions |Phi| <= 1 in the h-lambda plane. Right: measured vs predicted dt_max.
@@ -207,9 +208,7 @@ def stability(
     return _save(fig, stem)
 
 
-def lyapunov(
-    t: Sequence[float], running: Sequence[float], gap_t: Sequence[float], gap: Sequence[float], stem: Path
-) -> tuple[Path, Path]:
+def lyapunov(t: ArrayLike, running: ArrayLike, gap_t: ArrayLike, gap: ArrayLike, stem: Path) -> tuple[Path, Path]:
     """Left: running Lyapunov estimate. Right: separation of two runs one ulp apart (semi-log)."""
     plt = _pyplot()
     fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.5))

@@ -85,7 +85,7 @@ class Linearisation:
     @property
     def eigenvalues(self) -> NDArray[np.complex128]:
         """Eigenvalues of A [1/s], sorted by decreasing modulus."""
-        lam = np.linalg.eigvals(self.A)
+        lam = np.linalg.eigvals(self.A).astype(np.complex128)
         return lam[np.argsort(-np.abs(lam))]
 
 

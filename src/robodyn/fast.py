@@ -349,8 +349,9 @@ class FastDynamics:
         K, P = np.zeros(keep), np.zeros(keep)
         kern["energy_series"](code, p, _pad2(Q), _pad2(V), K, P)
         t = dt * np.arange(keep)
-        power_in = V @ t_
-        power_damp = -np.sum(self.damping * V * V, axis=1)
+        with np.errstate(over="ignore", invalid="ignore"):  # a blown-up run's last samples are huge
+            power_in = V @ t_
+            power_damp = -np.sum(self.damping * V * V, axis=1)
         status = "ok" if done == n else "diverged"
         message = "" if done == n else f"state not finite at step {done} (t = {done * dt:.6g} s)"
         return Trajectory(

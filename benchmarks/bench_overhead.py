@@ -25,7 +25,7 @@ import numpy as np
 import pinocchio as pin
 
 import robodyn
-from robodyn.simulate import simulate
+from robodyn.simulation import simulate
 
 BUDGET = 1.3
 

@@ -25,7 +25,7 @@ import numpy as np
 import robodyn
 from robodyn.models import load, load_geometry
 from robodyn.reduce import time_calls
-from robodyn.simulate import simulate
+from robodyn.simulation import simulate
 
 # (label, model, load options). Reduced entries keep the joints a scene would move.
 CASES = [

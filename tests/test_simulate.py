@@ -13,7 +13,7 @@ import robodyn
 from robodyn import dynamics
 from robodyn.energy import EnergyMeter, cross_check
 from robodyn.errors import DivergenceError, InputError, UnknownNameError
-from robodyn.simulate import simulate
+from robodyn.simulation import simulate
 from robodyn.system import robot_system
 
 # RK4 at dt = 1e-4 over 2 s against DOP853 at rtol = atol = 1e-12 (the bar).

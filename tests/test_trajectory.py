@@ -10,7 +10,7 @@ import pytest
 
 import robodyn
 from robodyn.errors import InputError
-from robodyn.simulate import simulate
+from robodyn.simulation import simulate
 from robodyn.trajectory import Trajectory
 
 

@@ -41,7 +41,7 @@ _LAZY: dict[str, tuple[str, str | None]] = {
     "CheckReport": ("robodyn.crosscheck", "CheckReport"),
     "extract_params": ("robodyn.params", "extract"),
     "formulas": ("robodyn.formulas", None),
-    "simulate": ("robodyn.simulate", "simulate"),
+    "simulate": ("robodyn.simulation", "simulate"),
     "Trajectory": ("robodyn.trajectory", "Trajectory"),
     "integrators": ("robodyn.integrators", None),
     "viewer": ("robodyn.viewer", None),

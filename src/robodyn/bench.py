@@ -209,7 +209,7 @@ def reference(
     Raises:
         RobodynError: the rerun at rtol / 10 disagrees by more than REFERENCE_AGREEMENT.
     """
-    from robodyn.simulate import simulate
+    from robodyn.simulation import simulate
 
     def run(tol: float) -> Trajectory:
         return simulate(
@@ -267,7 +267,7 @@ def _run_one(
 
     The fast path does not stop on energy; it is held to simulate's bound (100 % of ``scale``) here.
     """
-    from robodyn.simulate import DEFAULT_MAX_ENERGY_GROWTH, simulate
+    from robodyn.simulation import DEFAULT_MAX_ENERGY_GROWTH, simulate
 
     if backend == "fast":
         traj = fast.simulate(q0, v0, duration=duration, dt=dt, method=name)

@@ -406,7 +406,7 @@ def robot_blows_up(
     |E - E0 - W_damping| exceeds CRITERIA[criterion] times the energy above the equilibrium
     ``q_eq`` (E0 - V(q_eq)).
     """
-    from robodyn.simulate import simulate
+    from robodyn.simulation import simulate
 
     q0_ = robot.q_(q0)
     v0_ = robot.v_(v0)
@@ -690,7 +690,7 @@ class StiffRun:
 def stiff_runs(robot: Robot, *, dt: float, duration: float, quick: bool = False) -> list[StiffRun]:
     """Every method on ``robot`` at step (or output interval) ``dt`` [s], against a Radau reference."""
     from robodyn.errors import DivergenceError
-    from robodyn.simulate import simulate
+    from robodyn.simulation import simulate
 
     q_eq = hanging_equilibrium(robot)
     q0 = robot.integrate(q_eq, np.full(robot.nv, 0.5))
@@ -766,7 +766,7 @@ class NearSingular:
 def near_singular(light: Robot, normal: Robot, *, duration: float = 2.0, dt: float = 1e-3) -> NearSingular:
     """Backend accuracy on the light-tip and the normal Pendubot, and the run-to-run spread."""
     from robodyn.bench import start_state
-    from robodyn.simulate import simulate
+    from robodyn.simulation import simulate
 
     q0, v0 = start_state(light)
     runs = {b: simulate(light, q0, v0, duration=duration, dt=dt, backend=b) for b in ("aba", "crba", "formula")}

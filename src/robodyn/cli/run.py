@@ -132,7 +132,7 @@ def _simulate(
     import dataclasses
 
     from robodyn.errors import DivergenceError
-    from robodyn.simulate import simulate
+    from robodyn.simulation import simulate
 
     sim = scene.simulate
     path = out / f"{scene.name}.npz"

@@ -83,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
     v0 = args.v0 if args.v0 is not None else np.zeros(robot.nv)
 
     from robodyn.errors import DivergenceError
-    from robodyn.simulate import simulate
+    from robodyn.simulation import simulate
 
     trajectory: Any
     try:

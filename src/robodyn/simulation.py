@@ -13,9 +13,7 @@ then carries the trajectory up to that step.
 
 from __future__ import annotations
 
-import sys
 import time
-import types
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
@@ -372,16 +370,3 @@ def accelerations(system: RobotSystem) -> Callable[[float, Array, Array], Array]
     u_tail = np.zeros(system.nw)
     return lambda t, q, v: system.rates(t, q, np.concatenate([v, u_tail]))[: system.nv]
 
-
-class _CallableModule(types.ModuleType):
-    """A module that can be called like :func:`simulate`.
-
-    ``import robodyn.simulate`` binds this module as ``robodyn.simulate`` (Python sets a
-    package's submodules on it), shadowing the function; calling the module calls it.
-    """
-
-    def __call__(self, robot: Robot, q0: ArrayLike, v0: ArrayLike, **options: Any) -> Trajectory:
-        return simulate(robot, q0, v0, **options)
-
-
-sys.modules[__name__].__class__ = _CallableModule

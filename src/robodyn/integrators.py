@@ -289,7 +289,6 @@ class Integrator(abc.ABC):
     implicit: bool
     description: str
 
-    @abc.abstractmethod
     def start(
         self,
         problem: SecondOrderProblem,
@@ -301,7 +300,20 @@ class Integrator(abc.ABC):
         rtol: float = 1e-9,
         atol: float = 1e-12,
     ) -> Stepper:
-        """Begin a run on ``problem`` from (t0, q0, u0) towards ``t_end`` [s]."""
+        """Begin a run on ``problem`` from (t0, q0, u0) towards ``t_end`` [s].
+
+        Raises:
+            InputError: an adaptive method got ``rtol`` or ``atol`` <= 0.
+        """
+        if self.adaptive and not (rtol > 0 and atol > 0):
+            raise InputError(f"rtol and atol must be > 0, got rtol={rtol!r}, atol={atol!r}")
+        return self._stepper(problem, t0, q0, u0, t_end, rtol, atol)
+
+    @abc.abstractmethod
+    def _stepper(
+        self, problem: SecondOrderProblem, t0: float, q0: Array, u0: Array, t_end: float, rtol: float, atol: float
+    ) -> Stepper:
+        """The :class:`Stepper` of one run (tolerances already checked)."""
 
     def summary(self) -> dict[str, Any]:
         """Name, order and properties as a plain dict."""
@@ -322,16 +334,8 @@ class FixedStepIntegrator(Integrator):
     def step(self, problem: SecondOrderProblem, t: float, q: Array, u: Array, h: float) -> tuple[Array, Array, Array]:
         """One step of size h [s] from (t, q, u); return (q1, u1, rates at (t, q, u))."""
 
-    def start(
-        self,
-        problem: SecondOrderProblem,
-        t0: float,
-        q0: Array,
-        u0: Array,
-        *,
-        t_end: float,
-        rtol: float = 1e-9,
-        atol: float = 1e-12,
+    def _stepper(
+        self, problem: SecondOrderProblem, t0: float, q0: Array, u0: Array, t_end: float, rtol: float, atol: float
     ) -> Stepper:
         """A stepper whose ``advance`` is one :meth:`step`."""
         return _FixedStepper(self, problem)
@@ -374,6 +378,11 @@ class SemiImplicitEuler(FixedStepIntegrator):
         return q1, u1, k
 
 
+def _velocity_scale(v: Array, a: Array, h: float) -> float:
+    """|v| + h |a| (max norms) [m/s or rad/s]: the size a step's velocity iteration is measured against."""
+    return float(np.max(np.abs(v))) + h * float(np.max(np.abs(a))) + 1e-300
+
+
 def _converged(size: float, previous: float, tol: float) -> bool:
     """A fixed-point or Newton iteration is done: below tol, or stalled just above it."""
     return size <= tol or (size >= previous and size <= NEWTON_STALL * tol)
@@ -397,7 +406,7 @@ class SymplecticEuler(FixedStepIntegrator):
         M0_inv = np.linalg.inv(M0)  # one inverse a step; the iteration only multiplies
         p0 = M0 @ u[:nv]
         us = u + h * k0  # predictor for v* (and a placeholder tail)
-        scale = float(np.max(np.abs(u[:nv]))) + h * float(np.max(np.abs(k0[:nv]))) + 1e-300  # velocity size
+        scale = _velocity_scale(u[:nv], k0[:nv], h)
         previous = np.inf
         for _ in range(NEWTON_MAX_ITER):
             f = problem.momentum_rates(t, q, us)  # 1. momentum kick at the OLD configuration...
@@ -443,26 +452,31 @@ class ExplicitRungeKutta(FixedStepIntegrator):
         U = [u]
         K = [problem.rates(t, q, u)]
         for i in range(1, len(rows)):
-            dq = None
-            du = None
-            for j, aij in rows[i]:
-                ha = h * aij
-                dq = ha * U[j][:nv] if dq is None else dq + ha * U[j][:nv]
-                du = ha * K[j] if du is None else du + ha * K[j]
-            if du is None:  # a row of zeros: the stage is the start point
+            if not rows[i]:  # a row of zeros: the stage is the start point
                 U.append(u)
                 K.append(problem.rates(t + c[i] * h, q, u))
                 continue
+            dq, du = _combine(rows[i], h, U, K, nv)
             ui = u + du
             U.append(ui)
-            K.append(problem.rates(t + c[i] * h, problem.integrate(q, dq), ui))  # type: ignore[arg-type]
-        dq = None
-        du = None
-        for j, bj in self._weights:  # type: ignore[attr-defined]
-            hb = h * bj
-            dq = hb * U[j][:nv] if dq is None else dq + hb * U[j][:nv]
-            du = hb * K[j] if du is None else du + hb * K[j]
-        return problem.integrate(q, dq), u + du, K[0]  # type: ignore[arg-type,operator]
+            K.append(problem.rates(t + c[i] * h, problem.integrate(q, dq), ui))
+        dq, du = _combine(self._weights, h, U, K, nv)  # type: ignore[attr-defined]
+        return problem.integrate(q, dq), u + du, K[0]
+
+
+def _combine(
+    coefficients: tuple[tuple[int, float], ...], h: float, U: list[Array], K: list[Array], nv: int
+) -> tuple[Array, Array]:
+    """(h sum_j c_j v_j, h sum_j c_j k_j) over the non-zero (j, c_j): a stage or the step's increment."""
+    (j, x), *rest = coefficients
+    hx = h * x
+    dq = hx * U[j][:nv]
+    du = hx * K[j]
+    for j, x in rest:
+        hx = h * x
+        dq = dq + hx * U[j][:nv]
+        du = du + hx * K[j]
+    return dq, du
 
 
 @dataclass(frozen=True)
@@ -525,7 +539,7 @@ class ImplicitMidpoint(FixedStepIntegrator):
         p0 = problem.mass_matrix(q) @ u[:nv]
         tm = t + 0.5 * h
         um = u + 0.5 * h * k0  # predictor: explicit Euler to the midpoint
-        scale = float(np.max(np.abs(u[:nv]))) + h * float(np.max(np.abs(k0[:nv]))) + 1e-300  # velocity size
+        scale = _velocity_scale(u[:nv], k0[:nv], h)
         eye = np.eye(nv)
         previous = np.inf
         for _ in range(NEWTON_MAX_ITER):
@@ -568,20 +582,10 @@ class EmbeddedRungeKutta(Integrator):
         if self.tableau.b_error is None:
             raise ValueError(f"integrator {self.name!r} needs a tableau with an embedded solution (b_error)")
 
-    def start(
-        self,
-        problem: SecondOrderProblem,
-        t0: float,
-        q0: Array,
-        u0: Array,
-        *,
-        t_end: float,
-        rtol: float = 1e-9,
-        atol: float = 1e-12,
+    def _stepper(
+        self, problem: SecondOrderProblem, t0: float, q0: Array, u0: Array, t_end: float, rtol: float, atol: float
     ) -> Stepper:
         """A stepper that keeps its step size from interval to interval."""
-        if not (rtol > 0 and atol > 0):
-            raise InputError(f"rtol and atol must be > 0, got rtol={rtol!r}, atol={atol!r}")
         return _EmbeddedStepper(self.tableau, problem, rtol, atol)
 
     def fixed(self) -> ExplicitRungeKutta:
@@ -709,20 +713,10 @@ class ScipyIntegrator(Integrator):
         if self.fixed_step is not None and (self.implicit or not self.fixed_step > 0):
             raise ValueError(f"{self.name}: fixed_step needs an explicit method and a step > 0")
 
-    def start(
-        self,
-        problem: SecondOrderProblem,
-        t0: float,
-        q0: Array,
-        u0: Array,
-        *,
-        t_end: float,
-        rtol: float = 1e-9,
-        atol: float = 1e-12,
+    def _stepper(
+        self, problem: SecondOrderProblem, t0: float, q0: Array, u0: Array, t_end: float, rtol: float, atol: float
     ) -> Stepper:
         """Create the scipy solver for the whole run [t0, t_end]."""
-        if not (rtol > 0 and atol > 0):
-            raise InputError(f"rtol and atol must be > 0, got rtol={rtol!r}, atol={atol!r}")
         return _ScipyStepper(self, problem, t0, q0, u0, t_end, rtol, atol)
 
 

@@ -18,13 +18,8 @@ from __future__ import annotations
 
 import colorsys
 import os
-import re
-import select
 import shutil
-import signal
 import subprocess
-import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +28,8 @@ import pytest
 import robodyn
 from robodyn import viewer
 from robodyn.cli import main
+
+from ._viewer_helpers import interrupt, view_process
 
 pytestmark = pytest.mark.browser
 
@@ -44,7 +41,6 @@ SEARCH_RADIUS_PX = 4  # around a projected link centre: antialiasing and roundin
 MIN_MOVE_PX = 25.0  # how far (in the image) a link centre must travel between the two shots
 MIN_LINK_PIXELS = 150  # pixels of each link colour in a live-page shot (a link covers several hundred)
 MIN_CHANGED_PIXELS = 300  # pixels that change between the two live shots (moving links and marker)
-SERVER_WAIT_S = 60.0
 
 
 def find_chromium() -> str:
@@ -185,26 +181,14 @@ def test_exported_html_shows_the_pendubot_swinging(chromium: str, artifacts: Pat
 
 def test_live_server_page_plays_the_animation(chromium: str, artifacts: Path, swing: Path, tmp_path: Path) -> None:
     port = viewer.free_port()
-    process = subprocess.Popen(
-        [sys.executable, "-m", "robodyn", "view", "pendubot", str(swing), "--port", str(port)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    try:
-        url = _wait_for_url(process)
+    with view_process(swing, port) as (process, url):
         images = [
             screenshot(
                 chromium, url, artifacts / f"live_{budget}ms.png", budget_ms=budget, profile=tmp_path / str(budget)
             )
             for budget in (300, 2300)
         ]
-        process.send_signal(signal.SIGINT)
-        _, err = process.communicate(timeout=SERVER_WAIT_S)
-    finally:
-        if process.poll() is None:
-            process.kill()
-            process.wait()
+        err = interrupt(process)
     assert process.returncode == 0, err
     for image in images:
         for color in viewer.LINK_COLORS[:2]:
@@ -213,18 +197,3 @@ def test_live_server_page_plays_the_animation(chromium: str, artifacts: Path, sw
     robot_colours |= hue_mask(images[1], viewer.LINK_COLORS[0]) | hue_mask(images[1], viewer.LINK_COLORS[1])
     changed = np.abs(images[0].astype(int) - images[1].astype(int)).sum(axis=2) > 60
     assert (changed & robot_colours).sum() > MIN_CHANGED_PIXELS, "the robot did not move between the two shots"
-
-
-def _wait_for_url(process: subprocess.Popen[str]) -> str:
-    deadline = time.monotonic() + SERVER_WAIT_S
-    assert process.stdout is not None
-    while time.monotonic() < deadline:
-        ready, _, _ = select.select([process.stdout], [], [], 0.5)
-        if ready:
-            line = process.stdout.readline()
-            match = re.match(r"meshcat: open (\S+)", line)
-            if match:
-                return match.group(1)
-            if line == "" and process.poll() is not None:
-                break
-    raise AssertionError(f"robodyn view printed no URL: {process.stderr.read() if process.stderr else ''}")

@@ -11,8 +11,6 @@ import base64
 import json
 import os
 import re
-import select
-import signal
 import socket
 import subprocess
 import sys
@@ -30,10 +28,11 @@ from robodyn.cli import main
 from robodyn.errors import InputError, MissingDependencyError, UnavailableError, UnknownNameError
 from robodyn.trajectory import Trajectory
 
+from ._viewer_helpers import SERVER_WAIT_S, interrupt, view_process
+
 TRANSFORM_ATOL = 1e-12  # float64 matrix -> quaternion -> matrix round trip, nothing else in between
 TIME_RTOL = 1e-12  # keyframe times are (t - t0) / speed * fps / fps: a few roundings
 CURSOR_ATOL = 1e-9  # the chart cursor is an affine map of (tau, E): exact up to roundings at chart scale
-SERVER_WAIT_S = 60.0  # generous: the machine is shared; nothing here measures time
 
 ROOT = viewer.ROOT
 
@@ -308,42 +307,16 @@ def test_serve_starts_and_stops_its_own_server(pendubot: robodyn.Robot, motion: 
 
 def test_robodyn_view_serves_until_ctrl_c(motion_file: Path) -> None:
     port = viewer.free_port()
-    process = subprocess.Popen(
-        [sys.executable, "-m", "robodyn", "view", "pendubot", str(motion_file), "--port", str(port)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    try:
-        url = _wait_for_url(process)
+    with view_process(motion_file, port) as (process, url):
         assert url == f"http://127.0.0.1:{port}/static/"
         assert "MeshCat" in urllib.request.urlopen(url, timeout=30).read().decode("utf-8")
-        process.send_signal(signal.SIGINT)
-        _, err = process.communicate(timeout=SERVER_WAIT_S)
-    finally:
-        if process.poll() is None:
-            process.kill()
-            process.wait()
+        err = interrupt(process)
     assert process.returncode == 0, err
     assert "stopped the meshcat server" in err and "Traceback" not in err
     deadline = time.monotonic() + SERVER_WAIT_S
     while _port_open(port) and time.monotonic() < deadline:
         time.sleep(0.1)
     assert not _port_open(port)
-
-
-def _wait_for_url(process: subprocess.Popen[str]) -> str:
-    deadline = time.monotonic() + SERVER_WAIT_S
-    assert process.stdout is not None
-    while time.monotonic() < deadline:
-        ready, _, _ = select.select([process.stdout], [], [], 0.5)
-        if ready:
-            line = process.stdout.readline()
-            if line.startswith("meshcat: open "):
-                return line.split("meshcat: open ", 1)[1].strip()
-            if line == "" and process.poll() is not None:
-                break
-    raise AssertionError(f"robodyn view printed no URL: {process.stderr.read() if process.stderr else ''}")
 
 
 # --------------------------------------------------------------------------- staying light

@@ -8,6 +8,8 @@ import robodyn
 from robodyn import bench
 from robodyn.errors import InputError
 
+from ._bench_helpers import RECORD_KEYS
+
 # Fitted orders (errors in 1e-11..1e-1, steps 0.02..0.00125 s on the smooth geared-arm swing)
 # must lie within this band of the declared orders.
 ORDER_BAND = 0.25
@@ -56,20 +58,8 @@ def test_backends_share_the_chart_and_agree(sweep):
 
 
 def test_records_have_the_issue_keys(sweep):
-    keys = {
-        "model",
-        "integrator",
-        "backend",
-        "dt",
-        "rtol",
-        "error",
-        "wall_time_s",
-        "evaluations",
-        "energy_drift",
-        "diverged",
-    }
     for record in bench.records([sweep]):
-        assert keys <= record.keys()
+        assert RECORD_KEYS <= record.keys()
         assert (record["dt"] is None) != (record["rtol"] is None)
     assert len(sweep.results) == 3 * 5 + 4 * 5 + 2
 

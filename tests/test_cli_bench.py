@@ -10,18 +10,8 @@ import pytest
 
 from robodyn.cli import main
 
-RECORD_KEYS = {
-    "model",
-    "integrator",
-    "backend",
-    "dt",
-    "rtol",
-    "error",
-    "wall_time_s",
-    "evaluations",
-    "energy_drift",
-    "diverged",
-}
+from ._bench_helpers import RECORD_KEYS
+
 CHARTS = ("work_precision_pendubot", "error_vs_dt_pendubot", "energy_pendubot", "stability", "lyapunov")
 
 

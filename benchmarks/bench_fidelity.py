@@ -19,13 +19,11 @@ prints a table and writes bench-out/fidelity.json, fidelity.png and fidelity.svg
 
 from __future__ import annotations
 
-import argparse
-import json
 import platform
-import time
 from pathlib import Path
 
 import numpy as np
+from _common import argument_parser, best_of, pyplot, save_figure, write_json
 
 import robodyn
 from robodyn import integrators
@@ -41,18 +39,17 @@ def run(robot, q0, *, duration: float, backend: str, repeat: int):
     refuses on mimic joints, so the integrator is driven directly here.)
     """
     n_steps = round(duration / DT)
-    best, sol = np.inf, None
-    for _ in range(repeat):
-        start = time.perf_counter()
-        sol = integrators.solve(
+    best, sol = best_of(
+        lambda: integrators.solve(
             lambda t, q, v: robot.forward_dynamics(q, v, np.zeros(robot.nv), backend=backend),
             np.asarray(q0, dtype=np.float64),
             np.zeros(robot.nv),
             dt=DT,
             n_steps=n_steps,
             method="rk4",
-        )
-        best = min(best, time.perf_counter() - start)
+        ),
+        repeat,
+    )
     return sol, best / duration
 
 
@@ -84,11 +81,7 @@ def pair(title: str, simple, simple_backend: str, rich, rich_backend: str, q0, d
 
 
 def chart(results: list[dict], out: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.6))
     ax = axes[0]
     for r, colour in zip(results, ("C0", "C1"), strict=True):
@@ -122,14 +115,11 @@ def chart(results: list[dict], out: Path) -> None:
     ax.legend(fontsize=8)
     fig.suptitle(f"robodyn {robodyn.__version__}: what each simplification costs (RK4, dt = {DT} s)")
     fig.tight_layout()
-    for ext in ("png", "svg"):
-        fig.savefig(out / f"fidelity.{ext}", dpi=120)
-    plt.close(fig)
+    save_figure(fig, out, "fidelity")
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("bench-out"))
+    parser = argument_parser(__doc__)
     parser.add_argument("--repeat", type=int, default=3, help="runs per model (best kept)")
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
@@ -167,9 +157,9 @@ def main() -> None:
             f"{100 * r['time_saved_fraction']:5.0f}%"
         )
     result = {"robodyn": robodyn.__version__, "machine": platform.platform(), "dt": DT, "pairs": results}
-    (args.out / "fidelity.json").write_text(json.dumps(result, indent=2) + "\n")
+    path = write_json(args.out, "fidelity", result)
     chart(results, args.out)
-    print(f"wrote {args.out / 'fidelity.json'}, fidelity.png, fidelity.svg")
+    print(f"wrote {path}, fidelity.png, fidelity.svg")
 
 
 if __name__ == "__main__":

@@ -14,13 +14,11 @@ prints a table and writes bench-out/scaling.json, scaling.png and scaling.svg.
 
 from __future__ import annotations
 
-import argparse
-import json
 import platform
-import time
 from pathlib import Path
 
 import numpy as np
+from _common import argument_parser, best_of, pyplot, save_figure, write_json
 
 import robodyn
 from robodyn.models import load, load_geometry
@@ -47,15 +45,6 @@ CASES = [
 ]
 
 
-def best_of(fn, repeat: int) -> float:
-    times = []
-    for _ in range(repeat):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return min(times)
-
-
 def measure(label: str, name: str, options: dict, *, calls: int, sim_seconds: float, load_repeat: int) -> dict:
     robot = load(name, **options)
     runs = [time_calls(robot, repeat=calls, seed=0) for _ in range(3)]  # best of 3: a shared machine is noisy
@@ -68,8 +57,8 @@ def measure(label: str, name: str, options: dict, *, calls: int, sim_seconds: fl
     traj = simulate(
         robot, q0, np.zeros(robot.nv), duration=sim_seconds, dt=1e-3, integrator="rk4", max_energy_growth=None
     )
-    load_dynamics = best_of(lambda: load(name, **options), load_repeat)
-    load_full = best_of(lambda: load_geometry(load(name, **options)), load_repeat)
+    load_dynamics, _ = best_of(lambda: load(name, **options), load_repeat)
+    load_full, _ = best_of(lambda: load_geometry(load(name, **options)), load_repeat)
     row = {
         "label": label,
         "model": name,
@@ -84,11 +73,7 @@ def measure(label: str, name: str, options: dict, *, calls: int, sim_seconds: fl
 
 
 def chart(rows: list[dict], out: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.8))
     nv = np.array([r["nv"] for r in rows])
     order = np.argsort(nv, kind="stable")
@@ -117,32 +102,17 @@ def chart(rows: list[dict], out: Path) -> None:
         title="simulate (RK4, dt = 1 ms)",
     )
     ax = axes[2]
-    ax.plot(
-        nv[order],
-        [rows[i]["load_dynamics_s"] * 1e3 for i in order],
-        marker="o",
-        linestyle="none",
-        label="dynamics only",
-    )
-    ax.plot(
-        nv[order],
-        [rows[i]["load_with_geometry_s"] * 1e3 for i in order],
-        marker="s",
-        linestyle="none",
-        label="with meshes",
-    )
+    for key, marker, label in (("load_dynamics_s", "o", "dynamics only"), ("load_with_geometry_s", "s", "with meshes")):
+        ax.plot(nv[order], [rows[i][key] * 1e3 for i in order], marker=marker, linestyle="none", label=label)
     ax.set(xscale="log", yscale="log", xlabel="nv", ylabel="load time [ms]", title="load")
     ax.legend()
     fig.suptitle(f"robodyn {robodyn.__version__}: cost against nv ({platform.processor() or platform.machine()})")
     fig.tight_layout()
-    for ext in ("png", "svg"):
-        fig.savefig(out / f"scaling.{ext}", dpi=120)
-    plt.close(fig)
+    save_figure(fig, out, "scaling")
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("bench-out"))
+    parser = argument_parser(__doc__)
     parser.add_argument("--calls", type=int, default=2000, help="random states per dynamics call timing")
     parser.add_argument("--sim-seconds", type=float, default=1.0, help="simulated time per model [s]")
     parser.add_argument("--load-repeat", type=int, default=3, help="loads per model (best kept)")
@@ -172,9 +142,9 @@ def main() -> None:
         "sim_seconds": args.sim_seconds,
         "rows": rows,
     }
-    (args.out / "scaling.json").write_text(json.dumps(result, indent=2) + "\n")
+    path = write_json(args.out, "scaling", result)
     chart(rows, args.out)
-    print(f"wrote {args.out / 'scaling.json'}, scaling.png, scaling.svg")
+    print(f"wrote {path}, scaling.png, scaling.svg")
 
 
 if __name__ == "__main__":

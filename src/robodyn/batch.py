@@ -75,9 +75,7 @@ def rollout(
         raise InputError(
             f"integrator {integrator!r}: the batch path takes explicit fixed-step methods (rk4, heun, euler)"
         )
-    steps = round(duration / dt)
-    if steps < 1 or abs(steps * dt - duration) > 1e-9 * duration:
-        raise InputError(f"duration {duration} s must be a positive whole number of steps of dt = {dt} s")
+    steps = integrators.step_count(duration, dt)
     n, nv = Q.shape
     threads = threads or os.cpu_count() or 1
     pool = pin.ModelPool(robot.model, threads)

@@ -35,6 +35,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robodyn.errors import AssumptionError, InputError, MissingDependencyError, UnknownNameError
+from robodyn.integrators import step_count
 
 if TYPE_CHECKING:
     from robodyn.robot import Robot
@@ -119,7 +120,7 @@ def _kernels() -> dict[str, Any]:
         q0, q1, v0, v1 = q[0], q[1], v[0], v[1]
         t0, t1 = tau[0], tau[1]
         h = dt
-        for k in range(n):
+        for k in range(n + 1):
             Q[k, 0] = q0
             Q[k, 1] = q1
             V[k, 0] = v0
@@ -127,6 +128,8 @@ def _kernels() -> dict[str, Any]:
             a0, a1 = acc(kind, p, b, q0, q1, v0, v1, t0, t1)
             A[k, 0] = a0
             A[k, 1] = a1
+            if k == n:  # the last sample: recorded, not stepped from
+                break
             if method == 0:
                 b0, b1 = acc(
                     kind, p, b, q0 + 0.5 * h * v0, q1 + 0.5 * h * v1, v0 + 0.5 * h * a0, v1 + 0.5 * h * a1, t0, t1
@@ -156,13 +159,6 @@ def _kernels() -> dict[str, Any]:
                 v1 = 0.0
             if not (np.isfinite(q0) and np.isfinite(q1) and np.isfinite(v0) and np.isfinite(v1)):
                 return k + 1
-        Q[n, 0] = q0
-        Q[n, 1] = q1
-        V[n, 0] = v0
-        V[n, 1] = v1
-        a0, a1 = acc(kind, p, b, q0, q1, v0, v1, t0, t1)
-        A[n, 0] = a0
-        A[n, 1] = a1
         return n
 
     @njit
@@ -323,19 +319,13 @@ class FastDynamics:
 
         if method not in METHODS:
             raise UnknownNameError("fast-path method", method, METHODS)
-        if not (np.isfinite(dt) and dt > 0):
-            raise InputError(f"dt must be a positive number of seconds, got {dt!r}")
-        if not (np.isfinite(duration) and duration > 0):
-            raise InputError(f"duration must be a positive number of seconds, got {duration!r}")
         q = np.asarray(q0, dtype=np.float64).reshape(-1)
         v = np.asarray(v0, dtype=np.float64).reshape(-1)
         t_ = np.zeros(self.nv) if tau is None else np.asarray(tau, dtype=np.float64).reshape(-1)
         for name, x in (("q0", q), ("v0", v), ("tau", t_)):
             if x.shape != (self.nv,) or not np.all(np.isfinite(x)):
                 raise InputError(f"{name} must be {self.nv} finite numbers, got {x}")
-        n = round(duration / dt)
-        if abs(n * dt - duration) > 1e-9 * duration:
-            raise InputError(f"duration {duration} s is not a whole number of steps of dt = {dt} s")
+        n = step_count(duration, dt)
         kern = _kernels()
         code, method_code = KINDS[self.kind][0], METHODS.index(method)
         Q, V, A = np.zeros((n + 1, 2)), np.zeros((n + 1, 2)), np.zeros((n + 1, 2))

@@ -843,6 +843,22 @@ def names() -> tuple[str, ...]:
 
 
 # ----------------------------------------------------------------------------- plain arrays
+def step_count(duration: float, dt: float) -> int:
+    """How many steps of ``dt`` [s] make ``duration`` [s] exactly (to 1e-9 relative).
+
+    Raises:
+        InputError: ``dt`` or ``duration`` is not a positive finite number, or ``duration``
+            is not a whole number of steps of ``dt``.
+    """
+    for name, value in (("dt", dt), ("duration", duration)):
+        if not (np.isfinite(value) and value > 0):
+            raise InputError(f"{name} must be a positive number of seconds, got {value!r}")
+    n = round(duration / dt)
+    if n < 1 or abs(n * dt - duration) > 1e-9 * duration:
+        raise InputError(f"duration {duration} s is not a whole number of steps of dt = {dt} s")
+    return n
+
+
 @dataclass(frozen=True)
 class Solution:
     """States at t_k = t0 + k dt from :func:`solve`: t (n+1,), q (n+1, nq), v (n+1, nv)."""

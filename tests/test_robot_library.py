@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from robodyn import robot_library
-from robodyn.crosscheck import DEFAULT_RTOL, check
 from robodyn.cli import main
 from robodyn.consistency import all_findings
+from robodyn.crosscheck import DEFAULT_RTOL, check
 from robodyn.errors import ModelError
 from robodyn.models import load, resolve
 from robodyn.summary import summarize

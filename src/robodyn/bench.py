@@ -277,7 +277,9 @@ def _run_one(
     try:
         traj = simulate(robot, q0, v0, duration=duration, dt=dt, integrator=name, backend=backend, **options)
     except DivergenceError as exc:
-        return exc.trajectory, True  # type: ignore[return-value]
+        if exc.trajectory is None:  # simulate always attaches the partial run
+            raise
+        return exc.trajectory, True
     return traj, traj.diverged
 
 

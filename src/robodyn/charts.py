@@ -61,6 +61,26 @@ def _save(fig: Any, stem: Path) -> tuple[Path, Path]:
     return png, svg
 
 
+def _finish(
+    fig: Any,
+    ax: Any,
+    stem: Path,
+    xlabel: str,
+    ylabel: str,
+    title: str,
+    *,
+    legend_size: int,
+    legend_columns: int = 1,
+) -> tuple[Path, Path]:
+    """Label a one-panel log chart, grid it, add the legend and save it (see :func:`_save`)."""
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=legend_size, ncol=legend_columns)
+    return _save(fig, stem)
+
+
 def _groups(results: Sequence[BenchResult]) -> dict[tuple[str, str], list[BenchResult]]:
     groups: dict[tuple[str, str], list[BenchResult]] = {}
     for r in results:
@@ -87,12 +107,16 @@ def work_precision(results: Sequence[BenchResult], stem: Path, *, title: str = "
             label=f"{name} / {backend}",
             markersize=7 if backend == "fast" else 5,
         )
-    ax.set_xlabel("wall time per simulated second [s/s]")
-    ax.set_ylabel("relative state error vs DOP853 reference")
-    ax.set_title(title or "work-precision: lower left is better")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7, ncol=2)
-    return _save(fig, stem)
+    return _finish(
+        fig,
+        ax,
+        stem,
+        "wall time per simulated second [s/s]",
+        "relative state error vs DOP853 reference",
+        title or "work-precision: lower left is better",
+        legend_size=7,
+        legend_columns=2,
+    )
 
 
 def error_vs_dt(
@@ -125,12 +149,15 @@ def error_vs_dt(
         for p in sorted(set(declared.values())):
             ax.loglog(dts, anchor_err * (dts / anchor_dt) ** p, color="0.6", linewidth=0.8, linestyle="--")
             ax.annotate(f"slope {p}", (dts[-1], anchor_err * (dts[-1] / anchor_dt) ** p), fontsize=8, color="0.4")
-    ax.set_xlabel("dt [s]")
-    ax.set_ylabel("relative state error vs DOP853 reference")
-    ax.set_title(title or "convergence: error against step")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
-    return _save(fig, stem)
+    return _finish(
+        fig,
+        ax,
+        stem,
+        "dt [s]",
+        "relative state error vs DOP853 reference",
+        title or "convergence: error against step",
+        legend_size=8,
+    )
 
 
 def energy_error(series: Sequence[EnergySeries], stem: Path, *, title: str = "") -> tuple[Path, Path]:
@@ -146,12 +173,9 @@ def energy_error(series: Sequence[EnergySeries], stem: Path, *, title: str = "")
             linewidth=0.9,
             label=f"{s.integrator} / {s.backend}, dt = {s.dt:g} s",
         )
-    ax.set_xlabel("t [s]")
-    ax.set_ylabel("|E - E0 - W| / energy scale")
-    ax.set_title(title or "energy error against time")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
-    return _save(fig, stem)
+    return _finish(
+        fig, ax, stem, "t [s]", "|E - E0 - W| / energy scale", title or "energy error against time", legend_size=8
+    )
 
 
 def stability(

@@ -16,6 +16,10 @@ Exit codes (documented in the README):
 from __future__ import annotations
 
 from collections.abc import Iterable
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from robodyn.trajectory import Trajectory
 
 EXIT_OK = 0
 EXIT_MISMATCH = 1
@@ -69,7 +73,7 @@ class DivergenceError(RobodynError):
 
     exit_code = EXIT_DIVERGED
 
-    def __init__(self, message: str, *, step: int, time: float, trajectory: object = None) -> None:
+    def __init__(self, message: str, *, step: int, time: float, trajectory: Trajectory | None = None) -> None:
         self.step = step
         self.time = time
         self.trajectory = trajectory

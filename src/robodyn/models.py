@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from robodyn.errors import InputError, ModelError
 from robodyn.registry import Registry
@@ -342,7 +342,7 @@ def reference_configurations(robot: Robot) -> dict[str, np.ndarray]:
     return states
 
 
-def joint_coordinates(kind: str, nq: int, values: Sequence[float]) -> np.ndarray:
+def joint_coordinates(kind: str, nq: int, values: ArrayLike) -> NDArray[np.float64]:
     """The nq coordinates of a joint from a user's values.
 
     One angle for a continuous joint (stored as cos, sin), one value for a 1-coordinate

@@ -197,10 +197,10 @@ def sources() -> dict[str, ModelSource]:
         name = _stem_name(urdf, stems)
         if name in table:
             continue
-        entry = by_urdf.get(urdf)
-        if entry is not None:  # same file as a loader name: same SRDF and free-flyer hint
-            srdf = folder / entry.srdf if entry.srdf is not None else None
-            hint = entry.free_flyer
+        known = by_urdf.get(urdf)
+        if known is not None:  # same file as a loader name: same SRDF and free-flyer hint
+            srdf = folder / known.srdf if known.srdf is not None else None
+            hint = known.free_flyer
         else:
             srdf, hint = find_srdf(urdf), False
         rel = urdf.relative_to(folder).as_posix()

@@ -369,4 +369,3 @@ def accelerations(system: RobotSystem) -> Callable[[float, Array, Array], Array]
     """The acceleration function a(t, q, v) an integrator sees for ``system`` [rad/s^2 | m/s^2]."""
     u_tail = np.zeros(system.nw)
     return lambda t, q, v: system.rates(t, q, np.concatenate([v, u_tail]))[: system.nv]
-

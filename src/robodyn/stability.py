@@ -702,16 +702,18 @@ def stiff_runs(robot: Robot, *, dt: float, duration: float, quick: bool = False)
     methods += [("dopri5", 1e-6), ("scipy_radau", 1e-6), ("scipy_bdf", 1e-6)]
     out = []
     for name, tol in methods:
-        options = {"rtol": tol, "atol": tol * 1e-3} if tol is not None else {}
+        options: dict[str, Any] = {"rtol": tol, "atol": tol * 1e-3} if tol is not None else {}
         try:
-            traj = simulate(robot, q0, v0, duration=duration, dt=dt, integrator=name, **options)  # type: ignore[arg-type]
+            traj = simulate(robot, q0, v0, duration=duration, dt=dt, integrator=name, **options)
             diverged = False
         except DivergenceError as exc:
-            traj, diverged = exc.trajectory, True  # type: ignore[assignment]
-        n = traj.t.size  # type: ignore[union-attr]
-        x = np.hstack([traj.q, traj.v])  # type: ignore[union-attr]
+            if exc.trajectory is None:  # simulate always attaches the partial run
+                raise
+            traj, diverged = exc.trajectory, True
+        n = traj.t.size
+        x = np.hstack([traj.q, traj.v])
         err = float(np.max(np.abs(x - x_ref[:n])) / scale) if not diverged else float("inf")
-        out.append(StiffRun(name, dt, tol, diverged, err, int(traj.evaluations), float(traj.wall_time_s)))  # type: ignore[union-attr]
+        out.append(StiffRun(name, dt, tol, diverged, err, int(traj.evaluations), float(traj.wall_time_s)))
     return out
 
 

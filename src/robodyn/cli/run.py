@@ -92,20 +92,12 @@ def _check(scene: Any, robot: Any, reduction: Any, q0: Any, v0: Any, torque: Any
     summary["check"] = {"passed": report.passed, "rows": len(report.rows), "failed": failures}
     status = EXIT_OK if report.passed else EXIT_MISMATCH
     if c.get("exactness"):
-        sim = scene.simulate
-        exact = prove_exact(
-            reduction,
-            q0,
-            v0,
-            duration=float(sim["duration"]),
-            dt=float(sim["dt"]),
-            tau=torque,
-            method=str(sim["integrator"]),
-        )
+        duration, dt, integrator = _timing(scene)
+        exact = prove_exact(reduction, q0, v0, duration=duration, dt=dt, tau=torque, method=integrator)
         ok = exact.q_error <= EXACTNESS_TOL and exact.v_error <= EXACTNESS_TOL and exact.lock_drift <= EXACTNESS_TOL
         print(
             f"exactness: {'passed' if ok else 'FAILED'}: reduced vs full model with {len(reduction.locked)} joints "
-            f"held by constraint over {sim['duration']} s: max |dq| = {exact.q_error:.2e} rad, "
+            f"held by constraint over {scene.simulate['duration']} s: max |dq| = {exact.q_error:.2e} rad, "
             f"max |dv| = {exact.v_error:.2e} rad/s, lock drift {exact.lock_drift:.2e} (tolerance {EXACTNESS_TOL:g})"
         )
         summary["exactness"] = {
@@ -126,6 +118,12 @@ def _check(scene: Any, robot: Any, reduction: Any, q0: Any, v0: Any, torque: Any
 EXACTNESS_TOL = 1e-9
 
 
+def _timing(scene: Any) -> tuple[float, float, str]:
+    """The scene's [simulate] duration [s], dt [s] and integrator name."""
+    sim = scene.simulate
+    return float(sim["duration"]), float(sim["dt"]), str(sim["integrator"])
+
+
 def _simulate(
     scene: Any, robot: Any, reduction: Any, q0: Any, v0: Any, torque: Any, out: Path, summary: dict[str, Any]
 ) -> Any:
@@ -134,18 +132,18 @@ def _simulate(
     from robodyn.errors import DivergenceError
     from robodyn.simulation import simulate
 
-    sim = scene.simulate
+    duration, dt, integrator = _timing(scene)
     path = out / f"{scene.name}.npz"
     try:
         trajectory = simulate(
             robot,
             q0,
             v0,
-            duration=float(sim["duration"]),
-            dt=float(sim["dt"]),
-            integrator=str(sim["integrator"]),
+            duration=duration,
+            dt=dt,
+            integrator=integrator,
             torque=torque,
-            backend=str(sim["backend"]),
+            backend=str(scene.simulate["backend"]),
         )
     except DivergenceError as exc:
         if exc.trajectory is not None:
@@ -161,7 +159,7 @@ def _simulate(
         trajectory = dataclasses.replace(trajectory, meta=meta)
     trajectory.save(writable_path(path))
     print(
-        f"simulate: {trajectory.n_steps} steps of {sim['dt']} s with {sim['integrator']} in "
+        f"simulate: {trajectory.n_steps} steps of {scene.simulate['dt']} s with {integrator} in "
         f"{trajectory.wall_time_s:.3f} s wall; energy ledger residual {abs(trajectory.ledger_residual).max():.2e} J; "
         f"written to {path}"
     )

@@ -196,6 +196,17 @@ def load(
             locked/kept joint the model does not have.
         InputError: a lock value of the wrong size or outside the joint's limits.
     """
+    if lock is not None or keep is not None:
+        return load_reduction(
+            name_or_path,
+            srdf=srdf,
+            free_flyer=free_flyer,
+            mimic=mimic,
+            check_physics=check_physics,
+            lock=lock,
+            keep=keep,
+            reference=reference,
+        ).reduced
     source = resolve(name_or_path, srdf=srdf)
     root = _parse_xml(source.urdf, "URDF")
     _check_urdf_root(root, source.urdf)
@@ -210,26 +221,16 @@ def load(
             _load_rotor_parameters(model, source.srdf)
         known = set(list(model.names)[1:])
         passive = tuple(name for name in info.passive_joints if name in known)
-    reducing = lock is not None or keep is not None
     if check_physics:
-        # A joint that moves nothing makes M singular, unless the scene locks it.
-        refuse_impossible(model, source.urdf, skip=("massless_subtree",) if reducing else ())
+        refuse_impossible(model, source.urdf)
     name = str(name_or_path) if not looks_like_path(name_or_path) else source.urdf.stem
-    robot = Robot.from_model(
+    return Robot.from_model(
         model,
         name=name,
         urdf_path=source.urdf,
         srdf_path=source.srdf,
         passive_joints=passive,
     )
-    if not reducing:
-        return robot
-    from robodyn.reduce import reduce
-
-    reduced = reduce(robot, lock=lock, keep=keep, reference=reference).reduced
-    if check_physics:
-        refuse_impossible(reduced.model, source.urdf)
-    return reduced
 
 
 def load_reduction(
@@ -245,8 +246,9 @@ def load_reduction(
 ) -> Reduction:
     """As :func:`load` with ``lock``/``keep``, but return the whole :class:`robodyn.reduce.Reduction`.
 
-    The full model is checked for impossible inertias except joints that move nothing;
-    the reduced model must have none left.
+    The full model is checked for impossible inertias except joints that move nothing (a
+    joint that moves nothing makes M singular, unless it is locked); the reduced model must
+    have none left.
     """
     from robodyn.reduce import reduce
 

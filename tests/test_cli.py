@@ -32,3 +32,23 @@ def test_version(capsys):
     with pytest.raises(SystemExit) as exc:
         main(["--version"])
     assert exc.value.code == 0 and "robodyn 0.1.0" in capsys.readouterr().out
+
+
+def test_broken_pipe_is_quiet_and_exit_0():
+    import subprocess
+    import sys
+
+    proc = subprocess.run(
+        f"{sys.executable} -m robodyn info talos | head -1", shell=True, capture_output=True, text=True, check=False
+    )
+    assert proc.stdout.startswith("talos:")
+    assert "Traceback" not in proc.stderr and "BrokenPipe" not in proc.stderr
+
+
+def test_usage_error_is_one_line(capsys):
+    with pytest.raises(SystemExit):
+        main(["check", "pendubot", "--samples", "0"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        "robodyn check: error: argument --samples: expected a positive whole number, got '0' (see 'robodyn check --help')"
+    ]

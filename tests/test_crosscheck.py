@@ -168,3 +168,8 @@ def test_wrong_sizes_and_tolerances_are_refused():
         check(robodyn.load("pendubot"), samples=0)
     with pytest.raises(robodyn.AssumptionError, match="not a cart_pole"):
         check(robodyn.load("pendubot"), "cart_pole")
+
+
+def test_a_model_without_moving_joints_is_refused_plainly():
+    with pytest.raises(robodyn.InputError, match="no moving joint.*--free-flyer"):
+        check(robodyn.load("hector"))

@@ -161,3 +161,18 @@ def test_user_formula_errors_are_one_line(tmp_path):
     )
     with pytest.raises(FormulaError, match=r"mass_matrix raised KeyError: 'mass' \(line 3\)"):
         formulas.load_user_formula(raising).mass_matrix(np.zeros(1), PARAMS["geared_arm"])
+
+
+def test_user_formula_non_finite_and_key_errors_name_the_fix(tmp_path):
+    f = tmp_path / "nan.py"
+    f.write_text(
+        "import numpy as np\nKIND = 'pendubot'\n"
+        "def mass_matrix(q, p):\n    return np.eye(2) * p['mass1']\n"
+        "def coriolis_matrix(q, v, p):\n    return np.zeros((2, 2))\n"
+        "def gravity(q, p):\n    return np.array([np.nan, 0.0])\n"
+    )
+    formula = formulas.load_user_formula(f)
+    with pytest.raises(FormulaError, match=r"KeyError: 'mass1' \(line 4\); the parameters are m1, m2, l1"):
+        formula.mass_matrix(np.zeros(2), PARAMS["pendubot"])
+    with pytest.raises(FormulaError, match="gravity returned non-finite values"):
+        formula.gravity(np.zeros(2), PARAMS["pendubot"])

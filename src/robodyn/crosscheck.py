@@ -115,6 +115,7 @@ class CheckReport:
     rows: tuple[CheckRow, ...]
     wall_time_s: float
     notes: tuple[str, ...] = field(default_factory=tuple)
+    params_given: bool = False  # True: the parameters were given by the user, not read from the model
 
     @property
     def passed(self) -> bool:
@@ -146,6 +147,7 @@ class CheckReport:
             "formula": self.formula,
             "kind": self.kind,
             "params": self.params,
+            "params_given": self.params_given,
             "samples": self.samples,
             "seed": self.seed,
             "rtol": self.rtol,
@@ -404,6 +406,11 @@ def check(
     """
     if samples < 1:
         raise InputError(f"samples must be >= 1, got {samples}")
+    if robot.nv == 0:
+        raise InputError(
+            f"{robot.name} has no moving joint, so it has no dynamics to check "
+            "(a lone body: load it with free_flyer=True, --free-flyer on the command line)"
+        )
     if not (rtol > 0 and np.isfinite(rtol)):
         raise InputError(f"rtol must be a positive number, got {rtol}")
     start = time.perf_counter()
@@ -432,4 +439,5 @@ def check(
         rtol=rtol,
         rows=tuple(rows),
         wall_time_s=time.perf_counter() - start,
+        params_given=params is not None,
     )

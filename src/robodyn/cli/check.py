@@ -104,7 +104,8 @@ def format_report(report: Any, robot: Any) -> str:
             f"{k} = {v:.6g}{' ' + PARAM_UNITS.get(k, '') if PARAM_UNITS.get(k) else ''}"
             for k, v in report.params.items()
         )
-        lines.append(f"parameters read from the model: {params}")
+        origin = "given with --params" if report.params_given else "read from the model"
+        lines.append(f"parameters {origin}: {params}")
     if report.formula is None:
         from robodyn.params import detect_kind
 

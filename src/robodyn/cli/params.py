@@ -35,5 +35,10 @@ def run(args: argparse.Namespace) -> int:
             "name one with --kind to see which assumption it breaks"
         )
     params = extract(robot, kind)
-    print_json({"model": robot.name, "urdf": str(robot.urdf_path), "kind": kind, "params": params.as_dict()})
+    from robodyn.cli.check import PARAM_UNITS
+
+    units = {name: PARAM_UNITS.get(name, "") or "1" for name in params}
+    print_json(
+        {"model": robot.name, "urdf": str(robot.urdf_path), "kind": kind, "params": params.as_dict(), "units": units}
+    )
     return 0

@@ -163,7 +163,7 @@ def load_user_formula(path: str | Path) -> Formula:
 
 
 def _shape_checked(fn: Callable[..., object], name: str, shape: tuple[int, ...], source: str) -> Callable[..., Array]:
-    """Wrap a user's function: float64 result of the right shape, or a FormulaError naming it."""
+    """Wrap a user's function: finite float64 of the right shape, or a FormulaError naming it."""
 
     def wrapped(*args: object) -> Array:
         try:
@@ -171,18 +171,32 @@ def _shape_checked(fn: Callable[..., object], name: str, shape: tuple[int, ...],
         except FormulaError:
             raise
         except Exception as exc:  # a user's function can raise anything
-            tb = exc.__traceback__
-            while tb is not None and tb.tb_next is not None:
-                tb = tb.tb_next
-            where = f" (line {tb.tb_lineno})" if tb is not None else ""
-            raise FormulaError(f"{source}: {name} raised {type(exc).__name__}: {exc}{where}") from None
+            raise FormulaError(f"{source}: {name} raised {_describe(exc, source, args)}") from None
         if shape == () and out.shape in ((), (1,)):
-            return out.reshape(())
-        if out.shape != shape:
+            out = out.reshape(())
+        elif out.shape != shape:
             raise FormulaError(f"{source}: {name} returned shape {out.shape}, expected {shape}")
+        if not np.all(np.isfinite(out)):
+            raise FormulaError(f"{source}: {name} returned non-finite values {out.tolist()} at q = {args[0]!r}")
         return out
 
     return wrapped
+
+
+def _describe(exc: Exception, source: str, args: tuple[object, ...]) -> str:
+    """``KeyError: 'mass1' (line 17); the parameters are m1, m2, ...``: the user's own line."""
+    line = None
+    user_file = Path(source).resolve()
+    tb = exc.__traceback__
+    while tb is not None:  # the deepest frame in the user's file, not in numpy or robodyn
+        if Path(tb.tb_frame.f_code.co_filename).resolve() == user_file:
+            line = tb.tb_lineno
+        tb = tb.tb_next
+    text = f"{type(exc).__name__}: {exc}" + (f" (line {line})" if line is not None else "")
+    params = args[-1]
+    if isinstance(exc, KeyError) and isinstance(params, Mapping):
+        text += f"; the parameters are {', '.join(params)}"
+    return text
 
 
 __all__ = ["KINDS", "Formula", "get", "load_user_formula", "looks_like_file", "resolve"]

@@ -159,7 +159,8 @@ class RobotSystem:
         self._actuated = np.flatnonzero(self.robot.actuated)
         self._formula = _formula(self.robot) if self.backend == "formula" else None
         self._forward = _backend(self.robot, self.backend, self._formula)
-        self._lossy = bool(np.any(self.damping) or np.any(self.friction))
+        self._has_friction = bool(np.any(self.friction))
+        self._lossy = self._has_friction or bool(np.any(self.damping))
         self._model, self._data = self.robot.model, self.robot.data
         if self.nw == 0:  # nothing to book: u is v, and the rates are the acceleration alone
             self.rates = self._rates_free_aba if self.backend == "aba" else self._rates_free  # type: ignore[method-assign]
@@ -189,7 +190,7 @@ class RobotSystem:
 
     def loss_torque(self, v: Array) -> Array:
         """Joint losses -D v - F tanh(v / V_FRICTION) [N m | N], shape (nv,)."""
-        if not np.any(self.friction):
+        if not self._has_friction:
             return -self.damping * v
         return -self.damping * v - self.friction * np.tanh(v / V_FRICTION)
 
@@ -263,7 +264,7 @@ class RobotSystem:
         da_dq, da_dv, Minv = dynamics.aba_derivatives(self.robot.model, self.robot.data, q, v, tau)
         if self._lossy:
             dloss_dv = -self.damping
-            if np.any(self.friction):
+            if self._has_friction:
                 dloss_dv = dloss_dv - self.friction / V_FRICTION / np.cosh(v / V_FRICTION) ** 2
             da_dv = da_dv + Minv * dloss_dv  # Minv @ diag(dloss_dv)
         return da_dq, da_dv

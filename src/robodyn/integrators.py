@@ -40,7 +40,6 @@ from robodyn.errors import InputError, RobodynError
 from robodyn.registry import Registry
 
 Array = NDArray[np.float64]
-RatesFn = Callable[[float, Array, Array], Array]
 
 # Butcher tableaux are checked to this absolute tolerance: their coefficients are exact
 # rationals printed as doubles, so the sums are exact up to a few ulps.

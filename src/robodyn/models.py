@@ -419,10 +419,3 @@ def _resolve_uri(uri: str, urdf: Path, package_dirs: list[Path]) -> Path | None:
         if candidate.is_file():
             return candidate
     return None
-
-
-def default_configuration(robot: Robot) -> np.ndarray:
-    """Pinocchio's neutral configuration of ``robot``, shape (nq,)."""
-    from robodyn import dynamics
-
-    return dynamics.neutral(robot.model)

@@ -14,7 +14,6 @@ then carries the trajectory up to that step.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -363,9 +362,3 @@ def _meta(
     if run.failure is not None:
         meta["diverged_step"], meta["diverged_time"] = run.failure[0], run.failure[1]
     return meta
-
-
-def accelerations(system: RobotSystem) -> Callable[[float, Array, Array], Array]:
-    """The acceleration function a(t, q, v) an integrator sees for ``system`` [rad/s^2 | m/s^2]."""
-    u_tail = np.zeros(system.nw)
-    return lambda t, q, v: system.rates(t, q, np.concatenate([v, u_tail]))[: system.nv]

@@ -269,12 +269,7 @@ class RobotSystem:
             da_dv = da_dv + Minv * dloss_dv  # Minv @ diag(dloss_dv)
         return da_dq, da_dv
 
-    # ------------------------------------------------------------------ energies
-    def powers(self, t: float, q: Array, v: Array) -> tuple[Array, float, float]:
-        """(tau_in, P_input [W], P_damping [W]) at one state."""
-        tau_in = self.input_torque(t, q, v)
-        return tau_in, float(tau_in @ v), float(self.loss_torque(v) @ v)
-
+    # ------------------------------------------------------------------ metadata
     def describe(self) -> dict[str, Any]:
         """The system's settings, for a trajectory's metadata."""
         return {

@@ -116,6 +116,17 @@ def test_run_writes_summary_and_trajectory(tmp_path):
     assert code == (0 if summary["check"]["passed"] else 1)
 
 
+def test_run_view_html_writes_the_replay_page(tmp_path):
+    path = write(tmp_path, GOOD + "[view]\nhtml = 'replay.html'\n")
+    out = tmp_path / "out"
+    assert main(["run", str(path), "--out", str(out)]) == 0
+    page = (tmp_path / "replay.html").read_text()  # relative to the scene file's folder
+    assert page.startswith("<!DOCTYPE html>") and "<title>robodyn: pendubot</title>" in page
+    assert "handle_command_bytearray" in page  # meshcat's player is inlined: the page replays offline
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["view"] == {"html": str(tmp_path / "replay.html")}
+
+
 def test_run_bad_scene_exit_code(tmp_path, capsys):
     path = write(tmp_path, "[model]\nname = 'pendubot'\n[simulate]\nduration = -1\ndt = 0.1\n")
     assert main(["run", str(path)]) == EXIT_BAD_INPUT

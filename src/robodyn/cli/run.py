@@ -54,11 +54,16 @@ def run(args: argparse.Namespace) -> int:
         trajectory = _simulate(scene, robot, reduction, q0, v0, torque, out, summary)
     if scene.bench is not None:
         _bench(scene, robot, reduction, summary)
-    if scene.view is not None and not args.no_view:
-        _view(scene, robot, trajectory, summary)
+    view = None if args.no_view else scene.view
+    playback = _view(view, robot, trajectory, summary) if view is not None else None
     path = writable_path(out / "summary.json")
     path.write_text(json.dumps(summary, indent=2, default=_jsonable) + "\n", encoding="utf-8")
     print(f"summary: {path}")
+    if view is not None and playback is not None:  # last: the server runs until Ctrl-C
+        from robodyn.cli.view import serve_playback
+
+        served = serve_playback(playback, open_browser=bool(view.get("open")), zmq_url=None, port=view.get("port"))
+        status = max(status, served)
     return status
 
 
@@ -191,16 +196,15 @@ def _bench(scene: Any, robot: Any, reduction: Any, summary: dict[str, Any]) -> N
     summary["bench"] = {"full_per_call_s": cost.full, "reduced_per_call_s": cost.reduced, "repeat": repeat}
 
 
-def _view(scene: Any, robot: Any, trajectory: Any, summary: dict[str, Any]) -> None:
+def _view(view: dict[str, Any], robot: Any, trajectory: Any, summary: dict[str, Any]) -> Any:
+    """Write the [view] html file, or return the playback to serve once everything else is written."""
     from robodyn import viewer
+    from robodyn.cli.view import write_html
 
-    options: dict[str, Any] = {}
-    if "html" in scene.view:
-        options["html"] = scene.view["html"]
-    if "port" in scene.view:
-        options["port"] = scene.view["port"]
-    if "open" in scene.view:
-        options["open"] = scene.view["open"]
-    result = viewer.show(robot, trajectory, **options)
-    print(f"view: {result}")
-    summary["view"] = str(result)
+    playback = viewer.build(robot, trajectory)
+    if "html" in view:
+        path = write_html(playback, view["html"], open_browser=bool(view.get("open")))
+        summary["view"] = {"html": str(path)}
+        return None
+    summary["view"] = {"server_port": view.get("port")}
+    return playback

@@ -99,13 +99,9 @@ def run(args: argparse.Namespace) -> int:
     )
     _describe(playback)
     if args.html is not None:
-        path = writable_path(args.html)
-        path.write_text(viewer.to_html(playback), encoding="utf-8")
-        print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB): open it in a browser, no server needed")
-        if args.open:
-            webbrowser.open(path.resolve().as_uri())
+        write_html(playback, args.html, open_browser=args.open)
         return 0
-    return _serve(playback, open_browser=args.open, zmq_url=args.zmq_url, port=args.port)
+    return serve_playback(playback, open_browser=args.open, zmq_url=args.zmq_url, port=args.port)
 
 
 def serve_and_play(
@@ -130,10 +126,23 @@ def serve_and_play(
 
     playback = viewer.build(robot, trajectory, speed=speed, trace_frame=trace_frame)
     _describe(playback)
-    return _serve(playback, open_browser=open_browser, zmq_url=zmq_url, port=None)
+    return serve_playback(playback, open_browser=open_browser, zmq_url=zmq_url, port=None)
 
 
-def _serve(playback: Playback, *, open_browser: bool, zmq_url: str | None, port: int | None) -> int:
+def write_html(playback: Playback, html: Path, *, open_browser: bool) -> Path:
+    """Write the self-contained replay page to ``html``, say so, and open it if asked; return its path."""
+    from robodyn import viewer
+
+    path = writable_path(html)
+    path.write_text(viewer.to_html(playback), encoding="utf-8")
+    print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB): open it in a browser, no server needed")
+    if open_browser:
+        webbrowser.open(path.resolve().as_uri())
+    return path
+
+
+def serve_playback(playback: Playback, *, open_browser: bool, zmq_url: str | None, port: int | None) -> int:
+    """Serve ``playback`` (a server of our own on ``port``, or the one at ``zmq_url``) until Ctrl-C; exit code."""
     from robodyn import viewer
 
     server = viewer.serve(playback, zmq_url=zmq_url, port=port)

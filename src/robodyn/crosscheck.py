@@ -25,7 +25,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from robodyn import dynamics
 from robodyn.errors import InputError
@@ -174,7 +174,7 @@ class _Accumulator:
         self.counts, self.note = counts, note
         self.pairs: list[tuple[Array, Array]] = []
 
-    def add(self, reference: Array | float, value: Array | float) -> None:
+    def add(self, reference: ArrayLike, value: ArrayLike) -> None:
         self.pairs.append(
             (np.atleast_1d(np.asarray(reference, dtype=np.float64)), np.atleast_1d(np.asarray(value, dtype=np.float64)))
         )
@@ -221,6 +221,15 @@ def _grad(potential: Callable[[Array], float], integrate: Callable[[Array, Array
     return grad
 
 
+def _bind(potential: Callable[[Array, Params], float | Array], p: Params) -> Callable[[Array], float]:
+    """V(q) with the parameters bound, as a float [J]."""
+
+    def V(q: Array) -> float:
+        return float(potential(q, p))
+
+    return V
+
+
 def _formula_rows(robot: Robot, formula: Formula, p: Params, samples: list[_Sample], rtol: float) -> list[CheckRow]:
     model, data = robot.model, robot.data
     fd_tol = max(rtol, FD_TOL)
@@ -250,7 +259,7 @@ def _formula_rows(robot: Robot, formula: Formula, p: Params, samples: list[_Samp
         acc["nle"].add(dynamics.nonlinear_effects(model, data, s.q, s.v), C_f @ s.v + G_f)
         acc["id"].add(dynamics.rnea(model, data, s.q, s.v, s.a), M_f @ s.a + C_f @ s.v + G_f)
         acc["fd"].add(dynamics.aba(model, data, s.q, s.v, s.tau), np.linalg.solve(M_f, s.tau - C_f @ s.v - G_f))
-        acc["T"].add(0.5 * s.v @ M_p @ s.v, 0.5 * s.v @ M_f @ s.v)
+        acc["T"].add(0.5 * float(s.v @ M_p @ s.v), 0.5 * float(s.v @ M_f @ s.v))
         N = _mdot(lambda q: formula.mass_matrix(q, p), add, s.q, s.v) - 2 * C_f
         acc["skew"].add(np.zeros_like(N), N + N.T)
         if formula.potential_energy is not None:
@@ -259,7 +268,7 @@ def _formula_rows(robot: Robot, formula: Formula, p: Params, samples: list[_Samp
                 dynamics.potential_energy(model, data, s.q) - dynamics.potential_energy(model, data, q_anchor),
                 V_f(s.q, p) - V_f(q_anchor, p),
             )
-            acc["dV"].add(G_f, _grad(lambda q, V=V_f: float(V(q, p)), add, s.q, robot.nv))
+            acc["dV"].add(G_f, _grad(_bind(V_f, p), add, s.q, robot.nv))
     scalars = {"T", "V"}
     rows = [a.row(samples, scalar=k in scalars) for k, a in acc.items()]
     skew = acc["skew"]

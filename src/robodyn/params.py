@@ -37,20 +37,20 @@ class Params(Mapping[str, float]):
     """Named parameters of a kind (SI units), e.g. ``p["m1"]`` [kg], ``p["l1"]`` [m]."""
 
     kind: str
-    values: Mapping[str, float]
+    table: Mapping[str, float]
 
     def __getitem__(self, key: str) -> float:
-        return self.values[key]
+        return self.table[key]
 
     def __iter__(self) -> Iterator[str]:
-        return iter(self.values)
+        return iter(self.table)
 
     def __len__(self) -> int:
-        return len(self.values)
+        return len(self.table)
 
     def as_dict(self) -> dict[str, float]:
         """A plain dict copy."""
-        return dict(self.values)
+        return dict(self.table)
 
 
 @dataclass(frozen=True)

@@ -50,7 +50,7 @@ class Formula:
     mass_matrix: Callable[[Array, Params], Array]
     coriolis_matrix: Callable[[Array, Array, Params], Array]
     gravity: Callable[[Array, Params], Array]
-    potential_energy: Callable[[Array, Params], float] | None = None
+    potential_energy: Callable[[Array, Params], float | Array] | None = None
     dof: int = 2
 
     def nle(self, q: Array, v: Array, p: Params) -> Array:
@@ -63,7 +63,7 @@ class Formula:
 
     def forward_dynamics(self, q: Array, v: Array, tau: Array, p: Params) -> Array:
         """A = M^-1 (tau - C v - G), by a linear solve."""
-        return np.linalg.solve(self.mass_matrix(q, p), tau - self.nle(q, v, p))
+        return np.asarray(np.linalg.solve(self.mass_matrix(q, p), tau - self.nle(q, v, p)), dtype=np.float64)
 
     def kinetic_energy(self, q: Array, v: Array, p: Params) -> float:
         """T = 1/2 v^T M v [J]."""

@@ -23,11 +23,12 @@ import platform
 from pathlib import Path
 
 import numpy as np
-from _common import argument_parser, best_of, pyplot, save_figure, write_json
 
 import robodyn
 from robodyn import integrators
 from robodyn.models import load
+
+from _common import argument_parser, best_of, pyplot, save_figure, write_json
 
 DT = 1e-3
 

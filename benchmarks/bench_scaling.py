@@ -18,12 +18,13 @@ import platform
 from pathlib import Path
 
 import numpy as np
-from _common import argument_parser, best_of, pyplot, save_figure, write_json
 
 import robodyn
 from robodyn.models import load, load_geometry
 from robodyn.reduce import time_calls
 from robodyn.simulation import simulate
+
+from _common import argument_parser, best_of, pyplot, save_figure, write_json
 
 # (label, model, load options). Reduced entries keep the joints a scene would move.
 CASES = [

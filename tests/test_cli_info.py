@@ -53,11 +53,25 @@ def test_info_reports_impossible_inertia_instead_of_refusing(capsys):
     assert "triangle" in out and "RShoulderYawLink" in out
 
 
-def test_info_geometry_finds_missing_meshes(capsys):
+def test_info_geometry_finds_every_mesh_of_talos_full(capsys):
+    # talos_full's URIs read package:///example-robot-data/...: all 93 files exist, none is "missing".
     assert main(["info", "talos_full", "--geometry", "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
-    missing = [f for f in data["findings"] if f["code"] == "mesh_missing"]
-    assert missing and all(f["severity"] == "warning" for f in missing)
+    assert data["geometry_checked"] and [f for f in data["findings"] if f["code"] == "mesh_missing"] == []
+
+
+def test_info_geometry_reports_a_missing_mesh(tmp_path, capsys):
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text(
+        '<robot name="arm"><link name="base"/><link name="a"><inertial><mass value="1"/>'
+        '<inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial>'
+        '<visual><geometry><mesh filename="package:///nowhere/a.stl"/></geometry></visual></link>'
+        '<joint name="j" type="revolute"><parent link="base"/><child link="a"/><axis xyz="0 0 1"/>'
+        '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>'
+    )
+    assert main(["info", str(urdf), "--geometry"]) == 0
+    out = capsys.readouterr().out
+    assert "warning mesh_missing" in out and "'package:///nowhere/a.stl' not found" in out
 
 
 def test_info_bad_inputs(capsys):

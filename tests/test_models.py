@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -13,6 +15,7 @@ from robodyn.models import (
     mesh_references,
     reference_configurations,
     resolve,
+    resolve_resource,
 )
 
 # geared arm, armature vs rotor-as-a-body: identical physics, so CRBA agrees to round-off.
@@ -68,3 +71,48 @@ def test_errors_name_the_problem(tmp_path):
 def test_mesh_references_resolve_without_parsing_meshes():
     refs = mesh_references(resolve("panda").urdf)
     assert refs and all(r.path is not None and r.path.is_file() for r in refs)
+
+
+_TRIANGLE_STL = "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 0.1 0 0\nvertex 0 0.1 0\nendloop\nendfacet\nendsolid t\n"
+
+
+def test_resource_uris_resolve_as_pinocchio_resolves_them(tmp_path):
+    # package:// with two and three slashes, file://, a relative path: the file Pinocchio's own
+    # geometry loader opens is the one robodyn's mesh check finds.
+    import pinocchio as pin
+
+    share, robots = tmp_path / "share", tmp_path / "robots"
+    (share / "pkg" / "meshes").mkdir(parents=True)
+    robots.mkdir()
+    (share / "pkg" / "meshes" / "tri.stl").write_text(_TRIANGLE_STL)
+    (robots / "rel.stl").write_text(_TRIANGLE_STL)
+    uris = [
+        "package:///pkg/meshes/tri.stl",
+        "package://pkg/meshes/tri.stl",
+        f"file://{share}/pkg/meshes/tri.stl",
+        "rel.stl",
+    ]
+    visuals = "".join(f'<visual><geometry><mesh filename="{u}"/></geometry></visual>' for u in uris)
+    urdf = robots / "r.urdf"
+    urdf.write_text(
+        '<robot name="r"><link name="base"/><link name="a"><inertial><mass value="1"/>'
+        '<inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial>' + visuals + "</link>"
+        '<joint name="j" type="revolute"><parent link="base"/><child link="a"/><axis xyz="0 0 1"/>'
+        '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>'
+    )
+    dirs = [robots, share]
+    model = pin.buildModelFromUrdf(str(urdf))
+    geom = pin.buildGeomFromUrdf(model, str(urdf), pin.GeometryType.VISUAL, package_dirs=[str(d) for d in dirs])
+    opened = [Path(obj.meshPath).resolve() for obj in geom.geometryObjects]
+    found = [resolve_resource(u, dirs) for u in uris]
+    assert all(f is not None for f in found)
+    assert [f.resolve() for f in found if f is not None] == opened
+    assert resolve_resource("package://pkg/meshes/missing.stl", dirs) is None
+    assert resolve_resource("http://example.org/tri.stl", dirs) is None  # a scheme Pinocchio does not handle
+
+
+def test_talos_package_uris_with_three_slashes_are_found():
+    # talos_full_v2.urdf writes package:///example-robot-data/robots/...: every file exists.
+    refs = mesh_references(resolve("talos_full").urdf)
+    assert any(r.uri.startswith("package:///") for r in refs)
+    assert [r.uri for r in refs if r.path is None] == []

@@ -402,20 +402,41 @@ def mesh_references(urdf: Path) -> list[MeshReference]:
             for element in link.iter(kind):
                 for mesh in element.iter("mesh"):
                     uri = mesh.get("filename", "")
-                    refs.append(MeshReference(link.get("name", ""), kind, uri, _resolve_uri(uri, urdf, dirs)))
+                    refs.append(MeshReference(link.get("name", ""), kind, uri, resolve_resource(uri, dirs)))
     return refs
 
 
-def _resolve_uri(uri: str, urdf: Path, package_dirs: list[Path]) -> Path | None:
-    if uri.startswith("package://"):
-        relative = uri[len("package://") :]
-        candidates = [d / relative for d in package_dirs]
-    elif uri.startswith("file://"):
-        candidates = [Path(uri[len("file://") :])]
+def resolve_resource(uri: str, package_dirs: Sequence[Path]) -> Path | None:
+    """The file a URDF ``filename`` URI names, found the way Pinocchio finds it, or None.
+
+    Mirrors ``pinocchio::retrieveResourcePath``: for ``package://`` and ``model://`` the
+    part after ``://`` is appended to each package folder in turn (so ``package:///a/b``
+    and ``package://a/b`` both look for ``<dir>/a/b``); ``file://`` is a plain path; a
+    relative path is looked for next to the URDF, then in each package folder; an absolute
+    path is taken as is. Folders of ``ROS_PACKAGE_PATH`` are searched after
+    ``package_dirs``, as Pinocchio does. An unknown scheme finds nothing.
+    """
+    dirs = [*package_dirs, *_ros_package_dirs()]
+    scheme, sep, rest = uri.partition("://")
+    if sep:
+        if scheme in ("package", "model"):
+            relative = rest.lstrip("/")
+            candidates = [Path(d) / relative for d in dirs]
+        elif scheme == "file":
+            candidates = [Path(rest)]
+        else:
+            return None
     else:
         path = Path(uri)
-        candidates = [path if path.is_absolute() else urdf.parent / path]
+        candidates = [path] if path.is_absolute() else [Path(d) / path for d in dirs]
     for candidate in candidates:
         if candidate.is_file():
             return candidate
     return None
+
+
+def _ros_package_dirs() -> list[Path]:
+    """The folders of ``ROS_PACKAGE_PATH`` (Pinocchio adds them to every resource search)."""
+    import os
+
+    return [Path(d) for d in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if d]

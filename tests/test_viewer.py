@@ -220,6 +220,54 @@ def test_cli_rejects_a_zero_speed(capsys: pytest.CaptureFixture[str]) -> None:
     assert "expected a positive number" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("port", ["99999", "0", "-1", "http"])
+def test_cli_rejects_a_port_outside_1_to_65535(port: str, capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(["view", "pendubot", "--port", port])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "expected a port number from 1 to 65535" in err and "Traceback" not in err and len(err.splitlines()) == 1
+
+
+def test_an_unwritable_html_path_fails_before_any_work(
+    motion_file: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    def no_baking(*args: object, **kwargs: object) -> None:
+        raise AssertionError("the scene was built before the output path was checked")
+
+    monkeypatch.setattr(viewer, "build", no_baking)
+    a_file = tmp_path / "a_file"
+    a_file.write_text("x")
+    for html, message in (
+        (Path("/proc/x.html"), "cannot write /proc/x.html"),  # root may write anywhere, yet /proc takes no files
+        (tmp_path, "it is a folder"),
+        (a_file / "x.html", "is not a folder"),
+    ):
+        assert main(["view", "pendubot", str(motion_file), "--html", str(html)]) == 2
+        err = capsys.readouterr().err
+        assert message in err and len(err.splitlines()) == 1, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]  # the check created nothing
+
+
+def test_open_without_a_browser_says_what_to_open_by_hand(
+    motion_file: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import webbrowser
+
+    asked: list[str] = []
+
+    def no_browser(url: str, *args: object, **kwargs: object) -> bool:
+        asked.append(url)
+        return False  # what webbrowser.open returns when no browser could be started
+
+    monkeypatch.setattr(webbrowser, "open", no_browser)
+    out = tmp_path / "replay.html"
+    assert main(["view", "pendubot", str(motion_file), "--html", str(out), "--open"]) == 0
+    err = capsys.readouterr().err
+    assert asked == [out.resolve().as_uri()]
+    assert "no web browser could be opened" in err and f"open {out} by hand" in err and len(err.splitlines()) == 1
+
+
 def test_meshcat_missing_gives_the_install_hint(
     pendubot: robodyn.Robot, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:

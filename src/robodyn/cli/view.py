@@ -19,9 +19,9 @@ from robodyn.cli._common import (
     float_list,
     load_robot,
     positive_float,
-    positive_int,
     writable_path,
 )
+from robodyn.cli._output import check_output_file
 from robodyn.errors import InputError, UnavailableError
 
 if TYPE_CHECKING:
@@ -67,9 +67,34 @@ def add_parser(sub: Any) -> None:
         "--zmq-url", default=None, metavar="URL", help="send to a running meshcat server, e.g. tcp://127.0.0.1:6000"
     )
     p.add_argument(
-        "--port", type=positive_int, default=None, help="web port of the server robodyn starts (default: free)"
+        "--port", type=port_number, default=None, help="web port of the server robodyn starts, 1-65535 (default: free)"
     )
     p.set_defaults(handler=run)
+
+
+def port_number(text: str) -> int:
+    """Argparse type: a TCP port, a whole number from 1 to 65535."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a port number from 1 to 65535, got {text!r}") from None
+    if not 1 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f"expected a port number from 1 to 65535, got {text!r}")
+    return value
+
+
+def open_in_browser(target: str, *, by_hand: str) -> bool:
+    """Open ``target`` (a URL) in the web browser; when none opens, say so on stderr and return False.
+
+    ``by_hand`` is what the user should open instead (the URL, or the file's path).
+    """
+    try:
+        opened = webbrowser.open(target)
+    except webbrowser.Error:
+        opened = False
+    if not opened:
+        print(f"robodyn: note: no web browser could be opened; open {by_hand} by hand", file=sys.stderr, flush=True)
+    return opened
 
 
 def run(args: argparse.Namespace) -> int:
@@ -81,6 +106,8 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--html writes a file and starts no server; leave out --zmq-url and --port")
     if args.zmq_url is not None and args.port is not None:
         raise InputError("--port is for the server robodyn starts; with --zmq-url the running server keeps its own")
+    if args.html is not None:
+        check_output_file(args.html)  # before the work: a bad path fails in a moment, not after the baking
     trajectory = Trajectory.load(args.trajectory) if args.trajectory is not None else None
     if trajectory is not None and args.q is not None:
         raise InputError("--q shows a still pose; leave it out when playing a trajectory")
@@ -137,7 +164,7 @@ def write_html(playback: Playback, html: Path, *, open_browser: bool) -> Path:
     path.write_text(viewer.to_html(playback), encoding="utf-8")
     print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB): open it in a browser, no server needed")
     if open_browser:
-        webbrowser.open(path.resolve().as_uri())
+        open_in_browser(path.resolve().as_uri(), by_hand=str(path))
     return path
 
 
@@ -149,7 +176,7 @@ def serve_playback(playback: Playback, *, open_browser: bool, zmq_url: str | Non
     try:
         print(f"meshcat: open {server.url}", flush=True)
         if open_browser:
-            webbrowser.open(server.url)
+            open_in_browser(server.url, by_hand=server.url)
         if not server.owned:
             print(f"sent to the meshcat server at {zmq_url}; it keeps the scene", flush=True)
             return 0

@@ -44,7 +44,8 @@ def write(tmp_path: Path, text: str) -> Path:
         ("[initial]\nq = [1]\n", r"\[model\]: missing"),
         ("[model]\nname = 'a'\nurdf = 'b.urdf'\n", "exactly one of name"),
         ("[model]\nurdf = 'nothere.urdf'\n", r"\[model\] urdf: no such file"),
-        ("[model]\nname = 'pendubot'\n[simulate]\ndt = 0.01\n", r"\[simulate\] duration: missing"),
+        ("[model]\nname = 'pendubot'\n[simulate]\ndt = -0.01\n", r"\[simulate\] dt: expected a number > 0, got -0.01"),
+        ("[model]\nname = 'pendubot'\n[simulate]\nduration = 1e-4\n", r"\[simulate\] dt: the step 0.001 s .*default"),
         (
             "[model]\nname = 'pendubot'\n[simulate]\nduration = 1\ndt = -0.01\n",
             r"\[simulate\] dt: expected a number > 0",
@@ -71,6 +72,105 @@ def test_validation_errors_name_file_table_and_key(tmp_path, text, message):
         read_scene(path)
     assert str(path) in str(info.value)
     assert "\n" not in str(info.value)
+
+
+def test_simulate_defaults_are_those_of_robodyn_simulate(tmp_path):
+    scene = read_scene(write(tmp_path, "[model]\nname = 'pendubot'\n[simulate]\n"))
+    assert scene.simulate == {"duration": 2.0, "dt": 1e-3, "integrator": "rk4", "backend": "aba"}
+    scene = read_scene(write(tmp_path, "[model]\nname = 'pendubot'\n[simulate]\ndt = 0.01\n"))
+    assert scene.simulate is not None and scene.simulate["duration"] == 2.0 and scene.simulate["dt"] == 0.01
+
+
+@pytest.mark.parametrize(
+    ("model", "message"),
+    [
+        (
+            "name = 'pendubot'\nkeep = ['nope']",
+            r"\[model\] keep: unknown joint of pendubot to keep 'nope'; .*joint1, joint2",
+        ),
+        ("name = 'pendubot'\nlock = { nope = 0.1 }", r"\[model\] lock: unknown joint of pendubot to lock 'nope'"),
+        ("name = 'panda'\nlock = { panda_joint1 = 99.0 }", r"\[model\] lock: lock value .* outside its limits"),
+        ("name = 'panda'\nkeep = ['panda_joint2']\nreference = 'nope'", r"\[model\] reference: unknown reference"),
+        ("name = 'pendubott'", r"\[model\] name: unknown model 'pendubott'"),
+    ],
+)
+def test_model_errors_found_while_building_name_file_table_and_key(tmp_path, model, message):
+    path = write(tmp_path, f"[model]\n{model}\n")
+    with pytest.raises(SceneError, match=message) as info:
+        read_scene(path).build()
+    assert str(info.value).startswith(f"{path}: [model] ") and "\n" not in str(info.value)
+
+
+def test_mimic_is_passed_to_the_model(tmp_path):
+    # geared_arm_rotor: the rotor joint mimics the link joint (x 50); as a mimic joint it adds no DoF
+    plain, _ = read_scene(write(tmp_path, "[model]\nname = 'geared_arm_rotor'\n")).build()
+    coupled, _ = read_scene(write(tmp_path, "[model]\nname = 'geared_arm_rotor'\nmimic = true\n")).build()
+    assert (plain.nv, coupled.nv) == (2, 1)
+
+
+def test_run_with_mimic_fails_in_one_line_or_runs(tmp_path, capsys):
+    path = write(tmp_path, "[model]\nname = 'geared_arm_rotor'\nmimic = true\n[simulate]\nduration = 0.05\n")
+    code = main(["run", str(path), "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    if code == 0:  # simulate supports mimic joints with the scene's backend
+        assert (tmp_path / "out" / "scene.npz").is_file()
+    else:  # ABA refuses mimic joints: one line naming the way out
+        assert code == EXIT_BAD_INPUT and len(err.splitlines()) == 1 and "crba" in err
+
+
+def test_run_checks_the_output_folder_before_any_work(tmp_path, monkeypatch, capsys):
+    from robodyn import scene as scene_module
+
+    def no_build(self):
+        raise AssertionError("the model was built before the output folder was checked")
+
+    monkeypatch.setattr(scene_module.Scene, "build", no_build)
+    path = write(tmp_path, GOOD + "[check]\nexactness = true\n")
+    a_file = tmp_path / "a_file"
+    a_file.write_text("x")
+    for out, message in ((Path("/proc/zz"), "cannot write /proc/zz"), (a_file, "is not a folder")):
+        assert main(["run", str(path), "--out", str(out)]) == EXIT_BAD_INPUT
+        err = capsys.readouterr().err
+        assert message in err and len(err.splitlines()) == 1, err
+
+
+def test_run_diverged_writes_the_summary_with_the_divergence(tmp_path, capsys):
+    text = "[model]\nname = 'pendubot'\n[initial]\nq = [0.3, -0.2]\n[simulate]\nduration = 5.0\ndt = 0.05\nintegrator = 'euler'\n"
+    out = tmp_path / "out"
+    assert main(["run", str(write(tmp_path, text)), "--out", str(out)]) == 3
+    assert "diverged" in capsys.readouterr().err
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["simulate"]["diverged"] is True and summary["simulate"]["step"] > 0
+    assert "diverged" in summary["simulate"]["message"]
+    assert summary["simulate"]["trajectory"] == str(out / "scene.npz") and (out / "scene.npz").is_file()
+
+
+def test_run_says_joint_for_one_and_joints_for_more(tmp_path, capsys):
+    assert main(["run", str(write(tmp_path, GOOD)), "--out", str(tmp_path / "a")]) == 0
+    assert "  locked 1 joint at joint1=0.5\n" in capsys.readouterr().out
+    text = "[model]\nname = 'panda'\nkeep = ['panda_joint2']\nreference = 'default'\n"
+    assert main(["run", str(write(tmp_path, text)), "--out", str(tmp_path / "b")]) == 0
+    assert "  locked 8 joints at " in capsys.readouterr().out
+
+
+def test_run_empty_view_serves_the_playback_and_prints_no_repr(tmp_path, monkeypatch, capsys):
+    # [view] with no key: the documented default, a meshcat server playing the motion until Ctrl-C
+    from robodyn.cli import view as view_cli
+
+    served = []
+
+    def fake_serve(playback, *, open_browser, zmq_url, port):
+        served.append((playback.robot_name, playback.n_frames > 1, open_browser, zmq_url, port))
+        return 0
+
+    monkeypatch.setattr(view_cli, "serve_playback", fake_serve)
+    out = tmp_path / "out"
+    assert main(["run", str(write(tmp_path, GOOD + "[view]\n")), "--out", str(out)]) == 0
+    assert served == [("pendubot", True, False, None, None)]
+    stdout = capsys.readouterr().out
+    assert "Replay(" not in stdout and len(stdout) < 2000
+    assert json.loads((out / "summary.json").read_text())["view"] == {"server_port": None}
 
 
 def test_missing_scene_file(tmp_path):

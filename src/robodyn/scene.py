@@ -22,7 +22,7 @@ then builds the model and runs the parts asked for. Example::
     target = { panda_joint2 = 0.0 }
     gravity_compensation = true
 
-    [simulate]
+    [simulate]                              # defaults as robodyn simulate: 2 s, 1e-3 s, rk4, aba
     duration = 2.0                          # [s]
     dt = 1e-3                               # [s]
     integrator = "rk4"
@@ -105,17 +105,38 @@ class Scene:
         Returns the robot to simulate (the reduced one when joints are locked) and the
         :class:`robodyn.reduce.Reduction`, or None when nothing is locked.
         """
+        from robodyn.errors import UnknownNameError
         from robodyn.models import load, load_reduction
 
         m = self.model
         target = m.get("urdf") or m["name"]
         options = {"srdf": m.get("srdf"), "free_flyer": m.get("free_flyer", False), "mimic": m.get("mimic", False)}
-        if not m.get("keep") and not m.get("lock"):
-            return load(target, **options), None
-        reduction = load_reduction(
-            target, lock=m.get("lock"), keep=m.get("keep"), reference=m.get("reference"), **options
-        )
+        try:
+            if not m.get("keep") and not m.get("lock"):
+                return load(target, **options), None
+            reduction = load_reduction(
+                target, lock=m.get("lock"), keep=m.get("keep"), reference=m.get("reference"), **options
+            )
+        except UnknownNameError as exc:
+            raise self.error("model", self._model_key(exc.what), str(exc)) from None
+        except SceneError:
+            raise
+        except InputError as exc:
+            raise self.error("model", self._model_key(str(exc)), str(exc)) from None
         return reduction.reduced, reduction
+
+    def _model_key(self, what: str) -> str:
+        """The [model] key an error about ``what`` comes from (keep, lock, reference or the model)."""
+        m = self.model
+        if "reference" in what:
+            return "reference"
+        if ("keep" in what or "kept" in what) and "keep" in m:
+            return "keep"
+        if "lock" in what and "lock" in m:
+            return "lock"
+        if "joint" in what:
+            return "keep" if "keep" in m else "lock"
+        return "name" if "name" in m else "urdf"
 
     def initial_state(self, robot: Robot, reduction: Reduction | None = None) -> tuple[Array, Array]:
         """(q0 (nq,), v0 (nv,)) of the scene for ``robot``, zero velocity by default.
@@ -389,26 +410,38 @@ def _toml() -> Any:
             ) from None
 
 
+# The defaults of ``robodyn simulate`` (--duration, --dt, --integrator, --backend).
+SIMULATE_DEFAULTS: dict[str, Any] = {"duration": 2.0, "dt": 1e-3, "integrator": "rk4", "backend": "aba"}
+
+
 def _read_simulate(path: Path, data: dict[str, Any]) -> dict[str, Any] | None:
+    """The [simulate] table with every key given checked, then the defaults of ``robodyn simulate`` filled in."""
     if "simulate" not in data:
         return None
     sim = dict(data["simulate"])
     for key in ("duration", "dt"):
-        if key not in sim:
-            raise _fail(path, f"[simulate] {key}", "missing (seconds, > 0)")
-        _number(path, "simulate", key, sim[key], positive=True)
-    if sim["dt"] > sim["duration"]:
-        raise _fail(path, "[simulate] dt", f"the step {sim['dt']} s is longer than the duration {sim['duration']} s")
-    sim.setdefault("integrator", "rk4")
-    from robodyn import integrators
+        if key in sim:
+            _number(path, "simulate", key, sim[key], positive=True)
+    for key in ("integrator", "backend"):
+        if key in sim:
+            _string(path, "simulate", key, sim[key])
+    if "integrator" in sim:
+        from robodyn import integrators
 
-    name = _string(path, "simulate", "integrator", sim["integrator"])
-    if name not in integrators.names():
+        if sim["integrator"] not in integrators.names():
+            raise _fail(
+                path,
+                "[simulate] integrator",
+                f"unknown integrator {sim['integrator']!r}; expected one of: {', '.join(integrators.names())}",
+            )
+    given = set(sim)
+    for key, default in SIMULATE_DEFAULTS.items():
+        sim.setdefault(key, default)
+    if sim["dt"] > sim["duration"]:
+        origin = " (the default)" if not given >= {"dt", "duration"} else ""
         raise _fail(
             path,
-            "[simulate] integrator",
-            f"unknown integrator {name!r}; expected one of: {', '.join(integrators.names())}",
+            "[simulate] dt",
+            f"the step {sim['dt']} s is longer than the duration {sim['duration']} s{origin}",
         )
-    sim.setdefault("backend", "aba")
-    _string(path, "simulate", "backend", sim["backend"])
     return sim

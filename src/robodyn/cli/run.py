@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from robodyn.cli._common import writable_path
+from robodyn.cli._output import check_output_file, check_output_folder
 from robodyn.errors import EXIT_MISMATCH, EXIT_OK
 
 
@@ -29,10 +30,15 @@ def add_parser(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the scene; print one block per part; write the results."""
+    from robodyn.errors import DivergenceError
     from robodyn.scene import read_scene
 
     scene = read_scene(args.scene)
     out = args.out or scene.output or Path("scene-out") / scene.name
+    check_output_folder(out)  # before the model, the check and the exactness proof: a bad folder fails at once
+    view = None if args.no_view else scene.view
+    if view is not None and "html" in view:
+        check_output_file(view["html"])
     robot, reduction = scene.build()
     summary: dict[str, Any] = {"scene": str(scene.path), "model": robot.name, "nq": robot.nq, "nv": robot.nv}
     if reduction is not None:
@@ -41,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
         summary["kept"] = list(robot.joint_names)
         summary["locked"] = values
         print(f"model: {robot.name}, {reduction.full.nv} -> {robot.nv} DoF; kept {', '.join(robot.joint_names)}")
-        print(f"  locked {len(values)} joints at " + ", ".join(f"{k}={_short(v)}" for k, v in values.items()))
+        print(f"  locked {_count(len(values), 'joint')} at " + ", ".join(f"{k}={_short(v)}" for k, v in values.items()))
     else:
         print(f"model: {robot.name}, {robot.nv} DoF (nothing locked)")
     q0, v0 = scene.initial_state(robot, reduction)
@@ -51,20 +57,32 @@ def run(args: argparse.Namespace) -> int:
     if scene.check is not None:
         status = max(status, _check(scene, robot, reduction, q0, v0, torque, summary))
     if scene.simulate is not None:
-        trajectory = _simulate(scene, robot, reduction, q0, v0, torque, out, summary)
+        try:
+            trajectory = _simulate(scene, robot, reduction, q0, v0, torque, out, summary)
+        except DivergenceError:
+            _write_summary(out, summary)  # the divergence is in it, next to the partial trajectory
+            raise
     if scene.bench is not None:
         _bench(scene, robot, reduction, summary)
-    view = None if args.no_view else scene.view
     playback = _view(view, robot, trajectory, summary) if view is not None else None
-    path = writable_path(out / "summary.json")
-    path.write_text(json.dumps(summary, indent=2, default=_jsonable) + "\n", encoding="utf-8")
-    print(f"summary: {path}")
+    _write_summary(out, summary)
     if view is not None and playback is not None:  # last: the server runs until Ctrl-C
         from robodyn.cli.view import serve_playback
 
         served = serve_playback(playback, open_browser=bool(view.get("open")), zmq_url=None, port=view.get("port"))
         status = max(status, served)
     return status
+
+
+def _write_summary(out: Path, summary: dict[str, Any]) -> None:
+    path = writable_path(out / "summary.json")
+    path.write_text(json.dumps(summary, indent=2, default=_jsonable) + "\n", encoding="utf-8")
+    print(f"summary: {path}")
+
+
+def _count(n: int, noun: str) -> str:
+    """``1 joint``, ``2 joints``."""
+    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
 
 
 def _short(values: list[float]) -> str:
@@ -100,8 +118,9 @@ def _check(scene: Any, robot: Any, reduction: Any, q0: Any, v0: Any, torque: Any
         duration, dt, integrator = _timing(scene)
         exact = prove_exact(reduction, q0, v0, duration=duration, dt=dt, tau=torque, method=integrator)
         ok = exact.q_error <= EXACTNESS_TOL and exact.v_error <= EXACTNESS_TOL and exact.lock_drift <= EXACTNESS_TOL
+        held = _count(len(reduction.locked), "joint")
         print(
-            f"exactness: {'passed' if ok else 'FAILED'}: reduced vs full model with {len(reduction.locked)} joints "
+            f"exactness: {'passed' if ok else 'FAILED'}: reduced vs full model with {held} "
             f"held by constraint over {scene.simulate['duration']} s: max |dq| = {exact.q_error:.2e} rad, "
             f"max |dv| = {exact.v_error:.2e} rad/s, lock drift {exact.lock_drift:.2e} (tolerance {EXACTNESS_TOL:g})"
         )
@@ -134,7 +153,7 @@ def _simulate(
 ) -> Any:
     import dataclasses
 
-    from robodyn.errors import DivergenceError
+    from robodyn.errors import DivergenceError, ModelError
     from robodyn.simulation import simulate
 
     duration, dt, integrator = _timing(scene)
@@ -151,10 +170,17 @@ def _simulate(
             backend=str(scene.simulate["backend"]),
         )
     except DivergenceError as exc:
+        summary["simulate"] = {"diverged": True, "message": str(exc), "step": exc.step, "time": exc.time}
         if exc.trajectory is not None:
             exc.trajectory.save(writable_path(path))
+            summary["simulate"]["trajectory"] = str(path)
             print(f"simulate: diverged; partial trajectory written to {path}")
         raise
+    except RuntimeError as exc:  # Pinocchio refusing the model (e.g. ABA and mimic joints)
+        from robodyn.models import pinocchio_message
+
+        hint = ' (mimic joints: try [simulate] backend = "crba")' if scene.model.get("mimic") else ""
+        raise ModelError(f"simulate: Pinocchio refused the model: {pinocchio_message(exc)}{hint}") from None
     if reduction is not None:
         meta = dict(trajectory.meta)
         meta["reduction"] = {

@@ -89,3 +89,70 @@ def test_info_talos_subprocess():
     )
     assert result.returncode == 0, result.stderr
     assert "talos: nq = 32, nv = 32" in result.stdout and "arm_left_1_joint" in result.stdout
+
+
+def _gripper_with_a_mimic_finger(folder):
+    """my/mimic.urdf: <robot name="gripper">, finger_b mimics finger_a x 0.5."""
+    link = (
+        '<link name="{}"><inertial><mass value="0.1"/>'
+        '<inertia ixx="1e-4" iyy="1e-4" izz="1e-4" ixy="0" ixz="0" iyz="0"/></inertial></link>'
+    )
+    joint = (
+        '<joint name="{}" type="prismatic"><parent link="palm"/><child link="{}"/><axis xyz="1 0 0"/>'
+        '<limit lower="0" upper="0.04" effort="20" velocity="0.2"/>{}</joint>'
+    )
+    urdf = folder / "my" / "mimic.urdf"
+    urdf.parent.mkdir()
+    urdf.write_text(
+        '<robot name="gripper">'
+        + link.format("palm")
+        + link.format("a")
+        + link.format("b")
+        + joint.format("finger_a", "a", "")
+        + joint.format("finger_b", "b", '<mimic joint="finger_a" multiplier="0.5" offset="0"/>')
+        + "</robot>"
+    )
+    return urdf
+
+
+def test_info_mimic_joint_shows_its_coupling_not_empty_columns(tmp_path, capsys):
+    urdf = _gripper_with_a_mimic_finger(tmp_path)
+    assert main(["info", str(urdf), "--mimic"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("gripper: nq = 1, nv = 1")  # the URDF's robot name, not the file stem "mimic"
+    row = next(line for line in out.splitlines() if line.strip().startswith("finger_b"))
+    assert "[]" not in out
+    assert row.rstrip().endswith("mimics finger_a x 0.5")
+    assert row.split()[5:13] == ["-"] * 8  # limits, vel, effort, armature, rotor J, gear, damping, friction
+    assert main(["info", str(urdf)]) == 0  # without --mimic: an independent joint, its URDF coupling named
+    row = next(line for line in capsys.readouterr().out.splitlines() if line.strip().startswith("finger_b"))
+    assert "0.2" in row and "URDF mimic of finger_a x 0.5" in row
+
+
+def test_info_unknown_model_suggests_close_names_and_list(capsys):
+    assert main(["info", "pandaa"]) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err
+    assert "unknown model 'pandaa'; did you mean panda" in err and "robodyn info --list" in err
+    assert len(err.splitlines()) == 1 and "ur10_limited" not in err  # not the 100 names
+
+
+def test_info_list_names_every_model(capsys):
+    from robodyn.models import model_sources
+
+    assert main(["info", "--list"]) == 0
+    out = capsys.readouterr().out
+    names = [line.split()[0] for line in out.splitlines()[:-1]]
+    assert sorted(names) == sorted(model_sources().names()) and {"pendubot", "panda", "talos"} <= set(names)
+    assert main(["info", "--list", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["pendubot"]["description"].startswith("two-link")
+    assert main(["info"]) == EXIT_BAD_INPUT
+    assert "--list" in capsys.readouterr().err
+
+
+def test_info_refuses_a_urdf_given_as_srdf(capsys):
+    from robodyn.models import resolve
+
+    urdf = resolve("pendubot").urdf
+    assert main(["info", "pendubot", "--srdf", str(urdf)]) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err
+    assert "this is a URDF" in err and "not an SRDF" in err and len(err.splitlines()) == 1

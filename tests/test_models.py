@@ -54,7 +54,7 @@ def test_path_and_srdf_pairing(tmp_path):
 
 
 def test_errors_name_the_problem(tmp_path):
-    with pytest.raises(UnknownNameError, match="expected one of: .*geared_arm"):
+    with pytest.raises(UnknownNameError, match="unknown model .pandaa.; did you mean panda"):
         load("pandaa")
     with pytest.raises(ModelError, match="no such URDF file"):
         load(tmp_path / "missing.urdf")
@@ -116,3 +116,38 @@ def test_talos_package_uris_with_three_slashes_are_found():
     refs = mesh_references(resolve("talos_full").urdf)
     assert any(r.uri.startswith("package:///") for r in refs)
     assert [r.uri for r in refs if r.path is None] == []
+
+
+def test_a_urdf_path_is_named_by_its_robot_name_and_a_name_keeps_its_name(tmp_path):
+    source = resolve("pendubot").urdf
+    renamed = tmp_path / "file_stem.urdf"
+    renamed.write_text(source.read_text().replace('<robot name="pendubot"', '<robot name="spong"'))
+    assert load(renamed).name == "spong"
+    assert load("pendubot").name == "pendubot" and load("ur5").name == "ur5"  # library names stay
+
+
+def test_an_srdf_must_be_an_srdf(tmp_path):
+    with pytest.raises(ModelError, match=r"this is a URDF \(it has <link> or <joint type=...>\), not an SRDF"):
+        load("pendubot", srdf=resolve("pendubot").urdf)
+    not_robot = tmp_path / "x.srdf"
+    not_robot.write_text("<groups/>")
+    with pytest.raises(ModelError, match="SRDF root element is <groups>, expected <robot>"):
+        load("pendubot", srdf=not_robot)
+    # a real SRDF: groups list <joint name=...> without a type, a virtual joint has one
+    good = tmp_path / "good.srdf"
+    good.write_text(
+        '<robot name="pendubot"><virtual_joint name="w" type="fixed" parent_frame="world" child_link="base"/>'
+        '<group name="arm"><joint name="joint1"/></group><passive_joint name="joint2"/></robot>'
+    )
+    assert load("pendubot", srdf=good).passive_joints == ("joint2",)
+
+
+def test_robot_repr_is_one_line():
+    text = repr(load("talos"))
+    assert text == "Robot(name='talos', nq=32, nv=32)"
+
+
+def test_unknown_model_names_close_matches_first():
+    with pytest.raises(UnknownNameError, match=r"unknown model 'pendubott'; did you mean pendubot") as info:
+        load("pendubott")
+    assert "robodyn info --list" in str(info.value) and info.value.choices  # the full list stays on the error

@@ -21,6 +21,7 @@ Dynamics never parses meshes: geometry is loaded only by :func:`load_geometry`.
 
 from __future__ import annotations
 
+import difflib
 import importlib.resources
 import xml.etree.ElementTree as ET
 from collections.abc import Iterable, Mapping, Sequence
@@ -32,7 +33,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
-from robodyn.errors import InputError, ModelError
+from robodyn.errors import InputError, ModelError, UnknownNameError
 from robodyn.registry import Registry
 from robodyn.robot import Robot
 from robodyn.urdf_check import validate_urdf
@@ -114,10 +115,26 @@ def resolve(name_or_path: str | Path, *, srdf: str | Path | None = None) -> Mode
             raise ModelError("no such URDF file (expected a path to a .urdf file or a model name)", path=urdf)
         found = Path(srdf) if srdf is not None else find_srdf(urdf)
         return ModelSource(urdf, found, f"URDF file {urdf.name}")
-    source = model_sources().get(str(name_or_path))
+    sources = model_sources()
+    if str(name_or_path) not in sources:
+        raise UnknownModelError(str(name_or_path), sources.names())
+    source = sources.get(str(name_or_path))
     if srdf is not None:
         return ModelSource(source.urdf, Path(srdf), source.description, source.free_flyer_hint)
     return source
+
+
+class UnknownModelError(UnknownNameError):
+    """A model name that is neither built in nor in example-robot-data: the close names first."""
+
+    def __init__(self, name: str, choices: Iterable[str]) -> None:
+        super().__init__("model", name, choices)
+        close = difflib.get_close_matches(name, self.choices, n=5, cutoff=0.6)
+        hint = f"did you mean {', '.join(close)}? " if close else ""
+        self.args = (
+            f"unknown model {name!r}; {hint}'robodyn info --list' names all {len(self.choices)} models "
+            "(or give a path to a .urdf file)",
+        )
 
 
 def find_srdf(urdf: Path) -> Path | None:
@@ -148,8 +165,21 @@ class SrdfInfo:
 def read_srdf(path: Path) -> SrdfInfo:
     """Read rotor parameters' presence and passive joints from an SRDF file."""
     root = _parse_xml(path, "SRDF")
+    _check_srdf_root(root, path)
     passive = tuple(el.get("name", "") for el in root.iter("passive_joint"))
     return SrdfInfo(root.find("rotor_params") is not None, passive)
+
+
+def _check_srdf_root(root: ET.Element, path: Path) -> None:
+    """An SRDF is a ``<robot>`` of groups and states; a file with links or typed joints is a URDF."""
+    if root.tag != "robot":
+        raise ModelError(f"SRDF root element is <{root.tag}>, expected <robot>", path=path)
+    if root.find("link") is not None or any(j.get("type") for j in root.findall("joint")):
+        raise ModelError(
+            "this is a URDF (it has <link> or <joint type=...>), not an SRDF (<group_state>, <passive_joint>, "
+            "<rotor_params>, ...): give it as the model, or pass the robot's .srdf to --srdf",
+            path=path,
+        )
 
 
 def _check_urdf_root(root: ET.Element, path: Path) -> None:
@@ -223,7 +253,8 @@ def load(
         passive = tuple(name for name in info.passive_joints if name in known)
     if check_physics:
         refuse_impossible(model, source.urdf)
-    name = str(name_or_path) if not looks_like_path(name_or_path) else source.urdf.stem
+    # A name keeps its name (built-in or library); a file is named by its <robot name=...>.
+    name = str(name_or_path) if not looks_like_path(name_or_path) else str(root.get("name"))
     return Robot.from_model(
         model,
         name=name,
@@ -320,6 +351,7 @@ def reference_configurations(robot: Robot) -> dict[str, np.ndarray]:
     if robot.srdf_path is None or not robot.srdf_path.is_file():
         return {}
     root = _parse_xml(robot.srdf_path, "SRDF")
+    _check_srdf_root(root, robot.srdf_path)
     neutral = robot.neutral()
     states: dict[str, np.ndarray] = {}
     for group_state in root.iter("group_state"):

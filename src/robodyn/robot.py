@@ -63,11 +63,15 @@ class Robot:
     """
 
     name: str
-    model: pin.Model
+    model: pin.Model = field(repr=False)
     urdf_path: Path | None
     srdf_path: Path | None
     joints: tuple[JointInfo, ...]
     data: pin.Data = field(repr=False)
+
+    def __repr__(self) -> str:
+        """One line: ``Robot(name='pendubot', nq=2, nv=2)`` (the Pinocchio model's repr runs over pages)."""
+        return f"Robot(name={self.name!r}, nq={self.nq}, nv={self.nv})"
 
     @classmethod
     def from_model(

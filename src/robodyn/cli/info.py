@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from robodyn.cli._common import add_model_arguments, print_json
+from robodyn.cli._common import print_json
+from robodyn.errors import InputError
 
 
 def add_parser(sub: Any) -> None:
@@ -18,9 +20,22 @@ def add_parser(sub: Any) -> None:
         description="Describe a robot: every joint (type, axis, limits, actuated or passive, armature, rotor "
         "parameters, damping), every link and its mass, nq, nv, the total mass, and the physical-consistency "
         "findings (non-positive mass, inertia not positive definite or breaking the triangle inequality, moving "
-        "links without mass, missing meshes with --geometry). Exit code 0 even when findings are listed.",
+        "links without mass, missing meshes with --geometry). Exit code 0 even when findings are listed. "
+        "--list names every model reachable by name instead.",
     )
-    add_model_arguments(p)
+    p.add_argument(
+        "model",
+        metavar="URDF_OR_NAME",
+        nargs="?",
+        default=None,
+        help="built-in model (geared_arm, cart_pole, pendubot), an example-robot-data robot (panda, talos, ...) "
+        "or a path to a .urdf file",
+    )
+    p.add_argument("--srdf", type=Path, default=None, help="SRDF file (default: same stem as the URDF)")
+    p.add_argument("--free-flyer", action="store_true", help="mount the root on a free-flyer joint")
+    p.add_argument(
+        "--list", action="store_true", help="list every model reachable by name (built-in, example-robot-data)"
+    )
     add_reduction_arguments(p)
     p.add_argument("--mimic", action="store_true", help="keep URDF mimic joints as mimic joints")
     p.add_argument("--geometry", action="store_true", help="also look for every mesh file the URDF names")
@@ -69,6 +84,12 @@ def run(args: argparse.Namespace) -> int:
     from robodyn.models import looks_like_path, resolve
     from robodyn.summary import summarize
 
+    if args.list:
+        if args.model is not None:
+            raise InputError("--list names every model; leave out the model")
+        return _list_models(as_json=args.json)
+    if args.model is None:
+        raise InputError("robodyn info needs a model (a name or a .urdf path), or --list to name them all")
     robot = load_reduced(args, mimic=args.mimic, check_physics=False)
     hint = False if looks_like_path(args.model) else resolve(args.model).free_flyer_hint
     summary = summarize(robot, geometry=args.geometry, free_flyer_hint=hint)
@@ -82,10 +103,45 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _list_models(*, as_json: bool) -> int:
+    """Print every model reachable by name with where it comes from."""
+    from robodyn.models import model_sources
+
+    sources = model_sources()
+    rows = {name: sources.get(name) for name in sorted(sources.names(), key=str.lower)}
+    if as_json:
+        print_json(
+            {
+                name: {"urdf": str(s.urdf), "srdf": str(s.srdf or ""), "description": s.description}
+                for name, s in rows.items()
+            }
+        )
+        return 0
+    width = max(len(name) for name in rows)
+    for name, source in rows.items():
+        flyer = " (free flyer in example-robot-data: --free-flyer)" if source.free_flyer_hint else ""
+        print(f"{name:{width}s}  {source.description}{flyer}")
+    print(f"{len(rows)} models; any .urdf file can be given by path too")
+    return 0
+
+
 def _fmt(values: tuple[float, ...], digits: int = 4) -> str:
+    if not values:  # a joint without velocity coordinates (a mimic joint): the column does not apply
+        return "-"
     if len(values) == 1:
         return f"{values[0]:.{digits}g}"
     return "[" + " ".join(f"{v:.{digits}g}" for v in values) + "]"
+
+
+def _mimic_text(mimic: str) -> str:
+    """``"joint * 50 + 0"`` -> ``"joint x 50"`` (the offset [rad | m] shown only when not zero)."""
+    joint, _, rest = mimic.partition(" * ")
+    multiplier, _, offset = rest.partition(" + ")
+    try:
+        text = f"{joint} x {float(multiplier):g}"
+        return text + (f" + {float(offset):g}" if float(offset or 0) != 0 else "")
+    except ValueError:
+        return mimic
 
 
 def _limits(lower: tuple[float, ...], upper: tuple[float, ...]) -> str:
@@ -115,9 +171,12 @@ def format_summary(s: Any) -> str:
     lines.append(header)
     for j in s.joints:
         axis = " ".join(f"{a:g}" for a in j.axis) if j.axis is not None else "-"
-        drive = "actuated" if j.actuated else "passive"
-        if j.mimic:
-            drive += f", mimic {j.mimic}"
+        if j.mimic and j.nv == 0:  # a mimic joint has no velocity of its own: its columns do not apply
+            drive = f"mimics {_mimic_text(j.mimic)}"
+        else:
+            drive = "actuated" if j.actuated else "passive"
+            if j.mimic:
+                drive += f", URDF mimic of {_mimic_text(j.mimic)} (independent here; --mimic couples it)"
         lines.append(
             f"  {j.name:28s} {j.type:10s} {axis:12s} {_limits(j.lower, j.upper):22s} {_fmt(j.velocity_limit):>7s} "
             f"{_fmt(j.effort_limit):>7s} {_fmt(j.armature):>9s} {_fmt(j.rotor_inertia):>9s} {_fmt(j.gear_ratio):>6s} "

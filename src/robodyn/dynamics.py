@@ -88,8 +88,17 @@ def pinocchio_kinetic_energy(model: pin.Model, data: pin.Data, q: Array, v: Arra
 
 
 def potential_energy(model: pin.Model, data: pin.Data, q: Array) -> float:
-    """Gravitational potential energy [J] (zero at world height 0), from Pinocchio."""
-    return float(pin.computePotentialEnergy(model, data, q))
+    """Gravitational potential energy [J] (zero at world height 0), from Pinocchio.
+
+    Pinocchio's ``computePotentialEnergy`` refuses mimic joints; on such a model the
+    energy is -m g . c(q) from the centre of mass instead (:func:`potential_energy_com`).
+    """
+    try:
+        return float(pin.computePotentialEnergy(model, data, q))
+    except RuntimeError:
+        if not has_mimic_joints(model):
+            raise
+        return potential_energy_com(model, data, q)
 
 
 def integrate(model: pin.Model, q: Array, dq: Array) -> Array:
@@ -189,7 +198,13 @@ def kinetic_energies(model: pin.Model, data: pin.Data, q: Array, v: Array) -> Ar
 
 
 def potential_energies(model: pin.Model, data: pin.Data, q: Array) -> Array:
-    """Gravitational potential energies [J] of a batch of configurations q (n, nq) -> (n,)."""
+    """Gravitational potential energies [J] of a batch of configurations q (n, nq) -> (n,).
+
+    On a model with mimic joints (which ``computePotentialEnergy`` refuses) each energy is
+    -m g . c(q) from the centre of mass.
+    """
+    if has_mimic_joints(model):
+        return np.array([potential_energy_com(model, data, qk) for qk in q], dtype=np.float64)
     return np.array([pin.computePotentialEnergy(model, data, qk) for qk in q], dtype=np.float64)
 
 
@@ -231,3 +246,33 @@ def mechanical_energies(model: pin.Model, data: pin.Data, q: Array, v: Array) ->
         kinetic[k] = data.kinetic_energy
         potential[k] = data.potential_energy
     return kinetic, potential
+
+
+def has_mimic_joints(model: pin.Model) -> bool:
+    """True when ``model`` holds mimic joints (loaded with ``mimic=True``); ABA and the energy routines refuse them."""
+    return any(joint.shortname() == "JointModelMimic" for joint in model.joints)
+
+
+def potential_energy_com(model: pin.Model, data: pin.Data, q: Array) -> float:
+    """Gravitational potential energy -m g . c(q) [J] from the whole-body centre of mass.
+
+    Works on every model, mimic joints included (``computePotentialEnergy`` refuses those).
+    """
+    com = np.array(pin.centerOfMass(model, data, q))
+    return -float(data.mass[0]) * float(gravity_vector(model) @ com)
+
+
+def potential_energy_bodies(model: pin.Model, data: pin.Data, q: Array) -> float:
+    """Gravitational potential energy -sum_i m_i g . c_i(q) [J], body by body from forward kinematics.
+
+    An independent route to :func:`potential_energy_com` (each body's centre of mass placed
+    by its joint's world transform), for cross-checking on models with mimic joints.
+    """
+    pin.forwardKinematics(model, data, q)
+    g = gravity_vector(model)
+    total = 0.0
+    for j in range(1, model.njoints):
+        inertia = model.inertias[j]
+        c = np.array(data.oMi[j].act(np.array(inertia.lever)))
+        total -= float(inertia.mass) * float(g @ c)
+    return total

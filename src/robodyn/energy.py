@@ -12,6 +12,10 @@ a single energy routine: :func:`cross_check` compares CRBA with RNEA for T and
 ``computePotentialEnergy`` with the centre of mass for V before every run, and
 :class:`EnergyMeter` uses Pinocchio's fast ``computeMechanicalEnergy`` along a trajectory
 only on models where it matches 1/2 v^T M v (else one CRBA per sample).
+
+Pinocchio's energy routines refuse mimic joints. On such a model V is -m g . c(q) from the
+centre of mass, cross-checked against the sum of -m_i g . c_i(q) over the bodies placed by
+forward kinematics, and T is always 1/2 v^T M v from CRBA (checked against RNEA).
 """
 
 from __future__ import annotations
@@ -62,6 +66,10 @@ def potential(robot: Robot, q: Array) -> Array:
 def cross_check(robot: Robot, q: Array, v: Array) -> EnergyCheck:
     """Compare T by CRBA with T by RNEA, and V by Pinocchio with -m g . c(q), at one state.
 
+    On a model with mimic joints (which ``computePotentialEnergy`` refuses) V by the
+    centre of mass is compared with V summed body by body from forward kinematics; the
+    ``potential_pinocchio`` field then holds the latter.
+
     Raises:
         ModelError: the two routes disagree by more than ``CROSS_CHECK_RTOL`` (relative to
             the larger of |T|, |V| and the reference energy m g h_ref).
@@ -69,7 +77,11 @@ def cross_check(robot: Robot, q: Array, v: Array) -> EnergyCheck:
     model, data = robot.model, robot.data
     t_crba = float(dynamics.kinetic_energies(model, data, q[None, :], v[None, :])[0])
     t_rnea = dynamics.kinetic_energy_rnea(model, data, q, v)
-    v_pin = dynamics.potential_energy(model, data, q)
+    mimic = dynamics.has_mimic_joints(model)
+    if mimic:
+        v_pin, first = dynamics.potential_energy_bodies(model, data, q), "bodies"
+    else:
+        v_pin, first = dynamics.potential_energy(model, data, q), "Pinocchio"
     v_com = -robot.total_mass * float(dynamics.gravity_vector(model) @ dynamics.center_of_mass(model, data, q))
     scale = max(abs(t_crba), abs(v_pin), reference_energy(robot))
     err = max(abs(t_crba - t_rnea), abs(v_pin - v_com)) / scale
@@ -77,7 +89,7 @@ def cross_check(robot: Robot, q: Array, v: Array) -> EnergyCheck:
     if err > CROSS_CHECK_RTOL:
         raise ModelError(
             f"energy routines disagree on {robot.name}: T = {t_crba:.12g} J (CRBA) vs {t_rnea:.12g} J (RNEA), "
-            f"V = {v_pin:.12g} J (Pinocchio) vs {v_com:.12g} J (centre of mass)",
+            f"V = {v_pin:.12g} J ({first}) vs {v_com:.12g} J (centre of mass)",
             path=robot.urdf_path,
         )
     return check
@@ -97,8 +109,14 @@ class EnergyMeter:
 
     @classmethod
     def for_robot(cls, robot: Robot, q: Array) -> EnergyMeter:
-        """Probe ``robot`` at q with two fixed velocity patterns and choose the route."""
+        """Probe ``robot`` at q with two fixed velocity patterns and choose the route.
+
+        A model with mimic joints always takes the CRBA route (Pinocchio's energy routines
+        refuse mimic joints).
+        """
         model, data = robot.model, robot.data
+        if dynamics.has_mimic_joints(model):
+            return cls(robot, False)
         nv = robot.nv
         probes = np.stack([np.linspace(1.0, 2.0, nv), np.where(np.arange(nv) % 2 == 0, 1.0, -1.5)])
         Q = np.stack([q, q])

@@ -77,7 +77,7 @@ def test_divergence_exits_3_and_writes_the_partial_trajectory(
     argv = ["simulate", "pendubot", "--q0", "0.3,-0.2", "--duration", "5", "--dt", "0.05", "--integrator", "euler"]
     assert main([*argv, "--out", str(out)]) == 3
     err = capsys.readouterr().err
-    assert "diverged at step" in err and "explicit Euler is unstable at this dt" in err
+    assert "diverged at step 7 (t = 0.35 s)" in err and "explicit Euler is unstable at dt = 0.05 s" in err
     traj = robodyn.Trajectory.load(out)
     assert traj.status == "diverged" and 0 < traj.n_steps < 100 and traj.meta["diverged_step"] == traj.n_steps
 

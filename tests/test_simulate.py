@@ -249,8 +249,14 @@ def test_explicit_euler_divergence_is_caught_at_its_step() -> None:
     exc = info.value
     traj = exc.trajectory
     assert isinstance(traj, robodyn.Trajectory) and traj.diverged
-    assert "explicit Euler is unstable at this dt" in str(exc) and f"step {exc.step}" in str(exc)
+    message = str(exc)
+    assert message.startswith(f"diverged at step {exc.step} (t = {exc.time:g} s): the energy error")
+    assert "likely cause: explicit Euler is unstable at dt = 0.05 s" in message
+    assert message.count("try") == 1 and message.count("likely cause") == 1  # one cause, one suggestion
     assert traj.n_steps == exc.step and traj.t[-1] == pytest.approx(exc.time)
+    # The work done for what is kept: one rate a step, and a(t) at the last sample; not the
+    # 100 - 7 steps the check block took past the failure.
+    assert traj.evaluations == exc.step + 1 == 8
     residual = np.abs(traj.ledger_residual)
     assert residual[-1] > traj.meta["energy_scale"] and np.all(residual[:-1] <= traj.meta["energy_scale"])
 

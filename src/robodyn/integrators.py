@@ -56,12 +56,17 @@ NEWTON_MAX_ITER = 30
 
 
 class StepError(RobodynError, ArithmeticError):
-    """A step could not be taken (Newton did not converge, the step size underflowed)."""
+    """A step could not be taken (Newton did not converge, the step size underflowed).
+
+    ``str(exc)`` is the whole story (where, what, what to try); ``reason`` only what failed,
+    for callers such as :func:`robodyn.simulate` that say where and what to try themselves.
+    """
 
     exit_code = 3
 
-    def __init__(self, message: str, *, time: float) -> None:
+    def __init__(self, message: str, *, time: float, reason: str | None = None) -> None:
         self.time = time
+        self.reason = reason if reason is not None else message
         super().__init__(message)
 
 
@@ -425,6 +430,7 @@ class SymplecticEuler(FixedStepIntegrator):
             f"symplectic Euler: the momentum iteration did not converge at t = {t:.6g} s with dt = {h:g} s; "
             "try a smaller dt",
             time=t,
+            reason=f"symplectic Euler's momentum iteration did not converge in {NEWTON_MAX_ITER} iterations",
         )
 
 
@@ -561,6 +567,7 @@ class ImplicitMidpoint(FixedStepIntegrator):
             f"implicit midpoint: Newton did not converge in {NEWTON_MAX_ITER} iterations at t = {t:.6g} s "
             f"with dt = {h:g} s; try a smaller dt",
             time=t,
+            reason=f"implicit midpoint's Newton iteration did not converge in {NEWTON_MAX_ITER} iterations",
         )
 
 
@@ -676,6 +683,7 @@ class _EmbeddedStepper(Stepper):
                         f"adaptive step size underflowed at t = {t:.6g} s (error estimate {err:.3g}); "
                         "the solution is probably blowing up",
                         time=t,
+                        reason=f"the adaptive step size underflowed at t = {t:.6g} s (error estimate {err:.3g})",
                     )
         self.h = h
         self.k_first = k
@@ -773,7 +781,8 @@ class _ScipyStepper(Stepper):
             message = solver.step()
             self.dense = None
             if solver.status == "failed":
-                raise StepError(f"scipy {type(solver).__name__} failed at t = {solver.t:.6g} s: {message}", time=t)
+                what = f"scipy {type(solver).__name__} failed at t = {solver.t:.6g} s: {message}"
+                raise StepError(what, time=t, reason=what)
         if solver.t == target:
             y = solver.y.copy()
         else:  # the last step went past the target: read it from that step's interpolant

@@ -39,6 +39,11 @@ TorqueFn = Callable[[float, Array, Array], ArrayLike]
 
 BACKENDS = ("aba", "crba", "formula")
 
+# M(q) is taken as singular when its smallest eigenvalue is below this fraction of its
+# largest: ~1e4 ulps, far below any real robot's conditioning (Talos, Tiago, Solo: >= 1e-5)
+# and far above the ~1e-16 of a direction that moves no mass, inertia or armature.
+SINGULAR_MASS_RTOL = 1e-12
+
 # Coulomb friction F sign(v) is smoothed to F tanh(v / V_FRICTION) so that the right-hand
 # side stays differentiable for the integrators; [rad/s | m/s].
 V_FRICTION = 1e-3
@@ -222,6 +227,25 @@ class RobotSystem:
             return self._formula[0].mass_matrix(q, self._formula[1])
         return dynamics.mass_matrix(self._model, self._data, q)
 
+    def mass_conditioning(self, q: Array) -> tuple[float, Array]:
+        """(lambda_min / lambda_max of M(q), the unit eigenvector (nv,) of lambda_min).
+
+        NaN for a non-finite M. A ratio below ``SINGULAR_MASS_RTOL`` means M is singular:
+        that velocity direction moves no mass, no inertia and no armature.
+        """
+        M = self.mass_matrix(q)
+        if not np.all(np.isfinite(M)):
+            return float("nan"), np.full(self.nv, np.nan)
+        w, vectors = np.linalg.eigh(M)
+        largest = float(np.max(np.abs(w)))
+        return (float(w[0]) / largest if largest > 0 else 0.0), np.array(vectors[:, 0])
+
+    def singular_direction(self, vector: Array) -> str:
+        """A velocity direction (nv,) in joint words: '0.71 root_joint[4] + 0.71 joint1'."""
+        names = velocity_names(self.robot)
+        big = np.flatnonzero(np.abs(vector) >= 0.1 * np.max(np.abs(vector)))
+        return " + ".join(f"{vector[i]:.2g} {names[i]}" for i in big).replace("+ -", "- ")
+
     def momentum_rates(self, t: float, q: Array, u: Array) -> Array:
         """[dp/dt, P_input, P_damping] with dp/dt = tau + C^T v - G for p = M(q) v."""
         self.evaluations += 1
@@ -307,10 +331,76 @@ def _backend(robot: Robot, name: str, formula: tuple[Any, Any] | None) -> Callab
     raise UnknownNameError("forward-dynamics backend", name, BACKENDS)
 
 
+def velocity_names(robot: Robot) -> list[str]:
+    """One name per velocity (nv,): the joint's name, with a component for multi-DoF joints.
+
+    A free flyer's components are ``.vx .vy .vz`` (linear) and ``.wx .wy .wz`` (angular).
+    """
+    names: list[str] = []
+    for j in robot.joints:
+        if j.nv == 1:
+            names.append(j.name)
+        elif j.kind == "JointModelFreeFlyer":
+            names += [f"{j.name}.{c}" for c in ("vx", "vy", "vz", "wx", "wy", "wz")]
+        else:
+            names += [f"{j.name}[{k}]" for k in range(j.nv)]
+    return names
+
+
+def coordinate_units(robot: Robot) -> tuple[list[str], list[str]]:
+    """The unit of every entry of q (nq,) and v (nv,): 'rad', 'm', 'rad/s', 'm/s', or '' (dimensionless).
+
+    Revolute angles are [rad], prismatic and free-flyer positions [m]; the cos/sin pair of
+    a ``continuous`` joint and the quaternion of a free flyer or spherical joint have no unit.
+    """
+    q_units: list[str] = []
+    v_units: list[str] = []
+    for j in robot.joints:
+        kind = j.kind
+        if kind == "JointModelFreeFlyer":
+            q, v = ["m"] * 3 + [""] * 4, ["m/s"] * 3 + ["rad/s"] * 3
+        elif kind == "JointModelPlanar":
+            q, v = ["m", "m", "", ""], ["m/s", "m/s", "rad/s"]
+        elif kind == "JointModelSpherical":
+            q, v = [""] * 4, ["rad/s"] * 3
+        elif kind == "JointModelTranslation":
+            q, v = ["m"] * 3, ["m/s"] * 3
+        elif kind.startswith(("JointModelRUB", "JointModelRevoluteUnbounded")):
+            q, v = ["", ""], ["rad/s"]
+        elif kind.startswith(("JointModelR", "JointModelSphericalZYX", "JointModelUniversal", "JointModelH")):
+            q, v = ["rad"] * j.nq, ["rad/s"] * j.nv
+        elif kind.startswith("JointModelP"):
+            q, v = ["m"] * j.nq, ["m/s"] * j.nv
+        else:
+            q, v = [""] * j.nq, [""] * j.nv
+        q_units += q[: j.nq]
+        v_units += v[: j.nv]
+    return q_units, v_units
+
+
+def resolve_backend(robot: Robot, backend: str | None) -> str:
+    """The forward-dynamics backend for ``robot``: ``backend``, or by default ``"aba"`` (``"crba"`` with mimic joints).
+
+    Raises:
+        UnknownNameError: an unknown backend.
+        InputError: ``"aba"`` asked for a model with mimic joints, which Pinocchio's ABA refuses.
+    """
+    mimic = dynamics.has_mimic_joints(robot.model)
+    if backend is None:
+        return "crba" if mimic else "aba"
+    if backend not in BACKENDS:
+        raise UnknownNameError("forward-dynamics backend", backend, BACKENDS)
+    if backend == "aba" and mimic:
+        raise InputError(
+            f"{robot.name} has mimic joints, which Pinocchio's ABA refuses: use backend 'crba' (--backend crba)"
+        )
+    return backend
+
+
 def robot_system(
     robot: Robot,
     *,
-    backend: str = "aba",
+    backend: str | None = None,
     torque: ArrayLike | TorqueFn | None = None,
     losses: bool = True,
 ) -> RobotSystem:
@@ -318,18 +408,19 @@ def robot_system(
 
     Args:
         robot: the robot.
-        backend: ``"aba"`` (Pinocchio's articulated-body algorithm, the default), ``"crba"``
-            (CRBA + Cholesky; serves mimic joints) or ``"formula"`` (the hand-derived
-            closed form of a seed kind).
+        backend: ``"aba"`` (Pinocchio's articulated-body algorithm), ``"crba"`` (CRBA +
+            Cholesky; serves mimic joints) or ``"formula"`` (the hand-derived closed form
+            of a seed kind); None (the default) picks ``"aba"``, or ``"crba"`` on a model
+            with mimic joints.
         torque: None, a constant vector [N m | N] or a callable tau(t, q, v).
         losses: apply the URDF's joint damping and friction (False: a lossless model).
 
     Raises:
-        InputError: a bad torque or a backend that cannot serve this robot.
+        InputError: a bad torque or a backend that cannot serve this robot (``"aba"`` on
+            mimic joints, ``"formula"`` on a model that is no seed kind).
         UnknownNameError: an unknown backend.
     """
-    if backend not in BACKENDS:
-        raise UnknownNameError("forward-dynamics backend", backend, BACKENDS)
+    backend = resolve_backend(robot, backend)
     if backend == "formula" and robot.nq != robot.nv:
         raise InputError(f"backend 'formula' needs plain coordinates (nq == nv); {robot.name} has nq={robot.nq}")
     source = torque_source(robot, torque)

@@ -6,7 +6,8 @@ animation times; the screenshots are kept in ``test-artifacts/browser/``.
 
 In the HTML file the time is set exactly (``#t=...`` in the URL), so the test projects the
 centre of each link through the scene's camera and checks that the pixel there has the
-link's colour, and that the links moved between the two times. The live page starts playing
+link's colour, and that the links moved between the two times; the energy chart's legend
+swatches are projected the same way and must show the colours of T, V and E. The live page starts playing
 on its own; it is photographed after two different virtual-time budgets and must show the
 links' colours and differ between the two shots where the robot is.
 
@@ -169,6 +170,13 @@ def test_exported_html_shows_the_pendubot_swinging(chromium: str, artifacts: Pat
                 y - SEARCH_RADIUS_PX : y + SEARCH_RADIUS_PX + 1, x - SEARCH_RADIUS_PX : x + SEARCH_RADIUS_PX + 1
             ]
             assert window.any(), f"t = {t}: no {name} colour near pixel ({x}, {y}); see {artifacts}"
+        assert playback.chart is not None
+        for key, swatch in playback.chart.swatches.items():  # the legend: each curve's colour beside its name
+            x, y = np.round(project(playback, playback.chart.to_world(swatch))).astype(int)
+            window = hue_mask(image, viewer.ENERGY_COLORS[key])[
+                y - SEARCH_RADIUS_PX : y + SEARCH_RADIUS_PX + 1, x - SEARCH_RADIUS_PX : x + SEARCH_RADIUS_PX + 1
+            ]
+            assert window.any(), f"t = {t}: no legend swatch of {key} near pixel ({x}, {y}); see {artifacts}"
         tip = np.round(project(playback, playback.trace[frame])).astype(int)
         assert hue_mask(image, viewer.TRACE_COLOR)[tip[1] - 6 : tip[1] + 7, tip[0] - 6 : tip[0] + 7].any()
         shots[when] = (image, centres)

@@ -147,6 +147,53 @@ def test_the_energy_cursor_is_an_affine_image_of_time_and_energy(pendubot: robod
         np.testing.assert_allclose(coordinate, slope * source + intercept, atol=CURSOR_ATOL)
 
 
+def _drawn_texts(playback: viewer.Playback) -> set[str]:
+    """Every text the scene draws (meshcat canvas textures)."""
+    texts = set()
+    for command in playback.commands:
+        material = getattr(getattr(command, "object", None), "material", None)
+        texture = getattr(material, "map", None)
+        if texture is not None and hasattr(texture, "text"):
+            texts.add(texture.text)
+    return texts
+
+
+def test_the_chart_has_a_legend_and_units_and_no_label_overlaps(pendubot: robodyn.Robot, motion: Trajectory) -> None:
+    playback = viewer.build(pendubot, motion)
+    chart = playback.chart
+    assert chart is not None
+    labels = {label.key: label for label in chart.labels}
+    # a legend names each curve (its colour is the swatch beside it), wherever the curves end
+    assert [labels[f"legend_{key}"].text for key in "ETV"] == ["E = T + V", "T kinetic", "V potential"]
+    assert set(chart.swatches) == {"E", "T", "V"}
+    assert len(set(viewer.ENERGY_COLORS.values()) | set(viewer.LINK_COLORS[:2])) == 5  # curves never look like links
+    # units on the ticks: joules on the energy axis, seconds on the time axis
+    assert labels["e_max"].text.endswith(" J") and labels["e_min"].text.endswith(" J")
+    assert labels["t_min"].text == "0 s" and labels["t_max"].text.endswith(" s") and labels["t_axis"].text == "t [s]"
+    assert {label.text for label in chart.labels} <= _drawn_texts(playback)
+    boxes = [label.box for label in chart.labels]
+    for i, a in enumerate(boxes):
+        assert 0 <= a[0] and a[2] <= chart.width and 0 <= a[1] and a[3] <= chart.height, chart.labels[i]
+        for j in range(i + 1, len(boxes)):
+            b = boxes[j]
+            apart = a[2] <= b[0] or b[2] <= a[0] or a[3] <= b[1] or b[3] <= a[1]
+            assert apart, (chart.labels[i], chart.labels[j])
+    left, _bottom, _right, top = chart.plot
+    for key in ("legend_E", "legend_T", "legend_V"):
+        assert labels[key].box[1] > top  # the legend band lies above the curves: no curve runs through it
+    # and with the energies of any motion: a tiny one and a huge one lay out the same way
+    for scale in (1e-6, 1e6):
+        scaled = Trajectory(
+            **{**{f: getattr(motion, f) for f in ("t", "q", "v", "a", "tau", "work_input", "work_damping", "meta")}},
+            kinetic=scale * motion.kinetic,
+            potential=scale * motion.potential,
+        )
+        other = viewer.build(pendubot, scaled).chart
+        assert other is not None and [lb.key for lb in other.labels] == [lb.key for lb in chart.labels]
+        widest = max(lb.box[2] for lb in other.labels if lb.key.startswith("e_"))
+        assert widest < left * other.width / chart.width and min(lb.box[0] for lb in other.labels) >= 0
+
+
 def test_the_animation_is_sent_once_and_nothing_else_moves(pendubot: robodyn.Robot, motion: Trajectory) -> None:
     playback = viewer.build(pendubot, motion)
     packed = viewer.packed_commands(playback)

@@ -63,7 +63,8 @@ ROOT = ("meshcat", "robodyn")
 BASE_COLOR = 0x5D6D7E
 LINK_COLORS = (0xE67E22, 0x27AE60, 0xC0392B, 0x8E44AD, 0xF1C40F, 0x16A085, 0xD35400, 0x2E86C1)
 TRACE_COLOR = 0xFFE135
-ENERGY_COLORS = {"E": 0xE67E22, "T": 0x2E86C1, "V": 0x27AE60}
+# The chart's curves: hues apart from the first link colours, so neither can pass for the other.
+ENERGY_COLORS = {"E": 0x7B1FA2, "T": 0x1E88E5, "V": 0xD81B60}
 _PINOCCHIO_DEFAULT_RGBA = (0.9, 0.9, 0.9, 1.0)
 
 # Camera: meshcat's perspective camera has a 75 degree vertical field of view and orbits the
@@ -157,6 +158,7 @@ class Playback:
         camera_position: meshcat camera position in world coordinates (z up) [m]; it looks at the origin.
         speed, fps: playback speed and rendered frames per second.
         skipped: names of geometries that could not be drawn (unsupported shape).
+        chart: where the energy chart's legend, ticks and plot went (None without a chart).
     """
 
     robot_name: str
@@ -176,6 +178,7 @@ class Playback:
     speed: float
     fps: float
     skipped: tuple[str, ...] = ()
+    chart: ChartLayout | None = None
 
     @property
     def energy(self) -> Array:
@@ -250,9 +253,11 @@ def build(
         commands += _trace_commands(mc, dense, trace_xyz, layout.size)
         tracks[(*ROOT, "trace", "marker")] = _translations(trace_xyz)
     if layout.chart is not None:
-        chart_commands, cursor = _chart_commands(mc, layout, playback_times, kinetic, potential)
+        chart_commands, cursor, chart_layout = _chart_commands(mc, layout, playback_times, kinetic, potential)
         commands += chart_commands
         tracks[(*ROOT, "energy", "cursor")] = cursor
+    else:
+        chart_layout = None
     commands += _view_commands(mc, layout)
     animation = None
     if trajectory is not None:
@@ -275,6 +280,7 @@ def build(
         speed=float(speed),
         fps=float(fps),
         skipped=tuple(skipped),
+        chart=chart_layout,
     )
 
 
@@ -548,7 +554,7 @@ class _Layout:
         size = max(float(np.max(high - low)), 0.2)
         chart = None
         if with_chart:
-            width, height = 0.6 * size, 0.4 * size
+            width, height = 0.75 * size, 0.4 * size  # wide enough for the legend's three entries in a row
             origin = np.array([high[0] + 0.15 * size, 0.5 * (low[1] + high[1]), 0.5 * (low[2] + high[2]) - height / 2])
             chart = _Chart(origin, width, height)
             high = np.maximum(high, origin + np.array([width, 0.0, height]))
@@ -623,13 +629,67 @@ class _TextTexture:
         return self.uuid
 
 
-def _chart_commands(mc: Any, layout: _Layout, tau: Array, kinetic: Array, potential: Array) -> tuple[list[Any], Array]:
-    """The chart's commands and the cursor's placements (k, 4, 4) in the chart's frame."""
+# The chart's legend: (key, label), drawn left to right in the top band of the panel.
+CHART_LEGEND = (("E", "E = T + V"), ("T", "T kinetic"), ("V", "V potential"))
+
+# Average advance of a sans-serif character, in ems: the width estimate that places text
+# beside a swatch or against an axis (Chromium's sans-serif measured 0.45 em on "V potential").
+_EM_PER_CHAR = 0.5
+
+
+@dataclass(frozen=True)
+class ChartLabel:
+    """One text of the energy chart: what it says and the box it covers, chart frame [m].
+
+    ``box`` is (x_min, y_min, x_max, y_max) in the panel's plane (origin at its lower-left
+    corner, x along time, y along energy), from the text's estimated width and its em height.
+    """
+
+    key: str
+    text: str
+    box: tuple[float, float, float, float]
+
+
+@dataclass(frozen=True)
+class ChartLayout:
+    """Where the energy chart put its parts (chart frame [m]), for tests and for the legend's colours.
+
+    ``frame`` maps chart coordinates (x, y, 0) to robot coordinates (before ``Playback.offset``).
+    """
+
+    frame: Array
+    width: float
+    height: float
+    plot: tuple[float, float, float, float]  # left, bottom, right, top of the plotting area
+    labels: tuple[ChartLabel, ...]
+    swatches: dict[str, tuple[float, float]]  # legend key -> centre of its colour swatch
+
+    def to_world(self, xy: tuple[float, float]) -> Array:
+        """Chart point (x, y) -> robot coordinates [m] (add ``Playback.offset`` for the drawing)."""
+        return (self.frame @ np.array([xy[0], xy[1], 0.0, 1.0]))[:3]
+
+
+def _text_box(key: str, text: str, centre: tuple[float, float], em: float) -> ChartLabel:
+    half = 0.5 * _EM_PER_CHAR * em * len(text)
+    x, y = centre
+    return ChartLabel(key, text, (x - half, y - 0.5 * em, x + half, y + 0.5 * em))
+
+
+def _chart_commands(
+    mc: Any, layout: _Layout, tau: Array, kinetic: Array, potential: Array
+) -> tuple[list[Any], Array, ChartLayout]:
+    """The chart's commands, the cursor's placements (k, 4, 4) in the chart's frame, and where things went.
+
+    The panel has a legend band at the top (a colour swatch and a name per curve, at fixed
+    places: no label can land on another or on a curve), the plotting area below it, the
+    energy ticks in joules left of the axis and the time ticks in seconds under it.
+    """
     chart = layout.chart
     if chart is None:
         raise ValueError("the layout has no chart")
     w, h = chart.width, chart.height
-    left, right, bottom, top = 0.2 * w, 0.9 * w, 0.2 * h, 0.8 * h
+    em = 0.07 * h  # text height [m]
+    left, right, bottom, top = 0.22 * w, 0.95 * w, 0.2 * h, 0.76 * h
     lines = {"E": kinetic + potential, "T": kinetic, "V": potential} if len(kinetic) else {}
     values = np.concatenate(list(lines.values())) if lines else np.zeros(1)
     lo, hi = float(values.min()), float(values.max())
@@ -655,16 +715,37 @@ def _chart_commands(mc: Any, layout: _Layout, tau: Array, kinetic: Array, potent
     for name, series in lines.items():
         xy = to_xy(tau, series)
         commands.append(_line(mc, (*base, name), np.column_stack([xy, np.full(len(xy), lift)]), ENERGY_COLORS[name]))
-        commands += _text(mc, (*base, f"label_{name}"), name, [right + 0.05 * w, xy[-1, 1], lift], 0.08 * h)
-    labels = {
-        "title": ("E = T + V [J]", [0.5 * w, 0.9 * h], 0.09 * h),
-        "e_max": (f"{hi:.4g}", [0.1 * w, top], 0.07 * h),
-        "e_min": (f"{lo:.4g}", [0.1 * w, bottom], 0.07 * h),
-        "t_min": ("0 s", [left, 0.1 * h], 0.07 * h),
-        "t_max": (f"{span_t:.3g} s", [right, 0.1 * h], 0.07 * h),
-    }
-    for key, (text, (x, y), glyph) in labels.items():
-        commands += _text(mc, (*base, key), text, [x, y, lift], glyph)
+
+    labels: list[ChartLabel] = []
+    swatches: dict[str, tuple[float, float]] = {}
+    # One fixed slot per entry, a third of the width each: a swatch, then its name.
+    legend_y, swatch_w, swatch_h, gap = 0.88 * h, 0.05 * w, 0.6 * em, 0.015 * w
+    for i, (key, text) in enumerate(CHART_LEGEND if lines else ()):
+        slot = 0.03 * w + i * 0.32 * w
+        centre = (slot + swatch_w / 2, legend_y)
+        swatches[key] = centre
+        swatch = mc.geometry.Mesh(
+            _PlaneGeometry(swatch_w, swatch_h), mc.geometry.MeshBasicMaterial(color=ENERGY_COLORS[key])
+        )
+        commands += [
+            mc.commands.SetObject(swatch, path=_path(mc, (*base, f"legend_{key}_swatch"))),
+            mc.commands.SetTransform(_translation([*centre, lift]), _path(mc, (*base, f"legend_{key}_swatch"))),
+        ]
+        text_w = _EM_PER_CHAR * em * len(text)
+        labels.append(_text_box(f"legend_{key}", text, (slot + swatch_w + gap + text_w / 2, legend_y), em))
+    tick_em = 0.9 * em
+    for key, text, anchor in (
+        ("e_max", f"{hi:.3g} J", top),
+        ("e_min", f"{lo:.3g} J", bottom),
+    ):
+        text_w = _EM_PER_CHAR * tick_em * len(text)
+        labels.append(_text_box(key, text, (left - 0.03 * w - text_w / 2, anchor), tick_em))
+    labels.append(_text_box("t_min", "0 s", (left, bottom - 0.09 * h), tick_em))
+    labels.append(_text_box("t_max", f"{span_t:.3g} s", (right - 0.04 * w, bottom - 0.09 * h), tick_em))
+    labels.append(_text_box("t_axis", "t [s]", (0.5 * (left + right), bottom - 0.09 * h), tick_em))
+    for label in labels:
+        x0, y0, x1, y1 = label.box
+        commands += _text(mc, (*base, label.key), label.text, [0.5 * (x0 + x1), 0.5 * (y0 + y1), lift], y1 - y0)
     cursor_xy = to_xy(tau, kinetic + potential) if lines else np.zeros((len(tau), 2))
     cursor = _translations(np.column_stack([cursor_xy, np.full(len(tau), 2 * lift)]))
     sphere = mc.geometry.Mesh(mc.geometry.Sphere(0.03 * h), mc.geometry.MeshBasicMaterial(color=ENERGY_COLORS["E"]))
@@ -672,7 +753,8 @@ def _chart_commands(mc: Any, layout: _Layout, tau: Array, kinetic: Array, potent
         mc.commands.SetObject(sphere, path=_path(mc, (*base, "cursor"))),
         mc.commands.SetTransform(cursor[0], _path(mc, (*base, "cursor"))),
     ]
-    return commands, cursor
+    where = ChartLayout(frame, w, h, (left, bottom, right, top), tuple(labels), swatches)
+    return commands, cursor, where
 
 
 def _translation(xyz: Any) -> Array:
@@ -688,16 +770,21 @@ def _line(mc: Any, path: tuple[str, ...], xyz: Array, color: int, *, segments: b
 
 
 def _text(mc: Any, path: tuple[str, ...], text: str, centre: list[float], glyph: float) -> list[Any]:
-    """A label whose capital letters are ``glyph`` high [m], centred on ``centre`` (chart frame)."""
-    size = glyph * _CANVAS_PX / _TEXT_FONT_PX
-    # The canvas draws on its middle line (alphabetic baseline): lower the plane by half a glyph.
+    """A label ``glyph`` [m] high (its em), centred on ``centre`` (chart frame).
+
+    meshcat draws the text on a 256 px canvas and shrinks the font when the text is wider;
+    the font is chosen here so that it fits, and the plane scaled so the em stays ``glyph``.
+    """
+    font_px = max(8, min(_TEXT_FONT_PX, int(0.95 * _CANVAS_PX / (_EM_PER_CHAR * max(len(text), 1) * 1.1))))
+    size = glyph * _CANVAS_PX / font_px
+    # The canvas draws on its middle line (alphabetic baseline): lower the plane by a third of an em.
     x, y, z = centre
     material = mc.geometry.MeshBasicMaterial(
-        color=0xFFFFFF, map=_TextTexture(text, _TEXT_FONT_PX), transparent=True, depthWrite=False
+        color=0xFFFFFF, map=_TextTexture(text, font_px), transparent=True, depthWrite=False
     )
     return [
         mc.commands.SetObject(mc.geometry.Mesh(_PlaneGeometry(size, size), material), path=_path(mc, path)),
-        mc.commands.SetTransform(_translation([x, y - 0.5 * glyph, z]), _path(mc, path)),
+        mc.commands.SetTransform(_translation([x, y - 0.35 * glyph, z]), _path(mc, path)),
     ]
 
 

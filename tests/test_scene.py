@@ -76,7 +76,7 @@ def test_validation_errors_name_file_table_and_key(tmp_path, text, message):
 
 def test_simulate_defaults_are_those_of_robodyn_simulate(tmp_path):
     scene = read_scene(write(tmp_path, "[model]\nname = 'pendubot'\n[simulate]\n"))
-    assert scene.simulate == {"duration": 2.0, "dt": 1e-3, "integrator": "rk4", "backend": "aba"}
+    assert scene.simulate == {"duration": 2.0, "dt": 1e-3, "integrator": "rk4"}  # backend: simulate picks
     scene = read_scene(write(tmp_path, "[model]\nname = 'pendubot'\n[simulate]\ndt = 0.01\n"))
     assert scene.simulate is not None and scene.simulate["duration"] == 2.0 and scene.simulate["dt"] == 0.01
 
@@ -108,15 +108,15 @@ def test_mimic_is_passed_to_the_model(tmp_path):
     assert (plain.nv, coupled.nv) == (2, 1)
 
 
-def test_run_with_mimic_fails_in_one_line_or_runs(tmp_path, capsys):
-    path = write(tmp_path, "[model]\nname = 'geared_arm_rotor'\nmimic = true\n[simulate]\nduration = 0.05\n")
-    code = main(["run", str(path), "--out", str(tmp_path / "out")])
+def test_run_with_mimic_runs_and_aba_refuses_in_one_line(tmp_path, capsys):
+    text = "[model]\nname = 'geared_arm_rotor'\nmimic = true\n[simulate]\nduration = 0.05\n"
+    assert main(["run", str(write(tmp_path, text)), "--out", str(tmp_path / "out")]) == 0  # simulate picks crba
+    assert np.load(tmp_path / "out" / "scene.npz")["q"].shape[1] == 1  # the rotor mimics the link: nq = 1
+    capsys.readouterr()
+    path = write(tmp_path, text + "backend = 'aba'\n")
+    assert main(["run", str(path), "--out", str(tmp_path / "out2")]) == EXIT_BAD_INPUT
     err = capsys.readouterr().err
-    assert "Traceback" not in err
-    if code == 0:  # simulate supports mimic joints with the scene's backend
-        assert (tmp_path / "out" / "scene.npz").is_file()
-    else:  # ABA refuses mimic joints: one line naming the way out
-        assert code == EXIT_BAD_INPUT and len(err.splitlines()) == 1 and "crba" in err
+    assert "Traceback" not in err and len(err.splitlines()) == 1 and "crba" in err
 
 
 def test_run_checks_the_output_folder_before_any_work(tmp_path, monkeypatch, capsys):

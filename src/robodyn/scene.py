@@ -22,7 +22,7 @@ then builds the model and runs the parts asked for. Example::
     target = { panda_joint2 = 0.0 }
     gravity_compensation = true
 
-    [simulate]                              # defaults as robodyn simulate: 2 s, 1e-3 s, rk4, aba
+    [simulate]                              # defaults as robodyn simulate: 2 s, 1e-3 s, rk4
     duration = 2.0                          # [s]
     dt = 1e-3                               # [s]
     integrator = "rk4"
@@ -410,8 +410,9 @@ def _toml() -> Any:
             ) from None
 
 
-# The defaults of ``robodyn simulate`` (--duration, --dt, --integrator, --backend).
-SIMULATE_DEFAULTS: dict[str, Any] = {"duration": 2.0, "dt": 1e-3, "integrator": "rk4", "backend": "aba"}
+# The defaults of ``robodyn simulate`` (--duration, --dt, --integrator). A backend left out
+# stays out: simulate then picks it (aba, or crba on a model with mimic joints).
+SIMULATE_DEFAULTS: dict[str, Any] = {"duration": 2.0, "dt": 1e-3, "integrator": "rk4"}
 
 
 def _read_simulate(path: Path, data: dict[str, Any]) -> dict[str, Any] | None:

@@ -167,7 +167,7 @@ def _simulate(
             dt=dt,
             integrator=integrator,
             torque=torque,
-            backend=str(scene.simulate["backend"]),
+            backend=scene.simulate.get("backend"),  # None: simulate picks (crba with mimic joints)
         )
     except DivergenceError as exc:
         summary["simulate"] = {"diverged": True, "message": str(exc), "step": exc.step, "time": exc.time}

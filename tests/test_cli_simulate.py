@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -67,7 +68,121 @@ def test_unwritable_output_exits_2(tmp_path: Path, capsys: pytest.CaptureFixture
     blocker = tmp_path / "a_file"
     blocker.write_text("")
     assert main(["simulate", "pendubot", "--out", str(blocker / "traj.npz")]) == 2
-    assert "cannot write" in capsys.readouterr().err
+    assert f"cannot write {blocker / 'traj.npz'}: {blocker} is a file, not a folder" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("out", "message"),
+    [
+        ("missing_dir/x.npz", "the folder {tmp}/missing_dir does not exist"),
+        ("traj.txt", "expected a .npz path"),
+        (".", "is a folder"),
+    ],
+)
+def test_bad_output_paths_are_refused_and_nothing_is_created(
+    tmp_path: Path, out: str, message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["simulate", "pendubot", "--duration", "0.01", "--out", str(tmp_path / out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message.format(tmp=tmp_path) in err[0]
+    assert list(tmp_path.iterdir()) == []  # no folder made, no file written
+
+
+def test_bad_input_leaves_no_empty_files(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out, csv = tmp_path / "z.npz", tmp_path / "z.csv"
+    assert main(["simulate", "pendubot", "--q0", "1", "--out", str(out), "--csv", str(csv)]) == 2
+    assert "q0 must have 2 entries" in capsys.readouterr().err
+    assert not out.exists() and not csv.exists()
+
+
+def test_ctrl_c_writes_the_partial_trajectory_and_exits_130(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from robodyn import integrators
+
+    original = integrators.ClassicRK4.step
+    calls = {"n": 0}
+
+    def step_then_ctrl_c(self: object, *args: object) -> object:
+        calls["n"] += 1
+        if calls["n"] > 700:  # the user presses Ctrl-C during step 701, in the second check block
+            raise KeyboardInterrupt
+        return original(self, *args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(integrators.ClassicRK4, "step", step_then_ctrl_c)
+    out = tmp_path / "int.npz"
+    assert main(["simulate", "pendubot", "--q0", "0.3,-0.2", "--duration", "100", "--out", str(out)]) == 130
+    captured = capsys.readouterr()
+    assert "700 steps" in captured.out
+    assert f"interrupted after step 700 (t = 0.7 s); partial trajectory written to {out}" in captured.err
+    traj = robodyn.Trajectory.load(out)
+    assert traj.status == "interrupted" and traj.n_steps == 700 and traj.evaluations == 4 * 700 + 1
+
+
+def test_euler_blowup_counts_the_work_done(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "blowup.npz"
+    argv = ["simulate", "pendubot", "--q0", "0.3,-0.2", "--duration", "5", "--dt", "0.05", "--integrator", "euler"]
+    assert main([*argv, "--out", str(out), "--json"]) == 3
+    captured = capsys.readouterr()
+    summary = json.loads(captured.out)
+    # 7 Euler steps evaluate a at samples 0..6, and a(t_7) is filled in: 8, not the 100 of the whole block.
+    assert summary["steps"] == 7 and summary["evaluations"] == 8
+    assert robodyn.Trajectory.load(out).evaluations == 8
+    err = captured.err.strip().splitlines()
+    assert len(err) == 1 and err[0].count("likely cause") == 1 and err[0].count("try ") == 1
+
+
+def test_mimic_option_and_the_warning_without_it(capsys: pytest.CaptureFixture[str]) -> None:
+    urdf = str(robodyn.models.models_dir() / "variants" / "geared_arm_rotor.urdf")
+    assert main(["simulate", urdf, "--mimic", "--q0", "1", "--duration", "0.1", "--json"]) == 0
+    captured = capsys.readouterr()
+    summary = json.loads(captured.out)
+    assert summary["steps"] == 100 and summary["max_ledger_residual"] < 1e-10 and captured.err == ""
+    assert main(["simulate", urdf, "--q0", "1,0", "--duration", "0.1"]) == 0  # rotor as a free joint
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "warning" in err[0] and "rotor_joint" in err[0] and "--mimic" in err[0]
+    assert main(["simulate", urdf, "--mimic", "--q0", "1", "--duration", "0.1", "--backend", "aba"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--backend crba" in err[0]
+
+
+WHEELS_URDF = """<?xml version="1.0"?>
+<robot name="wheels">
+  <link name="base"/>
+  <link name="a"><inertial><origin xyz="0.2 0 0"/><mass value="0.5"/>
+    <inertia ixx="1e-4" iyy="2e-3" izz="2e-3" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="b"><inertial><origin xyz="0.2 0 0"/><mass value="0.5"/>
+    <inertia ixx="1e-4" iyy="2e-3" izz="2e-3" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="first" type="continuous"><parent link="base"/><child link="a"/><axis xyz="0 1 0"/></joint>
+  <joint name="second" type="continuous"><parent link="a"/><child link="b"/><origin xyz="0.2 0 0"/>
+    <axis xyz="0 1 0"/></joint>
+</robot>
+"""
+
+
+def test_invalid_states_exit_2_naming_the_cause(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    urdf = tmp_path / "wheels.urdf"
+    urdf.write_text(WHEELS_URDF)
+    assert main(["simulate", str(urdf), "--q0", "2,0,1,0", "--duration", "0.1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "joint 'first'" in err[0] and "norm 2" in err[0] and "diverged" not in err[0]
+    assert main(["simulate", str(urdf), "--q0", "1,0,0.6,0.8", "--duration", "0.1"]) == 0
+    capsys.readouterr()
+    assert main(["simulate", "pendubot", "--free-flyer", "--duration", "0.5"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "singular" in err[0] and "unstable" not in err[0]
+
+
+def test_summary_prints_units_and_help_states_defaults(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["simulate", "cart_pole", "--q0", "0.1,0.2", "--duration", "0.01"]) == 0
+    line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("final state"))
+    number = r"-?[0-9.e+-]+"
+    assert re.fullmatch(rf"final state: q = \[{number} m, {number} rad\], v = \[{number} m/s, {number} rad/s\]", line)
+    with pytest.raises(SystemExit):
+        main(["simulate", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "(default: 0.001 s)" in text and "(default: 1e-09)" in text and "(default: 1e-12)" in text
+    assert "--mimic" in text
 
 
 def test_divergence_exits_3_and_writes_the_partial_trajectory(

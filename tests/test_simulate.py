@@ -342,3 +342,108 @@ def test_coulomb_friction_is_applied_and_booked(tmp_path: Path) -> None:
     assert traj.work_damping[-1] < -0.01  # friction took energy out...
     assert traj.energy[-1] < lossless.energy[-1] - 0.01
     assert traj.max_ledger_residual < 1e-8 * traj.meta["energy_scale"]  # ...and the books still close
+
+
+# ----------------------------------------------------------------------------- mimic joints
+# The rotor as a mimic-coupled body and the rotor as armature J_m n^2 are the same dynamics
+# on a fixed base: the two runs differ by rounding (CRBA + Cholesky against ABA).
+MIMIC_TOL = 1e-9
+
+
+def test_mimic_model_simulates_with_crba_and_keeps_the_books() -> None:
+    rotor = robodyn.load(robodyn.models.models_dir() / "variants" / "geared_arm_rotor.urdf", mimic=True)
+    assert dynamics.has_mimic_joints(rotor.model)
+    traj = simulate(rotor, [1.0], [0.0], duration=1.0, dt=1e-3, backend="crba")
+    assert traj.meta["backend"] == "crba" and traj.n_steps == 1000
+    default = simulate(rotor, [1.0], [0.0], duration=1.0, dt=1e-3)  # crba chosen for a mimic model
+    assert default.meta["backend"] == "crba"
+    np.testing.assert_array_equal(default.q, traj.q)
+    armature = simulate(robodyn.load("geared_arm"), [1.0], [0.0], duration=1.0, dt=1e-3)
+    np.testing.assert_allclose(traj.q, armature.q, rtol=0, atol=MIMIC_TOL)
+    np.testing.assert_allclose(traj.energy, armature.energy, rtol=0, atol=MIMIC_TOL)
+    assert traj.max_ledger_residual < CONSERVATION_RTOL * traj.meta["energy_scale"]
+    # V by the centre of mass and body by body agree; T by CRBA and RNEA too (rotor included).
+    check = cross_check(rotor, np.array([0.7]), np.array([1.3]))
+    assert check.relative_error < 1e-12
+    assert check.kinetic_crba == pytest.approx(0.5 * 1.3**2 * (1.840725e-3 + 0.243 * 0.15**2 + 1.08e-6 * 50**2))
+    with pytest.raises(InputError, match=r"mimic joints.*--backend crba"):
+        simulate(rotor, [1.0], [0.0], duration=0.1, dt=1e-3, backend="aba")
+
+
+# ----------------------------------------------------------------------------- invalid states
+def test_cos_sin_pairs_and_quaternions_must_be_unit(tmp_path: Path) -> None:
+    urdf = tmp_path / "wheel.urdf"
+    urdf.write_text(CONTINUOUS_URDF.format(kind="continuous"))
+    wheel = robodyn.load(urdf)
+    with pytest.raises(InputError, match=r"joint 'spin' has the \(cos, sin\) pair \(2, 0\) of norm 2; .* 1e-09"):
+        simulate(wheel, [2.0, 0.0], [0.0], duration=0.1, dt=1e-3)
+    with pytest.raises(InputError, match="'spin'"):  # slightly off: refused too, not silently accepted
+        simulate(wheel, [1.0 + 1e-6, 0.0], [0.0], duration=0.1, dt=1e-3)
+    ok = simulate(wheel, [np.cos(0.3), np.sin(0.3)], [0.0], duration=0.01, dt=1e-3)
+    assert ok.n_steps == 10
+    flyer = robodyn.load("geared_arm", free_flyer=True)
+    q = flyer.neutral()
+    q[3:7] = [0.0, 0.0, 0.0, 1.1]
+    with pytest.raises(InputError, match=r"joint 'root_joint' has the quaternion"):
+        simulate(flyer, q, np.zeros(flyer.nv), duration=0.1, dt=1e-3)
+
+
+def test_singular_mass_matrix_is_refused_before_the_run() -> None:
+    # Thin-rod links have no inertia about their own axis: on a free flyer, turning the base
+    # about y while joint 1 turns back moves nothing, and M is singular (~1e-16 relative).
+    robot = robodyn.load("pendubot", free_flyer=True)
+    with pytest.raises(robodyn.errors.ModelError, match=r"mass matrix M\(q0\) is singular.*root_joint\.wy"):
+        simulate(robot, robot.neutral(), np.zeros(robot.nv), duration=0.5, dt=1e-3)
+
+
+def test_divergence_diagnosis_blames_a_singular_mass_matrix_not_the_integrator() -> None:
+    from robodyn.simulation import diagnose
+
+    method = robodyn.integrators.get("rk4")
+    singular = robodyn.load("pendubot", free_flyer=True)
+    cause, suggestion = diagnose(method, 1e-3, robot_system(singular), [singular.neutral()])
+    assert "mass matrix M(q) is singular" in cause and "not the integrator" in cause and "rk4" not in cause
+    regular = robodyn.load("pendubot")
+    cause, suggestion = diagnose(method, 1e-3, robot_system(regular), [regular.neutral()])
+    assert cause == "rk4 is unstable at dt = 0.001 s" and suggestion == "try a smaller dt, e.g. 0.0001 s"
+
+
+def test_a_step_that_cannot_be_taken_is_one_sentence() -> None:
+    robot = robodyn.load("pendubot")
+    with pytest.raises(DivergenceError) as info:
+        simulate(robot, [0.3, -0.2], [0.0, 0.0], duration=1.0, dt=0.3, integrator="symplectic_euler")
+    message = str(info.value)
+    assert message.startswith("diverged at step 1 (t = 0 -> 0.3 s): symplectic Euler's momentum iteration")
+    assert "at t = 0 s" not in message  # the interval is said once, at the start
+    assert message.count("likely cause") == 1 and message.count("try a smaller dt") == 1
+    assert info.value.trajectory.n_steps == 0
+
+
+def test_ctrl_c_keeps_the_trajectory_so_far() -> None:
+    from robodyn.simulation import SimulationInterrupted
+
+    def operator(t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        if t >= 0.25:
+            raise KeyboardInterrupt
+        return np.array([0.1])
+
+    robot = robodyn.load("geared_arm")
+    with pytest.raises(SimulationInterrupted) as info:
+        simulate(robot, [0.1], [0.0], duration=1.0, dt=0.01, torque=operator)
+    assert isinstance(info.value, KeyboardInterrupt)
+    traj = info.value.trajectory
+    assert traj.status == "interrupted" and not traj.diverged and traj.message.startswith("interrupted after step")
+    # RK4's last stage of the step from 0.24 s calls the torque at 0.25 s: that step never finished.
+    assert traj.n_steps == 24 and traj.t[-1] == pytest.approx(0.24)
+    assert np.all(np.isfinite(traj.a)) and traj.meta["interrupted_step"] == 24
+    # 24 steps, the four stages begun in the interrupted one, and a(0.24 s) filled in afterwards.
+    assert traj.evaluations == 4 * 24 + 4 + 1
+    assert traj.max_ledger_residual < 1e-8
+
+
+def test_coordinate_units() -> None:
+    from robodyn.system import coordinate_units
+
+    assert coordinate_units(robodyn.load("cart_pole")) == (["m", "rad"], ["m/s", "rad/s"])
+    q_units, v_units = coordinate_units(robodyn.load("geared_arm", free_flyer=True))
+    assert q_units == ["m"] * 3 + [""] * 4 + ["rad"] and v_units == ["m/s"] * 3 + ["rad/s"] * 4

@@ -81,6 +81,35 @@ def test_load_refuses_what_is_not_a_trajectory(tmp_path: Path) -> None:
         Trajectory.load(other)
 
 
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [
+        (b"", "the file is empty"),
+        (b"t,q0\n0,1\n", "not an .npz (zip) archive"),
+        (b"PK\x03\x04 truncated", "the archive is damaged"),
+    ],
+)
+def test_load_of_an_empty_or_garbage_file_is_one_line(tmp_path: Path, content: bytes, message: str) -> None:
+    path = tmp_path / "bad.npz"
+    path.write_bytes(content)
+    with pytest.raises(InputError, match="not a robodyn trajectory") as info:
+        Trajectory.load(path)
+    text = str(info.value)
+    assert message in text and "\n" not in text and "pickle" not in text
+    with pytest.raises(InputError, match="is a folder"):
+        Trajectory.load(tmp_path)
+
+
+def test_save_wants_an_npz_name_and_leaves_no_partial_file(tmp_path: Path) -> None:
+    traj = hand_made()
+    with pytest.raises(InputError, match=r"expected a \.npz path"):
+        traj.save(tmp_path / "traj.txt")
+    assert not (tmp_path / "traj.txt").exists()
+    traj.save(tmp_path / "traj.npz")
+    traj.save_csv(tmp_path / "traj.csv")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["traj.csv", "traj.npz"]  # no temporary left over
+
+
 def test_summary_names_the_figures_the_cli_prints() -> None:
     s = hand_made().summary()
     assert s["steps"] == 2 and s["energy_final"] == 6.5 and s["work_damping"] == -1.0

@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import json
+import os
+import zipfile
+from collections.abc import Callable
 from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -15,6 +18,11 @@ from robodyn.errors import InputError
 Array = NDArray[np.float64]
 
 FORMAT_VERSION = 1
+
+# Every .npz starts with a zip local-file header.
+_ZIP_MAGIC = b"PK\x03\x04"
+
+STATUSES = ("ok", "diverged", "interrupted")
 
 
 @dataclass(frozen=True, eq=False)
@@ -32,7 +40,9 @@ class Trajectory:
 
     ``meta`` records the model (name, URDF path), the integrator, dt and backend, and
     ``wall_time_s`` and ``evaluations`` (dynamics calls) the cost of the run. ``status``
-    is ``"ok"`` or ``"diverged"`` (then ``message`` says where and why).
+    is ``"ok"``, ``"diverged"`` or ``"interrupted"`` (Ctrl-C; then ``message`` says where
+    and why). ``meta["q_units"]`` and ``meta["v_units"]`` give the unit of every entry of
+    q and v ("rad", "m", "rad/s", "m/s", or "" for a cos/sin pair or a quaternion).
     """
 
     t: Array
@@ -103,6 +113,8 @@ class Trajectory:
             "evaluations": self.evaluations,
             "q_final": self.q[-1].tolist(),
             "v_final": self.v[-1].tolist(),
+            "q_units": self.meta.get("q_units"),
+            "v_units": self.meta.get("v_units"),
             "energy_initial": float(e[0]),
             "energy_final": float(e[-1]),
             "energy_drift": self.energy_drift,
@@ -116,8 +128,17 @@ class Trajectory:
     _ARRAYS = ("t", "q", "v", "a", "tau", "kinetic", "potential", "work_input", "work_damping")
 
     def save(self, path: str | Path) -> Path:
-        """Write to ``.npz`` (arrays plus ``energy`` and JSON metadata); return the path."""
+        """Write to ``.npz`` (arrays plus ``energy`` and JSON metadata); return the path.
+
+        The file appears complete or not at all: it is written next to ``path`` under a
+        temporary name and renamed.
+
+        Raises:
+            InputError: ``path`` does not end in ``.npz``.
+        """
         path = Path(path)
+        if path.suffix != ".npz":
+            raise InputError(f"{path}: expected a .npz path for a trajectory (got suffix {path.suffix!r})")
         arrays = {name: getattr(self, name) for name in self._ARRAYS}
         info = {
             "format_version": FORMAT_VERSION,
@@ -127,12 +148,17 @@ class Trajectory:
             "message": self.message,
             "meta": self.meta,
         }
-        with path.open("wb") as fh:
+
+        def write(fh: IO[bytes]) -> None:
             np.savez_compressed(fh, energy=self.energy, metadata=np.array(json.dumps(info)), **arrays)
-        return path
+
+        return _write_atomically(path, write)
 
     def save_csv(self, path: str | Path) -> Path:
-        """Write one row per sample: t, q_i, v_i, tau_i, kinetic, potential, energy, works, residual."""
+        """Write one row per sample: t, q_i, v_i, tau_i, kinetic, potential, energy, works, residual.
+
+        Like :meth:`save`, the file appears complete or not at all.
+        """
         path = Path(path)
         nq, nv = self.q.shape[1], self.v.shape[1]
         header = (
@@ -144,21 +170,49 @@ class Trajectory:
         )
         columns = [self.t, self.q, self.v, self.tau, self.kinetic, self.potential, self.energy]
         table = np.column_stack([*columns, self.work_input, self.work_damping, self.ledger_residual])
-        np.savetxt(path, table, delimiter=",", header=",".join(header), comments="", fmt="%.17g")
-        return path
+        return _write_atomically(
+            path, lambda fh: np.savetxt(fh, table, delimiter=",", header=",".join(header), comments="", fmt="%.17g")
+        )
 
     @classmethod
     def load(cls, path: str | Path) -> Trajectory:
-        """Read a trajectory written by :meth:`save`."""
+        """Read a trajectory written by :meth:`save`.
+
+        Raises:
+            InputError: no such file, or one that is not a trajectory .npz (empty, not a
+                zip archive, arrays or metadata missing or malformed); one line, naming what.
+        """
         path = Path(path)
+        expected = "expected an .npz written by robodyn simulate"
+        if path.is_dir():
+            raise InputError(f"{path}: is a folder, not a trajectory file ({expected})")
         if not path.is_file():
-            raise InputError(f"{path}: no such trajectory file (expected an .npz written by robodyn simulate)")
+            raise InputError(f"{path}: no such trajectory file ({expected})")
+        try:
+            with path.open("rb") as fh:
+                head = fh.read(len(_ZIP_MAGIC))
+        except OSError as exc:
+            raise InputError(f"{path}: cannot read it ({exc.strerror})") from None
+        if not head:
+            raise InputError(f"{path}: the file is empty, not a robodyn trajectory ({expected})")
+        if head != _ZIP_MAGIC:
+            raise InputError(f"{path}: not a robodyn trajectory: the file is not an .npz (zip) archive ({expected})")
         try:
             with np.load(path, allow_pickle=False) as npz:
+                missing = [name for name in (*cls._ARRAYS, "metadata") if name not in npz.files]
+                if missing:
+                    raise InputError(f"{path}: not a robodyn trajectory: no {', '.join(missing)} in it ({expected})")
                 arrays = {name: np.array(npz[name], dtype=np.float64) for name in cls._ARRAYS}
                 info = json.loads(str(npz["metadata"]))
-        except (OSError, ValueError, KeyError) as exc:
-            raise InputError(f"{path}: not a robodyn trajectory ({exc})") from None
+        except InputError:
+            raise
+        except json.JSONDecodeError as exc:
+            raise InputError(f"{path}: not a robodyn trajectory: its metadata is not JSON ({exc.msg})") from None
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
+            reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise InputError(f"{path}: not a robodyn trajectory: the archive is damaged ({reason})") from None
+        if not isinstance(info, dict):
+            raise InputError(f"{path}: not a robodyn trajectory: its metadata is not a JSON object")
         n = arrays["t"].shape[0]
         for name in cls._ARRAYS:
             if arrays[name].shape[:1] != (n,):
@@ -169,3 +223,19 @@ class Trajectory:
         known = {f.name for f in fields(cls)}
         extra = {k: v for k, v in info.items() if k in known}
         return cls(**arrays, **extra)  # type: ignore[arg-type]
+
+
+def _write_atomically(path: Path, write: Callable[[IO[bytes]], None]) -> Path:
+    """Call ``write`` on a temporary file next to ``path``, then rename it to ``path``.
+
+    An interrupted or failed write leaves no partial or empty file behind.
+    """
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.part")
+    try:
+        with tmp.open("wb") as fh:
+            write(fh)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return path

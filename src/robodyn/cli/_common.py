@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 from typing import Any
@@ -69,17 +70,72 @@ def load_robot(args: argparse.Namespace, model: str | None = None, **options: An
     return load(args.model if model is None else model, srdf=args.srdf, free_flyer=args.free_flyer, **options)
 
 
-def writable_path(path: Path) -> Path:
-    """Return ``path`` after checking that its folder exists (created if needed) and is writable."""
+def writable_path(path: Path, *, create_parents: bool = True, suffix: str | None = None) -> Path:
+    """Return ``path`` after checking, without creating it, that it can be written.
+
+    The path must not be a folder, its folder must be a writable folder, and an existing
+    file there must be writable. Missing parent folders are created when
+    ``create_parents`` (the default; ``robodyn simulate`` refuses them instead), and
+    ``suffix`` (e.g. ``".npz"``) is required of the name when given. Nothing is written:
+    a run that fails later leaves no empty file behind.
+
+    Raises:
+        InputError: one line naming the path and what is wrong with it.
+    """
     from robodyn.errors import InputError
 
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with path.open("ab"):
-            pass
-    except OSError as exc:
-        raise InputError(f"cannot write {path}: {exc.strerror}") from None
+    if path.is_dir():
+        raise InputError(f"cannot write {path}: it is a folder; give a file name")
+    if suffix is not None and path.suffix != suffix:
+        raise InputError(f"cannot write {path}: expected a {suffix} path (got {path.suffix or 'no suffix'})")
+    parent = path.parent
+    existing = parent
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if existing.exists() and not existing.is_dir():
+        raise InputError(f"cannot write {path}: {existing} is a file, not a folder")
+    if existing != parent:
+        if not create_parents:
+            raise InputError(f"cannot write {path}: the folder {parent} does not exist (create it first)")
+        try:
+            parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise InputError(f"cannot write {path}: cannot create the folder {parent}: {exc.strerror}") from None
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise InputError(f"cannot write {path}: the folder {parent} is not writable")
+    if path.exists() and not os.access(path, os.W_OK):
+        raise InputError(f"cannot write {path}: the file exists and is not writable")
     return path
+
+
+def urdf_mimic_joints(urdf: Path | None) -> list[str]:
+    """Names of the moving joints of ``urdf`` that carry a ``<mimic>`` tag (none for no file or bad XML).
+
+    A ``<mimic>`` on a fixed joint couples nothing and is not counted.
+    """
+    import xml.etree.ElementTree as ET
+
+    if urdf is None:
+        return []
+    try:
+        root = ET.parse(urdf).getroot()
+    except (OSError, ET.ParseError):
+        return []
+    return [str(j.get("name")) for j in root.iter("joint") if j.find("mimic") is not None and j.get("type") != "fixed"]
+
+
+def warn_ignored_mimic(robot: Any, *, mimic: bool, command: str) -> None:
+    """One line on stderr when ``robot``'s URDF couples joints by ``<mimic>`` but ``--mimic`` was not given."""
+    if mimic:
+        return
+    names = urdf_mimic_joints(getattr(robot, "urdf_path", None))
+    if names:
+        listed = ", ".join(names[:3]) + (f" and {len(names) - 3} more" if len(names) > 3 else "")
+        print(
+            f"robodyn {command}: warning: {robot.name}'s URDF couples {listed} by <mimic>; "
+            "the coupling is ignored and those joints move on their own (pass --mimic to keep it)",
+            file=sys.stderr,
+        )
 
 
 def print_json(obj: Any) -> None:

@@ -1,8 +1,10 @@
 """``robodyn simulate``: integrate a model, print the energy books, save the trajectory.
 
-Exit codes: 0 the run finished; 2 bad input (wrong vector lengths, non-positive dt or
-duration, an unknown integrator or backend, an unwritable output path); 3 the run
-diverged (the trajectory up to the failing step is written first).
+Exit codes: 0 the run finished; 2 bad input (wrong vector lengths, a cos/sin pair or
+quaternion off the unit sphere, a singular mass matrix, non-positive dt or duration, an
+unknown integrator or backend, an unwritable output path); 3 the run diverged (the
+trajectory up to the failing step is written first); 130 interrupted by Ctrl-C (the
+trajectory so far is written first).
 """
 
 from __future__ import annotations
@@ -14,8 +16,17 @@ from typing import Any
 
 import numpy as np
 
-from robodyn.cli._common import float_list, load_robot, positive_float, print_json, writable_path
+from robodyn.cli._common import (
+    float_list,
+    load_robot,
+    positive_float,
+    print_json,
+    warn_ignored_mimic,
+    writable_path,
+)
 from robodyn.errors import EXIT_DIVERGED, EXIT_OK, InputError
+
+EXIT_INTERRUPTED = 130
 
 
 def add_parser(sub: Any) -> None:
@@ -25,7 +36,8 @@ def add_parser(sub: Any) -> None:
         help="integrate a model's motion and keep the energy and work books",
         description="Integrate M a + C v + G = tau + tau_damping from (q0, v0), print the steps, wall time, final "
         "state, energy drift and ledger residual E - E0 - W_input - W_damping, and save the trajectory. "
-        "Exit 0: done; 2: bad input; 3: diverged (the trajectory up to that step is still written).",
+        "Exit 0: done; 2: bad input; 3: diverged (the trajectory up to that step is still written); "
+        "130: interrupted by Ctrl-C (the trajectory so far is still written).",
     )
     p.add_argument(
         "model",
@@ -36,10 +48,25 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument("--srdf", type=Path, default=None, help="SRDF file (default: same stem as the URDF)")
     p.add_argument("--free-flyer", action="store_true", help="mount the root on a free-flyer joint")
-    p.add_argument("--q0", type=float_list, help="initial configuration a,b,... [rad | m] (default: neutral)")
+    p.add_argument(
+        "--mimic",
+        action="store_true",
+        help="keep the URDF's <mimic> couplings (forward dynamics then by CRBA); without it they are ignored",
+    )
+    p.add_argument(
+        "--q0",
+        type=float_list,
+        help="initial configuration a,b,... [rad | m] (default: neutral); cos/sin pairs and quaternions must "
+        "have norm 1 within 1e-9, or give one angle per continuous joint",
+    )
     p.add_argument("--v0", type=float_list, help="initial velocity c,d,... [rad/s | m/s] (default: zero)")
-    p.add_argument("--duration", type=float, default=2.0, help="simulated time [s] (default 2)")
-    p.add_argument("--dt", type=float, default=1e-3, help="time step, or output interval of adaptive methods [s]")
+    p.add_argument("--duration", type=float, default=2.0, help="simulated time [s] (default: %(default)g s)")
+    p.add_argument(
+        "--dt",
+        type=float,
+        default=1e-3,
+        help="time step, or output interval of adaptive methods [s] (default: %(default)g s)",
+    )
     p.add_argument("--integrator", default="rk4", help="integration method (default rk4); 'list' names them and exits")
     p.add_argument(
         "--torque",
@@ -48,10 +75,24 @@ def add_parser(sub: Any) -> None:
         "actuated joint",
     )
     p.add_argument(
-        "--backend", choices=("aba", "crba", "formula"), default="aba", help="forward dynamics (default aba)"
+        "--backend",
+        choices=("aba", "crba", "formula"),
+        default=None,
+        help="forward dynamics (default: aba; crba on a model loaded with --mimic, which aba refuses)",
     )
-    p.add_argument("--rtol", type=positive_float, default=1e-9, help="relative tolerance, adaptive methods")
-    p.add_argument("--atol", type=positive_float, default=1e-12, help="absolute tolerance, adaptive methods")
+    p.add_argument(
+        "--rtol",
+        type=positive_float,
+        default=1e-9,
+        help="relative tolerance of the adaptive methods, dimensionless (default: %(default)g)",
+    )
+    p.add_argument(
+        "--atol",
+        type=positive_float,
+        default=1e-12,
+        help="absolute tolerance of the adaptive methods, in the units of each state entry [rad | m | rad/s | m/s | J] "
+        "(default: %(default)g)",
+    )
     p.add_argument("--no-damping", action="store_true", help="ignore the URDF's joint damping and friction")
     p.add_argument(
         "--max-energy-growth",
@@ -59,8 +100,10 @@ def add_parser(sub: Any) -> None:
         default=1.0,
         help="stop as diverged when |E - E0 - W| exceeds this times the energy scale (default 1)",
     )
-    p.add_argument("--out", type=Path, help="write the trajectory to this .npz file")
-    p.add_argument("--csv", type=Path, metavar="PATH", help="also write the trajectory as CSV")
+    p.add_argument(
+        "--out", type=Path, metavar="FILE.npz", help="write the trajectory to this .npz file (its folder must exist)"
+    )
+    p.add_argument("--csv", type=Path, metavar="PATH", help="also write the trajectory as CSV (its folder must exist)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.add_argument("--view", action="store_true", help="afterwards, play the motion in the browser (meshcat)")
     p.set_defaults(handler=run)
@@ -76,14 +119,16 @@ def run(args: argparse.Namespace) -> int:
     if args.model is None:
         raise InputError("missing URDF_OR_NAME: a built-in model name or a path to a .urdf file")
     method = integrators.get(args.integrator)  # an unknown name fails before anything is loaded
-    out = writable_path(args.out) if args.out is not None else None
-    csv = writable_path(args.csv) if args.csv is not None else None
-    robot = load_robot(args)
+    # Checked before any work and without creating anything: a run that fails leaves no empty file.
+    out = writable_path(args.out, create_parents=False, suffix=".npz") if args.out is not None else None
+    csv = writable_path(args.csv, create_parents=False) if args.csv is not None else None
+    robot = load_robot(args, mimic=args.mimic)
+    warn_ignored_mimic(robot, mimic=args.mimic, command="simulate")
     q0 = args.q0 if args.q0 is not None else robot.neutral()
     v0 = args.v0 if args.v0 is not None else np.zeros(robot.nv)
 
     from robodyn.errors import DivergenceError
-    from robodyn.simulation import simulate
+    from robodyn.simulation import SimulationInterrupted, simulate
 
     trajectory: Any
     try:
@@ -101,11 +146,17 @@ def run(args: argparse.Namespace) -> int:
             atol=args.atol,
             max_energy_growth=args.max_energy_growth,
         )
-        failure = None
+        failure: BaseException | None = None
     except DivergenceError as exc:
+        trajectory, failure = exc.trajectory, exc
+    except SimulationInterrupted as exc:  # Ctrl-C: no lost work, the trajectory so far is written
         trajectory, failure = exc.trajectory, exc
     _write(trajectory, out, csv)
     _report(trajectory, out, csv, as_json=args.json)
+    if isinstance(failure, SimulationInterrupted):
+        written = f"; partial trajectory written to {out}" if out is not None else ""
+        print(f"robodyn simulate: {failure}{written}", file=sys.stderr)
+        return EXIT_INTERRUPTED
     if failure is not None:
         print(f"robodyn simulate: {failure}", file=sys.stderr)
         return EXIT_DIVERGED
@@ -134,8 +185,12 @@ def _print_integrators(integrators: Any, *, as_json: bool) -> None:
         print(f"{r['name']:<20} {r['order']:>5}  {flags[0]:<10} {flags[1]:<8} {flags[2]:<8} {r['description']}")
 
 
-def _vec(x: Any) -> str:
-    return np.array2string(np.asarray(x), precision=6, separator=", ", max_line_width=200)
+def _vec(x: Any, units: list[str] | None) -> str:
+    """``[0.1 m, 6.151342 rad]``: each entry with its unit (none for a cos/sin pair or a quaternion)."""
+    values = np.asarray(x, dtype=np.float64).reshape(-1)
+    if units is None or len(units) != values.size:
+        units = [""] * values.size
+    return "[" + ", ".join(f"{v:.7g} {u}" if u else f"{v:.7g}" for v, u in zip(values, units, strict=True)) + "]"
 
 
 def _report(trajectory: Any, out: Path | None, csv: Path | None, *, as_json: bool) -> None:
@@ -153,7 +208,7 @@ def _report(trajectory: Any, out: Path | None, csv: Path | None, *, as_json: boo
         f"{s['steps']} steps to t = {s['t_final']:g} s in {s['wall_time_s']:.3f} s wall "
         f"({s['evaluations']} dynamics evaluations, backend {meta.get('backend')})"
     )
-    print(f"final state: q = {_vec(s['q_final'])}, v = {_vec(s['v_final'])}")
+    print(f"final state: q = {_vec(s['q_final'], s['q_units'])}, v = {_vec(s['v_final'], s['v_units'])}")
     print(
         f"energy: E0 = {s['energy_initial']:.9g} J, E(t) = {s['energy_final']:.9g} J, "
         f"drift max|E - E0| = {s['energy_drift']:.3e} J (relative {s['relative_energy_drift']:.3e})"

@@ -15,6 +15,7 @@ Exit codes (documented in the README):
 
 from __future__ import annotations
 
+import difflib
 from collections.abc import Iterable
 from typing import TYPE_CHECKING
 
@@ -54,7 +55,9 @@ class UnknownNameError(RobodynError, KeyError):
         self.what = what
         self.name = name
         self.choices = tuple(sorted(choices))
-        super().__init__(f"unknown {what} {name!r}; expected one of: {', '.join(self.choices)}")
+        close = difflib.get_close_matches(name, self.choices, n=3, cutoff=0.6)
+        hint = f"did you mean {' or '.join(repr(c) for c in close)}? " if close else ""
+        super().__init__(f"unknown {what} {name!r}; {hint}expected one of: {', '.join(self.choices)}")
 
     def __str__(self) -> str:  # KeyError would quote the message otherwise
         return str(self.args[0])

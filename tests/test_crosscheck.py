@@ -173,3 +173,14 @@ def test_wrong_sizes_and_tolerances_are_refused():
 def test_a_model_without_moving_joints_is_refused_plainly():
     with pytest.raises(robodyn.InputError, match="no moving joint.*--free-flyer"):
         check(robodyn.load("hector"))
+
+
+def test_mimic_model_is_checked_with_crba_and_refused_routines_are_na():
+    robot = robodyn.load(Path(__file__).resolve().parents[1] / "models/variants/geared_arm_rotor.urdf", mimic=True)
+    report = check(robot, samples=10)
+    assert report.passed
+    na = {r.quantity for r in report.rows if r.status == "n/a"}
+    assert na == {"M^-1 (tau - nle) = ABA", "1/2 v^T M v = computeKineticEnergy"}
+    q, v = robot.random_state(np.random.default_rng(0))
+    a = robot.forward_dynamics(q, v, np.ones(robot.nv))  # default backend: CRBA on a mimic model
+    np.testing.assert_allclose(robot.inverse_dynamics(q, v, a), np.ones(robot.nv), rtol=1e-10)

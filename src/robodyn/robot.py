@@ -193,13 +193,16 @@ class Robot:
         """Tau = M(q) a + C(q, v) v + G(q) by RNEA [N m | N], shape (nv,)."""
         return dynamics.rnea(self.model, self.data, self.q_(q), self.v_(v), self.v_(a, "a"))
 
-    def forward_dynamics(self, q: ArrayLike, v: ArrayLike, tau: ArrayLike, *, backend: str = "aba") -> Array:
+    def forward_dynamics(self, q: ArrayLike, v: ArrayLike, tau: ArrayLike, *, backend: str | None = None) -> Array:
         """Accelerations a = M^-1 (tau - C v - G) [rad/s^2 | m/s^2], shape (nv,).
 
         ``backend`` is ``"aba"`` (Pinocchio's articulated-body algorithm) or ``"crba"``
-        (CRBA + Cholesky, which also serves models with mimic joints).
+        (CRBA + Cholesky, which also serves models with mimic joints); by default ABA, or
+        CRBA on a model with mimic joints, which ABA refuses.
         """
         q_, v_, tau_ = self.q_(q), self.v_(v), self.v_(tau, "tau")
+        if backend is None:
+            backend = "crba" if dynamics.has_mimic_joints(self.model) else "aba"
         if backend == "aba":
             try:
                 return dynamics.aba(self.model, self.data, q_, v_, tau_)

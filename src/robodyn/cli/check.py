@@ -7,7 +7,14 @@ import json
 from pathlib import Path
 from typing import Any
 
-from robodyn.cli._common import add_model_arguments, load_robot, positive_float, positive_int, print_json
+from robodyn.cli._common import (
+    add_model_arguments,
+    load_robot,
+    positive_float,
+    positive_int,
+    print_json,
+    warn_ignored_mimic,
+)
 from robodyn.errors import EXIT_MISMATCH, EXIT_OK, InputError
 
 
@@ -38,6 +45,9 @@ def add_parser(sub: Any) -> None:
         help="use these formula parameters (a JSON object, or the output of robodyn params) instead of "
         "reading them from the model: checks a URDF against numbers you trust",
     )
+    p.add_argument(
+        "--mimic", action="store_true", help="keep URDF <mimic> couplings as mimic joints (checked with CRBA)"
+    )
     p.add_argument("--json", action="store_true", help="print the report as JSON")
     p.set_defaults(handler=run)
 
@@ -50,7 +60,9 @@ def run(args: argparse.Namespace) -> int:
     if args.params is not None and args.formula in (None, "auto"):
         raise InputError("--params needs --formula KIND: parameters belong to one formula kind")
     given = read_params(args.params) if args.params is not None else None
-    robots = [load_robot(args, name) for name in args.models]  # bad input fails before any work
+    robots = [load_robot(args, name, mimic=args.mimic) for name in args.models]  # bad input fails before any work
+    for robot in robots:
+        warn_ignored_mimic(robot, mimic=args.mimic, command="check")
     reports = []
     for robot in robots:
         formula = detect_kind(robot) if args.formula == "auto" else args.formula
@@ -122,6 +134,9 @@ def format_report(report: Any, robot: Any) -> str:
             lines.append(f"-- {_GROUP_TITLES[group]}")
         errors = f"{r.max_abs_error:>12.3e}  {r.max_rel_error:>11.3e}  {r.tolerance:>7.0e}"
         lines.append(f"{r.quantity:<{width}}{errors}  {r.status:<6}  {r.unit}")
+    for r in report.rows:
+        if not r.applicable:
+            lines.append(f"n/a: {r.quantity}: {r.note}")
     for r in report.failures + report.gaps:
         label = "MISMATCH" if r.counts else "PINOCCHIO GAP"
         ref = "Pinocchio" if r.group == "formula" else "expected"

@@ -129,7 +129,7 @@ def test_run_checks_the_output_folder_before_any_work(tmp_path, monkeypatch, cap
     path = write(tmp_path, GOOD + "[check]\nexactness = true\n")
     a_file = tmp_path / "a_file"
     a_file.write_text("x")
-    for out, message in ((Path("/proc/zz"), "cannot write /proc/zz"), (a_file, "is not a folder")):
+    for out, message in ((Path("/proc/zz"), "cannot write /proc/zz"), (a_file, "not a folder")):
         assert main(["run", str(path), "--out", str(out)]) == EXIT_BAD_INPUT
         err = capsys.readouterr().err
         assert message in err and len(err.splitlines()) == 1, err

@@ -288,7 +288,7 @@ def test_an_unwritable_html_path_fails_before_any_work(
     for html, message in (
         (Path("/proc/x.html"), "cannot write /proc/x.html"),  # root may write anywhere, yet /proc takes no files
         (tmp_path, "it is a folder"),
-        (a_file / "x.html", "is not a folder"),
+        (a_file / "x.html", "not a folder"),
     ):
         assert main(["view", "pendubot", str(motion_file), "--html", str(html)]) == 2
         err = capsys.readouterr().err

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 from pathlib import Path
 from typing import Any
@@ -68,44 +67,6 @@ def load_robot(args: argparse.Namespace, model: str | None = None, **options: An
     from robodyn.models import load
 
     return load(args.model if model is None else model, srdf=args.srdf, free_flyer=args.free_flyer, **options)
-
-
-def writable_path(path: Path, *, create_parents: bool = True, suffix: str | None = None) -> Path:
-    """Return ``path`` after checking, without creating it, that it can be written.
-
-    The path must not be a folder, its folder must be a writable folder, and an existing
-    file there must be writable. Missing parent folders are created when
-    ``create_parents`` (the default; ``robodyn simulate`` refuses them instead), and
-    ``suffix`` (e.g. ``".npz"``) is required of the name when given. Nothing is written:
-    a run that fails later leaves no empty file behind.
-
-    Raises:
-        InputError: one line naming the path and what is wrong with it.
-    """
-    from robodyn.errors import InputError
-
-    if path.is_dir():
-        raise InputError(f"cannot write {path}: it is a folder; give a file name")
-    if suffix is not None and path.suffix != suffix:
-        raise InputError(f"cannot write {path}: expected a {suffix} path (got {path.suffix or 'no suffix'})")
-    parent = path.parent
-    existing = parent
-    while not existing.exists() and existing != existing.parent:
-        existing = existing.parent
-    if existing.exists() and not existing.is_dir():
-        raise InputError(f"cannot write {path}: {existing} is a file, not a folder")
-    if existing != parent:
-        if not create_parents:
-            raise InputError(f"cannot write {path}: the folder {parent} does not exist (create it first)")
-        try:
-            parent.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise InputError(f"cannot write {path}: cannot create the folder {parent}: {exc.strerror}") from None
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise InputError(f"cannot write {path}: the folder {parent} is not writable")
-    if path.exists() and not os.access(path, os.W_OK):
-        raise InputError(f"cannot write {path}: the file exists and is not writable")
-    return path
 
 
 def urdf_mimic_joints(urdf: Path | None) -> list[str]:

@@ -19,7 +19,8 @@ def _existing_ancestor(path: Path) -> Path:
 
 def _check_folder_writable(folder: Path, target: Path) -> None:
     if not folder.is_dir():
-        raise InputError(f"cannot write {target}: {folder} is not a folder")
+        what = "a file, not a folder" if folder.exists() else "not a folder"
+        raise InputError(f"cannot write {target}: {folder} is {what}")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise InputError(f"cannot write {target}: folder {folder} is not writable")
     # Permission bits do not tell everything (root in /proc, a read-only mount): open an
@@ -57,3 +58,26 @@ def check_output_folder(folder: Path) -> Path:
         return folder
     _check_folder_writable(_existing_ancestor(folder), folder)
     return folder
+
+
+def writable_path(path: Path, *, create_parents: bool = True, suffix: str | None = None) -> Path:
+    """Return ``path`` after checking, without writing a file, that it can be written.
+
+    As :func:`check_output_file`; ``suffix`` (e.g. ``".npz"``) is required of the name when
+    given. Missing parent folders are then created when ``create_parents`` (the default;
+    ``robodyn simulate`` refuses them instead). A run that fails later leaves no file behind.
+
+    Raises:
+        InputError: one line naming the path and what is wrong with it.
+    """
+    if path.is_dir():
+        raise InputError(f"cannot write {path}: it is a folder (expected a file name)")
+    if suffix is not None and path.suffix != suffix:
+        raise InputError(f"cannot write {path}: expected a {suffix} path (got {path.suffix or 'no suffix'})")
+    parent = path.absolute().parent
+    if not create_parents and not parent.exists():
+        raise InputError(f"cannot write {path}: the folder {path.parent} does not exist (create it first)")
+    check_output_file(path)
+    if create_parents:
+        parent.mkdir(parents=True, exist_ok=True)
+    return path

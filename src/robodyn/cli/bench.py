@@ -91,7 +91,7 @@ def _none_for_text_numbers(obj: Any) -> Any:
 def run(args: argparse.Namespace) -> int:
     """Run the sweeps, then the stability study; write everything under ``--out``."""
     from robodyn import bench, charts
-    from robodyn.cli._common import writable_path
+    from robodyn.cli._output import writable_path
     from robodyn.models import load
 
     out: Path = args.out

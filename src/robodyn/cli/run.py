@@ -7,8 +7,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from robodyn.cli._common import writable_path
-from robodyn.cli._output import check_output_file, check_output_folder
+from robodyn.cli._output import check_output_file, check_output_folder, writable_path
 from robodyn.errors import EXIT_MISMATCH, EXIT_OK
 
 

@@ -22,8 +22,8 @@ from robodyn.cli._common import (
     positive_float,
     print_json,
     warn_ignored_mimic,
-    writable_path,
 )
+from robodyn.cli._output import writable_path
 from robodyn.errors import EXIT_DIVERGED, EXIT_OK, InputError
 
 EXIT_INTERRUPTED = 130

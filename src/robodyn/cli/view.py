@@ -19,9 +19,8 @@ from robodyn.cli._common import (
     float_list,
     load_robot,
     positive_float,
-    writable_path,
 )
-from robodyn.cli._output import check_output_file
+from robodyn.cli._output import check_output_file, writable_path
 from robodyn.errors import InputError, UnavailableError
 
 if TYPE_CHECKING:

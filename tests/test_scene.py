@@ -212,8 +212,8 @@ def test_run_writes_summary_and_trajectory(tmp_path):
     assert summary["nv"] == 1 and summary["full_nv"] == 2
     assert summary["exactness"]["passed"]
     assert (out / "scene.npz").is_file()
-    assert code in (0, 1)  # 1 only if a structural check row fails (see summary["check"])
-    assert code == (0 if summary["check"]["passed"] else 1)
+    assert summary["check"]["passed"] and summary["check"]["failed"] == []
+    assert code == 0
 
 
 def test_run_view_html_writes_the_replay_page(tmp_path):

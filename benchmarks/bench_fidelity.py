@@ -26,7 +26,7 @@ import numpy as np
 
 import robodyn
 from robodyn import integrators
-from robodyn.models import load
+from robodyn.model.load import load
 
 from _common import argument_parser, best_of, pyplot, save_figure, write_json
 

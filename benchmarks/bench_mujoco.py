@@ -29,8 +29,10 @@ from pathlib import Path
 import numpy as np
 
 import robodyn
-from robodyn import batch, bench, charts
-from robodyn.fast import FastDynamics
+from robodyn import charts
+from robodyn.sim import batch
+from robodyn.sim.fast import FastDynamics
+from robodyn.studies import bench
 
 # MuJoCo's M and bias against Pinocchio's: the same rigid-body algorithms in float64.
 MODEL_MATCH_RTOL = 1e-12

@@ -25,7 +25,7 @@ import numpy as np
 import pinocchio as pin
 
 import robodyn
-from robodyn.simulation import simulate
+from robodyn.sim.simulation import simulate
 
 BUDGET = 1.3
 

@@ -5,7 +5,7 @@ Measured side by side in one run, for every model:
 * per dynamics call: M (CRBA), C, G and ABA, mean over seeded random states [s];
 * per simulated second: wall time of robodyn.simulate for 1 s (RK4, dt = 1 ms) [s];
 * load time: dynamics only (robodyn.load: no mesh is read) against dynamics plus visual
-  geometry (robodyn.models.load_geometry parses every mesh) [s].
+  geometry (robodyn.model.load.load_geometry parses every mesh) [s].
 
     python benchmarks/bench_scaling.py --out bench-out
 
@@ -20,9 +20,9 @@ from pathlib import Path
 import numpy as np
 
 import robodyn
-from robodyn.models import load, load_geometry
-from robodyn.reduce import time_calls
-from robodyn.simulation import simulate
+from robodyn.model.load import load, load_geometry
+from robodyn.model.reduce import time_calls
+from robodyn.sim.simulation import simulate
 
 from _common import argument_parser, best_of, pyplot, save_figure, write_json
 
@@ -52,7 +52,7 @@ def measure(label: str, name: str, options: dict, *, calls: int, sim_seconds: fl
     per_call = {what: min(run[what] for run in runs) for what in runs[0]}
     q0 = robot.neutral()
     if "reference" in options:
-        from robodyn.models import reference_configurations
+        from robodyn.model.files import reference_configurations
 
         q0 = reference_configurations(robot).get(options["reference"], q0)
     traj = simulate(

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 import robodyn
-from robodyn import batch
 from robodyn.errors import InputError
-from robodyn.stability import variant_path
+from robodyn.sim import batch
+from robodyn.studies.stability import variant_path
 
 # Same method, same steps, accelerations from abaInParallel instead of aba: round-off only,
 # amplified over 0.2 s of the Pendubot's chaos.

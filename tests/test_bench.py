@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 
 import robodyn
-from robodyn import bench
 from robodyn.errors import InputError
+from robodyn.studies import bench
 
 from ._bench_helpers import RECORD_KEYS
 

@@ -8,7 +8,7 @@ import sys
 import numpy as np
 
 from robodyn import charts
-from robodyn.bench import BenchResult, EnergySeries
+from robodyn.studies.bench import BenchResult, EnergySeries
 
 PNG_MAGIC = b"\x89PNG"
 

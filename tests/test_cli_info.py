@@ -137,7 +137,7 @@ def test_info_unknown_model_suggests_close_names_and_list(capsys):
 
 
 def test_info_list_names_every_model(capsys):
-    from robodyn.models import model_sources
+    from robodyn.model.sources import model_sources
 
     assert main(["info", "--list"]) == 0
     out = capsys.readouterr().out
@@ -150,7 +150,7 @@ def test_info_list_names_every_model(capsys):
 
 
 def test_info_refuses_a_urdf_given_as_srdf(capsys):
-    from robodyn.models import resolve
+    from robodyn.model.sources import resolve
 
     urdf = resolve("pendubot").urdf
     assert main(["info", "pendubot", "--srdf", str(urdf)]) == EXIT_BAD_INPUT

@@ -133,7 +133,7 @@ def test_euler_blowup_counts_the_work_done(tmp_path: Path, capsys: pytest.Captur
 
 
 def test_mimic_option_and_the_warning_without_it(capsys: pytest.CaptureFixture[str]) -> None:
-    urdf = str(robodyn.models.models_dir() / "variants" / "geared_arm_rotor.urdf")
+    urdf = str(robodyn.model.files.models_dir() / "variants" / "geared_arm_rotor.urdf")
     assert main(["simulate", urdf, "--mimic", "--q0", "1", "--duration", "0.1", "--json"]) == 0
     captured = capsys.readouterr()
     summary = json.loads(captured.out)

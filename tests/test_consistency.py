@@ -6,7 +6,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from robodyn.consistency import all_findings, impossible_inertials, inertial_findings, joint_findings
+from robodyn.model.consistency import all_findings, impossible_inertials, inertial_findings, joint_findings
 
 
 def one_body(mass: float, inertia: np.ndarray, *, armature: float = 0.0) -> pin.Model:

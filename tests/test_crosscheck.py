@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import robodyn
-from robodyn import formulas
-from robodyn.crosscheck import check
-from robodyn.params import extract
+from robodyn.kinds import formulas
+from robodyn.kinds.check import check
+from robodyn.kinds.params import extract
 
 from . import _urdf
 

@@ -7,8 +7,8 @@ import pytest
 
 import robodyn
 from robodyn.errors import AssumptionError, InputError, UnknownNameError
-from robodyn.fast import VERIFY_RTOL, FastDynamics
-from robodyn.stability import variant_path
+from robodyn.sim.fast import VERIFY_RTOL, FastDynamics
+from robodyn.studies.stability import variant_path
 
 # Closed form vs ABA, same integrator and steps: round-off only, amplified at most ~e^(2.2 * 1 s)
 # by the Pendubot's chaos over the 1 s horizon.

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from robodyn import formulas
 from robodyn.errors import FormulaError, UnknownNameError
+from robodyn.kinds import formulas
 
 RTOL = 1e-12  # same expressions evaluated two ways: round-off only
 N_STATES = 20
@@ -113,7 +113,7 @@ def test_christoffel_form_makes_mdot_minus_2c_skew(kind):
 
 
 def test_geared_arm_motor_and_link_coordinates_are_one_equation():
-    from robodyn.formulas import geared_arm as ga
+    from robodyn.kinds import geared_arm as ga
 
     p = PARAMS["geared_arm"]
     n = p["n"]

@@ -11,15 +11,8 @@ from scipy.special import ellipj, ellipk
 import robodyn
 from robodyn import integrators
 from robodyn.errors import InputError, UnknownNameError
-from robodyn.integrators import (
-    CLASSIC_RK4,
-    DORMAND_PRINCE_54,
-    ArrayProblem,
-    ButcherTableau,
-    ExplicitRungeKutta,
-    solve,
-)
-from robodyn.system import robot_system
+from robodyn.integrators import CLASSIC_RK4, DORMAND_PRINCE_54, ArrayProblem, ButcherTableau, ExplicitRungeKutta, solve
+from robodyn.sim.system import robot_system
 
 # Fitted orders must fall within this band of the declared order (asymptotic range, steps
 # chosen so that round-off stays 3+ decades below the errors measured).

@@ -8,15 +8,15 @@ import numpy as np
 import pytest
 
 from robodyn.errors import ModelError, UnknownNameError
-from robodyn.models import (
+from robodyn.model.files import (
     BUILTIN_NAMES,
     VARIANT_NAMES,
-    load,
     mesh_references,
     reference_configurations,
-    resolve,
     resolve_resource,
 )
+from robodyn.model.load import load
+from robodyn.model.sources import resolve
 
 # geared arm, armature vs rotor-as-a-body: identical physics, so CRBA agrees to round-off.
 ROUNDOFF_RTOL = 1e-12

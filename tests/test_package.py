@@ -27,7 +27,7 @@ def test_public_names_resolve_and_are_sorted():
 
 
 def test_builtin_models_are_found_from_the_installed_package():
-    from robodyn.models import BUILTIN_NAMES, models_dir
+    from robodyn.model.files import BUILTIN_NAMES, models_dir
 
     for name in BUILTIN_NAMES:
         assert (models_dir() / f"{name}.urdf").is_file()

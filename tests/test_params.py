@@ -7,7 +7,7 @@ import pytest
 
 import robodyn
 from robodyn.errors import AssumptionError
-from robodyn.params import detect_kind, extract
+from robodyn.kinds.params import detect_kind, extract
 
 from . import _urdf
 

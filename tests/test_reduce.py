@@ -6,10 +6,10 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from robodyn.consistency import inertial_findings
 from robodyn.errors import InputError, UnknownNameError
-from robodyn.models import load, load_geometry, load_reduction
-from robodyn.reduce import (
+from robodyn.model.consistency import inertial_findings
+from robodyn.model.load import load, load_geometry, load_reduction
+from robodyn.model.reduce import (
     CARRIED,
     carry_joint_parameters,
     locked_acceleration,

@@ -5,13 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from robodyn import robot_library
 from robodyn.cli import main
-from robodyn.consistency import all_findings
-from robodyn.crosscheck import DEFAULT_RTOL, check
 from robodyn.errors import ModelError
-from robodyn.models import load, resolve
-from robodyn.summary import summarize
+from robodyn.kinds.check import DEFAULT_RTOL, check
+from robodyn.model import sources as robot_library
+from robodyn.model.consistency import all_findings
+from robodyn.model.load import load
+from robodyn.model.sources import resolve
+from robodyn.model.summary import summarize
 
 # Structural identities through M^-1 lose digits in proportion to cond(M): iCub's point-mass
 # links give cond(M) ~ 4e6, so its identity rows are held to 1e-7 instead of 1e-9.

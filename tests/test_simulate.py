@@ -11,10 +11,10 @@ from scipy.integrate import solve_ivp
 
 import robodyn
 from robodyn import dynamics
-from robodyn.energy import EnergyMeter, cross_check
 from robodyn.errors import DivergenceError, InputError, UnknownNameError
-from robodyn.simulation import simulate
-from robodyn.system import robot_system
+from robodyn.sim.energy import EnergyMeter, cross_check
+from robodyn.sim.simulation import simulate
+from robodyn.sim.system import robot_system
 
 # RK4 at dt = 1e-4 over 2 s against DOP853 at rtol = atol = 1e-12 (the bar).
 REFERENCE_TOL = 1e-8
@@ -351,7 +351,7 @@ MIMIC_TOL = 1e-9
 
 
 def test_mimic_model_simulates_with_crba_and_keeps_the_books() -> None:
-    rotor = robodyn.load(robodyn.models.models_dir() / "variants" / "geared_arm_rotor.urdf", mimic=True)
+    rotor = robodyn.load(robodyn.model.files.models_dir() / "variants" / "geared_arm_rotor.urdf", mimic=True)
     assert dynamics.has_mimic_joints(rotor.model)
     traj = simulate(rotor, [1.0], [0.0], duration=1.0, dt=1e-3, backend="crba")
     assert traj.meta["backend"] == "crba" and traj.n_steps == 1000
@@ -397,7 +397,7 @@ def test_singular_mass_matrix_is_refused_before_the_run() -> None:
 
 
 def test_divergence_diagnosis_blames_a_singular_mass_matrix_not_the_integrator() -> None:
-    from robodyn.simulation import diagnose
+    from robodyn.sim.simulation import diagnose
 
     method = robodyn.integrators.get("rk4")
     singular = robodyn.load("pendubot", free_flyer=True)
@@ -420,7 +420,7 @@ def test_a_step_that_cannot_be_taken_is_one_sentence() -> None:
 
 
 def test_ctrl_c_keeps_the_trajectory_so_far() -> None:
-    from robodyn.simulation import SimulationInterrupted
+    from robodyn.sim.simulation import SimulationInterrupted
 
     def operator(t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         if t >= 0.25:
@@ -442,7 +442,7 @@ def test_ctrl_c_keeps_the_trajectory_so_far() -> None:
 
 
 def test_coordinate_units() -> None:
-    from robodyn.system import coordinate_units
+    from robodyn.sim.system import coordinate_units
 
     assert coordinate_units(robodyn.load("cart_pole")) == (["m", "rad"], ["m/s", "rad/s"])
     q_units, v_units = coordinate_units(robodyn.load("geared_arm", free_flyer=True))

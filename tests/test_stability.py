@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import robodyn
-from robodyn import stability as stab
 from robodyn.errors import InputError
+from robodyn.studies import stability as stab
 
 # Stability-region boundaries are found by bisection to 1e-6 relative; quoted constants
 # (2.785293563 for RK4 on the real axis, 2 sqrt 2 on the imaginary) are exact to that.

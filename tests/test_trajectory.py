@@ -10,8 +10,8 @@ import pytest
 
 import robodyn
 from robodyn.errors import InputError
-from robodyn.simulation import simulate
-from robodyn.trajectory import Trajectory
+from robodyn.sim.simulation import simulate
+from robodyn.sim.trajectory import Trajectory
 
 
 def hand_made() -> Trajectory:

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from robodyn.errors import ModelError
-from robodyn.urdf_check import validate_urdf
+from robodyn.model.urdf import validate_urdf
 
 ROOT = Path(__file__).resolve().parents[1]
 

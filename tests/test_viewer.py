@@ -26,7 +26,7 @@ import robodyn
 from robodyn import viewer
 from robodyn.cli import main
 from robodyn.errors import InputError, MissingDependencyError, UnavailableError, UnknownNameError
-from robodyn.trajectory import Trajectory
+from robodyn.sim.trajectory import Trajectory
 
 from ._viewer_helpers import SERVER_WAIT_S, interrupt, view_process
 
@@ -77,7 +77,7 @@ def motion_file(motion: Trajectory, tmp_path_factory: pytest.TempPathFactory) ->
 
 def oracle_geometry_placements(robot: robodyn.Robot, q: np.ndarray) -> list[np.ndarray]:
     """oMg = oMf[parent frame] * placement, by the frames' route (not updateGeometryPlacements)."""
-    from robodyn.models import load_geometry
+    from robodyn.model.load import load_geometry
 
     geometry = load_geometry(robot)
     model = robot.model

@@ -28,21 +28,21 @@ from robodyn.errors import (
 __version__ = "0.1.0"
 
 if TYPE_CHECKING:
-    from robodyn.crosscheck import CheckReport, check
-    from robodyn.models import load
+    from robodyn.kinds.check import CheckReport, check
+    from robodyn.model.load import load
     from robodyn.robot import Robot
 
 # Public name -> (module, attribute); attribute None means the module itself.
 # Imported on first access (PEP 562) so that ``import robodyn`` stays light.
 _LAZY: dict[str, tuple[str, str | None]] = {
-    "load": ("robodyn.models", "load"),
+    "load": ("robodyn.model.load", "load"),
     "Robot": ("robodyn.robot", "Robot"),
-    "check": ("robodyn.crosscheck", "check"),
-    "CheckReport": ("robodyn.crosscheck", "CheckReport"),
-    "extract_params": ("robodyn.params", "extract"),
-    "formulas": ("robodyn.formulas", None),
-    "simulate": ("robodyn.simulation", "simulate"),
-    "Trajectory": ("robodyn.trajectory", "Trajectory"),
+    "check": ("robodyn.kinds.check", "check"),
+    "CheckReport": ("robodyn.kinds.check", "CheckReport"),
+    "extract_params": ("robodyn.kinds.params", "extract"),
+    "formulas": ("robodyn.kinds.formulas", None),
+    "simulate": ("robodyn.sim.simulation", "simulate"),
+    "Trajectory": ("robodyn.sim.trajectory", "Trajectory"),
     "integrators": ("robodyn.integrators", None),
     "viewer": ("robodyn.viewer", None),
 }

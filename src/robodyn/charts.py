@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike
 from robodyn.errors import MissingDependencyError
 
 if TYPE_CHECKING:
-    from robodyn.bench import BenchResult, EnergySeries
+    from robodyn.studies.bench import BenchResult, EnergySeries
 
 # One colour per integrator, one marker per backend: the same run looks the same on every chart.
 _COLOURS = {

@@ -236,7 +236,7 @@ def mechanical_energies(model: pin.Model, data: pin.Data, q: Array, v: Array) ->
 
     One ``computeMechanicalEnergy`` per sample: fast, but its kinetic energy leaves out the
     armature on non-canonical revolute axes; trust it only where it matches
-    :func:`kinetic_energies` (``robodyn.energy`` checks that per model).
+    :func:`kinetic_energies` (``robodyn.sim.energy`` checks that per model).
     """
     n = q.shape[0]
     kinetic = np.empty(n)

@@ -17,10 +17,7 @@ from __future__ import annotations
 
 import difflib
 from collections.abc import Iterable
-from typing import TYPE_CHECKING
-
-if TYPE_CHECKING:
-    from robodyn.trajectory import Trajectory
+from typing import Any
 
 EXIT_OK = 0
 EXIT_MISMATCH = 1
@@ -76,7 +73,7 @@ class DivergenceError(RobodynError):
 
     exit_code = EXIT_DIVERGED
 
-    def __init__(self, message: str, *, step: int, time: float, trajectory: Trajectory | None = None) -> None:
+    def __init__(self, message: str, *, step: int, time: float, trajectory: Any = None) -> None:
         self.step = step
         self.time = time
         self.trajectory = trajectory
@@ -93,3 +90,16 @@ class UnavailableError(RobodynError):
     """A resource such as a network port cannot be used."""
 
     exit_code = EXIT_UNAVAILABLE
+
+
+class UnknownModelError(UnknownNameError):
+    """A model name that is neither built in nor in example-robot-data: the close names first."""
+
+    def __init__(self, name: str, choices: Iterable[str]) -> None:
+        super().__init__("model", name, choices)
+        close = difflib.get_close_matches(name, self.choices, n=5, cutoff=0.6)
+        hint = f"did you mean {', '.join(close)}? " if close else ""
+        self.args = (
+            f"unknown model {name!r}; {hint}'robodyn info --list' names all {len(self.choices)} models "
+            "(or give a path to a .urdf file)",
+        )

@@ -15,7 +15,7 @@ from robodyn.errors import InputError, UnknownNameError
 if TYPE_CHECKING:
     import pinocchio as pin
 
-    from robodyn.trajectory import Trajectory
+    from robodyn.sim.trajectory import Trajectory
     from robodyn.viewer import Replay
 
 Array = NDArray[np.float64]
@@ -261,3 +261,17 @@ class Robot:
             zmq_url=zmq_url,
             height=height,
         )
+
+
+def joint_coordinates(kind: str, nq: int, values: ArrayLike) -> NDArray[np.float64]:
+    """The nq coordinates of a joint from a user's values.
+
+    One angle for a continuous joint (stored as cos, sin), one value for a 1-coordinate
+    joint, or all nq values.
+    """
+    vals = np.asarray(values, dtype=np.float64).reshape(-1)
+    if vals.size == nq:
+        return vals
+    if vals.size == 1 and nq == 2 and kind.startswith("JointModelRUB"):
+        return np.array([np.cos(vals[0]), np.sin(vals[0])])
+    raise InputError(f"a {kind} joint takes {nq} value(s), got {vals.size}")

@@ -53,7 +53,7 @@ from numpy.typing import NDArray
 from robodyn.errors import InputError
 
 if TYPE_CHECKING:
-    from robodyn.reduce import Reduction
+    from robodyn.model.reduce import Reduction
     from robodyn.robot import Robot
 
 Array = NDArray[np.float64]
@@ -103,10 +103,10 @@ class Scene:
         """Load the model and reduce it to the joints the scene keeps.
 
         Returns the robot to simulate (the reduced one when joints are locked) and the
-        :class:`robodyn.reduce.Reduction`, or None when nothing is locked.
+        :class:`robodyn.model.reduce.Reduction`, or None when nothing is locked.
         """
         from robodyn.errors import UnknownNameError
-        from robodyn.models import load, load_reduction
+        from robodyn.model.load import load, load_reduction
 
         m = self.model
         target = m.get("urdf") or m["name"]
@@ -147,7 +147,7 @@ class Scene:
         if reduction is not None:
             default = reduction.reduced_q(reduction.q_reference)
         elif "reference" in self.model:
-            from robodyn.reduce import reference_configuration
+            from robodyn.model.reduce import reference_configuration
 
             default = reference_configuration(robot, self.model["reference"])
         else:
@@ -159,7 +159,7 @@ class Scene:
     def _joint_vector(
         self, robot: Robot, table: str, key: str, value: Any, default: Array, *, configuration: bool
     ) -> Array:
-        from robodyn.models import joint_coordinates
+        from robodyn.robot import joint_coordinates
 
         if value is None:
             return default.copy()

@@ -64,7 +64,7 @@ def add_model_arguments(parser: argparse.ArgumentParser, *, many: bool = False) 
 
 def load_robot(args: argparse.Namespace, model: str | None = None, **options: Any) -> Any:
     """Load the robot named by ``model`` (default ``args.model``) with the common options."""
-    from robodyn.models import load
+    from robodyn.model.load import load
 
     return load(args.model if model is None else model, srdf=args.srdf, free_flyer=args.free_flyer, **options)
 

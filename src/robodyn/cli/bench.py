@@ -72,7 +72,7 @@ def _write_json(path: Path, obj: Any) -> None:
 
 def _clean(obj: Any) -> Any:
     """JSON-ready copy with inf and nan as None (JSON has no such numbers)."""
-    from robodyn.stability import as_dict
+    from robodyn.studies.stability import as_dict
 
     out = as_dict(obj)
     return _none_for_text_numbers(out)
@@ -90,9 +90,10 @@ def _none_for_text_numbers(obj: Any) -> Any:
 
 def run(args: argparse.Namespace) -> int:
     """Run the sweeps, then the stability study; write everything under ``--out``."""
-    from robodyn import bench, charts
+    from robodyn import charts
     from robodyn.cli._output import writable_path
-    from robodyn.models import load
+    from robodyn.model.load import load
+    from robodyn.studies import bench
 
     out: Path = args.out
     writable_path(out / "bench.json")
@@ -120,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _sweep_charts(result: Any, out: Path, charts: Any) -> list[str]:
-    from robodyn import bench
+    from robodyn.studies import bench
 
     name = result.model
     orders = {m: bench.measured_order(result.results, m) for m in (*result.plan.fixed,)}
@@ -143,10 +144,11 @@ def _sweep_charts(result: Any, out: Path, charts: Any) -> list[str]:
 def _stability(robots: list[Any], out: Path, *, quick: bool, progress: ProgressBar) -> dict[str, Any]:
     import numpy as np
 
-    from robodyn import charts, stability
-    from robodyn.bench import start_state
+    from robodyn import charts
     from robodyn.errors import RobodynError
-    from robodyn.models import load
+    from robodyn.model.load import load
+    from robodyn.studies import stability
+    from robodyn.studies.bench import start_state
 
     methods = stability.QUICK_FIXED_METHODS if quick else stability.FIXED_METHODS
     steps = 300 if quick else 2000
@@ -208,7 +210,7 @@ def _fmt(x: Any, spec: str = ".3g") -> str:
 def _report(
     sweeps: list[Any], figures: dict[str, list[str]], stab: dict[str, Any] | None, *, quick: bool, seconds: float
 ) -> str:
-    from robodyn import bench
+    from robodyn.studies import bench
 
     lines = [
         "# robodyn bench report",
@@ -257,7 +259,7 @@ def _report(
 
 
 def _reading(s: Any) -> str:
-    from robodyn import bench
+    from robodyn.studies import bench
 
     table = [(lvl, r) for lvl, r in bench.best_by_accuracy(s.results) if r is not None]
     if not table:

@@ -54,8 +54,8 @@ def add_parser(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Check each model, print a table (or JSON) per model; exit 1 if any mismatches."""
-    from robodyn.crosscheck import check
-    from robodyn.params import detect_kind
+    from robodyn.kinds.check import check
+    from robodyn.kinds.params import detect_kind
 
     if args.params is not None and args.formula in (None, "auto"):
         raise InputError("--params needs --formula KIND: parameters belong to one formula kind")
@@ -119,7 +119,7 @@ def format_report(report: Any, robot: Any) -> str:
         origin = "given with --params" if report.params_given else "read from the model"
         lines.append(f"parameters {origin}: {params}")
     if report.formula is None:
-        from robodyn.params import detect_kind
+        from robodyn.kinds.params import detect_kind
 
         kind = detect_kind(robot)
         if kind is not None:

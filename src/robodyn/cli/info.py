@@ -62,8 +62,8 @@ def add_reduction_arguments(p: argparse.ArgumentParser) -> None:
 
 def load_reduced(args: argparse.Namespace, **options: Any) -> Any:
     """Load ``args.model`` with the common options and ``--lock`` / ``--keep`` / ``--reference``."""
-    from robodyn.models import load
-    from robodyn.reduce import parse_keep, parse_lock
+    from robodyn.model.load import load
+    from robodyn.model.reduce import parse_keep, parse_lock
 
     lock = parse_lock(args.lock) if args.lock is not None else None
     keep = parse_keep(args.keep) if args.keep is not None else None
@@ -81,8 +81,9 @@ def load_reduced(args: argparse.Namespace, **options: Any) -> Any:
 
 def run(args: argparse.Namespace) -> int:
     """Print the summary of the robot."""
-    from robodyn.models import looks_like_path, resolve
-    from robodyn.summary import summarize
+    from robodyn.model.files import looks_like_path
+    from robodyn.model.sources import resolve
+    from robodyn.model.summary import summarize
 
     if args.list:
         if args.model is not None:
@@ -105,7 +106,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _list_models(*, as_json: bool) -> int:
     """Print every model reachable by name with where it comes from."""
-    from robodyn.models import model_sources
+    from robodyn.model.sources import model_sources
 
     sources = model_sources()
     rows = {name: sources.get(name) for name in sorted(sources.names(), key=str.lower)}
@@ -154,7 +155,7 @@ def _limits(lower: tuple[float, ...], upper: tuple[float, ...]) -> str:
 
 
 def format_summary(s: Any) -> str:
-    """The human-readable report of a :class:`robodyn.summary.ModelSummary`."""
+    """The human-readable report of a :class:`robodyn.model.summary.ModelSummary`."""
     lines = [f"{s.name}: nq = {s.nq}, nv = {s.nv}, total mass = {s.total_mass:.6g} kg (moving {s.moving_mass:.6g} kg)"]
     lines.append(f"  URDF: {s.urdf}")
     lines.append(f"  SRDF: {s.srdf or '-'}")

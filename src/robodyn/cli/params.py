@@ -25,7 +25,7 @@ def add_parser(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Extract and print."""
     from robodyn.errors import AssumptionError
-    from robodyn.params import EXTRACTORS, detect_kind, extract
+    from robodyn.kinds.params import EXTRACTORS, detect_kind, extract
 
     robot = load_robot(args)
     kind = args.kind or detect_kind(robot)

@@ -99,8 +99,8 @@ def _jsonable(obj: Any) -> Any:
 
 
 def _check(scene: Any, robot: Any, reduction: Any, q0: Any, v0: Any, torque: Any, summary: dict[str, Any]) -> int:
-    from robodyn.crosscheck import check
-    from robodyn.reduce import prove_exact
+    from robodyn.kinds.check import check
+    from robodyn.model.reduce import prove_exact
 
     c = scene.check
     report = check(robot, c.get("formula"), samples=int(c.get("samples", 20)), seed=int(c.get("seed", 0)))
@@ -153,7 +153,7 @@ def _simulate(
     import dataclasses
 
     from robodyn.errors import DivergenceError, ModelError
-    from robodyn.simulation import simulate
+    from robodyn.sim.simulation import simulate
 
     duration, dt, integrator = _timing(scene)
     path = out / f"{scene.name}.npz"
@@ -176,7 +176,7 @@ def _simulate(
             print(f"simulate: diverged; partial trajectory written to {path}")
         raise
     except RuntimeError as exc:  # Pinocchio refusing the model (e.g. ABA and mimic joints)
-        from robodyn.models import pinocchio_message
+        from robodyn.model.load import pinocchio_message
 
         hint = ' (mimic joints: try [simulate] backend = "crba")' if scene.model.get("mimic") else ""
         raise ModelError(f"simulate: Pinocchio refused the model: {pinocchio_message(exc)}{hint}") from None
@@ -203,7 +203,7 @@ def _simulate(
 
 
 def _bench(scene: Any, robot: Any, reduction: Any, summary: dict[str, Any]) -> None:
-    from robodyn.reduce import compare_cost, time_calls
+    from robodyn.model.reduce import compare_cost, time_calls
 
     repeat = int(scene.bench.get("repeat", 200))
     if reduction is None:

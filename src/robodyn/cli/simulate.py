@@ -16,13 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from robodyn.cli._common import (
-    float_list,
-    load_robot,
-    positive_float,
-    print_json,
-    warn_ignored_mimic,
-)
+from robodyn.cli._common import float_list, load_robot, positive_float, print_json, warn_ignored_mimic
 from robodyn.cli._output import writable_path
 from robodyn.errors import EXIT_DIVERGED, EXIT_OK, InputError
 
@@ -128,7 +122,7 @@ def run(args: argparse.Namespace) -> int:
     v0 = args.v0 if args.v0 is not None else np.zeros(robot.nv)
 
     from robodyn.errors import DivergenceError
-    from robodyn.simulation import SimulationInterrupted, simulate
+    from robodyn.sim.simulation import SimulationInterrupted, simulate
 
     trajectory: Any
     try:

@@ -14,18 +14,13 @@ import webbrowser
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from robodyn.cli._common import (
-    add_model_arguments,
-    float_list,
-    load_robot,
-    positive_float,
-)
+from robodyn.cli._common import add_model_arguments, float_list, load_robot, positive_float
 from robodyn.cli._output import check_output_file, writable_path
 from robodyn.errors import InputError, UnavailableError
 
 if TYPE_CHECKING:
     from robodyn.robot import Robot
-    from robodyn.trajectory import Trajectory
+    from robodyn.sim.trajectory import Trajectory
     from robodyn.viewer import Playback
 
 
@@ -99,7 +94,7 @@ def open_in_browser(target: str, *, by_hand: str) -> bool:
 def run(args: argparse.Namespace) -> int:
     """Build the scene, then write the HTML file or serve it until Ctrl-C."""
     from robodyn import viewer
-    from robodyn.trajectory import Trajectory
+    from robodyn.sim.trajectory import Trajectory
 
     if args.html is not None and (args.zmq_url is not None or args.port is not None):
         raise InputError("--html writes a file and starts no server; leave out --zmq-url and --port")

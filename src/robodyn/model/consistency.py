@@ -175,7 +175,7 @@ def joint_findings(model: pin.Model) -> list[Finding]:
 
 def mesh_findings(urdf: Path) -> list[Finding]:
     """One warning per mesh file the URDF names that cannot be found (no mesh is parsed)."""
-    from robodyn.models import mesh_references
+    from robodyn.model.files import mesh_references
 
     return [
         Finding(ref.link, "warning", f"{ref.kind} mesh {ref.uri!r} not found", "mesh_missing")

@@ -29,8 +29,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from robodyn import dynamics
 from robodyn.errors import InputError
-from robodyn.formulas import Formula, resolve
-from robodyn.params import Params, extract, from_mapping
+from robodyn.kinds.formulas import Formula, resolve
+from robodyn.kinds.params import Params, extract, from_mapping
 from robodyn.robot import Robot
 
 Array = NDArray[np.float64]
@@ -413,7 +413,7 @@ def check(
     Args:
         robot: a loaded model (see :func:`robodyn.load`).
         formula: a kind name (``"pendubot"``...), a path to a user's formula file, a
-            :class:`robodyn.formulas.Formula`, or None for the structural checks only.
+            :class:`robodyn.kinds.formulas.Formula`, or None for the structural checks only.
         samples: number of random states (>= 1).
         seed: seed of the random states.
         rtol: relative tolerance for exact comparisons (finite-difference rows use

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from robodyn.formulas import Array, Formula, Params
+from robodyn.kinds.formulas import Array, Formula, Params
 
 PARAMS = ("M", "m", "l", "I", "g")
 
@@ -47,5 +47,5 @@ def potential_energy(q: Array, p: Params) -> float:
 
 
 FORMULA = Formula(
-    "cart_pole", "robodyn.formulas.cart_pole", PARAMS, mass_matrix, coriolis_matrix, gravity, potential_energy, 2
+    "cart_pole", "robodyn.kinds.cart_pole", PARAMS, mass_matrix, coriolis_matrix, gravity, potential_energy, 2
 )

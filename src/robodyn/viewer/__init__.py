@@ -48,7 +48,7 @@ if TYPE_CHECKING:
     import pinocchio as pin
 
     from robodyn.robot import Robot
-    from robodyn.trajectory import Trajectory
+    from robodyn.sim.trajectory import Trajectory
 
 Array = NDArray[np.float64]
 
@@ -233,7 +233,7 @@ def build(
     _check_rate("fps", fps)
     configurations, index, times, kinetic, potential = _samples(robot, trajectory, q, speed=speed, fps=fps)
     if geometry is None:
-        from robodyn.models import load_geometry
+        from robodyn.model.load import load_geometry
 
         geometry = load_geometry(robot, kind="visual")
     objects, geoms, skipped = _geometry_objects(robot, geometry, configurations)
@@ -876,7 +876,7 @@ def meshcat_javascript() -> str:
 
 
 def _asset(name: str) -> str:
-    return resources.files("robodyn").joinpath("viewer_assets", name).read_text(encoding="utf-8")
+    return resources.files("robodyn.viewer").joinpath("assets", name).read_text(encoding="utf-8")
 
 
 def _script_safe(text: str) -> str:
@@ -1163,13 +1163,3 @@ def _run_server(zmq_port: int, web_port: int) -> None:
         bridge.run()
     except KeyboardInterrupt:
         pass
-
-
-if __name__ == "__main__":  # the server process started by serve()
-    import argparse
-
-    _parser = argparse.ArgumentParser(prog="python -m robodyn.viewer", description="robodyn's meshcat server")
-    _parser.add_argument("--zmq-port", type=int, required=True)
-    _parser.add_argument("--port", type=int, required=True)
-    _args = _parser.parse_args()
-    _run_server(_args.zmq_port, _args.port)

@@ -19,14 +19,21 @@ is asked for, and ``robodyn info`` says so.
 
 from __future__ import annotations
 
-import importlib.metadata
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
-from typing import TYPE_CHECKING
 
-if TYPE_CHECKING:
-    from robodyn.models import ModelSource
+from robodyn.errors import ModelError, UnknownModelError
+from robodyn.model.files import (
+    BUILTIN_NAMES,
+    VARIANT_NAMES,
+    ModelSource,
+    find_srdf,
+    looks_like_path,
+    models_dir,
+    robots_dir,
+)
+from robodyn.registry import Registry
 
 
 @dataclass(frozen=True)
@@ -146,17 +153,6 @@ NOT_LOADABLE: dict[str, str] = {
 }
 
 
-@lru_cache(maxsize=1)
-def robots_dir() -> Path | None:
-    """The ``robots`` folder of the installed example-robot-data, or None if absent."""
-    try:
-        dist = importlib.metadata.distribution("example-robot-data")
-    except importlib.metadata.PackageNotFoundError:
-        return None
-    folder = Path(str(dist.locate_file("cmeel.prefix/share/example-robot-data/robots")))
-    return folder if folder.is_dir() else None
-
-
 def _stem_name(urdf: Path, stems: dict[str, int]) -> str:
     # Two packages ship an "anymal.urdf": disambiguate with the package folder.
     if stems[urdf.stem] > 1:
@@ -175,8 +171,6 @@ def sources() -> dict[str, ModelSource]:
     Loader names (``talos``, ``ur5``...) come first with their SRDF; every other URDF
     follows under its file stem, paired with an SRDF of the same stem if one exists.
     """
-    from robodyn.models import ModelSource, find_srdf
-
     folder = robots_dir()
     if folder is None:
         return {}
@@ -228,11 +222,48 @@ def not_loadable() -> dict[str, str]:
     return dict(NOT_LOADABLE)
 
 
-def package_dirs(urdf: Path) -> list[Path]:
-    """Folders in which ``package://name/...`` URIs of ``urdf`` are resolved."""
-    dirs = [urdf.resolve().parent, urdf.resolve().parent.parent, urdf.resolve().parent.parent.parent]
-    folder = robots_dir()
-    if folder is not None:
-        # URIs read package://example-robot-data/robots/...: resolved from the share/ folder.
-        dirs += [folder, folder.parent.parent]
-    return dirs
+_DESCRIPTIONS = {
+    "geared_arm": "single link driven by a DC motor through an n:1 gear train (seed Example 6.1.1)",
+    "cart_pole": "cart on a rail with a passive pole (seed Example 2)",
+    "pendubot": "two-link planar arm, joint 1 actuated, joint 2 passive (Spong and Block)",
+    "geared_arm_rotor": "geared_arm with the rotor as its own body, coupled to the link by a mimic joint",
+    "cart_pole_point_bob": "cart_pole with the pole's mass as a point bob at its centre of mass",
+}
+
+
+def _builtin_sources() -> Registry[ModelSource]:
+    registry: Registry[ModelSource] = Registry("model")
+    for folder, names in ((models_dir(), BUILTIN_NAMES), (models_dir() / "variants", VARIANT_NAMES)):
+        for name in names:
+            urdf = folder / f"{name}.urdf"
+            if not urdf.is_file():
+                continue
+            srdf = folder / f"{name}.srdf"
+            registry.register(name, ModelSource(urdf, srdf if srdf.is_file() else None, _DESCRIPTIONS[name]))
+    return registry
+
+
+def model_sources() -> Registry[ModelSource]:
+    """Every model reachable by name: the built-ins and variants, then example-robot-data."""
+    registry = _builtin_sources()
+    for name, source in sources().items():
+        if name not in registry:
+            registry.register(name, source)
+    return registry
+
+
+def resolve(name_or_path: str | Path, *, srdf: str | Path | None = None) -> ModelSource:
+    """Turn a built-in or library name, or a URDF path, into a :class:`ModelSource`."""
+    if looks_like_path(name_or_path):
+        urdf = Path(name_or_path)
+        if not urdf.is_file():
+            raise ModelError("no such URDF file (expected a path to a .urdf file or a model name)", path=urdf)
+        found = Path(srdf) if srdf is not None else find_srdf(urdf)
+        return ModelSource(urdf, found, f"URDF file {urdf.name}")
+    sources = model_sources()
+    if str(name_or_path) not in sources:
+        raise UnknownModelError(str(name_or_path), sources.names())
+    source = sources.get(str(name_or_path))
+    if srdf is not None:
+        return ModelSource(source.urdf, Path(srdf), source.description, source.free_flyer_hint)
+    return source

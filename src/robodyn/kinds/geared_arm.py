@@ -20,7 +20,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from robodyn.formulas import Array, Formula, Params
+from robodyn.kinds.formulas import Array, Formula, Params
 
 PARAMS = ("J_m", "J_l", "n", "M", "l", "g")
 
@@ -99,5 +99,5 @@ def from_motor_coordinates(
 
 
 FORMULA = Formula(
-    "geared_arm", "robodyn.formulas.geared_arm", PARAMS, mass_matrix, coriolis_matrix, gravity, potential_energy, 1
+    "geared_arm", "robodyn.kinds.geared_arm", PARAMS, mass_matrix, coriolis_matrix, gravity, potential_energy, 1
 )

@@ -133,7 +133,7 @@ def reference_configuration(robot: Robot, reference: ArrayLike | str | None) -> 
     if reference is None:
         return robot.neutral()
     if isinstance(reference, str):
-        from robodyn.models import reference_configurations
+        from robodyn.model.files import reference_configurations
 
         states = reference_configurations(robot)
         if reference not in states:
@@ -155,7 +155,7 @@ def locked_joints(
     lock with their values. Both may be given: then ``lock`` sets values of joints that
     ``keep`` leaves out. Values outside a joint's position limits are refused.
     """
-    from robodyn.models import joint_coordinates
+    from robodyn.robot import joint_coordinates
 
     lock = dict(lock or {})
     names = robot.joint_names

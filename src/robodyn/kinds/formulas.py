@@ -29,9 +29,9 @@ Array = NDArray[np.float64]
 Params = Mapping[str, float]
 
 KIND_MODULES = {
-    "cart_pole": "robodyn.formulas.cart_pole",
-    "geared_arm": "robodyn.formulas.geared_arm",
-    "pendubot": "robodyn.formulas.pendubot",
+    "cart_pole": "robodyn.kinds.cart_pole",
+    "geared_arm": "robodyn.kinds.geared_arm",
+    "pendubot": "robodyn.kinds.pendubot",
 }
 
 
@@ -156,7 +156,7 @@ def load_user_formula(path: str | Path) -> Formula:
     if coordinates not in ("link", "motor") or (coordinates == "motor" and kind != "geared_arm"):
         raise FormulaError(f"{path}: COORDINATES = {coordinates!r}; expected 'link' (or 'motor' for the geared_arm)")
     if coordinates == "motor":
-        from robodyn.formulas.geared_arm import from_motor_coordinates
+        from robodyn.kinds.geared_arm import from_motor_coordinates
 
         M, C, G, V = from_motor_coordinates(M, C, G, V)
     return Formula(kind, source, builtin.param_names, M, C, G, V, n)

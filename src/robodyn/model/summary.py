@@ -3,7 +3,7 @@
 :func:`summarize` reads the Pinocchio model (types, sizes, limits, armature, rotor
 parameters, damping, masses), the URDF's XML for what Pinocchio does not keep (the joint's
 URDF type, its axis, mimic couplings) and the physical-consistency findings of
-:mod:`robodyn.consistency`. Meshes are looked for only with ``geometry=True``, and never
+:mod:`robodyn.model.consistency`. Meshes are looked for only with ``geometry=True``, and never
 parsed.
 """
 
@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from robodyn.consistency import Finding, all_findings
+from robodyn.model.consistency import Finding, all_findings
 from robodyn.robot import Robot
 
 
@@ -149,7 +149,7 @@ def _urdf_type(element: ET.Element | None, kind: str) -> str:
 
 def summarize(robot: Robot, *, geometry: bool = False, free_flyer_hint: bool = False) -> ModelSummary:
     """Summarize ``robot``: joints, links, sizes, mass, joint parameters and findings."""
-    from robodyn.models import unknown_passive_joints
+    from robodyn.model.load import unknown_passive_joints
 
     model = robot.model
     xml = _urdf_joints(robot)

@@ -1,6 +1,6 @@
 """Simulate a robot: integrate its dynamics, keep the energy books, stop where it blows up.
 
-:func:`simulate` assembles a :class:`robodyn.system.RobotSystem` (robot + backend + losses
+:func:`simulate` assembles a :class:`robodyn.sim.system.RobotSystem` (robot + backend + losses
 + torque), steps it with an integrator from :mod:`robodyn.integrators`, records every
 step, and returns a :class:`robodyn.Trajectory` whose ledger residual
 E(t) - E(0) - W_input(t) - W_damping(t) measures the integrator's error.
@@ -25,11 +25,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robodyn import dynamics, energy, integrators
+from robodyn import dynamics, integrators
 from robodyn.errors import DivergenceError, InputError, ModelError
 from robodyn.integrators import Integrator, StepError
-from robodyn.system import SINGULAR_MASS_RTOL, RobotSystem, TorqueFn, coordinate_units, robot_system
-from robodyn.trajectory import Trajectory
+from robodyn.sim import energy
+from robodyn.sim.system import SINGULAR_MASS_RTOL, RobotSystem, TorqueFn, coordinate_units, robot_system
+from robodyn.sim.trajectory import Trajectory
 
 if TYPE_CHECKING:
     from robodyn.robot import Robot

@@ -307,7 +307,7 @@ class RobotSystem:
 
 def _formula(robot: Robot) -> tuple[Any, Any]:
     """The seed kind's closed-form dynamics and parameters, or an InputError."""
-    from robodyn import formulas, params
+    from robodyn.kinds import formulas, params
 
     kind = params.detect_kind(robot)
     if kind is None:

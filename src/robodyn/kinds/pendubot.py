@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from robodyn.formulas import Array, Formula, Params
+from robodyn.kinds.formulas import Array, Formula, Params
 
 PARAMS = ("m1", "m2", "l1", "lc1", "lc2", "I1", "I2", "g")
 
@@ -56,5 +56,5 @@ def potential_energy(q: Array, p: Params) -> float:
 
 
 FORMULA = Formula(
-    "pendubot", "robodyn.formulas.pendubot", PARAMS, mass_matrix, coriolis_matrix, gravity, potential_energy, 2
+    "pendubot", "robodyn.kinds.pendubot", PARAMS, mass_matrix, coriolis_matrix, gravity, potential_energy, 2
 )

@@ -406,7 +406,7 @@ def robot_blows_up(
     |E - E0 - W_damping| exceeds CRITERIA[criterion] times the energy above the equilibrium
     ``q_eq`` (E0 - V(q_eq)).
     """
-    from robodyn.simulation import simulate
+    from robodyn.sim.simulation import simulate
 
     q0_ = robot.q_(q0)
     v0_ = robot.v_(v0)
@@ -550,7 +550,7 @@ def backend_accuracy(robot: Robot, *, states: int = 50, seed: int = 0) -> Backen
     The reference is the same closed form evaluated in extended precision (64-bit mantissa),
     so float64 round-off shows as ~1e-16 and loss to conditioning as more.
     """
-    from robodyn import formulas, params
+    from robodyn.kinds import formulas, params
 
     p = params.extract(robot, "pendubot").as_dict()
     formula = formulas.get("pendubot")
@@ -605,7 +605,7 @@ SMALL_OFFSET = 0.05
 
 def variant_path(name: str) -> Any:
     """Path of a URDF in the built-in ``models/variants`` folder."""
-    from robodyn.models import models_dir
+    from robodyn.model.files import models_dir
 
     return models_dir() / "variants" / f"{name}.urdf"
 
@@ -690,7 +690,7 @@ class StiffRun:
 def stiff_runs(robot: Robot, *, dt: float, duration: float, quick: bool = False) -> list[StiffRun]:
     """Every method on ``robot`` at step (or output interval) ``dt`` [s], against a Radau reference."""
     from robodyn.errors import DivergenceError
-    from robodyn.simulation import simulate
+    from robodyn.sim.simulation import simulate
 
     q_eq = hanging_equilibrium(robot)
     q0 = robot.integrate(q_eq, np.full(robot.nv, 0.5))
@@ -732,7 +732,7 @@ class Chaos:
 
 def chaos(robot: Robot, q0: Array, v0: Array, *, duration: float, dt: float = 1e-3) -> Chaos:
     """Lyapunov exponent (compiled RK4, renormalised every 0.1 s) and the one-ulp separation time."""
-    from robodyn.fast import FastDynamics
+    from robodyn.sim.fast import FastDynamics
 
     fast = FastDynamics.from_robot(robot)
     interval = 0.1
@@ -767,8 +767,8 @@ class NearSingular:
 
 def near_singular(light: Robot, normal: Robot, *, duration: float = 2.0, dt: float = 1e-3) -> NearSingular:
     """Backend accuracy on the light-tip and the normal Pendubot, and the run-to-run spread."""
-    from robodyn.bench import start_state
-    from robodyn.simulation import simulate
+    from robodyn.sim.simulation import simulate
+    from robodyn.studies.bench import start_state
 
     q0, v0 = start_state(light)
     runs = {b: simulate(light, q0, v0, duration=duration, dt=dt, backend=b) for b in ("aba", "crba", "formula")}

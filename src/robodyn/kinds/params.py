@@ -254,7 +254,7 @@ def extract(robot: Robot, kind: str) -> Params:
 def from_mapping(kind: str, values: Mapping[str, object]) -> Params:
     """Parameters given by the user (e.g. a datasheet), checked against the kind's names."""
     from robodyn.errors import InputError
-    from robodyn.formulas import get
+    from robodyn.kinds.formulas import get
 
     names = get(kind).param_names
     missing = [n for n in names if n not in values]

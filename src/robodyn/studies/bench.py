@@ -6,7 +6,7 @@ For one robot and one start state, :func:`sweep` runs
   of tolerances rtol, through :func:`robodyn.simulate`;
 * the integrators of ``SweepPlan.all_backends_for`` on every dynamics backend (Pinocchio ABA,
   CRBA + Cholesky, the NumPy hand formula) and, for the seed kinds, on the compiled fast path
-  (:mod:`robodyn.fast`);
+  (:mod:`robodyn.sim.fast`);
 
 and measures for each run:
 
@@ -41,7 +41,7 @@ from robodyn.errors import AssumptionError, DivergenceError, InputError, Robodyn
 
 if TYPE_CHECKING:
     from robodyn.robot import Robot
-    from robodyn.trajectory import Trajectory
+    from robodyn.sim.trajectory import Trajectory
 
 Array = NDArray[np.float64]
 Progress = Callable[[int, int, str], None]
@@ -209,7 +209,7 @@ def reference(
     Raises:
         RobodynError: the rerun at rtol / 10 disagrees by more than REFERENCE_AGREEMENT.
     """
-    from robodyn.simulation import simulate
+    from robodyn.sim.simulation import simulate
 
     def run(tol: float) -> Trajectory:
         return simulate(
@@ -267,7 +267,7 @@ def _run_one(
 
     The fast path does not stop on energy; it is held to simulate's bound (100 % of ``scale``) here.
     """
-    from robodyn.simulation import DEFAULT_MAX_ENERGY_GROWTH, simulate
+    from robodyn.sim.simulation import DEFAULT_MAX_ENERGY_GROWTH, simulate
 
     if backend == "fast":
         traj = fast.simulate(q0, v0, duration=duration, dt=dt, method=name)
@@ -285,7 +285,7 @@ def _run_one(
 
 def _jobs(plan: SweepPlan, backends: Sequence[str]) -> list[tuple[str, str, float | None, float | None]]:
     """(integrator, backend, dt, rtol) for every run of the plan."""
-    from robodyn.fast import METHODS as FAST_METHODS
+    from robodyn.sim.fast import METHODS as FAST_METHODS
 
     jobs: list[tuple[str, str, float | None, float | None]] = []
     for name in plan.fixed:
@@ -315,8 +315,8 @@ def sweep(
     ``fast`` need a seed kind (Pendubot, cart-pole, geared arm), ``fast`` also no Coulomb
     friction. ``progress(done, total, label)`` is called after every run.
     """
-    from robodyn import energy
-    from robodyn.params import detect_kind
+    from robodyn.kinds.params import detect_kind
+    from robodyn.sim import energy
 
     plan = plan or default_plan()
     if q0 is None or v0 is None:
@@ -331,7 +331,7 @@ def sweep(
             skipped.append(f"{backend}: {robot.name} is not a seed kind (pendubot, cart_pole, geared_arm)")
             continue
         if backend == "fast":
-            from robodyn.fast import FastDynamics
+            from robodyn.sim.fast import FastDynamics
 
             try:
                 fast = FastDynamics.from_robot(robot, kind)

@@ -7,7 +7,7 @@ loop with no allocation and no Python call per step. It is a second path, not a 
 states before handing it out, and ``tests/test_fast.py`` holds whole trajectories to round-off
 against :func:`robodyn.simulate` with the ABA backend.
 
-Closed forms (link coordinates, the conventions of :mod:`robodyn.formulas`):
+Closed forms (link coordinates, the conventions of :mod:`robodyn.kinds.formulas`):
 
 * Pendubot: with a = m1 lc1^2 + m2 l1^2 + I1, b = m2 lc2^2 + I2, c = m2 l1 lc2,
   M = [[a + b + 2 c cos q2, b + c cos q2], [b + c cos q2, b]],
@@ -39,7 +39,7 @@ from robodyn.integrators import step_count
 
 if TYPE_CHECKING:
     from robodyn.robot import Robot
-    from robodyn.trajectory import Trajectory
+    from robodyn.sim.trajectory import Trajectory
 
 Array = NDArray[np.float64]
 
@@ -191,7 +191,7 @@ def _pad(x: Array) -> Array:
 class FastDynamics:
     """Compiled closed-form dynamics of one seed-kind robot.
 
-    ``params`` is the kind's parameter mapping (:func:`robodyn.params.extract`), ``damping``
+    ``params`` is the kind's parameter mapping (:func:`robodyn.kinds.params.extract`), ``damping``
     the viscous joint damping [N m s/rad | N s/m] (nv,), ``potential_offset`` [J] the constant
     that puts the closed-form potential on Pinocchio's zero (world height 0).
     """
@@ -226,7 +226,7 @@ class FastDynamics:
             AssumptionError: the robot is not of a seed kind, has Coulomb friction, or its
                 closed-form accelerations disagree with ABA by more than ``VERIFY_RTOL``.
         """
-        from robodyn import params as params_module
+        from robodyn.kinds import params as params_module
 
         if kind is None:
             kind = params_module.detect_kind(robot)
@@ -315,7 +315,7 @@ class FastDynamics:
         :class:`Trajectory` carries ``wall_time_s`` (the compiled loop only) and ``evaluations``;
         a blow-up stops the run with ``status == "diverged"``.
         """
-        from robodyn.trajectory import Trajectory
+        from robodyn.sim.trajectory import Trajectory
 
         if method not in METHODS:
             raise UnknownNameError("fast-path method", method, METHODS)

@@ -1,0 +1,1 @@
+"""Model files: sources, URDF validation, loading, reduction, physical consistency, summaries."""

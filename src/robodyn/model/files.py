@@ -1,0 +1,225 @@
+"""Facts about model files on disk: the built-in folder, SRDF pairing and contents, mesh URIs.
+
+Nothing here builds a Pinocchio model. The built-in models live in the top-level
+``models/`` folder of the source tree and are shipped inside the wheel as ``robodyn/models``;
+variants of them live in ``models/variants/``. An SRDF with the same stem as the URDF (next to
+it, or in a sibling ``srdf/`` folder as example-robot-data lays them out) goes with it. From the
+SRDF robodyn reads ``<rotor_params>`` (through Pinocchio, at load), ``<passive_joint>`` and
+``<group_state>`` (named configurations, :func:`reference_configurations`).
+"""
+
+from __future__ import annotations
+
+import importlib.metadata
+import importlib.resources
+import os
+import xml.etree.ElementTree as ET
+from collections.abc import Sequence
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from robodyn.errors import ModelError
+from robodyn.robot import Robot, joint_coordinates
+
+BUILTIN_NAMES = ("cart_pole", "geared_arm", "pendubot")
+
+# Variants of the built-ins, for the fidelity study (models/variants/<name>.urdf).
+VARIANT_NAMES = ("cart_pole_point_bob", "geared_arm_rotor")
+
+
+@dataclass(frozen=True)
+class ModelSource:
+    """Where a named model comes from: its URDF, optional SRDF and a one-line description.
+
+    ``free_flyer_hint`` is True for robots that example-robot-data mounts on a free flyer
+    (legged robots, humanoids, drones); robodyn loads them fixed-base unless asked.
+    """
+
+    urdf: Path
+    srdf: Path | None
+    description: str
+    free_flyer_hint: bool = False
+
+
+def models_dir() -> Path:
+    """Folder holding the built-in URDF/SRDF files (installed wheel or source checkout)."""
+    packaged = Path(str(importlib.resources.files("robodyn"))) / "models"
+    if packaged.is_dir():
+        return packaged
+    return Path(__file__).resolve().parents[3] / "models"
+
+
+def looks_like_path(name_or_path: str | Path) -> bool:
+    """True when the argument should be read as a file path rather than a model name."""
+    text = str(name_or_path)
+    return isinstance(name_or_path, Path) or text.endswith((".urdf", ".xml")) or "/" in text or "\\" in text
+
+
+def find_srdf(urdf: Path) -> Path | None:
+    """The SRDF that goes with ``urdf``: same stem, next to it or in a sibling ``srdf/`` folder."""
+    for candidate in (urdf.with_suffix(".srdf"), urdf.parent.parent / "srdf" / f"{urdf.stem}.srdf"):
+        if candidate.is_file():
+            return candidate
+    return None
+
+
+def _parse_xml(path: Path, what: str) -> ET.Element:
+    try:
+        return ET.parse(path).getroot()
+    except ET.ParseError as exc:
+        raise ModelError(f"malformed {what} XML: {exc}", path=path) from None
+    except OSError as exc:
+        raise ModelError(f"cannot read {what}: {exc.strerror}", path=path) from None
+
+
+@dataclass(frozen=True)
+class SrdfInfo:
+    """What robodyn reads from an SRDF."""
+
+    has_rotor_params: bool
+    passive_joints: tuple[str, ...]
+
+
+def read_srdf(path: Path) -> SrdfInfo:
+    """Read rotor parameters' presence and passive joints from an SRDF file."""
+    root = _parse_xml(path, "SRDF")
+    _check_srdf_root(root, path)
+    passive = tuple(el.get("name", "") for el in root.iter("passive_joint"))
+    return SrdfInfo(root.find("rotor_params") is not None, passive)
+
+
+def _check_srdf_root(root: ET.Element, path: Path) -> None:
+    """An SRDF is a ``<robot>`` of groups and states; a file with links or typed joints is a URDF."""
+    if root.tag != "robot":
+        raise ModelError(f"SRDF root element is <{root.tag}>, expected <robot>", path=path)
+    if root.find("link") is not None or any(j.get("type") for j in root.findall("joint")):
+        raise ModelError(
+            "this is a URDF (it has <link> or <joint type=...>), not an SRDF (<group_state>, <passive_joint>, "
+            "<rotor_params>, ...): give it as the model, or pass the robot's .srdf to --srdf",
+            path=path,
+        )
+
+
+def _check_urdf_root(root: ET.Element, path: Path) -> None:
+    if root.tag != "robot":
+        raise ModelError(f"root element is <{root.tag}>, expected <robot>", path=path)
+    if not root.get("name"):
+        raise ModelError("<robot> has no name attribute (an empty xacro stub?)", path=path)
+    if root.find("link") is None:
+        raise ModelError("the URDF has no <link>", path=path)
+
+
+def reference_configurations(robot: Robot) -> dict[str, np.ndarray]:
+    """The SRDF's named ``<group_state>`` configurations of ``robot``, each shape (nq,).
+
+    Joints a group state does not mention keep their neutral value. Empty without SRDF.
+    Works on reduced robots too (the state is read joint by joint by name).
+    """
+    if robot.srdf_path is None or not robot.srdf_path.is_file():
+        return {}
+    root = _parse_xml(robot.srdf_path, "SRDF")
+    _check_srdf_root(root, robot.srdf_path)
+    neutral = robot.neutral()
+    states: dict[str, np.ndarray] = {}
+    for group_state in root.iter("group_state"):
+        name = group_state.get("name")
+        if not name:
+            continue
+        q = neutral.copy()
+        for el in group_state.iter("joint"):
+            joint_name, value = el.get("name", ""), el.get("value", "")
+            if joint_name not in robot.joint_names:
+                continue
+            joint = robot.joint(joint_name)
+            try:
+                values = [float(x) for x in value.split()]
+            except ValueError:
+                raise ModelError(
+                    f"<group_state {name!r}> joint {joint_name!r} has value {value!r}, expected numbers",
+                    path=robot.srdf_path,
+                ) from None
+            q[joint.idx_q : joint.idx_q + joint.nq] = joint_coordinates(joint.kind, joint.nq, values)
+        states.setdefault(name, q)
+    return states
+
+
+@dataclass(frozen=True)
+class MeshReference:
+    """One ``<mesh filename=...>`` of a URDF: the link, visual or collision, URI and file."""
+
+    link: str
+    kind: str  # "visual" or "collision"
+    uri: str
+    path: Path | None  # the file it resolves to, or None when no candidate exists
+
+
+def mesh_references(urdf: Path) -> list[MeshReference]:
+    """Every mesh a URDF refers to, resolved like :func:`load_geometry` would (no mesh is read)."""
+    root = _parse_xml(urdf, "URDF")
+    dirs = package_dirs(urdf)
+    refs: list[MeshReference] = []
+    for link in root.findall("link"):
+        for kind in ("visual", "collision"):
+            for element in link.iter(kind):
+                for mesh in element.iter("mesh"):
+                    uri = mesh.get("filename", "")
+                    refs.append(MeshReference(link.get("name", ""), kind, uri, resolve_resource(uri, dirs)))
+    return refs
+
+
+def resolve_resource(uri: str, package_dirs: Sequence[Path]) -> Path | None:
+    """The file a URDF ``filename`` URI names, found the way Pinocchio finds it, or None.
+
+    Mirrors ``pinocchio::retrieveResourcePath``: for ``package://`` and ``model://`` the
+    part after ``://`` is appended to each package folder in turn (so ``package:///a/b``
+    and ``package://a/b`` both look for ``<dir>/a/b``); ``file://`` is a plain path; a
+    relative path is looked for next to the URDF, then in each package folder; an absolute
+    path is taken as is. Folders of ``ROS_PACKAGE_PATH`` are searched after
+    ``package_dirs``, as Pinocchio does. An unknown scheme finds nothing.
+    """
+    dirs = [*package_dirs, *_ros_package_dirs()]
+    scheme, sep, rest = uri.partition("://")
+    if sep:
+        if scheme in ("package", "model"):
+            relative = rest.lstrip("/")
+            candidates = [Path(d) / relative for d in dirs]
+        elif scheme == "file":
+            candidates = [Path(rest)]
+        else:
+            return None
+    else:
+        path = Path(uri)
+        candidates = [path] if path.is_absolute() else [Path(d) / path for d in dirs]
+    for candidate in candidates:
+        if candidate.is_file():
+            return candidate
+    return None
+
+
+def _ros_package_dirs() -> list[Path]:
+    """The folders of ``ROS_PACKAGE_PATH`` (Pinocchio adds them to every resource search)."""
+    return [Path(d) for d in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if d]
+
+
+@lru_cache(maxsize=1)
+def robots_dir() -> Path | None:
+    """The ``robots`` folder of the installed example-robot-data, or None if absent."""
+    try:
+        dist = importlib.metadata.distribution("example-robot-data")
+    except importlib.metadata.PackageNotFoundError:
+        return None
+    folder = Path(str(dist.locate_file("cmeel.prefix/share/example-robot-data/robots")))
+    return folder if folder.is_dir() else None
+
+
+def package_dirs(urdf: Path) -> list[Path]:
+    """Folders in which ``package://name/...`` URIs of ``urdf`` are resolved."""
+    dirs = [urdf.resolve().parent, urdf.resolve().parent.parent, urdf.resolve().parent.parent.parent]
+    folder = robots_dir()
+    if folder is not None:
+        # URIs read package://example-robot-data/robots/...: resolved from the share/ folder.
+        dirs += [folder, folder.parent.parent]
+    return dirs

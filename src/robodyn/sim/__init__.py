@@ -1,0 +1,1 @@
+"""Simulation: the integrated system, energy, the run loop, trajectories, batches, the compiled path."""

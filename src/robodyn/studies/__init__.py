@@ -1,0 +1,1 @@
+"""Studies built on simulation: work-precision bench, stability, exactness proofs, report text."""

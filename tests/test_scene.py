@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from robodyn.cli import main
-from robodyn.errors import EXIT_BAD_INPUT
-from robodyn.scene import SceneError, read_scene
+from robodyn.errors import EXIT_BAD_INPUT, SceneError
+from robodyn.scene import read_scene
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 

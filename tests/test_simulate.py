@@ -420,7 +420,7 @@ def test_a_step_that_cannot_be_taken_is_one_sentence() -> None:
 
 
 def test_ctrl_c_keeps_the_trajectory_so_far() -> None:
-    from robodyn.sim.simulation import SimulationInterrupted
+    from robodyn.errors import SimulationInterrupted
 
     def operator(t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         if t >= 0.25:

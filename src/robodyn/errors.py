@@ -80,6 +80,33 @@ class DivergenceError(RobodynError):
         super().__init__(message)
 
 
+class StepError(RobodynError, ArithmeticError):
+    """A step could not be taken (Newton did not converge, the step size underflowed).
+
+    ``str(exc)`` is the whole story (where, what, what to try); ``reason`` only what failed,
+    for callers such as :func:`robodyn.simulate` that say where and what to try themselves.
+    """
+
+    exit_code = EXIT_DIVERGED
+
+    def __init__(self, message: str, *, time: float, reason: str | None = None) -> None:
+        self.time = time
+        self.reason = reason if reason is not None else message
+        super().__init__(message)
+
+
+class SimulationInterrupted(KeyboardInterrupt):
+    """The run was interrupted (Ctrl-C); ``trajectory`` holds it up to the last step taken."""
+
+    def __init__(self, message: str, *, trajectory: Any) -> None:
+        self.trajectory = trajectory
+        super().__init__(message)
+
+
+class SceneError(InputError):
+    """A scene file is missing, malformed or says something impossible."""
+
+
 class MissingDependencyError(RobodynError, ImportError):
     """An optional dependency is not installed; the message says how to install it."""
 

@@ -50,7 +50,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from robodyn.errors import InputError
+from robodyn.errors import InputError, SceneError
 
 if TYPE_CHECKING:
     from robodyn.model.reduce import Reduction
@@ -69,10 +69,6 @@ TABLES = {
     "output": ("dir",),
 }
 CONTROL_KINDS = ("none", "constant", "pd")
-
-
-class SceneError(InputError):
-    """A scene file is missing, malformed or says something impossible."""
 
 
 @dataclass(frozen=True)

@@ -121,8 +121,8 @@ def run(args: argparse.Namespace) -> int:
     q0 = args.q0 if args.q0 is not None else robot.neutral()
     v0 = args.v0 if args.v0 is not None else np.zeros(robot.nv)
 
-    from robodyn.errors import DivergenceError
-    from robodyn.sim.simulation import SimulationInterrupted, simulate
+    from robodyn.errors import DivergenceError, SimulationInterrupted
+    from robodyn.sim.simulation import simulate
 
     trajectory: Any
     try:

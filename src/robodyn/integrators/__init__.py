@@ -36,7 +36,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
-from robodyn.errors import InputError, RobodynError
+from robodyn.errors import InputError, StepError
 from robodyn.registry import Registry
 
 Array = NDArray[np.float64]
@@ -53,21 +53,6 @@ TABLEAU_TOL = 1e-12
 NEWTON_RTOL = 1e-14
 NEWTON_STALL = 1e3
 NEWTON_MAX_ITER = 30
-
-
-class StepError(RobodynError, ArithmeticError):
-    """A step could not be taken (Newton did not converge, the step size underflowed).
-
-    ``str(exc)`` is the whole story (where, what, what to try); ``reason`` only what failed,
-    for callers such as :func:`robodyn.simulate` that say where and what to try themselves.
-    """
-
-    exit_code = 3
-
-    def __init__(self, message: str, *, time: float, reason: str | None = None) -> None:
-        self.time = time
-        self.reason = reason if reason is not None else message
-        super().__init__(message)
 
 
 # ----------------------------------------------------------------------------- problems

@@ -26,8 +26,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robodyn import dynamics, integrators
-from robodyn.errors import DivergenceError, InputError, ModelError
-from robodyn.integrators import Integrator, StepError
+from robodyn.errors import DivergenceError, InputError, ModelError, SimulationInterrupted, StepError
+from robodyn.integrators import Integrator
 from robodyn.sim import energy
 from robodyn.sim.system import SINGULAR_MASS_RTOL, RobotSystem, TorqueFn, coordinate_units, robot_system
 from robodyn.sim.trajectory import Trajectory
@@ -59,14 +59,6 @@ _UNIT_BLOCKS = (
     ("JointModelRUB", 0, 2, "(cos, sin) pair"),
     ("JointModelRevoluteUnbounded", 0, 2, "(cos, sin) pair"),
 )
-
-
-class SimulationInterrupted(KeyboardInterrupt):
-    """The run was interrupted (Ctrl-C); ``trajectory`` holds it up to the last step taken."""
-
-    def __init__(self, message: str, *, trajectory: Trajectory) -> None:
-        self.trajectory = trajectory
-        super().__init__(message)
 
 
 def simulate(

@@ -36,8 +36,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robodyn import dynamics
-from robodyn.errors import InputError, RobodynError
-from robodyn.integrators import ArrayProblem, FixedStepIntegrator, StepError, get
+from robodyn.errors import InputError, RobodynError, StepError
+from robodyn.integrators import ArrayProblem, FixedStepIntegrator, get
 
 if TYPE_CHECKING:
     from robodyn.robot import Robot

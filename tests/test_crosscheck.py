@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import robodyn
-from robodyn.kinds import formulas
+from robodyn import kinds as formulas
 from robodyn.kinds.check import check
 from robodyn.kinds.params import extract
 

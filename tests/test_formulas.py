@@ -12,7 +12,7 @@ import pytest
 import sympy as sp
 
 from robodyn.errors import FormulaError, UnknownNameError
-from robodyn.kinds import formulas
+from robodyn import kinds as formulas
 
 RTOL = 1e-12  # same expressions evaluated two ways: round-off only
 N_STATES = 20
@@ -112,18 +112,39 @@ def test_christoffel_form_makes_mdot_minus_2c_skew(kind):
         np.testing.assert_allclose(N + N.T, 0.0, atol=1e-8)
 
 
-def test_geared_arm_motor_and_link_coordinates_are_one_equation():
+def test_geared_arm_motor_coordinate_forms_match_the_motor_lagrangian():
+    """The motor-coordinate forms (the link closed form carried through theta_m = n theta_l) against
+    sympy's Lagrangian written directly in theta_m, and the round trip motor -> link -> motor."""
     from robodyn.kinds import geared_arm as ga
 
+    th, w = sp.symbols("th_m w_m")
+    J_m, J_l, n, M_, l, g = sp.symbols("J_m J_l n M l g")
+    T = sp.Rational(1, 2) * (J_m * w**2 + J_l * (w / n) ** 2)  # the link turns n times slower
+    V = M_ * g * l * (1 - sp.cos(th / n))
+    M, C, G = _lagrange(T, V, [th], [w])
     p = PARAMS["geared_arm"]
-    n = p["n"]
+    values = {J_m: p["J_m"], J_l: p["J_l"], n: p["n"], M_: p["M"], l: p["l"], g: p["g"]}
+    f_M = sp.lambdify([[th]], M.subs(values), "numpy")
+    f_G = sp.lambdify([[th]], G.subs(values), "numpy")
+    f_V = sp.lambdify([[th]], V.subs(values), "numpy")
+    link = formulas.get("geared_arm")
+    back = ga.from_motor_coordinates(
+        ga.mass_matrix_motor, ga.coriolis_matrix_motor, ga.gravity_motor, ga.potential_energy_motor
+    )
     rng = np.random.default_rng(11)
     for _ in range(10):
-        q = rng.uniform(-3, 3, 1)
-        theta_m, _ = ga.link_to_motor(q, q, p)
-        np.testing.assert_allclose(ga.mass_matrix(q, p), n**2 * ga.mass_matrix_motor(theta_m, p), rtol=1e-14)
-        np.testing.assert_allclose(ga.gravity(q, p), n * ga.gravity_motor(theta_m, p), rtol=1e-14)
-        np.testing.assert_allclose(ga.potential_energy(q, p), ga.potential_energy_motor(theta_m, p), rtol=1e-14)
+        q, v = rng.uniform(-3, 3, 1), rng.uniform(-2, 2, 1)
+        theta_m, omega_m = ga.link_to_motor(q, v, p)
+        np.testing.assert_allclose(ga.mass_matrix_motor(theta_m, p), np.array(f_M(theta_m), float), rtol=RTOL)
+        np.testing.assert_allclose(ga.coriolis_matrix_motor(theta_m, omega_m, p), 0.0, atol=0.0)
+        np.testing.assert_allclose(ga.gravity_motor(theta_m, p), np.array(f_G(theta_m), float).ravel(), rtol=RTOL)
+        np.testing.assert_allclose(ga.potential_energy_motor(theta_m, p), float(f_V(theta_m)), rtol=RTOL, atol=1e-15)
+        for f_link, f_back, args in (
+            (link.mass_matrix, back[0], (q, p)),
+            (link.coriolis_matrix, back[1], (q, v, p)),
+            (link.gravity, back[2], (q, p)),
+        ):
+            np.testing.assert_allclose(f_back(*args), f_link(*args), rtol=RTOL, atol=1e-15)
 
 
 def test_unknown_kind_lists_the_kinds():

@@ -13,6 +13,7 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
+from robodyn import _compat
 from robodyn.errors import (
     AssumptionError,
     DivergenceError,
@@ -25,7 +26,9 @@ from robodyn.errors import (
     UnknownNameError,
 )
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
+
+_compat.install()
 
 if TYPE_CHECKING:
     from robodyn.kinds.check import CheckReport, check
@@ -40,7 +43,7 @@ _LAZY: dict[str, tuple[str, str | None]] = {
     "check": ("robodyn.kinds.check", "check"),
     "CheckReport": ("robodyn.kinds.check", "CheckReport"),
     "extract_params": ("robodyn.kinds.params", "extract"),
-    "formulas": ("robodyn.kinds.formulas", None),
+    "formulas": ("robodyn.kinds", None),
     "simulate": ("robodyn.sim.simulation", "simulate"),
     "Trajectory": ("robodyn.sim.trajectory", "Trajectory"),
     "integrators": ("robodyn.integrators", None),

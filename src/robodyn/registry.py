@@ -48,3 +48,10 @@ class Registry(Generic[T]):
 
     def __iter__(self) -> Iterator[str]:
         return iter(self.names())
+
+
+# The forward-dynamics backends, by name: the one list that robot, simulate and the CLI read.
+BACKENDS: Registry[str] = Registry("forward-dynamics backend")
+BACKENDS.register("aba", "Pinocchio's articulated-body algorithm, O(n)")
+BACKENDS.register("crba", "Pinocchio's CRBA + Cholesky solve, O(n^3); serves mimic joints")
+BACKENDS.register("formula", "the hand-derived closed form of a seed kind (NumPy)")

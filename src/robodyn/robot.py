@@ -2,25 +2,23 @@
 
 from __future__ import annotations
 
+import importlib
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robodyn import dynamics
 from robodyn.errors import InputError, UnknownNameError
+from robodyn.registry import BACKENDS
 
 if TYPE_CHECKING:
     import pinocchio as pin
 
-    from robodyn.sim.trajectory import Trajectory
-    from robodyn.viewer import Replay
-
 Array = NDArray[np.float64]
-
-FORWARD_BACKENDS = ("aba", "crba")
 
 
 def as_vector(value: ArrayLike, size: int, name: str) -> Array:
@@ -210,7 +208,11 @@ class Robot:
                 raise InputError(f"ABA refuses this model ({exc}); use backend='crba'") from None
         if backend == "crba":
             return dynamics.crba_solve(self.model, self.data, q_, v_, tau_)
-        raise UnknownNameError("forward-dynamics backend", backend, FORWARD_BACKENDS)
+        BACKENDS.get(backend)  # an unknown name lists the backends
+        raise InputError(
+            f"backend {backend!r} is not a method of Robot: it needs a seed kind's formula; use "
+            f"robodyn.simulate(..., backend={backend!r}) or robodyn.formulas.get(kind).forward_dynamics"
+        )
 
     def kinetic_energy(self, q: ArrayLike, v: ArrayLike) -> float:
         """Kinetic energy 1/2 v^T M(q) v [J] (includes rotor armature)."""
@@ -230,37 +232,18 @@ class Robot:
         v = rng.uniform(-speed, speed, self.nv)
         return q, v
 
-    def view(
-        self,
-        trajectory: Trajectory | None = None,
-        *,
-        q: ArrayLike | None = None,
-        speed: float = 1.0,
-        fps: float = 30.0,
-        trace_frame: str | None = None,
-        trace: bool = True,
-        loop: bool = False,
-        zmq_url: str | None = None,
-        height: int = 420,
-    ) -> Replay:
-        """Show the robot at ``q``, or play ``trajectory`` back, in meshcat (see :mod:`robodyn.viewer`).
+    def view(self, trajectory: Any = None, **options: Any) -> Any:
+        """Deprecated since 0.2: use ``robodyn.viewer.show(robot, trajectory, ...)``; removed in 0.3.
 
-        In a notebook the returned replay displays inline; nothing blocks.
+        The core type no longer depends on the viewer: this forwards to :func:`robodyn.viewer.show`
+        through a run-time import, with a :class:`DeprecationWarning`.
         """
-        from robodyn import viewer
-
-        return viewer.show(
-            self,
-            trajectory,
-            q=q,
-            speed=speed,
-            fps=fps,
-            trace_frame=trace_frame,
-            trace=trace,
-            loop=loop,
-            zmq_url=zmq_url,
-            height=height,
+        warnings.warn(
+            "Robot.view is deprecated since robodyn 0.2; use robodyn.viewer.show(robot, trajectory, ...)",
+            DeprecationWarning,
+            stacklevel=2,
         )
+        return importlib.import_module("robodyn.viewer").show(self, trajectory, **options)
 
 
 def joint_coordinates(kind: str, nq: int, values: ArrayLike) -> NDArray[np.float64]:

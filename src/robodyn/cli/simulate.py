@@ -19,6 +19,7 @@ import numpy as np
 from robodyn.cli._common import float_list, load_robot, positive_float, print_json, warn_ignored_mimic
 from robodyn.cli._output import writable_path
 from robodyn.errors import EXIT_DIVERGED, EXIT_OK, InputError
+from robodyn.registry import BACKENDS
 
 EXIT_INTERRUPTED = 130
 
@@ -70,7 +71,7 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument(
         "--backend",
-        choices=("aba", "crba", "formula"),
+        choices=BACKENDS.names(),
         default=None,
         help="forward dynamics (default: aba; crba on a model loaded with --mimic, which aba refuses)",
     )

@@ -1,4 +1,4 @@
-"""The cart-pole: a cart at y on a rail and a pole at angle theta from the upward vertical.
+"""The cart-pole: a cart at y on a rail and a pole at angle theta from the upward vertical (closed form written once).
 
 Derivation: the pole's centre of mass is at (y + l sin th, l cos th), so
 
@@ -13,39 +13,44 @@ and Lagrange's equations give
 
 (the m l sin th y' th' terms of d/dt dL/dth' and of dL/dth cancel). In matrix form
 M = [[M + m, m l cos th], [m l cos th, m l^2 + I]], C = [[0, -m l sin th th'], [0, 0]],
-G = [0, -m g l sin th]. I = 0 is the seed's point bob; I = m (2 l)^2 / 12 a uniform rod.
+G = [0, -m g l sin th]. I = 0 is a point bob; I = m (2 l)^2 / 12 a uniform rod.
+
+The four functions below are the only place this closed form is written: see
+:mod:`robodyn.kinds.formula` for how they serve NumPy, numba and extended precision.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from robodyn.kinds.formulas import Array, Formula, Params
+from robodyn.kinds.formula import ClosedForm, Scalar
 
 PARAMS = ("M", "m", "l", "I", "g")
 
 
-def mass_matrix(q: Array, p: Params) -> Array:
-    """M(q) [kg, kg m, kg m^2], (2, 2)."""
-    coupling = p["m"] * p["l"] * np.cos(q[1])
-    return np.array([[p["M"] + p["m"], coupling], [coupling, p["m"] * p["l"] ** 2 + p["I"]]])
+def mass(p: Scalar, y: Scalar, th: Scalar) -> tuple[Scalar, Scalar, Scalar]:
+    """(M11 [kg], M12 [kg m], M22 [kg m^2])."""
+    M, m, l, I = p[0], p[1], p[2], p[3]
+    return M + m, m * l * np.cos(th), m * l * l + I
 
 
-def coriolis_matrix(q: Array, v: Array, p: Params) -> Array:
-    """Christoffel-form C(q, v), (2, 2)."""
-    return np.array([[0.0, -p["m"] * p["l"] * np.sin(q[1]) * v[1]], [0.0, 0.0]])
+def coriolis(p: Scalar, y: Scalar, th: Scalar, vy: Scalar, vth: Scalar) -> tuple[Scalar, Scalar, Scalar, Scalar]:
+    """(C11, C12, C21, C22) of the Christoffel-form C(q, v)."""
+    c12 = -p[1] * p[2] * np.sin(th) * vth
+    zero = 0.0 * c12
+    return zero, c12, zero, zero
 
 
-def gravity(q: Array, p: Params) -> Array:
-    """G(q) = dV/dq [N, N m], (2,)."""
-    return np.array([0.0, -p["m"] * p["g"] * p["l"] * np.sin(q[1])])
+def gravity(p: Scalar, y: Scalar, th: Scalar) -> tuple[Scalar, Scalar]:
+    """(G1 [N], G2 [N m]) = dV/dq."""
+    g2 = -p[1] * p[4] * p[2] * np.sin(th)
+    return 0.0 * g2, g2
 
 
-def potential_energy(q: Array, p: Params) -> float:
-    """V(q) [J], zero with the pole's centre of mass at the pivot's height."""
-    return float(p["m"] * p["g"] * p["l"] * np.cos(q[1]))
+def potential(p: Scalar, y: Scalar, th: Scalar) -> Scalar:
+    """V [J], zero with the pole's centre of mass at the pivot's height."""
+    return p[1] * p[4] * p[2] * np.cos(th)
 
 
-FORMULA = Formula(
-    "cart_pole", "robodyn.kinds.cart_pole", PARAMS, mass_matrix, coriolis_matrix, gravity, potential_energy, 2
-)
+CLOSED_FORM = ClosedForm(PARAMS, 2, mass, coriolis, gravity, potential)
+FORMULA = CLOSED_FORM.formula("cart_pole", "robodyn.kinds.cart_pole")

@@ -29,8 +29,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from robodyn import dynamics
 from robodyn.errors import InputError
-from robodyn.kinds.formulas import Formula, resolve
+from robodyn.kinds.formula import Formula
 from robodyn.kinds.params import Params, extract, from_mapping
+from robodyn.kinds.user import resolve
 from robodyn.robot import Robot
 
 Array = NDArray[np.float64]

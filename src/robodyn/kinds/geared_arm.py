@@ -1,17 +1,21 @@
-"""One link driven by a DC motor through an n:1 gear train.
+"""One link driven by a DC motor through an n:1 gear train (closed form written once, in the link coordinate).
 
 The motor shaft turns n times per turn of the link: theta_m = n theta_l. With J_m the
 rotor's inertia and J_l the link's inertia about the joint axis,
 
-    T = 1/2 J_m theta_m'^2 + 1/2 J_l theta_l'^2 = 1/2 (J_m + J_l / n^2) theta_m'^2
+    T = 1/2 J_m theta_m'^2 + 1/2 J_l theta_l'^2 = 1/2 (J_l + n^2 J_m) theta_l'^2
     V = M g l (1 - cos theta_l)
 
-Motor coordinate (the seed's):  (J_m + J_l / n^2) theta_m'' + (M g l / n) sin(theta_m / n) = tau_m
 Link coordinate (Pinocchio's):  (J_l + n^2 J_m) theta_l'' + M g l sin theta_l = tau_l
+Motor coordinate (the textbook's): (J_m + J_l / n^2) theta_m'' + (M g l / n) sin(theta_m / n) = tau_m
 
 The two are one equation: theta_l = theta_m / n, tau_l = n tau_m (ideal gears), so
 M_l = n^2 M_m, C_l = n^2 C_m, G_l = n G_m. n^2 J_m is the reflected rotor inertia that
 Pinocchio calls armature. C = 0: M is constant.
+
+The closed form is written once, in the link coordinate; the motor-coordinate forms are that
+same closed form carried through the coordinate map (:func:`to_motor_coordinates`), and a user's
+motor-coordinate derivation comes back through :func:`from_motor_coordinates`.
 """
 
 from __future__ import annotations
@@ -20,64 +24,68 @@ from collections.abc import Callable
 
 import numpy as np
 
-from robodyn.kinds.formulas import Array, Formula, Params
+from robodyn.kinds.formula import Array, ClosedForm, Params, Scalar
 
 PARAMS = ("J_m", "J_l", "n", "M", "l", "g")
 
 
-def mass_matrix(q: Array, p: Params) -> Array:
-    """M [kg m^2] in the link coordinate, (1, 1)."""
-    return np.array([[p["J_l"] + p["n"] ** 2 * p["J_m"]]])
+def mass(p: Scalar, q: Scalar) -> tuple[Scalar]:
+    """(M,) = (J_l + n^2 J_m,) [kg m^2] in the link coordinate."""
+    return (p[1] + p[2] * p[2] * p[0] + 0.0 * q,)
 
 
-def coriolis_matrix(q: Array, v: Array, p: Params) -> Array:
-    """C = 0 (constant inertia), (1, 1)."""
-    return np.zeros((1, 1))
+def coriolis(p: Scalar, q: Scalar, v: Scalar) -> tuple[Scalar]:
+    """(C,) = (0,): M is constant."""
+    return (0.0 * p[0] * v,)
 
 
-def gravity(q: Array, p: Params) -> Array:
-    """G [N m] in the link coordinate, (1,)."""
-    return np.array([p["M"] * p["g"] * p["l"] * np.sin(q[0])])
+def gravity(p: Scalar, q: Scalar) -> tuple[Scalar]:
+    """(G,) = (M g l sin q,) [N m] in the link coordinate."""
+    return (p[3] * p[5] * p[4] * np.sin(q),)
 
 
-def potential_energy(q: Array, p: Params) -> float:
+def potential(p: Scalar, q: Scalar) -> Scalar:
     """V [J], zero hanging straight down."""
-    return float(p["M"] * p["g"] * p["l"] * (1.0 - np.cos(q[0])))
+    return p[3] * p[5] * p[4] * (1.0 - np.cos(q))
+
+
+CLOSED_FORM = ClosedForm(PARAMS, 1, mass, coriolis, gravity, potential)
+FORMULA = CLOSED_FORM.formula("geared_arm", "robodyn.kinds.geared_arm")
 
 
 # ------------------------------------------------------------------ motor coordinate
-def mass_matrix_motor(theta_m: Array, p: Params) -> Array:
-    """M_m = J_m + J_l / n^2 [kg m^2] in the motor coordinate, (1, 1)."""
-    return np.array([[p["J_m"] + p["J_l"] / p["n"] ** 2]])
-
-
-def coriolis_matrix_motor(theta_m: Array, omega_m: Array, p: Params) -> Array:
-    """C_m = 0, (1, 1)."""
-    return np.zeros((1, 1))
-
-
-def gravity_motor(theta_m: Array, p: Params) -> Array:
-    """G_m = (M g l / n) sin(theta_m / n) [N m] at the motor shaft, (1,)."""
-    return np.array([p["M"] * p["g"] * p["l"] / p["n"] * np.sin(theta_m[0] / p["n"])])
-
-
-def potential_energy_motor(theta_m: Array, p: Params) -> float:
-    """V [J] as a function of the motor angle."""
-    return float(p["M"] * p["g"] * p["l"] * (1.0 - np.cos(theta_m[0] / p["n"])))
-
-
 def link_to_motor(q: Array, v: Array, p: Params) -> tuple[Array, Array]:
     """(theta_l, theta_l') -> (theta_m, theta_m') = n (theta_l, theta_l')."""
     return p["n"] * np.asarray(q), p["n"] * np.asarray(v)
 
 
-def from_motor_coordinates(
-    M_m: Callable[..., Array],
-    C_m: Callable[..., Array],
-    G_m: Callable[..., Array],
-    V_m: Callable[..., Array] | None,
-) -> tuple[Callable[..., Array], Callable[..., Array], Callable[..., Array], Callable[..., Array] | None]:
-    """Turn motor-coordinate functions into link-coordinate ones (M n^2, C n^2, G n, V)."""
+Fn = Callable[..., Array]
+
+
+def to_motor_coordinates(M_l: Fn, C_l: Fn, G_l: Fn, V_l: Fn | None) -> tuple[Fn, Fn, Fn, Fn | None]:
+    """Link-coordinate functions -> motor-coordinate ones: M_m = M_l / n^2, C_m = C_l / n^2, G_m = G_l / n."""
+
+    def M(theta_m: Array, p: Params) -> Array:
+        return M_l(theta_m / p["n"], p) / p["n"] ** 2
+
+    def C(theta_m: Array, omega_m: Array, p: Params) -> Array:
+        return C_l(theta_m / p["n"], omega_m / p["n"], p) / p["n"] ** 2
+
+    def G(theta_m: Array, p: Params) -> Array:
+        return G_l(theta_m / p["n"], p) / p["n"]
+
+    if V_l is None:
+        return M, C, G, None
+    potential_l = V_l
+
+    def V(theta_m: Array, p: Params) -> Array:
+        return potential_l(theta_m / p["n"], p)
+
+    return M, C, G, V
+
+
+def from_motor_coordinates(M_m: Fn, C_m: Fn, G_m: Fn, V_m: Fn | None) -> tuple[Fn, Fn, Fn, Fn | None]:
+    """Motor-coordinate functions -> link-coordinate ones: M_l = n^2 M_m, C_l = n^2 C_m, G_l = n G_m."""
 
     def M(q: Array, p: Params) -> Array:
         return p["n"] ** 2 * M_m(p["n"] * q, p)
@@ -90,14 +98,14 @@ def from_motor_coordinates(
 
     if V_m is None:
         return M, C, G, None
-    potential = V_m
+    potential_m = V_m
 
     def V(q: Array, p: Params) -> Array:
-        return potential(p["n"] * q, p)
+        return potential_m(p["n"] * q, p)
 
     return M, C, G, V
 
 
-FORMULA = Formula(
-    "geared_arm", "robodyn.kinds.geared_arm", PARAMS, mass_matrix, coriolis_matrix, gravity, potential_energy, 1
+mass_matrix_motor, coriolis_matrix_motor, gravity_motor, potential_energy_motor = to_motor_coordinates(
+    FORMULA.mass_matrix, FORMULA.coriolis_matrix, FORMULA.gravity, FORMULA.potential_energy
 )

@@ -19,7 +19,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodyn import dynamics
-from robodyn.errors import AssumptionError
+from robodyn.errors import AssumptionError, InputError
+from robodyn.kinds.formulas import closed_form
 from robodyn.registry import Registry
 from robodyn.robot import Robot
 
@@ -253,10 +254,7 @@ def extract(robot: Robot, kind: str) -> Params:
 
 def from_mapping(kind: str, values: Mapping[str, object]) -> Params:
     """Parameters given by the user (e.g. a datasheet), checked against the kind's names."""
-    from robodyn.errors import InputError
-    from robodyn.kinds.formulas import get
-
-    names = get(kind).param_names
+    names = closed_form(kind).params
     missing = [n for n in names if n not in values]
     extra = [n for n in values if n not in names]
     if missing or extra:

@@ -1,4 +1,4 @@
-"""The Pendubot: two links in a vertical plane, angles from the horizontal.
+"""The Pendubot: two links in a vertical plane, angles from the horizontal (closed form written once).
 
 Derivation (link coordinates, q1 from the horizontal, q2 relative to link 1):
 centres of mass at r1 = lc1 (cos q1, sin q1) and r2 = l1 (cos q1, sin q1) + lc2 (cos q12, sin q12),
@@ -15,46 +15,46 @@ and Lagrange's equations give M q'' + C q' + G = tau with
     h = -m2 l1 lc2 sin q2 = 1/2 dM11/dq2 = dM12/dq2
     C = [[h q2', h (q1' + q2')], [-h q1', 0]]        (Christoffel symbols of M)
     G = [(m1 lc1 + m2 l1) g cos q1 + m2 lc2 g cos q12,  m2 lc2 g cos q12]
+
+The four functions below are the only place this closed form is written: see
+:mod:`robodyn.kinds.formula` for how they serve NumPy, numba and extended precision.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from robodyn.kinds.formulas import Array, Formula, Params
+from robodyn.kinds.formula import ClosedForm, Scalar
 
 PARAMS = ("m1", "m2", "l1", "lc1", "lc2", "I1", "I2", "g")
 
 
-def mass_matrix(q: Array, p: Params) -> Array:
-    """M(q) [kg m^2], (2, 2)."""
-    c2 = np.cos(q[1])
-    m22 = p["m2"] * p["lc2"] ** 2 + p["I2"]
-    m12 = m22 + p["m2"] * p["l1"] * p["lc2"] * c2
-    m11 = p["m1"] * p["lc1"] ** 2 + p["I1"] + p["m2"] * p["l1"] ** 2 + m22 + 2.0 * p["m2"] * p["l1"] * p["lc2"] * c2
-    return np.array([[m11, m12], [m12, m22]])
+def mass(p: Scalar, q1: Scalar, q2: Scalar) -> tuple[Scalar, Scalar, Scalar]:
+    """(M11, M12, M22) [kg m^2]."""
+    m1, m2, l1, lc1, lc2, I1, I2 = p[0], p[1], p[2], p[3], p[4], p[5], p[6]
+    c = m2 * l1 * lc2 * np.cos(q2)
+    m22 = m2 * lc2 * lc2 + I2
+    return m1 * lc1 * lc1 + m2 * l1 * l1 + I1 + m22 + 2.0 * c, m22 + c, m22
 
 
-def coriolis_matrix(q: Array, v: Array, p: Params) -> Array:
-    """Christoffel-form C(q, v) [kg m^2/s], (2, 2)."""
-    h = -p["m2"] * p["l1"] * p["lc2"] * np.sin(q[1])
-    return np.array([[h * v[1], h * (v[0] + v[1])], [-h * v[0], 0.0]])
+def coriolis(p: Scalar, q1: Scalar, q2: Scalar, v1: Scalar, v2: Scalar) -> tuple[Scalar, Scalar, Scalar, Scalar]:
+    """(C11, C12, C21, C22) of the Christoffel-form C(q, v) [kg m^2/s]."""
+    h = -p[1] * p[2] * p[4] * np.sin(q2)
+    return h * v2, h * (v1 + v2), -h * v1, 0.0 * h
 
 
-def gravity(q: Array, p: Params) -> Array:
-    """G(q) = dV/dq [N m], (2,)."""
-    g2 = p["m2"] * p["lc2"] * p["g"] * np.cos(q[0] + q[1])
-    return np.array([(p["m1"] * p["lc1"] + p["m2"] * p["l1"]) * p["g"] * np.cos(q[0]) + g2, g2])
+def gravity(p: Scalar, q1: Scalar, q2: Scalar) -> tuple[Scalar, Scalar]:
+    """(G1, G2) = dV/dq [N m]."""
+    m1, m2, l1, lc1, lc2, g = p[0], p[1], p[2], p[3], p[4], p[7]
+    g2 = m2 * lc2 * g * np.cos(q1 + q2)
+    return (m1 * lc1 + m2 * l1) * g * np.cos(q1) + g2, g2
 
 
-def potential_energy(q: Array, p: Params) -> float:
-    """V(q) [J], zero with both links horizontal."""
-    return float(
-        (p["m1"] * p["lc1"] + p["m2"] * p["l1"]) * p["g"] * np.sin(q[0])
-        + p["m2"] * p["lc2"] * p["g"] * np.sin(q[0] + q[1])
-    )
+def potential(p: Scalar, q1: Scalar, q2: Scalar) -> Scalar:
+    """V [J], zero with both links horizontal."""
+    m1, m2, l1, lc1, lc2, g = p[0], p[1], p[2], p[3], p[4], p[7]
+    return (m1 * lc1 + m2 * l1) * g * np.sin(q1) + m2 * lc2 * g * np.sin(q1 + q2)
 
 
-FORMULA = Formula(
-    "pendubot", "robodyn.kinds.pendubot", PARAMS, mass_matrix, coriolis_matrix, gravity, potential_energy, 2
-)
+CLOSED_FORM = ClosedForm(PARAMS, 2, mass, coriolis, gravity, potential)
+FORMULA = CLOSED_FORM.formula("pendubot", "robodyn.kinds.pendubot")

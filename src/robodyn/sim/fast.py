@@ -2,24 +2,17 @@
 
 For a Pendubot, a cart-pole or a geared arm, the forward dynamics a = M^-1 (tau - C v - G - B v)
 have a closed form (M is 2 x 2 or 1 x 1), so a whole fixed-step run compiles to one machine-code
-loop with no allocation and no Python call per step. It is a second path, not a second truth:
-:meth:`FastDynamics.from_robot` checks its accelerations against Pinocchio's ABA on seeded random
-states before handing it out, and ``tests/test_fast.py`` holds whole trajectories to round-off
-against :func:`robodyn.simulate` with the ABA backend.
+loop with no allocation and no Python call per step. The closed forms are not written here: numba
+compiles each kind's own scalar functions (``mass``, ``coriolis``, ``gravity``, ``potential`` of
+:mod:`robodyn.kinds.pendubot`, :mod:`~robodyn.kinds.cart_pole`, :mod:`~robodyn.kinds.geared_arm`),
+the same functions that serve ``robodyn check`` and the ``formula`` backend.
 
-Closed forms (link coordinates, the conventions of :mod:`robodyn.kinds.formulas`):
+It is a second path, not a second truth: :meth:`FastDynamics.from_robot` checks its accelerations
+against Pinocchio's ABA on seeded random states before handing it out, and ``tests/test_fast.py``
+holds whole trajectories to round-off against :func:`robodyn.simulate` with the ABA backend.
 
-* Pendubot: with a = m1 lc1^2 + m2 l1^2 + I1, b = m2 lc2^2 + I2, c = m2 l1 lc2,
-  M = [[a + b + 2 c cos q2, b + c cos q2], [b + c cos q2, b]],
-  C v = [-c sin q2 (2 q1' q2' + q2'^2), c sin q2 q1'^2],
-  G = [(m1 lc1 + m2 l1) g cos q1 + m2 lc2 g cos(q1 + q2), m2 lc2 g cos(q1 + q2)].
-* Cart-pole: M = [[M + m, m l cos th], [m l cos th, m l^2 + I]],
-  C v = [-m l sin th th'^2, 0], G = [0, -m g l sin th].
-* Geared arm: (J_l + n^2 J_m) q'' + M g l sin q = tau.
-
-The 2 x 2 system is solved by Cramer's rule: det M = M11 M22 - M12^2 > 0 for any physical
-parameters. Viscous damping B = diag(robot.damping) is applied as -B v, as :func:`robodyn.simulate`
-does; Coulomb friction is refused (its sign switch has no place in a smooth closed form).
+Viscous damping B = diag(robot.damping) is applied as -B v, as :func:`robodyn.simulate` does;
+Coulomb friction is refused (its sign switch has no place in a smooth closed form).
 
 numba is imported on first use, never at ``import robodyn``.
 """
@@ -36,19 +29,20 @@ from numpy.typing import ArrayLike, NDArray
 
 from robodyn.errors import AssumptionError, InputError, MissingDependencyError, UnknownNameError
 from robodyn.integrators import step_count
+from robodyn.kinds import cart_pole, geared_arm, pendubot
+from robodyn.kinds import params as params_module
+from robodyn.kinds.formula import solve_2x2
+from robodyn.kinds.formulas import closed_form
+from robodyn.sim.trajectory import Trajectory
 
 if TYPE_CHECKING:
     from robodyn.robot import Robot
-    from robodyn.sim.trajectory import Trajectory
 
 Array = NDArray[np.float64]
 
-# Kind -> (integer code used inside the compiled kernels, parameter names in kernel order).
-KINDS: dict[str, tuple[int, tuple[str, ...]]] = {
-    "pendubot": (0, ("m1", "m2", "l1", "lc1", "lc2", "I1", "I2", "g")),
-    "cart_pole": (1, ("M", "m", "l", "I", "g")),
-    "geared_arm": (2, ("J_m", "J_l", "n", "M", "l", "g")),
-}
+# Kind -> the integer code that selects it inside the compiled kernels.
+CODES: dict[str, int] = {"pendubot": 0, "cart_pole": 1, "geared_arm": 2}
+KINDS: dict[str, tuple[int, tuple[str, ...]]] = {kind: (code, closed_form(kind).params) for kind, code in CODES.items()}
 METHODS = ("rk4", "semi_implicit_euler")
 
 # Closed form against Pinocchio's ABA, relative to the largest acceleration: both are exact
@@ -66,53 +60,40 @@ def _kernels() -> dict[str, Any]:
         raise MissingDependencyError("the fast path needs numba: pip install numba") from None
     njit = numba.njit(cache=True, fastmath=False, nogil=True)
 
+    pm, pc, pg, pp = (njit(f) for f in (pendubot.mass, pendubot.coriolis, pendubot.gravity, pendubot.potential))
+    cm, cc, cg, cp = (njit(f) for f in (cart_pole.mass, cart_pole.coriolis, cart_pole.gravity, cart_pole.potential))
+    gm, gc, gg, gp = (njit(f) for f in (geared_arm.mass, geared_arm.coriolis, geared_arm.gravity, geared_arm.potential))
+    solve = njit(solve_2x2)
+
     @njit
     def acc(kind, p, b, q0, q1, v0, v1, t0, t1):  # type: ignore[no-untyped-def]
-        if kind == 0:  # pendubot
-            m1, m2, l1, lc1, lc2, I1, I2, g = p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7]
-            c = m2 * l1 * lc2
-            cq2 = np.cos(q1)
-            sq2 = np.sin(q1)
-            bb = m2 * lc2 * lc2 + I2
-            m11 = m1 * lc1 * lc1 + m2 * l1 * l1 + I1 + bb + 2.0 * c * cq2
-            m12 = bb + c * cq2
-            m22 = bb
-            g12 = m2 * lc2 * g * np.cos(q0 + q1)
-            r0 = t0 - b[0] * v0 + c * sq2 * (2.0 * v0 * v1 + v1 * v1) - (m1 * lc1 + m2 * l1) * g * np.cos(q0) - g12
-            r1 = t1 - b[1] * v1 - c * sq2 * v0 * v0 - g12
-        elif kind == 1:  # cart_pole
-            mc, mp, lp, ip, g = p[0], p[1], p[2], p[3], p[4]
-            ct = np.cos(q1)
-            st = np.sin(q1)
-            m11 = mc + mp
-            m12 = mp * lp * ct
-            m22 = mp * lp * lp + ip
-            r0 = t0 - b[0] * v0 + mp * lp * st * v1 * v1
-            r1 = t1 - b[1] * v1 + mp * g * lp * st
-        else:  # geared_arm, one degree of freedom
-            J_m, J_l, n, ma, la, g = p[0], p[1], p[2], p[3], p[4], p[5]
-            return (t0 - b[0] * v0 - ma * g * la * np.sin(q0)) / (J_l + n * n * J_m), 0.0
-        det = m11 * m22 - m12 * m12
-        return (m22 * r0 - m12 * r1) / det, (m11 * r1 - m12 * r0) / det
+        if kind == 2:  # geared_arm, one degree of freedom
+            m = gm(p, q0)[0]
+            return (t0 - b[0] * v0 - gc(p, q0, v0)[0] * v0 - gg(p, q0)[0]) / m, 0.0
+        if kind == 0:
+            m11, m12, m22 = pm(p, q0, q1)
+            c11, c12, c21, c22 = pc(p, q0, q1, v0, v1)
+            g0, g1 = pg(p, q0, q1)
+        else:
+            m11, m12, m22 = cm(p, q0, q1)
+            c11, c12, c21, c22 = cc(p, q0, q1, v0, v1)
+            g0, g1 = cg(p, q0, q1)
+        r0 = t0 - b[0] * v0 - (c11 * v0 + c12 * v1) - g0
+        r1 = t1 - b[1] * v1 - (c21 * v0 + c22 * v1) - g1
+        return solve(m11, m12, m22, r0, r1)
 
     @njit
     def energies(kind, p, q0, q1, v0, v1):  # type: ignore[no-untyped-def]
-        """(kinetic, potential) with V zero at world height 0 (Pinocchio's convention)."""
+        """(kinetic, potential) on each kind's own zero of the potential."""
+        if kind == 2:
+            return 0.5 * gm(p, q0)[0] * v0 * v0, gp(p, q0)
         if kind == 0:
-            m1, m2, l1, lc1, lc2, I1, I2, g = p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7]
-            c = m2 * l1 * lc2
-            bb = m2 * lc2 * lc2 + I2
-            m11 = m1 * lc1 * lc1 + m2 * l1 * l1 + I1 + bb + 2.0 * c * np.cos(q1)
-            m12 = bb + c * np.cos(q1)
-            kin = 0.5 * (m11 * v0 * v0 + 2.0 * m12 * v0 * v1 + bb * v1 * v1)
-            pot = (m1 * lc1 + m2 * l1) * g * np.sin(q0) + m2 * lc2 * g * np.sin(q0 + q1)
-            return kin, pot
-        if kind == 1:
-            mc, mp, lp, ip, g = p[0], p[1], p[2], p[3], p[4]
-            kin = 0.5 * ((mc + mp) * v0 * v0 + 2.0 * mp * lp * np.cos(q1) * v0 * v1 + (mp * lp * lp + ip) * v1 * v1)
-            return kin, mp * g * lp * np.cos(q1)
-        J_m, J_l, n, ma, la, g = p[0], p[1], p[2], p[3], p[4], p[5]
-        return 0.5 * (J_l + n * n * J_m) * v0 * v0, -ma * g * la * np.cos(q0)
+            m11, m12, m22 = pm(p, q0, q1)
+            pot = pp(p, q0, q1)
+        else:
+            m11, m12, m22 = cm(p, q0, q1)
+            pot = cp(p, q0, q1)
+        return 0.5 * (m11 * v0 * v0 + 2.0 * m12 * v0 * v1 + m22 * v1 * v1), pot
 
     @njit
     def run(kind, method, p, b, nv, q, v, tau, dt, n, Q, V, A):  # type: ignore[no-untyped-def]
@@ -226,8 +207,6 @@ class FastDynamics:
             AssumptionError: the robot is not of a seed kind, has Coulomb friction, or its
                 closed-form accelerations disagree with ABA by more than ``VERIFY_RTOL``.
         """
-        from robodyn.kinds import params as params_module
-
         if kind is None:
             kind = params_module.detect_kind(robot)
             if kind is None:
@@ -315,8 +294,6 @@ class FastDynamics:
         :class:`Trajectory` carries ``wall_time_s`` (the compiled loop only) and ``evaluations``;
         a blow-up stops the run with ``status == "diverged"``.
         """
-        from robodyn.sim.trajectory import Trajectory
-
         if method not in METHODS:
             raise UnknownNameError("fast-path method", method, METHODS)
         q = np.asarray(q0, dtype=np.float64).reshape(-1)

@@ -29,7 +29,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robodyn import dynamics
-from robodyn.errors import InputError, RobodynError, UnknownNameError
+from robodyn.errors import InputError, RobodynError
+from robodyn.kinds import formulas, params
+from robodyn.registry import BACKENDS
 
 if TYPE_CHECKING:
     from robodyn.robot import Robot
@@ -37,7 +39,6 @@ if TYPE_CHECKING:
 Array = NDArray[np.float64]
 TorqueFn = Callable[[float, Array, Array], ArrayLike]
 
-BACKENDS = ("aba", "crba", "formula")
 
 # M(q) is taken as singular when its smallest eigenvalue is below this fraction of its
 # largest: ~1e4 ulps, far below any real robot's conditioning (Talos, Tiago, Solo: >= 1e-5)
@@ -256,7 +257,7 @@ class RobotSystem:
         out = np.empty(nv + self.nw)
         if self._formula is not None:
             formula, p = self._formula
-            out[:nv] = tau_in + tau_loss + formula.coriolis_matrix(q, v, p).T @ v - formula.gravity(q, p)
+            out[:nv] = formula.momentum_rate(q, v, tau_in + tau_loss, p)
         else:
             out[:nv] = dynamics.momentum_rate(self.robot.model, self.robot.data, q, v, tau_in + tau_loss)
         if self.nw:
@@ -307,12 +308,10 @@ class RobotSystem:
 
 def _formula(robot: Robot) -> tuple[Any, Any]:
     """The seed kind's closed-form dynamics and parameters, or an InputError."""
-    from robodyn.kinds import formulas, params
-
     kind = params.detect_kind(robot)
     if kind is None:
         raise InputError(
-            f"backend 'formula' needs one of the seed kinds ({', '.join(formulas.KIND_MODULES)}); "
+            f"backend 'formula' needs one of the seed kinds ({', '.join(formulas.KINDS.names())}); "
             f"{robot.name} is none of them: use backend 'aba' or 'crba'"
         )
     return formulas.get(kind), params.extract(robot, kind)
@@ -328,7 +327,8 @@ def _backend(robot: Robot, name: str, formula: tuple[Any, Any] | None) -> Callab
     if name == "formula" and formula is not None:
         f, p = formula
         return lambda q, v, tau: f.forward_dynamics(q, v, tau, p)
-    raise UnknownNameError("forward-dynamics backend", name, BACKENDS)
+    BACKENDS.get(name)  # an unknown name lists the backends
+    raise InputError(f"backend {name!r} needs a seed kind's formula, which {robot.name} has not")
 
 
 def velocity_names(robot: Robot) -> list[str]:
@@ -388,8 +388,7 @@ def resolve_backend(robot: Robot, backend: str | None) -> str:
     mimic = dynamics.has_mimic_joints(robot.model)
     if backend is None:
         return "crba" if mimic else "aba"
-    if backend not in BACKENDS:
-        raise UnknownNameError("forward-dynamics backend", backend, BACKENDS)
+    BACKENDS.get(backend)  # an unknown name lists the backends
     if backend == "aba" and mimic:
         raise InputError(
             f"{robot.name} has mimic joints, which Pinocchio's ABA refuses: use backend 'crba' (--backend crba)"

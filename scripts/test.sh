@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Set up and run robodyn's whole test suite on a fresh machine with Python 3.11:
 # headless Chromium for the browser tests (Debian's package, when run as root), a virtual
-# environment in .venv with robodyn and its test extra, then pytest.
+# environment in .venv with robodyn and its test extra, then the house checks (ruff lint and
+# format, mypy, import-linter's layer contracts) and pytest. Any finding fails the run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -18,4 +19,9 @@ fi
 python3 -m venv .venv
 .venv/bin/python -m pip install --quiet --upgrade pip
 .venv/bin/python -m pip install --quiet ".[test]"
+echo "house checks: ruff, ruff format, mypy, import-linter"
+.venv/bin/ruff check src tests benchmarks examples
+.venv/bin/ruff format --check src tests benchmarks examples
+.venv/bin/mypy src/robodyn
+.venv/bin/lint-imports
 .venv/bin/python -m pytest -q "$@"

@@ -77,3 +77,107 @@ def test_passive_joints_come_from_the_srdf():
     assert robodyn.load("cart_pole").passive_joints == ("hinge",)
     assert list(robodyn.load("cart_pole").actuated) == [True, False]
     assert robodyn.load("geared_arm").passive_joints == ()
+
+
+# ----------------------------------------------------------------------------- C is the Christoffel form
+# C v alone does not determine C: C + S(v) with S(v) v = 0 has the same product. These tests pin
+# C down entrywise. Every tolerance is relative to |M| |v|, the size of dM/dt and of C.
+CHRISTOFFEL_ROBOTS = ["geared_arm", "cart_pole", "pendubot", "ur5", "panda"]
+SEED_KINDS = ["geared_arm", "cart_pole", "pendubot"]
+FD_STEP = 1e-6  # central difference of M along v, [s] (or along e_k, [rad | m]): truncation ~1e-12
+FD_RTOL = 1e-6  # finite differences of M: measured <= 9e-10 with FD_STEP (round-off eps |M| / FD_STEP)
+LINEAR_RTOL = 1e-13  # C(q, v) is linear in v: round-off only, measured <= 5e-16
+FORMULA_RTOL = 1e-9  # hand-derived formula vs Pinocchio, measured <= 3e-16
+N_C_STATES = 10
+
+
+@pytest.fixture(params=CHRISTOFFEL_ROBOTS)
+def chain(request):
+    return robodyn.load(request.param)
+
+
+def _scale(robot, q, *velocities):
+    """|M(q)| max |v|: the size of dM/dt and C along velocities of that size."""
+    return float(np.abs(robot.M(q)).max() * max(np.abs(v).max() for v in velocities))
+
+
+def _mass_rate(robot, q, v):
+    """dM/dt at (q, v) by a central difference of M along v (step FD_STEP [s])."""
+    ahead = robot.M(robot.integrate(q, FD_STEP * v))
+    behind = robot.M(robot.integrate(q, -FD_STEP * v))
+    return (ahead - behind) / (2.0 * FD_STEP)
+
+
+def _christoffel_oracle(robot, q, v):
+    """C_ij = sum_k 1/2 (dM_ij/dq_k + dM_ik/dq_j - dM_jk/dq_i) v_k, dM/dq by central differences.
+
+    The slow, obviously correct loop that Robot.C must match entrywise.
+    """
+    nv = robot.nv
+    dM = np.empty((nv, nv, nv))  # dM[i, j, k] = dM_ij / dq_k
+    for k in range(nv):
+        e = np.zeros(nv)
+        e[k] = FD_STEP
+        dM[:, :, k] = (robot.M(robot.integrate(q, e)) - robot.M(robot.integrate(q, -e))) / (2.0 * FD_STEP)
+    C = np.zeros((nv, nv))
+    for i in range(nv):
+        for j in range(nv):
+            for k in range(nv):
+                C[i, j] += 0.5 * (dM[i, j, k] + dM[i, k, j] - dM[j, k, i]) * v[k]
+    return C
+
+
+def test_mass_rate_minus_twice_C_is_skew(chain):
+    rng = np.random.default_rng(11)
+    for _ in range(N_C_STATES):
+        q, v = chain.random_state(rng)
+        N = _mass_rate(chain, q, v) - 2.0 * chain.C(q, v)
+        np.testing.assert_allclose(N + N.T, 0.0, atol=FD_RTOL * _scale(chain, q, v))
+
+
+def test_C_plus_its_transpose_is_the_mass_rate(chain):
+    rng = np.random.default_rng(12)
+    for _ in range(N_C_STATES):
+        q, v = chain.random_state(rng)
+        C = chain.C(q, v)
+        np.testing.assert_allclose(C + C.T, _mass_rate(chain, q, v), rtol=0, atol=FD_RTOL * _scale(chain, q, v))
+
+
+def test_C_is_linear_in_v(chain):
+    rng = np.random.default_rng(13)
+    for _ in range(N_C_STATES):
+        q, v1 = chain.random_state(rng)
+        v2 = rng.uniform(-2.0, 2.0, chain.nv)
+        a, b = rng.uniform(-3.0, 3.0, 2)
+        np.testing.assert_allclose(
+            chain.C(q, a * v1 + b * v2),
+            a * chain.C(q, v1) + b * chain.C(q, v2),
+            rtol=0,
+            atol=LINEAR_RTOL * _scale(chain, q, a * v1, b * v2),
+        )
+
+
+def test_C_matches_the_christoffel_symbols_of_M_entrywise(chain):
+    """Catches C + S(v) with S skew and S(v) v = 0 (e.g. a cross-product block), which the
+    skew, transpose and linearity tests cannot see on three or more joints."""
+    rng = np.random.default_rng(14)
+    for _ in range(N_C_STATES):
+        q, v = chain.random_state(rng)
+        np.testing.assert_allclose(
+            chain.C(q, v), _christoffel_oracle(chain, q, v), rtol=0, atol=FD_RTOL * _scale(chain, q, v)
+        )
+
+
+@pytest.mark.parametrize("kind", SEED_KINDS)
+def test_C_matches_the_hand_derived_formula_entrywise(kind):
+    robot = robodyn.load(kind)
+    formula, p = robodyn.formulas.get(kind), robodyn.extract_params(robot, kind)
+    rng = np.random.default_rng(15)
+    for _ in range(N_STATES):
+        q, v = robot.random_state(rng)
+        np.testing.assert_allclose(
+            robot.C(q, v),
+            formula.coriolis_matrix(q, v, p),
+            rtol=FORMULA_RTOL,
+            atol=FORMULA_RTOL * _scale(robot, q, v),
+        )

@@ -40,3 +40,95 @@ def test_unknown_attribute_is_an_attribute_error():
         assert "does_not_exist" in str(exc)
     else:
         raise AssertionError("expected AttributeError")
+
+
+# ------------------------------------------------------------------ the house
+MAX_MODULE_LINES = 520  # "about 500": a module past this holds more than one concept
+
+
+def _graph():
+    import grimp
+
+    return grimp.build_graph("robodyn", include_external_packages=False)
+
+
+def test_no_module_imports_one_that_imports_it_back():
+    """No import cycle between robodyn's modules, counting function-local and TYPE_CHECKING imports.
+
+    grimp reads every import statement of a module; a cycle is a strongly connected component of
+    more than one module (Tarjan's algorithm).
+    """
+    graph = _graph()
+    modules = sorted(graph.modules)
+    edges = {m: sorted(graph.find_modules_directly_imported_by(m) & graph.modules) for m in modules}
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    cycles: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        for w in edges[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                cycles.append(sorted(component))
+
+    for m in modules:
+        if m not in index:
+            visit(m)
+    assert cycles == [], f"import cycles: {cycles}"
+
+
+def test_old_import_paths_still_work_with_a_deprecation_warning():
+    """robodyn 0.1's module paths forward to the new house for one release, and warn."""
+    code = (
+        "import warnings; warnings.simplefilter('error', DeprecationWarning)\n"
+        "import robodyn\n"
+        "from robodyn._compat import MOVED\n"
+        "import importlib\n"
+        "for old in MOVED:\n"
+        "    try:\n"
+        "        importlib.import_module(old)\n"
+        "    except DeprecationWarning as w:\n"
+        "        assert 'moved to' in str(w), w\n"
+        "    else:\n"
+        "        raise SystemExit(f'{old}: no DeprecationWarning')\n"
+        "warnings.simplefilter('ignore', DeprecationWarning)\n"
+        "from robodyn.models import load, find_srdf, joint_coordinates, UnknownModelError, model_sources\n"
+        "from robodyn.simulation import simulate, SimulationInterrupted\n"
+        "from robodyn.formulas.pendubot import FORMULA\n"
+        "from robodyn.formulas import load_user_formula, get\n"
+        "from robodyn.crosscheck import check\n"
+        "from robodyn.fast import FastDynamics\n"
+        "assert load('pendubot').nv == 2 and get('pendubot') is FORMULA\n"
+        "print('ok')\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr
+
+
+def test_robot_view_is_deprecated_and_still_plays():
+    import warnings
+
+    import pytest
+
+    robot = robodyn.load("geared_arm")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        replay = robot.view(q=[0.3])
+    assert any(issubclass(w.category, DeprecationWarning) and "robodyn.viewer.show" in str(w.message) for w in caught)
+    assert "<html" in replay.html.lower()
+    with pytest.raises(TypeError):
+        robot.view(no_such_option=1)

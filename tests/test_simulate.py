@@ -397,7 +397,7 @@ def test_singular_mass_matrix_is_refused_before_the_run() -> None:
 
 
 def test_divergence_diagnosis_blames_a_singular_mass_matrix_not_the_integrator() -> None:
-    from robodyn.sim.simulation import diagnose
+    from robodyn.sim.run import diagnose
 
     method = robodyn.integrators.get("rk4")
     singular = robodyn.load("pendubot", free_flyer=True)

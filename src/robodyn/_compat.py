@@ -41,7 +41,7 @@ MOVED: dict[str, tuple[str, ...]] = {
     "robodyn.crosscheck": ("robodyn.kinds.check",),
     "robodyn.system": ("robodyn.sim.system",),
     "robodyn.energy": ("robodyn.sim.energy",),
-    "robodyn.simulation": ("robodyn.sim.simulation", "robodyn.errors"),
+    "robodyn.simulation": ("robodyn.sim.simulation", "robodyn.sim.run", "robodyn.errors"),
     "robodyn.trajectory": ("robodyn.sim.trajectory",),
     "robodyn.batch": ("robodyn.sim.batch",),
     "robodyn.fast": ("robodyn.sim.fast",),

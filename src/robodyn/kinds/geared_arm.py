@@ -21,6 +21,7 @@ motor-coordinate derivation comes back through :func:`from_motor_coordinates`.
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -59,7 +60,7 @@ def link_to_motor(q: Array, v: Array, p: Params) -> tuple[Array, Array]:
     return p["n"] * np.asarray(q), p["n"] * np.asarray(v)
 
 
-Fn = Callable[..., Array]
+Fn = Callable[..., Any]
 
 
 def to_motor_coordinates(M_l: Fn, C_l: Fn, G_l: Fn, V_l: Fn | None) -> tuple[Fn, Fn, Fn, Fn | None]:

@@ -1,0 +1,307 @@
+"""One run's stepping loop: take the steps, record them, watch for divergence block by block.
+
+:class:`Run` steps a :class:`~robodyn.sim.system.RobotSystem` with an integrator over a time
+grid, records q, v, a, the energies and the works of every sample, and checks each block of
+``CHECK_EVERY`` steps: a non-finite state, a step the method cannot take, or an energy error
+above the allowed growth stops the run at the exact step, with :func:`diagnose` naming the
+likely cause. :func:`robodyn.simulate` validates the inputs, builds the run and turns its
+outcome into a :class:`~robodyn.Trajectory` or an exception.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robodyn.errors import StepError
+from robodyn.integrators import Integrator
+from robodyn.sim import energy
+from robodyn.sim.system import SINGULAR_MASS_RTOL, RobotSystem
+from robodyn.sim.trajectory import Trajectory
+
+if TYPE_CHECKING:
+    from robodyn.robot import Robot
+
+Array = NDArray[np.float64]
+
+# Steps between divergence checks; a failure is then located to its exact step.
+CHECK_EVERY = 512
+
+
+def _step_sizes(t: Array) -> list[float]:
+    """Every step exactly dt = t[1] - t[0], but a last, shorter one that lands on t[-1]."""
+    dt = float(t[1] - t[0])
+    steps = [dt] * (t.size - 1)
+    last = float(t[-1] - t[-2])
+    if abs(last - dt) > 1e-9 * dt:
+        steps[-1] = last
+    return steps
+
+
+def diagnose(method: Integrator, dt: float, system: RobotSystem, states: list[Array]) -> tuple[str, str]:
+    """(likely cause, one suggestion) for a run of ``method`` at step ``dt`` [s] that failed.
+
+    ``states`` are the finite configurations (nq,) around the failure: if M is singular at
+    one of them, the integrator is not to blame.
+    """
+    for q in states:
+        if not np.all(np.isfinite(q)):
+            continue
+        with np.errstate(all="ignore"):
+            try:
+                ratio, direction = system.mass_conditioning(q)
+            except (np.linalg.LinAlgError, ValueError, RuntimeError):
+                continue
+        if not ratio > SINGULAR_MASS_RTOL:
+            where = system.singular_direction(direction) if np.all(np.isfinite(direction)) else "?"
+            return (
+                f"the mass matrix M(q) is singular there (smallest eigenvalue {ratio:.2g} of the largest, along "
+                f"{where}), not the integrator",
+                "give the links that move along that direction mass and inertia",
+            )
+    if method.name == "euler":
+        cause = f"explicit Euler is unstable at dt = {dt:g} s (it gains energy at every step)"
+        suggestion = "try symplectic_euler, whose energy error stays bounded"
+    elif method.adaptive:
+        cause = f"{method.name} could not follow the solution: the motion itself may blow up"
+        suggestion = "check the initial state, the torque and the model's inertias"
+    elif method.implicit:
+        cause = f"dt = {dt:g} s is too large for {method.name}'s iteration to converge"
+        suggestion = f"try a smaller dt, e.g. {dt / 10:g} s"
+    else:
+        cause = f"{method.name} is unstable at dt = {dt:g} s"
+        suggestion = f"try a smaller dt, e.g. {dt / 10:g} s"
+    if system.torque.kind == "callable":
+        cause += " (or the torque callable drives the robot without bound)"
+    return cause, suggestion
+
+
+class Run:
+    """One simulation: the stepping loop, the records, the divergence checks.
+
+    The work done is counted exactly: the dynamics evaluations up to the step that failed
+    (or was interrupted), not those of the steps taken after it in the same check block.
+    """
+
+    def __init__(
+        self,
+        robot: Robot,
+        system: RobotSystem,
+        method: Integrator,
+        t: Array,
+        q0: Array,
+        v0: Array,
+        *,
+        rtol: float,
+        atol: float,
+        max_energy_growth: float | None,
+    ) -> None:
+        self.robot, self.system, self.method, self.t = robot, system, method, t
+        n = t.size
+        nv = system.nv
+        self.Q = np.empty((n, system.nq))
+        self.U = np.empty((n, nv + system.nw))
+        self.A = np.full((n, nv), np.nan)
+        self.kinetic = np.empty(n)
+        self.potential = np.empty(n)
+        self.Q[0] = q0
+        self.U[0, :nv] = v0
+        self.U[0, nv:] = 0.0
+        self.stepper = method.start(system, float(t[0]), q0, self.U[0].copy(), t_end=float(t[-1]), rtol=rtol, atol=atol)
+        self.meter = energy.EnergyMeter.for_robot(robot, q0)
+        self.n = n  # samples kept (shrinks on failure)
+        self.failure: tuple[int, float, str] | None = None
+        self.interrupted: tuple[int, float, str] | None = None
+        self.checked = 1  # samples [0, checked) are stored and checked
+        # Evaluations (rates, jacobian) after each step of the current block, step lo + i at index i.
+        self._block_lo = 0
+        self._block_work: list[tuple[int, int]] = []
+        self.work: tuple[int, int] | None = None  # evaluations spent on the kept samples, once known
+        self._energies(0, 1)
+        self.scale = energy.energy_scale(robot, float(self.kinetic[0]), float(self.potential[0]))
+        self.bound = np.inf if max_energy_growth is None else max_energy_growth * self.scale
+        self.rtol, self.atol = rtol, atol
+
+    def _energies(self, lo: int, hi: int) -> None:
+        nv = self.system.nv
+        self.kinetic[lo:hi], self.potential[lo:hi] = self.meter(self.Q[lo:hi], self.U[lo:hi, :nv])
+
+    def _residual(self, lo: int, hi: int) -> Array:
+        nv = self.system.nv
+        e = self.kinetic[lo:hi] + self.potential[lo:hi]
+        w = self.U[lo:hi, nv:].sum(axis=1) if self.system.nw else 0.0
+        return e - (self.kinetic[0] + self.potential[0]) - w
+
+    def _counters(self) -> tuple[int, int]:
+        return int(self.system.evaluations), int(getattr(self.system, "jacobian_evaluations", 0))
+
+    def integrate(self) -> None:
+        """Step through the time grid; a Ctrl-C keeps what was checked so far."""
+        try:
+            self._integrate()
+        except KeyboardInterrupt:
+            if self.failure is None and self.interrupted is None:
+                self._interrupt(self.checked)
+        if self.work is None:
+            self.work = self._counters()
+
+    def _integrate(self) -> None:
+        """Every ``CHECK_EVERY`` steps store the block and check it."""
+        times = self.t.tolist()
+        steps = _step_sizes(self.t)
+        advance = self.stepper.advance
+        system = self.system
+        q, u = self.Q[0].copy(), self.U[0].copy()
+        n_steps = len(steps)
+        with np.errstate(all="ignore"):
+            for lo in range(0, n_steps, CHECK_EVERY):
+                hi = min(lo + CHECK_EVERY, n_steps)
+                qs: list[Array] = []
+                us: list[Array] = []
+                ks: list[Array | None] = []
+                work: list[tuple[int, int]] = []
+                self._block_lo, self._block_work = lo, work
+                failed: BaseException | None = None
+                interrupted = False
+                try:
+                    for k in range(lo, hi):
+                        q, u, k_start = advance(times[k], q, u, steps[k])
+                        qs.append(q)
+                        us.append(u)
+                        ks.append(k_start)
+                        work.append((system.evaluations, system.jacobian_evaluations))
+                except (StepError, np.linalg.LinAlgError) as exc:
+                    failed = exc
+                except KeyboardInterrupt:
+                    interrupted = True
+                done = lo + len(qs)
+                if failed is not None or interrupted:
+                    work.append(self._counters())  # the failed or interrupted step's work
+                self._store(lo, qs, us, ks)
+                self._check_block(lo + 1, done + 1)
+                if self.failure is None and failed is not None:
+                    what = failed.reason if isinstance(failed, StepError) else f"the forward dynamics failed ({failed})"
+                    self._fail(done + 1, done + 1, what, during_step=True)
+                if self.failure is not None:
+                    return
+                self.checked = done + 1
+                if interrupted:
+                    self._interrupt(done + 1)
+                    return
+
+    def _store(self, lo: int, qs: list[Array], us: list[Array], ks: list[Array | None]) -> None:
+        """Samples lo+1 .. lo+len(qs) and the rates at samples lo .. lo+len(qs)-1."""
+        if not qs:
+            return
+        hi = lo + len(qs)
+        self.Q[lo + 1 : hi + 1] = qs
+        self.U[lo + 1 : hi + 1] = us
+        nv = self.system.nv
+        if all(k is not None for k in ks):
+            self.A[lo:hi] = np.asarray(ks)[:, :nv]
+        else:
+            for i, k in enumerate(ks):
+                if k is not None:
+                    self.A[lo + i] = k[:nv]
+
+    def _check_block(self, lo: int, hi: int) -> None:
+        """Samples lo .. hi-1 are new: find the first non-finite or over-energetic one."""
+        if hi <= lo:
+            return
+        finite = np.isfinite(self.Q[lo:hi]).all(axis=1) & np.isfinite(self.U[lo:hi]).all(axis=1)
+        end = hi if finite.all() else lo + int(np.argmin(finite))
+        self._energies(lo, end)
+        if self._over_bound(lo, end):
+            return
+        if end < hi:
+            self._fail(end, end, "the state is not finite (q or v is inf or NaN)")
+
+    def _over_bound(self, lo: int, hi: int) -> bool:
+        if hi <= lo or not np.isfinite(self.bound):
+            return False
+        residual = np.abs(self._residual(lo, hi))
+        over = ~(residual <= self.bound)
+        if not over.any():
+            return False
+        first = lo + int(np.argmax(over))
+        self._fail(
+            first,
+            first + 1,
+            f"the energy error |E - E0 - W| = {residual[first - lo]:.3g} J exceeds the bound {self.bound:.3g} J "
+            f"(max_energy_growth x the energy scale {self.scale:.3g} J)",
+        )
+        return True
+
+    def _fail(self, step: int, keep: int, what: str, *, during_step: bool = False) -> None:
+        """Stop at ``step`` (the step that produced sample ``step``, or failed to); keep samples [0, keep).
+
+        One sentence: where (step and time), what (the criterion), the likely cause and one suggestion.
+        """
+        last = self.t.size - 1
+        t_fail = float(self.t[min(step, last)])
+        if during_step:  # the step from t[step - 1] to t[step] could not be taken
+            where = f"step {step} (t = {float(self.t[step - 1]):.6g} -> {t_fail:.6g} s)"
+        else:
+            where = f"step {step} (t = {t_fail:.6g} s)"
+        cause, suggestion = diagnose(self.method, float(self.t[1] - self.t[0]), self.system, [self.Q[keep - 1]])
+        self.failure = (step, t_fail, f"diverged at {where}: {what}; likely cause: {cause}; {suggestion}")
+        self.n = keep
+        self.A[step:] = np.nan  # rates from steps after the failure are not counted: recompute them
+        work = self._block_work
+        index = step - 1 - self._block_lo  # the step that produced (or failed to produce) sample ``step``
+        self.work = work[min(max(index, 0), len(work) - 1)] if work else self._counters()
+
+    def _interrupt(self, keep: int) -> None:
+        """Ctrl-C: keep samples [0, keep); the work is what was done until then."""
+        t_stop = float(self.t[keep - 1])
+        self.interrupted = (keep - 1, t_stop, f"interrupted after step {keep - 1} (t = {t_stop:.6g} s)")
+        self.n = keep
+        self.work = self._counters()
+
+    def trajectory(self, wall_time: float, meta: dict[str, Any]) -> Trajectory:
+        """Package the kept samples, filling in accelerations and torques."""
+        n, nv, system = self.n, self.system.nv, self.system
+        t, Q, U, A = self.t[:n], self.Q[:n], self.U[:n], self.A[:n]
+        missing = np.flatnonzero(np.isnan(A).any(axis=1))
+        before = system.evaluations
+        with np.errstate(all="ignore"):
+            for k in missing:
+                A[k] = system.rates(float(t[k]), Q[k], U[k])[:nv]
+        evaluations, jacobians = self.work if self.work is not None else self._counters()
+        evaluations += system.evaluations - before  # the accelerations filled in just now
+        tau = self._torques(t, Q, U[:, :nv])
+        works = U[:, nv:] if system.nw else np.zeros((n, 2))
+        if self.failure is not None:
+            status, message = "diverged", self.failure[2]
+        elif self.interrupted is not None:
+            status, message = "interrupted", self.interrupted[2]
+        else:
+            status, message = "ok", ""
+        meta["evaluations_jacobian"] = jacobians
+        return Trajectory(
+            t=t.copy(),
+            q=Q.copy(),
+            v=U[:, :nv].copy(),
+            a=A.copy(),
+            tau=tau,
+            kinetic=self.kinetic[:n].copy(),
+            potential=self.potential[:n].copy(),
+            work_input=works[:, 0].copy(),
+            work_damping=works[:, 1].copy(),
+            wall_time_s=float(wall_time),
+            evaluations=int(evaluations),
+            status=status,
+            message=message,
+            meta=meta,
+        )
+
+    def _torques(self, t: Array, Q: Array, V: Array) -> Array:
+        source = self.system.torque
+        if source.kind != "callable":
+            return np.tile(source.constant, (t.size, 1))
+        tau = np.empty_like(V)
+        for k in range(t.size):
+            tau[k] = self.system.input_torque(float(t[k]), Q[k], V[k])
+        return tau

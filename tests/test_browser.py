@@ -11,8 +11,8 @@ swatches are projected the same way and must show the colours of T, V and E. The
 on its own; it is photographed after two different virtual-time budgets and must show the
 links' colours and differ between the two shots where the robot is.
 
-Chromium comes from Debian's ``chromium`` package. Without it these tests skip, except in CI
-(``CI=true``), where they fail: CI must install it.
+Chromium comes from Debian's ``chromium`` package (found on PATH). Without it these tests skip, except in CI
+(``CI`` set, e.g. ``CI=true``), where they fail: CI must install it.
 """
 
 from __future__ import annotations
@@ -44,19 +44,31 @@ MIN_LINK_PIXELS = 150  # pixels of each link colour in a live-page shot (a link 
 MIN_CHANGED_PIXELS = 300  # pixels that change between the two live shots (moving links and marker)
 
 
+CHROMIUM_NAMES = ("chromium", "chromium-browser", "google-chrome")
+
+
+def in_ci() -> bool:
+    """True when the environment variable CI is set (to anything but an empty, 0, false or no value)."""
+    return os.environ.get("CI", "").strip().lower() not in ("", "0", "false", "no")
+
+
 def find_chromium() -> str:
-    for name in ("chromium", "chromium-browser", "google-chrome"):
+    """The first of CHROMIUM_NAMES on PATH; without one, FAIL in CI and skip elsewhere.
+
+    Called in the test body (not in a fixture) so that a missing browser in CI is a test
+    failure, not a setup error.
+    """
+    for name in CHROMIUM_NAMES:
         path = shutil.which(name)
         if path:
             return path
-    if os.environ.get("CI", "").lower() in ("1", "true", "yes"):
-        pytest.fail("chromium is not installed, and CI must run the browser tests: apt-get install -y chromium")
+    if in_ci():
+        pytest.fail(
+            f"CI={os.environ['CI']!r} and no browser on PATH (looked for {', '.join(CHROMIUM_NAMES)}): "
+            "CI must run the browser tests; install it with: apt-get install -y chromium",
+            pytrace=False,
+        )
     pytest.skip("chromium is not installed (apt-get install chromium); CI runs these tests")
-
-
-@pytest.fixture(scope="module")
-def chromium() -> str:
-    return find_chromium()
 
 
 @pytest.fixture(scope="module")
@@ -146,7 +158,8 @@ def link_centres(playback: viewer.Playback, frame: int) -> dict[str, tuple[np.nd
     return out
 
 
-def test_exported_html_shows_the_pendubot_swinging(chromium: str, artifacts: Path, swing: Path, tmp_path: Path) -> None:
+def test_exported_html_shows_the_pendubot_swinging(artifacts: Path, swing: Path, tmp_path: Path) -> None:
+    chromium = find_chromium()
     page = artifacts / "pendubot_replay.html"
     assert main(["view", "pendubot", str(swing), "--html", str(page)]) == 0
     robot = robodyn.load("pendubot")
@@ -187,7 +200,8 @@ def test_exported_html_shows_the_pendubot_swinging(chromium: str, artifacts: Pat
     assert trace_pixels > 500  # the tip's path is drawn (a line and a dot per frame)
 
 
-def test_live_server_page_plays_the_animation(chromium: str, artifacts: Path, swing: Path, tmp_path: Path) -> None:
+def test_live_server_page_plays_the_animation(artifacts: Path, swing: Path, tmp_path: Path) -> None:
+    chromium = find_chromium()
     port = viewer.free_port()
     with view_process(swing, port) as (process, url):
         images = [

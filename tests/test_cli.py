@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+import robodyn
 from robodyn.cli import _attach_negative_values, get_argument_parser, main
 
 
@@ -31,7 +32,7 @@ def test_usage_errors_exit_2(capsys):
 def test_version(capsys):
     with pytest.raises(SystemExit) as exc:
         main(["--version"])
-    assert exc.value.code == 0 and "robodyn 0.1.0" in capsys.readouterr().out
+    assert exc.value.code == 0 and f"robodyn {robodyn.__version__}" in capsys.readouterr().out
 
 
 def test_broken_pipe_is_quiet_and_exit_0():

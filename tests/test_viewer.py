@@ -257,7 +257,7 @@ def test_cli_bad_input_exit_codes(motion_file: Path, tmp_path: Path, capsys: pyt
         assert main(argv) == 2, argv
         err = capsys.readouterr().err
         assert message in err and "Traceback" not in err, (argv, err)
-    assert not (tmp_path / "x.html").exists() or (tmp_path / "x.html").stat().st_size == 0
+    assert not (tmp_path / "x.html").exists()  # refused input leaves no file behind, not even an empty one
 
 
 def test_cli_rejects_a_zero_speed(capsys: pytest.CaptureFixture[str]) -> None:
@@ -336,7 +336,7 @@ def test_a_port_in_use_is_reported(capsys: pytest.CaptureFixture[str]) -> None:
 
 
 def test_nobody_at_the_zmq_url(pendubot: robodyn.Robot, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(viewer, "CONNECT_TIMEOUT_MS", 300)
+    monkeypatch.setattr("robodyn.viewer.server.CONNECT_TIMEOUT_MS", 300)  # read by serve() where it lives
     playback = viewer.build(pendubot)
     with pytest.raises(UnavailableError, match=r"no meshcat server answered at tcp://127.0.0.1:\d+"):
         viewer.serve(playback, zmq_url=f"tcp://127.0.0.1:{viewer.free_port()}")
@@ -356,11 +356,36 @@ def test_the_html_replay_is_self_contained(pendubot: robodyn.Robot, motion: Traj
     np.testing.assert_allclose(info["energy"], motion.energy[playback.sample_index])
 
 
-def test_cli_writes_the_html_file(motion_file: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def _page_commands(page: str) -> list[dict]:
+    """The meshcat commands a written page carries, decoded as the browser decodes them."""
+    import umsgpack
+
+    found = re.search(r'id="robodyn-commands">(.*?)</script>', page, re.S)
+    assert found, "the page holds no scene commands"
+    return [umsgpack.unpackb(base64.b64decode(c)) for c in json.loads(found.group(1))]
+
+
+def test_cli_writes_the_html_file(
+    motion: Trajectory, motion_file: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     out = tmp_path / "sub" / "replay.html"
     assert main(["view", "pendubot", str(motion_file), "--html", str(out), "--speed", "0.5"]) == 0
+    assert out.stat().st_size > len(viewer.meshcat_javascript())  # meshcat's viewer is inlined, the scene on top
     text = out.read_text(encoding="utf-8")
     assert text.startswith("<!DOCTYPE html>") and '"speed": 0.5' in text
+    commands = _page_commands(text)
+    drawn = {c["path"] for c in commands if c["type"] == "set_object"}
+    links = {f"/{'/'.join(ROOT)}/robot/{name}" for name in ("link1_0", "link2_0")}
+    assert links <= drawn  # the pendubot's links are in the scene
+    assert [c["type"] for c in commands].count("set_animation") == 1 and commands[-1]["type"] == "set_animation"
+    clips = {entry["path"]: entry["clip"] for entry in commands[-1]["animations"]}
+    assert links | {f"/{'/'.join(ROOT)}/trace/marker", f"/{'/'.join(ROOT)}/energy/cursor"} <= set(clips)
+    frames = len(viewer.render_samples(motion.t, speed=0.5))  # the baked motion: one keyframe per rendered frame
+    for path in links:
+        keys = {track["name"]: track["keys"] for track in clips[path]["tracks"]}
+        assert len(keys[".position"]) == len(keys[".quaternion"]) == frames, path
+        last = keys[".position"][-1]["time"] / clips[path]["fps"]
+        np.testing.assert_allclose(last, (motion.t[-1] - motion.t[0]) / 0.5, rtol=TIME_RTOL)
     assert f"wrote {out}" in capsys.readouterr().out
 
 

@@ -1,0 +1,70 @@
+"""HTML export: one self-contained page that replays a playback offline (no server, no network).
+
+The page (``assets/replay.html``) inlines meshcat's bundled JavaScript, the packed scene
+commands (base64, as JSON) and ``assets/replay.js``, which feeds the commands to meshcat's
+viewer and keeps a text overlay of the time and the total energy in step with the animation.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+import re
+from importlib import resources
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from robodyn.errors import MissingDependencyError
+from robodyn.viewer.backend import INSTALL_HINT, import_meshcat
+from robodyn.viewer.packing import packed_commands
+
+if TYPE_CHECKING:
+    from robodyn.viewer.playback import Playback
+
+
+def meshcat_javascript() -> str:
+    """The text of meshcat's bundled viewer, ``meshcat/viewer/dist/main.min.js``."""
+    mc = import_meshcat()
+    path = Path(mc.__file__).parent / "viewer" / "dist" / "main.min.js"
+    if not path.is_file():
+        raise MissingDependencyError(f"meshcat is installed without its viewer ({path} is missing): {INSTALL_HINT}")
+    return path.read_text(encoding="utf-8")
+
+
+def _asset(name: str) -> str:
+    return resources.files("robodyn.viewer").joinpath("assets", name).read_text(encoding="utf-8")
+
+
+def _script_safe(text: str) -> str:
+    """Text that can sit inside a <script> element (no closing tag, no HTML comment opener)."""
+    return text.replace("</", "<\\/").replace("<!--", "<\\!--")
+
+
+def to_html(playback: Playback, *, title: str | None = None) -> str:
+    """One self-contained HTML page that replays ``playback`` offline (no server, no network).
+
+    The page inlines meshcat's JavaScript and the scene commands; meshcat's panel (Open
+    Controls -> Animations) has play, pause and the time slider. A text overlay shows the
+    simulation time and the total energy in step with the animation. Open the file with
+    ``#t=1.5`` appended to its URL to start paused at t = 1.5 s of simulation time.
+    """
+    commands = [base64.b64encode(data).decode("ascii") for _, _, data in packed_commands(playback)]
+    info = {
+        "robot": playback.robot_name,
+        "t0": float(playback.times[0]) if len(playback.times) else 0.0,
+        "speed": playback.speed,
+        "tau": [round(float(x), 9) for x in playback.playback_times],
+        "energy": [float(x) for x in playback.energy] if len(playback.kinetic) else [],
+        "traceFrame": playback.trace_frame,
+        "animated": playback.animation is not None,
+    }
+    fields = {
+        "TITLE": html.escape(title or f"robodyn: {playback.robot_name}"),
+        "MESHCAT_JS": _script_safe(meshcat_javascript()),
+        "COMMANDS_JSON": _script_safe(json.dumps(commands)),
+        "INFO_JSON": _script_safe(json.dumps(info)),
+        "REPLAY_JS": _script_safe(_asset("replay.js")),
+    }
+    # One pass, so that nothing inserted is scanned for placeholders again.
+    return re.sub(r"\{\{([A-Z_]+)\}\}", lambda m: fields[m.group(1)], _asset("replay.html"))

@@ -1,0 +1,69 @@
+"""The notebook view: :func:`show` returns a :class:`Replay` that Jupyter displays inline.
+
+Nothing is started and nothing blocks: the replay is the self-contained HTML page in an
+iframe (meshcat's static inline display), so it works offline and in exported notebooks.
+Given a running server's ``zmq_url``, the scene is also sent there and the iframe shows it.
+"""
+
+from __future__ import annotations
+
+import html
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+from robodyn.viewer.html_export import to_html
+from robodyn.viewer.playback import Playback, build
+from robodyn.viewer.sampling import DEFAULT_FPS
+from robodyn.viewer.server import serve
+
+if TYPE_CHECKING:
+    from robodyn.robot import Robot
+    from robodyn.sim.trajectory import Trajectory
+
+
+@dataclass(frozen=True, eq=False)
+class Replay:
+    """What :func:`show` returns: displays itself inline in Jupyter; ``html`` is the standalone page."""
+
+    playback: Playback
+    html: str
+    height: int = 420
+    url: str | None = None
+
+    def _repr_html_(self) -> str:
+        if self.url is not None:
+            source = f'src="{html.escape(self.url, quote=True)}"'
+        else:
+            source = f'srcdoc="{html.escape(self.html, quote=True)}"'
+        return (
+            f'<div style="height: {self.height}px; width: 100%; resize: both; overflow: hidden">'
+            f'<iframe {source} style="width: 100%; height: 100%; border: none"></iframe></div>'
+        )
+
+
+def show(
+    robot: Robot,
+    trajectory: Trajectory | None = None,
+    *,
+    q: Any = None,
+    speed: float = 1.0,
+    fps: float = DEFAULT_FPS,
+    trace_frame: str | None = None,
+    trace: bool = True,
+    loop: bool = False,
+    zmq_url: str | None = None,
+    height: int = 420,
+) -> Replay:
+    """Show ``robot`` (playing ``trajectory`` if given) inline in a Jupyter notebook.
+
+    Without ``zmq_url`` nothing is started: the returned :class:`Replay` renders the
+    self-contained page in an iframe (meshcat's static inline display), so it works offline
+    and in exported notebooks. With ``zmq_url`` the scene is also sent to that running
+    meshcat server and the iframe shows the server's page. Never blocks.
+    """
+    playback = build(robot, trajectory, q=q, speed=speed, fps=fps, trace_frame=trace_frame, trace=trace, loop=loop)
+    url = None
+    if zmq_url is not None:
+        with serve(playback, zmq_url=zmq_url) as server:  # a running server: closing only disconnects
+            url = server.url
+    return Replay(playback, to_html(playback), height=height, url=url)

@@ -1,0 +1,102 @@
+"""The tip trace: the path of one frame, drawn as a line with a dot per rendered frame and a marker.
+
+The frame is the one asked for, or else the one that travels farthest over the rendered
+frames. The line follows the trajectory densely (up to :data:`MAX_TRACE_POINTS` samples);
+the marker rides on the frame (its placements are one animation track).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robodyn import dynamics
+from robodyn.errors import UnknownNameError
+from robodyn.viewer.backend import ROOT, scene_path
+from robodyn.viewer.transforms import translations
+
+if TYPE_CHECKING:
+    from robodyn.robot import Robot
+    from robodyn.sim.trajectory import Trajectory
+
+Array = NDArray[np.float64]
+
+TRACE_COLOR = 0xFFE135
+MARKER_PATH = (*ROOT, "trace", "marker")
+"""Scene path of the marker that rides on the traced frame (animated)."""
+
+MAX_TRACE_POINTS = 4000
+"""The trace's line goes through at most this many trajectory samples (evenly spread)."""
+
+
+def frame_positions(robot: Robot, configurations: Array) -> dict[str, Array]:
+    """World position (k, 3) of every named frame of the model at each configuration [m]."""
+    names = [str(f.name) for f in robot.model.frames]
+    xyz = np.array(
+        [[m[:3, 3] for m in dynamics.frame_placements(robot.model, robot.data, qk)] for qk in configurations]
+    )
+    positions: dict[str, Array] = {}
+    for i, name in enumerate(names):
+        positions.setdefault(name, xyz[:, i])
+    return positions
+
+
+def frame_path_lengths(frames: dict[str, Array]) -> dict[str, float]:
+    """Length of the polyline each frame traces through the rendered samples [m]."""
+    return {name: float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1))) for name, p in frames.items()}
+
+
+def choose_trace_frame(frames: dict[str, Array], wanted: str | None) -> str | None:
+    """``wanted`` if the model has it, else the frame that travels farthest (None if nothing moves).
+
+    Raises:
+        UnknownNameError: ``wanted`` is not one of the model's frames.
+    """
+    if wanted is not None:
+        if wanted not in frames:
+            raise UnknownNameError("frame", wanted, frames)
+        return wanted
+    lengths = frame_path_lengths(frames)
+    longest = max(lengths.values())
+    if longest <= 1e-9:
+        return None
+    # Ties (a fixed joint's frame and its child body's frame) go to the later frame: the body.
+    return [name for name, length in lengths.items() if length >= longest * (1 - 1e-9)][-1]
+
+
+def dense_path(robot: Robot, trajectory: Trajectory, frame: str) -> Array:
+    """World positions (m, 3) [m] of ``frame`` at up to MAX_TRACE_POINTS samples of the trajectory."""
+    q = np.asarray(trajectory.q, dtype=np.float64)
+    rows = np.unique(np.linspace(0, len(q) - 1, min(len(q), MAX_TRACE_POINTS)).round().astype(np.int64))
+    index = [str(f.name) for f in robot.model.frames].index(frame)
+    return np.array([dynamics.frame_placements(robot.model, robot.data, q[i])[index][:3, 3] for i in rows])
+
+
+def trace_commands(mc: Any, dense: Array, xyz: Array, size: float) -> list[Any]:
+    """The path as a line through ``dense`` (m, 3), dots at the rendered frames ``xyz`` (k, 3), a marker."""
+    line = np.ascontiguousarray(dense.T, dtype=np.float32)
+    points = np.ascontiguousarray(xyz.T, dtype=np.float32)
+    marker = mc.geometry.Mesh(mc.geometry.Sphere(0.02 * size), mc.geometry.MeshLambertMaterial(color=TRACE_COLOR))
+    return [
+        mc.commands.SetObject(
+            mc.geometry.Line(
+                mc.geometry.PointsGeometry(line), mc.geometry.LineBasicMaterial(color=TRACE_COLOR, linewidth=2)
+            ),
+            path=scene_path(mc, (*ROOT, "trace", "path")),
+        ),
+        mc.commands.SetObject(
+            mc.geometry.Points(
+                mc.geometry.PointsGeometry(points, color=np.tile(_rgb(TRACE_COLOR), (len(xyz), 1)).T),
+                mc.geometry.PointsMaterial(size=0.012 * size),
+            ),
+            path=scene_path(mc, (*ROOT, "trace", "dots")),
+        ),
+        mc.commands.SetObject(marker, path=scene_path(mc, MARKER_PATH)),
+        mc.commands.SetTransform(translations(xyz[:1])[0], scene_path(mc, MARKER_PATH)),
+    ]
+
+
+def _rgb(color: int) -> NDArray[np.float32]:
+    return np.array([(color >> 16) & 255, (color >> 8) & 255, color & 255], dtype=np.float32) / 255.0

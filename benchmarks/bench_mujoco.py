@@ -33,6 +33,7 @@ from robodyn import charts
 from robodyn.sim import batch
 from robodyn.sim.fast import FastDynamics
 from robodyn.studies import bench
+from robodyn.studies.report import speed_phrase
 
 # MuJoCo's M and bias against Pinocchio's: the same rigid-body algorithms in float64.
 MODEL_MATCH_RTOL = 1e-12
@@ -193,7 +194,7 @@ def main() -> int:
     one = single(robot, m)
     for name, p in one["paths"].items():
         print(f"  {name:32s} {p['us_per_step']:9.3f} us/step   error at t = 2 s {p['error_at_2s']:.3g}")
-    print(f"fast path vs MuJoCo RK4 (mj_step C loop): {one['speedup_fast_vs_mujoco']:.1f}x faster")
+    print(f"fast path vs MuJoCo RK4 (mj_step C loop): {speed_phrase(one['speedup_fast_vs_mujoco'])}")
     many = batched(robot, m)
     print(f"batch of {BATCH}, {BATCH_STEPS} RK4 steps, {many['threads']} threads:")
     ours = many["robodyn_pinocchio_abaInParallel_rk4_us_per_state_step"]
@@ -202,7 +203,7 @@ def main() -> int:
     print(f"  robodyn fast path, one state at a time  {many['robodyn_fast_loop_us_per_state_step']:.3f} us/state-step")
     print(
         f"  throughput ratio Pinocchio / MuJoCo: {many['throughput_ratio_pinocchio_vs_mujoco']:.2f}x; "
-        f"final states agree to {many['max_final_state_difference_vs_mujoco']:.2g}"
+        f"max final state difference {many['max_final_state_difference_vs_mujoco']:.2g}"
     )
     result = {
         "machine": {

@@ -21,8 +21,8 @@ import numpy as np
 
 import robodyn
 from robodyn.model.load import load, load_geometry
-from robodyn.model.reduce import time_calls
 from robodyn.sim.simulation import simulate
+from robodyn.studies.exactness import time_calls
 
 from _common import argument_parser, best_of, pyplot, save_figure, write_json
 

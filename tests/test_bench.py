@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import pytest
 
 import robodyn
+from robodyn import integrators
 from robodyn.errors import InputError
 from robodyn.studies import bench
 
@@ -71,11 +74,64 @@ def test_adaptive_tolerance_ladder_tightens_the_error(sweep):
 
 
 def test_best_by_accuracy_picks_the_cheapest(sweep):
-    for level, best in bench.best_by_accuracy(sweep.results):
+    table = bench.best_by_accuracy(sweep.results)
+    assert [level for level, _ in table] == list(bench.ACCURACY_LEVELS)
+    # rk4 at 1.25 ms reaches 1e-8 on the geared-arm swing: at least four levels have a pick
+    assert sum(best is not None for _, best in table) >= 4
+    for level, best in table:
+        meets = [r for r in sweep.results if not r.diverged and r.error <= level]
         if best is None:
+            assert meets == [], level
             continue
-        assert best.error <= level
-        assert all(r.wall_time_s >= best.wall_time_s for r in sweep.results if r.error <= level and not r.diverged)
+        assert best in meets
+        assert best.wall_time_s == min(r.wall_time_s for r in meets)
+
+
+def _run(name: str, error: float, wall: float, *, diverged: bool = False) -> bench.BenchResult:
+    return bench.BenchResult("toy", name, "aba", 0.01, None, error, wall, 10, 0.0, diverged, 1, False, False, 1.0)
+
+
+def test_best_by_accuracy_on_known_runs():
+    slow_exact = _run("slow_exact", 1e-9, 5.0)
+    cheap_rough = _run("cheap_rough", 1e-3, 1.0)
+    middle = _run("middle", 1e-6, 2.0)
+    broken = _run("broken", 0.0, 0.1, diverged=True)  # cheapest and "exact", but it blew up
+    table = bench.best_by_accuracy([slow_exact, broken, cheap_rough, middle], levels=(1e-2, 1e-3, 1e-6, 1e-8, 1e-12))
+    assert table == [(1e-2, cheap_rough), (1e-3, cheap_rough), (1e-6, middle), (1e-8, slow_exact), (1e-12, None)]
+
+
+def test_default_plan_comes_from_the_registry():
+    from robodyn.sim.fast import METHODS as FAST_METHODS
+
+    swept = [integrators.get(n) for n in integrators.names() if n not in bench.NOT_SWEPT]
+    full = bench.default_plan()
+    assert set(full.fixed) == {m.name for m in swept if not m.adaptive}
+    assert set(full.adaptive) == {m.name for m in swept if m.adaptive}
+    assert set(full.all_backends_for) == set(FAST_METHODS) & set(full.fixed)
+    # today's content, derived
+    assert set(full.fixed) == {"euler", "semi_implicit_euler", "symplectic_euler", "heun", "rk4", "implicit_midpoint"}
+    assert set(full.adaptive) == {"dopri5", "scipy_rk45", "scipy_dop853", "scipy_radau"}
+    quick = bench.default_plan(quick=True)
+    assert (quick.fixed, quick.adaptive, quick.all_backends_for) == (
+        ("euler", "semi_implicit_euler", "rk4"),
+        ("dopri5",),
+        ("rk4",),
+    )
+
+
+def test_a_new_integrator_joins_the_plan_without_an_edit(monkeypatch):
+    new = {
+        "rk3_new": dataclasses.replace(integrators.get("euler"), name="rk3_new", order=3),
+        "adaptive_new": dataclasses.replace(integrators.get("scipy_rk45"), name="adaptive_new", order=3),
+    }
+    names, get = integrators.names, integrators.get
+    monkeypatch.setattr(integrators, "names", lambda: (*names(), *new))
+    monkeypatch.setattr(integrators, "get", lambda name: new[name] if name in new else get(name))
+    full = bench.default_plan()
+    assert "rk3_new" in full.fixed and "adaptive_new" in full.adaptive
+    quick = bench.default_plan(quick=True)
+    assert "rk3_new" not in quick.fixed  # neither the lowest nor the highest explicit order
+    assert quick.adaptive == ("adaptive_new",)  # now the lowest-order explicit adaptive method
 
 
 def test_energy_series_for_every_fixed_method(sweep):

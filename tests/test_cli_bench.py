@@ -12,6 +12,8 @@ from robodyn.cli import main
 
 from ._bench_helpers import RECORD_KEYS
 
+# geared_arm_stiff: inertia about the joint J [kg m^2] and viscous damping b [N m s/rad]
+STIFF_J, STIFF_B = 1.0008275e-2, 10.0
 CHARTS = ("work_precision_pendubot", "error_vs_dt_pendubot", "energy_pendubot", "stability", "lyapunov")
 
 
@@ -36,9 +38,18 @@ def test_quick_bench_writes_every_file(tmp_path):
     euler = next(x for x in stab["limits"] if x["case"] == "pendubot" and x["integrator"] == "euler")
     assert euler["predicted_dt_max"] == 0.0  # unstable at every dt on an undamped system
     assert stab["chaos"]["lyapunov"]["exponent"] > 0
+    # the stiff arm's time constant J / b (models/variants/geared_arm_stiff.urdf), from the linearisation:
+    # its fast eigenvalue is -b / J shifted by the slow mode's 0.036 1/s
+    assert stab["stiff"]["time_constant_s"] == pytest.approx(STIFF_J / STIFF_B, rel=1e-4)
     report = (out / "report.md").read_text()
     for needle in ("work_precision_pendubot.png", "stability.png", "Lyapunov", "Cheapest run"):
         assert needle in report
+    # conclusions are computed from the numbers: on the 1-DoF stiff arm (nearly linear) every row agrees
+    assert "time constant 1 ms" in report
+    stiff_rows = [line for line in report.splitlines() if line.startswith("| geared_arm_stiff |")]
+    assert len(stiff_rows) == sum(x["case"] == "geared_arm_stiff" for x in stab["limits"]) > 0
+    assert all(row.split("|")[-2].strip().startswith("agree") for row in stiff_rows), stiff_rows
+    assert "compared limits: predicted and measured agree (tolerance 10 %)" in report
 
 
 def test_unknown_model_is_bad_input_without_traceback(tmp_path, capsys):

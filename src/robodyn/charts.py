@@ -221,9 +221,12 @@ def stability(
             label=f"{c['case']}: {c['integrator']}",
         )
     if np.isfinite(lo):
+        from robodyn.studies.report import LIMIT_RTOL, percent  # the report's agreement band
+
         x = np.array([lo / 2, hi * 2])
         right.loglog(x, x, color="0.5", linewidth=0.8)
-        right.fill_between(x, 0.9 * x, 1.1 * x, color="0.85", label="within 10 %")
+        band = f"within {percent(LIMIT_RTOL)} (the report's agreement)"
+        right.fill_between(x, (1 - LIMIT_RTOL) * x, (1 + LIMIT_RTOL) * x, color="0.85", label=band)
     right.set_xlabel("predicted largest stable dt [s] (linearisation)")
     right.set_ylabel("measured largest stable dt [s] (bisection)")
     right.set_title("where methods fail: theory against measurement")

@@ -93,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
     from robodyn import charts
     from robodyn.cli._output import writable_path
     from robodyn.model.load import load
-    from robodyn.studies import bench
+    from robodyn.studies import bench, report
 
     out: Path = args.out
     writable_path(out / "bench.json")
@@ -110,12 +110,12 @@ def run(args: argparse.Namespace) -> int:
         sweeps.append(result)
         _write_json(out / "bench.json", bench.records(sweeps))  # partial results first
         figures[robot.name] = _sweep_charts(result, out, charts)
-    stability_summary = None
+    findings = None
     if not args.no_stability:
         progress.note("robodyn bench: stability study")
-        stability_summary = _stability(robots, out, quick=args.quick, progress=progress)
-    report = _report(sweeps, figures, stability_summary, quick=args.quick, seconds=time.perf_counter() - started)
-    (out / "report.md").write_text(report)
+        findings = _stability(robots, out, quick=args.quick, progress=progress)
+    text = report.bench_report(sweeps, figures, findings, quick=args.quick, seconds=time.perf_counter() - started)
+    (out / "report.md").write_text(text)
     print(f"wrote {out / 'bench.json'} ({sum(len(s.results) for s in sweeps)} runs), charts and {out / 'report.md'}")
     return 0
 
@@ -141,7 +141,8 @@ def _sweep_charts(result: Any, out: Path, charts: Any) -> list[str]:
     return [Path(f).name for f in files]
 
 
-def _stability(robots: list[Any], out: Path, *, quick: bool, progress: ProgressBar) -> dict[str, Any]:
+def _stability(robots: list[Any], out: Path, *, quick: bool, progress: ProgressBar) -> Any:
+    """Run the stability study, write stability.json and its charts; return its findings for the report."""
     import numpy as np
 
     from robodyn import charts
@@ -149,6 +150,7 @@ def _stability(robots: list[Any], out: Path, *, quick: bool, progress: ProgressB
     from robodyn.model.load import load
     from robodyn.studies import stability
     from robodyn.studies.bench import start_state
+    from robodyn.studies.report import StabilityFindings, time_constants
 
     methods = stability.QUICK_FIXED_METHODS if quick else stability.FIXED_METHODS
     steps = 300 if quick else 2000
@@ -158,6 +160,7 @@ def _stability(robots: list[Any], out: Path, *, quick: bool, progress: ProgressB
     if not quick:
         cases.append(light)
     summary: dict[str, Any] = {"quick": quick, "steps_per_trial": steps, "limits": [], "notes": []}
+    limits: list[Any] = []
     for k, robot in enumerate(cases, start=1):
         progress(k - 1, len(cases), f"limits of {robot.name}")
         try:
@@ -165,19 +168,26 @@ def _stability(robots: list[Any], out: Path, *, quick: bool, progress: ProgressB
         except RobodynError as exc:
             summary["notes"].append(f"{robot.name}: no stability limits ({exc})")
             continue
+        limits += found
         summary["limits"] += [{**_clean(x), "ratio": _clean(x.ratio)} for x in found]
         _write_json(out / "stability.json", summary)
     progress(len(cases), len(cases), "limits done")
     progress.note("robodyn bench: stiff runs, chaos, near-singular mass matrix")
+    eigenvalues = stability.linearise(stiff, stability.hanging_equilibrium(stiff)).eigenvalues
+    runs = stability.stiff_runs(stiff, dt=0.01, duration=0.2 if quick else 1.0, quick=quick)
+    taus = time_constants(eigenvalues)
     summary["stiff"] = {
         "model": stiff.name,
-        "runs": _clean(stability.stiff_runs(stiff, dt=0.01, duration=0.2 if quick else 1.0, quick=quick)),
+        "eigenvalues": _clean(eigenvalues),
+        "time_constant_s": _clean(taus[0] if taus else float("nan")),
+        "runs": _clean(runs),
     }
     pendubot = load("pendubot")
     q0, v0 = start_state(pendubot)
     found_chaos = stability.chaos(pendubot, q0, v0, duration=30.0 if quick else 60.0)
     summary["chaos"] = _clean(found_chaos)
-    summary["near_singular"] = _clean(stability.near_singular(light, pendubot, duration=1.0 if quick else 2.0))
+    near = stability.near_singular(light, pendubot, duration=1.0 if quick else 2.0)
+    summary["near_singular"] = _clean(near)
     n = 31 if quick else 71
     re = np.linspace(-3.5, 1.0, n)
     im = np.linspace(-3.5, 3.5, n)
@@ -196,161 +206,20 @@ def _stability(robots: list[Any], out: Path, *, quick: bool, progress: ProgressB
     files += charts.lyapunov(t_run, lyap.running, found_chaos.gap_t, found_chaos.gap, out / "lyapunov")
     summary["figures"] = [Path(f).name for f in files]
     _write_json(out / "stability.json", summary)
-    return summary
-
-
-def _fmt(x: Any, spec: str = ".3g") -> str:
-    if x is None:
-        return "-"
-    if isinstance(x, float):
-        return format(x, spec)
-    return str(x)
-
-
-def _report(
-    sweeps: list[Any], figures: dict[str, list[str]], stab: dict[str, Any] | None, *, quick: bool, seconds: float
-) -> str:
-    from robodyn.studies import bench
-
-    lines = [
-        "# robodyn bench report",
-        "",
-        f"{'Quick' if quick else 'Full'} run, {seconds:.0f} s. Error: relative state error "
-        "max |x - x_ref| / max |x_ref| over the error horizon against scipy DOP853 at rtol 1e-12; "
-        "cost: wall time per simulated second; energy drift: max |E - E0 - W| / energy scale over the long "
-        "horizon. Numbers: `bench.json`.",
-        "",
-    ]
-    for s in sweeps:
-        p = s.plan
-        lines += [
-            f"## {s.model}",
-            "",
-            f"Start q0 = {list(map(float, s.q0))}, v0 = {list(map(float, s.v0))}; error horizon {p.error_horizon:g} s, "
-            f"energy horizon {p.energy_horizon:g} s. Reference self-check (rtol 1e-12 vs 1e-13): "
-            f"{s.reference.self_error:.2g}.",
-            "",
-        ]
-        lines += [f"![{f}]({f})" for f in figures.get(s.model, []) if f.endswith(".png")]
-        lines += [
-            "",
-            "Cheapest run reaching each accuracy:",
-            "",
-            "| error <= | method / backend | step or rtol | s per simulated s | evaluations |",
-            "|---|---|---|---|---|",
-        ]
-        for level, r in bench.best_by_accuracy(s.results):
-            if r is None:
-                lines.append(f"| {level:g} | none reached it | - | - | - |")
-            else:
-                step = f"dt {r.dt:g}" if r.dt is not None else f"rtol {r.rtol:g}"
-                lines.append(f"| {level:g} | {r.label} | {step} | {r.wall_time_s:.3g} | {r.evaluations} |")
-        lines += ["", "Measured orders (ABA backend, fitted where the error lies in 1e-11..1e-1):", ""]
-        for m in p.fixed:
-            order = bench.measured_order(s.results, m)
-            declared = next((r.order for r in s.results if r.integrator == m), None)
-            lines.append(f"- {m}: declared {declared}, measured {_fmt(order, '.2f')}")
-        if s.skipped:
-            lines += ["", "Skipped: " + "; ".join(s.skipped)]
-        lines += ["", _reading(s), ""]
-    if stab is not None:
-        lines += _stability_report(stab)
-    return "\n".join(lines) + "\n"
-
-
-def _reading(s: Any) -> str:
-    from robodyn.studies import bench
-
-    table = [(lvl, r) for lvl, r in bench.best_by_accuracy(s.results) if r is not None]
-    if not table:
-        return "Reading: no run reached even 1e-2."
-    parts = [f"{r.label} below {lvl:g}" for lvl, r in table]
-    fast = [r for r in s.results if r.backend == "fast" and not r.diverged]
-    aba = {(r.integrator, r.dt): r for r in s.results if r.backend == "aba" and r.dt is not None}
-    speedups = [aba[(r.integrator, r.dt)].wall_time_s / r.wall_time_s for r in fast if (r.integrator, r.dt) in aba]
-    text = "Reading: the cheapest way to a given accuracy is " + ", ".join(parts) + "."
-    if speedups:
-        text += (
-            f" The compiled fast path gives the same errors as the ABA path (same method, same steps) "
-            f"at {min(speedups):.0f}-{max(speedups):.0f}x less wall time."
-        )
-    return text
-
-
-def _stability_report(stab: dict[str, Any]) -> list[str]:
-    lines = [
-        "## Stability: where methods fail",
-        "",
-        "Largest stable dt predicted from the linearisation about the hanging equilibrium "
-        "(one step of the method on q'' = K q + D v, spectral radius <= 1) and measured by bisection "
-        f"on {stab['steps_per_trial']}-step torque-free runs from 0.05 rad off equilibrium (blow-up: energy error "
-        "> 100x the energy above equilibrium; the last column: energy error > 100 %). 0 = unstable at every dt; "
-        "'-' = stable up to the largest dt tried.",
-        "",
-        "![stability](stability.png)",
-        "",
-        "| model | method | max abs(lambda) [1/s] | predicted dt_max [s] | measured [s] | measured / predicted "
-        "| energy error 100 % at [s] |",
-        "|---|---|---|---|---|---|---|",
-    ]
-    notes = (
-        "On the linear-like cases (one degree of freedom) measurement and prediction agree. On the Pendubot a "
-        "step past RK4's limit makes the fast mode grow until its own nonlinearity detunes it: the run stays "
-        "bounded but wrong, so the blow-up column overshoots while the energy column meets the prediction."
+    return StabilityFindings(
+        limits=tuple(limits),
+        steps_per_trial=steps,
+        stiff_model=stiff.name,
+        stiff_eigenvalues=eigenvalues,
+        stiff_runs=tuple(runs),
+        chaos=found_chaos,
+        near_singular=near,
+        tip_masses={r.name: _distal_mass(r) for r in (light, pendubot)},
+        notes=tuple(summary["notes"]),
     )
-    for x in stab["limits"]:
-        lines.append(
-            f"| {x['case']} | {x['integrator']} | {_fmt(x['fastest'])} | {_fmt(x['predicted_dt_max'], '.4g')} | "
-            f"{_fmt(x['measured_dt_max'], '.4g')} | {_fmt(x['ratio'], '.3f')} | {_fmt(x['energy_dt_max'], '.4g')} |"
-        )
-    st = stab["stiff"]
-    lines += [
-        "",
-        notes,
-        "",
-        f"Stiff case ({st['model']}, time constant 1 ms) at dt = 0.01 s, against a Radau reference:",
-        "",
-        "| method | rtol | diverged | error | evaluations |",
-        "|---|---|---|---|---|",
-    ]
-    for r in st["runs"]:
-        lines.append(
-            f"| {r['integrator']} | {_fmt(r['rtol'])} | {r['diverged']} | {_fmt(r['error'])} | {r['evaluations']} |"
-        )
-    ch = stab["chaos"]
-    ly = ch["lyapunov"]
-    lines += [
-        "",
-        f"Chaos ({ch['model']}, torque-free from q0 = {ch['q0']}): largest Lyapunov exponent "
-        f"{_fmt(ly['exponent'])} 1/s (Benettin, {ly['renormalisations']} renormalisations every {ly['interval']} s), "
-        f"so a one-ulp error reaches O(1) after ln(1/eps)/lambda = {_fmt(ly['horizon_s'])} s; two runs one ulp apart "
-        f"were measured 0.1 rad apart after {_fmt(ch['separation_time_s'])} s. Beyond that no double-precision "
-        "integrator's state means anything; only statistics (energy, which the ledger tracks) do.",
-        "",
-        "![lyapunov](lyapunov.png)",
-        "",
-    ]
-    ns = stab["near_singular"]
-    lines += [
-        "Near-singular mass matrix (light distal link, m2 = 5e-7 kg): largest relative acceleration error "
-        "against an extended-precision closed form:",
-        "",
-        "| model | cond(M) | ABA | CRBA + Cholesky | NumPy formula |",
-        "|---|---|---|---|---|",
-    ]
-    for key in ("light", "normal"):
-        a = ns[key]
-        e = a["errors"]
-        lines.append(
-            f"| {a['model']} | {_fmt(a['condition'])} | {_fmt(e['aba'])} | {_fmt(e['crba'])} | {_fmt(e['formula'])} |"
-        )
-    lines += [
-        "",
-        "Spread of an RK4 run (dt = 1 ms) from the ABA run, per backend: "
-        + ", ".join(f"{k} {_fmt(v)}" for k, v in ns["spread"].items())
-        + ". cond(M) grows as 1/m2, but the ill-conditioning is a diagonal scaling that the Cholesky "
-        "solve and ABA's articulated inertias both absorb: every backend stays at round-off.",
-    ]
-    if stab["notes"]:
-        lines += ["", "Notes: " + "; ".join(stab["notes"])]
-    return lines
+
+
+def _distal_mass(robot: Any) -> float:
+    """Mass [kg] of the body carried by the robot's last joint."""
+    model = robot.model
+    return float(model.inertias[model.njoints - 1].mass)

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from robodyn.cli._common import print_json
+from robodyn.cli._parse import parse_keep, parse_lock
 from robodyn.errors import InputError
 
 
@@ -63,7 +64,6 @@ def add_reduction_arguments(p: argparse.ArgumentParser) -> None:
 def load_reduced(args: argparse.Namespace, **options: Any) -> Any:
     """Load ``args.model`` with the common options and ``--lock`` / ``--keep`` / ``--reference``."""
     from robodyn.model.load import load
-    from robodyn.model.reduce import parse_keep, parse_lock
 
     lock = parse_lock(args.lock) if args.lock is not None else None
     keep = parse_keep(args.keep) if args.keep is not None else None

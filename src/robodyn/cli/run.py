@@ -100,7 +100,7 @@ def _jsonable(obj: Any) -> Any:
 
 def _check(scene: Any, robot: Any, reduction: Any, q0: Any, v0: Any, torque: Any, summary: dict[str, Any]) -> int:
     from robodyn.kinds.check import check
-    from robodyn.model.reduce import prove_exact
+    from robodyn.studies.exactness import prove_exact
 
     c = scene.check
     report = check(robot, c.get("formula"), samples=int(c.get("samples", 20)), seed=int(c.get("seed", 0)))
@@ -116,7 +116,7 @@ def _check(scene: Any, robot: Any, reduction: Any, q0: Any, v0: Any, torque: Any
     if c.get("exactness"):
         duration, dt, integrator = _timing(scene)
         exact = prove_exact(reduction, q0, v0, duration=duration, dt=dt, tau=torque, method=integrator)
-        ok = exact.q_error <= EXACTNESS_TOL and exact.v_error <= EXACTNESS_TOL and exact.lock_drift <= EXACTNESS_TOL
+        ok = exact.holds(EXACTNESS_TOL)
         held = _count(len(reduction.locked), "joint")
         print(
             f"exactness: {'passed' if ok else 'FAILED'}: reduced vs full model with {held} "
@@ -203,7 +203,8 @@ def _simulate(
 
 
 def _bench(scene: Any, robot: Any, reduction: Any, summary: dict[str, Any]) -> None:
-    from robodyn.model.reduce import compare_cost, time_calls
+    from robodyn.studies.exactness import compare_cost, time_calls
+    from robodyn.studies.report import speed_phrase
 
     repeat = int(scene.bench.get("repeat", 200))
     if reduction is None:
@@ -216,7 +217,7 @@ def _bench(scene: Any, robot: Any, reduction: Any, summary: dict[str, Any]) -> N
     for what in cost.full:
         print(
             f"  {what:4s} {cost.full[what] * 1e6:8.2f} us -> {cost.reduced[what] * 1e6:8.2f} us  "
-            f"({cost.speedup(what):.1f}x faster)"
+            f"({speed_phrase(cost.speedup(what))})"
         )
     summary["bench"] = {"full_per_call_s": cost.full, "reduced_per_call_s": cost.reduced, "repeat": repeat}
 

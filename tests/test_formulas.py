@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from robodyn.errors import FormulaError, UnknownNameError
 from robodyn import kinds as formulas
+from robodyn.errors import FormulaError, UnknownNameError
 
 RTOL = 1e-12  # same expressions evaluated two ways: round-off only
 N_STATES = 20
@@ -136,6 +136,7 @@ def test_geared_arm_motor_coordinate_forms_match_the_motor_lagrangian():
         q, v = rng.uniform(-3, 3, 1), rng.uniform(-2, 2, 1)
         theta_m, omega_m = ga.link_to_motor(q, v, p)
         np.testing.assert_allclose(ga.mass_matrix_motor(theta_m, p), np.array(f_M(theta_m), float), rtol=RTOL)
+        assert C == sp.zeros(1, 1)  # constant inertia: no Coriolis term
         np.testing.assert_allclose(ga.coriolis_matrix_motor(theta_m, omega_m, p), 0.0, atol=0.0)
         np.testing.assert_allclose(ga.gravity_motor(theta_m, p), np.array(f_G(theta_m), float).ravel(), rtol=RTOL)
         np.testing.assert_allclose(ga.potential_energy_motor(theta_m, p), float(f_V(theta_m)), rtol=RTOL, atol=1e-15)

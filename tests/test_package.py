@@ -91,6 +91,22 @@ def test_no_module_imports_one_that_imports_it_back():
     assert cycles == [], f"import cycles: {cycles}"
 
 
+def test_every_module_states_its_concept_and_stays_small():
+    import ast
+    from pathlib import Path
+
+    root = Path(robodyn.__file__).parent
+    too_long, no_doc = [], []
+    for path in sorted(root.rglob("*.py")):
+        text = path.read_text(encoding="utf-8")
+        if len(text.splitlines()) > MAX_MODULE_LINES:
+            too_long.append(f"{path.relative_to(root)} ({len(text.splitlines())} lines)")
+        if not ast.get_docstring(ast.parse(text)):
+            no_doc.append(str(path.relative_to(root)))
+    assert too_long == [], f"modules over {MAX_MODULE_LINES} lines: {too_long}"
+    assert no_doc == [], f"modules without a docstring: {no_doc}"
+
+
 def test_old_import_paths_still_work_with_a_deprecation_warning():
     """robodyn 0.1's module paths forward to the new house for one release, and warn."""
     code = (

@@ -1,29 +1,70 @@
-"""``robodyn params``: the seed-kind parameters read from a URDF (+ SRDF), as JSON."""
+"""``robodyn params``: the seed-kind parameters read from a URDF (+ SRDF), as JSON; ``--set`` changes them.
+
+``--set m2=0.6`` prints the parameters of the modified model; with ``--write out.urdf`` the
+modified URDF (and the SRDF, as ``out.srdf``, when the model has one or a rotor parameter is
+set) is written, after the written file has been loaded and its parameters checked.
+"""
 
 from __future__ import annotations
 
 import argparse
+import math
+import tempfile
+from pathlib import Path
 from typing import Any
 
 from robodyn.cli._common import add_model_arguments, load_robot, print_json
+
+
+def assignments(text: str) -> list[tuple[str, float]]:
+    """Argparse type: ``"m1=0.3,m2=0.6"`` -> [("m1", 0.3), ("m2", 0.6)] (one line of error otherwise)."""
+    pairs: list[tuple[str, float]] = []
+    for item in (part.strip() for part in text.split(",")):
+        if not item and pairs:
+            continue  # a trailing comma
+        name, sep, value = item.partition("=")
+        try:
+            number = float(value)
+        except ValueError:
+            number = math.nan
+        if not sep or not name.strip() or not math.isfinite(number):
+            raise argparse.ArgumentTypeError(f"expected NAME=NUMBER like m2=0.6 (commas between several), got {item!r}")
+        pairs.append((name.strip(), number))
+    return pairs
 
 
 def add_parser(sub: Any) -> None:
     """Register the subcommand."""
     p = sub.add_parser(
         "params",
-        help="print the formula parameters of a model as JSON",
+        help="print the formula parameters of a model as JSON; --set and --write change them",
         description="Read the parameters a hand-derived formula needs (masses, lengths, inertias about the joint "
         "axes, rotor inertia and gear ratio, g) from a URDF and print them as JSON in SI units. A model that "
-        "breaks the kind's assumptions is refused with exit code 2 and the assumption named.",
+        "breaks the kind's assumptions is refused with exit code 2 and the assumption named. --set changes "
+        "parameters (masses, centres of mass and inertias in the URDF's <inertial>, link lengths in joint "
+        "<origin>s, J_m and n in the SRDF's <rotor_params>; g cannot be set) and prints the parameters of the "
+        "modified model; --write also writes it, once it has been loaded back and checked.",
     )
     add_model_arguments(p)
     p.add_argument("--kind", help="geared_arm, cart_pole or pendubot (default: detect)")
+    p.add_argument(
+        "--set",
+        metavar="NAME=VALUE",
+        type=assignments,
+        action="append",
+        help="set a parameter in SI units, e.g. m2=0.6; repeat the option or separate with commas",
+    )
+    p.add_argument(
+        "--write",
+        metavar="OUT.urdf",
+        type=Path,
+        help="write the modified URDF here (the SRDF goes along as OUT.srdf); not the model's own file",
+    )
     p.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Extract and print."""
+    """Extract and print; with --set, modify (and with --write, write) first."""
     from robodyn.errors import AssumptionError
     from robodyn.kinds.params import EXTRACTORS, detect_kind, extract
 
@@ -35,10 +76,26 @@ def run(args: argparse.Namespace) -> int:
             "name one with --kind to see which assumption it breaks"
         )
     params = extract(robot, kind)
+    report: dict[str, Any] = {"model": robot.name, "urdf": str(robot.urdf_path), "kind": kind}
+    if args.set is not None or args.write is not None:
+        from robodyn.cli._output import writable_path
+        from robodyn.kinds.edit import check_changes, refuse_own_file, write_params
+
+        changes = check_changes(kind, [pair for group in args.set or [] for pair in group])
+        if args.write is not None:
+            refuse_own_file(robot, args.write)
+            out = writable_path(args.write, suffix=".urdf")
+            written = write_params(robot, kind, changes, out, free_flyer=args.free_flyer)
+            report["written"] = {"urdf": str(written.urdf), "srdf": None if written.srdf is None else str(written.srdf)}
+        else:
+            with tempfile.TemporaryDirectory(prefix="robodyn-params-") as folder:
+                stem = robot.urdf_path.stem if robot.urdf_path is not None else "model"
+                written = write_params(robot, kind, changes, Path(folder) / f"{stem}.urdf", free_flyer=args.free_flyer)
+        report["set"] = changes
+        params = written.params
     from robodyn.cli.check import PARAM_UNITS
 
-    units = {name: PARAM_UNITS.get(name, "") or "1" for name in params}
-    print_json(
-        {"model": robot.name, "urdf": str(robot.urdf_path), "kind": kind, "params": params.as_dict(), "units": units}
-    )
+    report["params"] = params.as_dict()
+    report["units"] = {name: PARAM_UNITS.get(name, "") or "1" for name in params}
+    print_json(report)
     return 0

@@ -3,9 +3,7 @@
 from __future__ import annotations
 
 import json
-import os
 import zipfile
-from collections.abc import Callable
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import IO, Any
@@ -14,6 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodyn.errors import InputError
+from robodyn.fileio import write_atomically
 
 Array = NDArray[np.float64]
 
@@ -152,7 +151,7 @@ class Trajectory:
         def write(fh: IO[bytes]) -> None:
             np.savez_compressed(fh, energy=self.energy, metadata=np.array(json.dumps(info)), **arrays)
 
-        return _write_atomically(path, write)
+        return write_atomically(path, write)
 
     def save_csv(self, path: str | Path) -> Path:
         """Write one row per sample: t, q_i, v_i, tau_i, kinetic, potential, energy, works, residual.
@@ -170,7 +169,7 @@ class Trajectory:
         )
         columns = [self.t, self.q, self.v, self.tau, self.kinetic, self.potential, self.energy]
         table = np.column_stack([*columns, self.work_input, self.work_damping, self.ledger_residual])
-        return _write_atomically(
+        return write_atomically(
             path, lambda fh: np.savetxt(fh, table, delimiter=",", header=",".join(header), comments="", fmt="%.17g")
         )
 
@@ -221,21 +220,6 @@ class Trajectory:
             if arrays[name].ndim != 2:
                 raise InputError(f"{path}: array {name!r} must be 2-D (samples x coordinates)")
         known = {f.name for f in fields(cls)}
-        extra = {k: v for k, v in info.items() if k in known}
+        # Metadata never overrides an array: a key such as 't' in a hand-made file is ignored.
+        extra = {k: v for k, v in info.items() if k in known and k not in cls._ARRAYS}
         return cls(**arrays, **extra)  # type: ignore[arg-type]
-
-
-def _write_atomically(path: Path, write: Callable[[IO[bytes]], None]) -> Path:
-    """Call ``write`` on a temporary file next to ``path``, then rename it to ``path``.
-
-    An interrupted or failed write leaves no partial or empty file behind.
-    """
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.part")
-    try:
-        with tmp.open("wb") as fh:
-            write(fh)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    return path

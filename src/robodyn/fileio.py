@@ -1,0 +1,41 @@
+"""Writing a file safely: it appears complete or not at all, and never through a planted link.
+
+:func:`write_atomically` writes to a fresh temporary file in the target's folder, created with
+``tempfile.mkstemp`` (``O_CREAT | O_EXCL``, an unpredictable name, so an existing file or a
+symbolic link planted under that name is never followed), then renames it over the target. A
+rename replaces a link at the target itself, not the file the link points to.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+from typing import IO
+
+
+def write_atomically(path: Path, write: Callable[[IO[bytes]], None]) -> Path:
+    """Call ``write`` on a new temporary file next to ``path``, then rename it to ``path``.
+
+    An interrupted or failed write leaves no partial or empty file behind, and a previous file
+    at ``path`` stays as it was until the rename.
+    """
+    fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+    tmp = Path(name)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            write(fh)
+        os.chmod(tmp, 0o666 & ~_umask())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return path
+
+
+def _umask() -> int:
+    """The process's umask (mkstemp creates files 0600; a saved result is as readable as any other file)."""
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask

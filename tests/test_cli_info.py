@@ -6,6 +6,8 @@ import json
 import subprocess
 import sys
 
+import pytest
+
 from robodyn.cli import main
 from robodyn.errors import EXIT_BAD_INPUT
 
@@ -156,3 +158,116 @@ def test_info_refuses_a_urdf_given_as_srdf(capsys):
     assert main(["info", "pendubot", "--srdf", str(urdf)]) == EXIT_BAD_INPUT
     err = capsys.readouterr().err
     assert "this is a URDF" in err and "not an SRDF" in err and len(err.splitlines()) == 1
+
+
+# --------------------------------------------------------------- inertia against the link's one primitive
+def _one_link(folder, inertial, geometry, name="thing.urdf"):
+    """A URDF with one moving link carrying ``inertial`` and ``geometry`` (raw XML)."""
+    urdf = folder / name
+    urdf.write_text(
+        f'<robot name="thing"><link name="base"/><link name="a">{inertial}{geometry}</link>'
+        '<joint name="j" type="revolute"><parent link="base"/><child link="a"/><axis xyz="0 0 1"/>'
+        '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>'
+    )
+    return urdf
+
+
+def _inertial(I, xyz="0 0 0", rpy="0 0 0", mass=2.0):
+    return (
+        f'<inertial><origin xyz="{xyz}" rpy="{rpy}"/><mass value="{mass!r}"/>'
+        f'<inertia ixx="{I[0][0]!r}" ixy="{I[0][1]!r}" ixz="{I[0][2]!r}" iyy="{I[1][1]!r}" '
+        f'iyz="{I[1][2]!r}" izz="{I[2][2]!r}"/></inertial>'
+    )
+
+
+def _primitives(capsys, urdf):
+    assert main(["info", str(urdf), "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    return data["primitives"], [f for f in data["findings"] if f["code"] == "inertia_vs_shape"]
+
+
+def test_info_built_in_models_agree_with_their_primitives(capsys):
+    for name, links in (("cart_pole", ["cart"]), ("geared_arm", ["link"]), ("pendubot", ["link2"])):
+        primitives, findings = _primitives(capsys, name)
+        assert [c["link"] for c in primitives] == links and findings == []
+        # the URDFs print these inertias to 5 significant digits (pendubot's iyy = 2.6502e-3): 1e-4 covers it
+        assert all(c["relative_difference"] < 1e-4 and not c["differs"] for c in primitives)
+
+
+def test_info_motorcycle_wheels_differ_from_a_uniform_disk(capsys):
+    from pathlib import Path
+
+    urdf = Path(__file__).resolve().parents[1] / "examples" / "textbook" / "motorcycle" / "motorcycle.urdf"
+    primitives, findings = _primitives(capsys, urdf)
+    by_link = {c["link"]: c for c in primitives}
+    assert not by_link["body"]["differs"]
+    rear = by_link["rear"]
+    uniform_axle = 9.0 * 0.33**2 / 2  # a uniform disk about its axle, 0.49005 kg m^2, against the URDF's 0.8
+    assert rear["differs"] and rear["element"] == "Iyy" and rear["source"] == "visual"
+    assert rear["uniform_inertia"][1][1] == pytest.approx(uniform_axle, rel=1e-12)
+    assert rear["relative_difference"] == pytest.approx((0.8 - uniform_axle) / uniform_axle, rel=1e-12)
+    assert [f["where"] for f in findings] == ["rear", "front"] and all(f["severity"] == "note" for f in findings)
+    assert "Iyy = 0.8 kg m^2 in the URDF, 0.49005 for the uniform cylinder" in findings[0]["message"]
+    assert main(["info", str(urdf)]) == 0
+    out = capsys.readouterr().out
+    assert "3 link(s), 2 differ by more than 1 %" in out
+    assert "DIFFERS by 63.2 % (Iyy)" in out and "note    inertia_vs_shape  rear:" in out
+    assert "Physical consistency: 0 error(s), 0 warning(s), 2 note(s)" in out
+
+
+def test_info_primitive_moved_and_turned_is_compared_in_the_inertial_frame(tmp_path, capsys):
+    from robodyn import inertia
+    from robodyn.model.summary import rotation_rpy
+
+    mass, r, length = 2.0, 0.05, 0.4
+    rpy_g = (0.3, -0.7, 1.1)  # the cylinder's pose in the link
+    rpy_i = (-0.4, 0.2, 0.9)  # the inertial frame's, at the cylinder's centre
+    R_g, R_i = rotation_rpy(*rpy_g), rotation_rpy(*rpy_i)
+    I_link = R_g @ inertia.cylinder(mass, r, length) @ R_g.T
+    I_inertial = (R_i.T @ I_link @ R_i).tolist()
+    geometry = (
+        f'<collision><origin xyz="0.1 0.2 0.3" rpy="{" ".join(map(repr, rpy_g))}"/>'
+        f'<geometry><cylinder radius="{r}" length="{length}"/></geometry></collision>'
+        '<visual><geometry><box size="9 9 9"/></geometry></visual>'  # collision first: this is not compared
+    )
+    inertial = _inertial(I_inertial, xyz="0.1 0.2 0.3", rpy=" ".join(map(repr, rpy_i)), mass=mass)
+    primitives, findings = _primitives(capsys, _one_link(tmp_path, inertial, geometry))
+    assert [(c["link"], c["shape"], c["source"]) for c in primitives] == [("a", "cylinder", "collision")]
+    assert primitives[0]["relative_difference"] < 1e-12 and findings == []
+    # The same inertia with its centre of mass 5 cm off the cylinder's: the parallel-axis term shows.
+    moved = _inertial(I_inertial, xyz="0.15 0.2 0.3", rpy=" ".join(map(repr, rpy_i)), mass=mass)
+    primitives, findings = _primitives(capsys, _one_link(tmp_path, moved, geometry, "moved.urdf"))
+    assert primitives[0]["differs"] and [f["where"] for f in findings] == ["a"]
+
+
+def test_info_box_about_its_centre_in_the_urdf_agrees_and_the_corner_tensor_does_not(tmp_path, capsys):
+    from robodyn import inertia
+
+    size, mass = (0.2, 0.3, 0.4), 3.0
+    geometry = '<visual><origin xyz="0.1 0.15 0.2"/><geometry><box size="0.2 0.3 0.4"/></geometry></visual>'
+    centre = _inertial(inertia.box(mass, size).tolist(), xyz="0.1 0.15 0.2", mass=mass)
+    primitives, findings = _primitives(capsys, _one_link(tmp_path, centre, geometry))
+    assert not primitives[0]["differs"] and findings == []
+    # A URDF's inertia is about the centre of mass: the corner tensor (6.24) written there is reported.
+    corner = _inertial(inertia.box(mass, size, about="corner").tolist(), xyz="0.1 0.15 0.2", mass=mass)
+    primitives, findings = _primitives(capsys, _one_link(tmp_path, corner, geometry, "corner.urdf"))
+    assert primitives[0]["differs"] and len(findings) == 1
+    # So are the book's scalar products of inertia (+integral x y dm) typed in as ixy, ixz, iyz.
+    signs = _inertial(inertia.box(mass, size, about=(0.05, -0.1, 0.02), convention="products").tolist(), mass=mass)
+    shifted = _inertial(inertia.box(mass, size, about=(0.05, -0.1, 0.02)).tolist(), mass=mass)
+    geometry = '<visual><origin xyz="-0.05 0.1 -0.02"/><geometry><box size="0.2 0.3 0.4"/></geometry></visual>'
+    assert not _primitives(capsys, _one_link(tmp_path, shifted, geometry, "s.urdf"))[0][0]["differs"]
+    assert _primitives(capsys, _one_link(tmp_path, signs, geometry, "p.urdf"))[0][0]["differs"]
+
+
+def test_info_skips_links_that_are_not_exactly_one_primitive(tmp_path, capsys):
+    I = [[1e-3, 0, 0], [0, 1e-3, 0], [0, 0, 1e-3]]
+    two = '<visual><geometry><sphere radius="0.1"/></geometry></visual>' * 2
+    mesh = '<collision><geometry><mesh filename="a.stl"/></geometry></collision>'
+    mesh_over_sphere = mesh + '<visual><geometry><sphere radius="0.1"/></geometry></visual>'
+    for i, geometry in enumerate((two, mesh_over_sphere, "")):
+        primitives, _ = _primitives(capsys, _one_link(tmp_path, _inertial(I), geometry, f"{i}.urdf"))
+        assert primitives == []
+    massless = '<inertial><mass value="0"/><inertia ixx="0" iyy="0" izz="0" ixy="0" ixz="0" iyz="0"/></inertial>'
+    sphere = '<visual><geometry><sphere radius="0.1"/></geometry></visual>'
+    assert _primitives(capsys, _one_link(tmp_path, massless, sphere, "m.urdf"))[0] == []

@@ -46,6 +46,7 @@ _LAZY: dict[str, tuple[str, str | None]] = {
     "formulas": ("robodyn.kinds", None),
     "simulate": ("robodyn.sim.simulation", "simulate"),
     "Trajectory": ("robodyn.sim.trajectory", "Trajectory"),
+    "inertia": ("robodyn.inertia", None),
     "integrators": ("robodyn.integrators", None),
     "viewer": ("robodyn.viewer", None),
 }
@@ -78,6 +79,7 @@ __all__ = [
     "check",
     "extract_params",
     "formulas",
+    "inertia",
     "integrators",
     "load",
     "simulate",

@@ -21,7 +21,9 @@ def add_parser(sub: Any) -> None:
         description="Describe a robot: every joint (type, axis, limits, actuated or passive, armature, rotor "
         "parameters, damping), every link and its mass, nq, nv, the total mass, and the physical-consistency "
         "findings (non-positive mass, inertia not positive definite or breaking the triangle inequality, moving "
-        "links without mass, missing meshes with --geometry). Exit code 0 even when findings are listed. "
+        "links without mass, missing meshes with --geometry, and a link whose geometry is one box, cylinder or "
+        "sphere but whose inertia differs by more than 1 % from that primitive's at uniform density, a note). "
+        "Exit code 0 even when findings are listed. "
         "--list names every model reachable by name instead.",
     )
     p.add_argument(
@@ -154,6 +156,24 @@ def _limits(lower: tuple[float, ...], upper: tuple[float, ...]) -> str:
     return f"[{lo:.4g}, {hi:.4g}]"
 
 
+def _primitive_lines(s: Any) -> list[str]:
+    """Each link whose geometry is one primitive, against that primitive's uniform-density inertia."""
+    from robodyn.model.summary import PRIMITIVE_RTOL, primitive_text
+
+    if not s.primitives:
+        return []
+    n = sum(1 for c in s.primitives if c.differs)
+    lines = [
+        f"Inertia against the link's one primitive at uniform density ({len(s.primitives)} link(s), "
+        f"{n} differ by more than {100 * PRIMITIVE_RTOL:g} %):"
+    ]
+    for c in s.primitives:
+        verdict = f"DIFFERS by {100 * c.relative_difference:.3g} % ({c.element})" if c.differs else "agrees"
+        lines.append(f"  {c.link:32s} {primitive_text(c.shape, c.size):38s} {c.source:9s}  {verdict}")
+    lines.append("")
+    return lines
+
+
 def format_summary(s: Any) -> str:
     """The human-readable report of a :class:`robodyn.model.summary.ModelSummary`."""
     lines = [f"{s.name}: nq = {s.nq}, nv = {s.nv}, total mass = {s.total_mass:.6g} kg (moving {s.moving_mass:.6g} kg)"]
@@ -192,15 +212,18 @@ def format_summary(s: Any) -> str:
     for link in s.links:
         lines.append(f"  {link.name:32s} {link.mass:10.6g} kg   {('child of ' + link.joint) if link.joint else 'root'}")
     lines.append("")
+    lines.extend(_primitive_lines(s))
     if s.skipped_passive:
         lines.append(f"SRDF passive joints not in this model (skipped): {', '.join(s.skipped_passive)}")
     errors = [f for f in s.findings if f.severity == "error"]
     warnings = [f for f in s.findings if f.severity == "warning"]
+    notes = [f for f in s.findings if f.severity == "note"]  # inertia_vs_shape: legal, worth knowing
     geometry = "" if s.geometry_checked else " (meshes not checked: add --geometry)"
     if not s.findings:
         lines.append(f"Physical consistency: no findings{geometry}")
     else:
-        lines.append(f"Physical consistency: {len(errors)} error(s), {len(warnings)} warning(s){geometry}")
-        for f in errors + warnings:
+        counts = f"{len(errors)} error(s), {len(warnings)} warning(s)" + (f", {len(notes)} note(s)" if notes else "")
+        lines.append(f"Physical consistency: {counts}{geometry}")
+        for f in errors + warnings + notes:
             lines.append(f"  {f.severity:7s} {f.code:17s} {f}")
     return "\n".join(lines)

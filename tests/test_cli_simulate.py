@@ -50,8 +50,6 @@ def test_json_summary_with_torque_and_backend(capsys: pytest.CaptureFixture[str]
     [
         (["pendubot", "--q0", "0.1"], "q0 must have 2 entries"),
         (["pendubot", "--v0", "1,2,3"], "v0 must have 2 entries"),
-        (["pendubot", "--dt", "0"], "dt must be a positive"),
-        (["pendubot", "--duration", "-1"], "duration must be a positive"),
         (["pendubot", "--integrator", "rk5"], "unknown integrator 'rk5'"),
         (["pendubot", "--torque", "0,1"], "passive"),
         (["no_such_robot"], "unknown model"),
@@ -62,6 +60,23 @@ def test_bad_input_exits_2_with_one_line(args: list[str], message: str, capsys: 
     assert main(["simulate", *args]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and message in err[0] and "Traceback" not in err[0]
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--dt", "0"], "argument --dt: expected a positive number (> 0), got '0'"),
+        (["--duration", "-1"], "argument --duration: expected a positive number (> 0), got '-1'"),
+        (["--rtol", "2"], "argument --rtol: expected a relative tolerance > 0 and <= 1, got '2'"),
+    ],
+)
+def test_bad_numbers_are_refused_by_their_option_in_one_line(
+    args: list[str], message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(["simulate", "pendubot", *args])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert exc.value.code == 2 and len(err) == 1 and message in err[0]
 
 
 def test_unwritable_output_exits_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -110,12 +125,13 @@ def test_ctrl_c_writes_the_partial_trajectory_and_exits_130(
         return original(self, *args)  # type: ignore[arg-type]
 
     monkeypatch.setattr(integrators.ClassicRK4, "step", step_then_ctrl_c)
-    out = tmp_path / "int.npz"
+    out, partial = tmp_path / "int.npz", tmp_path / "int.partial.npz"
     assert main(["simulate", "pendubot", "--q0", "0.3,-0.2", "--duration", "100", "--out", str(out)]) == 130
     captured = capsys.readouterr()
     assert "700 steps" in captured.out
-    assert f"interrupted after step 700 (t = 0.7 s); partial trajectory written to {out}" in captured.err
-    traj = robodyn.Trajectory.load(out)
+    assert f"interrupted after step 700 (t = 0.7 s); partial trajectory written to {partial}" in captured.err
+    assert not out.exists()  # the partial run goes beside the name of a complete one, never under it
+    traj = robodyn.Trajectory.load(partial)
     assert traj.status == "interrupted" and traj.n_steps == 700 and traj.evaluations == 4 * 700 + 1
 
 
@@ -127,7 +143,7 @@ def test_euler_blowup_counts_the_work_done(tmp_path: Path, capsys: pytest.Captur
     summary = json.loads(captured.out)
     # 7 Euler steps evaluate a at samples 0..6, and a(t_7) is filled in: 8, not the 100 of the whole block.
     assert summary["steps"] == 7 and summary["evaluations"] == 8
-    assert robodyn.Trajectory.load(out).evaluations == 8
+    assert robodyn.Trajectory.load(tmp_path / "blowup.partial.npz").evaluations == 8
     err = captured.err.strip().splitlines()
     assert len(err) == 1 and err[0].count("likely cause") == 1 and err[0].count("try ") == 1
 
@@ -193,7 +209,8 @@ def test_divergence_exits_3_and_writes_the_partial_trajectory(
     assert main([*argv, "--out", str(out)]) == 3
     err = capsys.readouterr().err
     assert "diverged at step 7 (t = 0.35 s)" in err and "explicit Euler is unstable at dt = 0.05 s" in err
-    traj = robodyn.Trajectory.load(out)
+    assert f"partial trajectory written to {tmp_path / 'blowup.partial.npz'}" in err and not out.exists()
+    traj = robodyn.Trajectory.load(tmp_path / "blowup.partial.npz")
     assert traj.status == "diverged" and 0 < traj.n_steps < 100 and traj.meta["diverged_step"] == traj.n_steps
 
 

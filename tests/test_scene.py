@@ -61,7 +61,10 @@ def write(tmp_path: Path, text: str) -> Path:
         ("[model]\nname = 'pendubot'\n[control]\nkp = 1.0\n", 'only kind = "pd" takes gains'),
         ("[model]\nname = 'pendubot'\n[initial]\nq = ['a']\n", r"\[initial\] q: expected a number"),
         ("[model]\nname = 'pendubot'\n[check]\nexactness = true\n", "needs a reduced model"),
-        ("[model]\nname = 'pendubot'\n[check]\nsamples = 0\n", r"\[check\] samples: expected a number > 0"),
+        (
+            "[model]\nname = 'pendubot'\n[check]\nsamples = 0\n",
+            r"\[check\] samples: expected a whole number from 1 to 100000, got 0",
+        ),
         ("[model]\nname = 'pendubot'\n[view]\nopen = true\n", r"\[view\]: needs \[simulate\]"),
         ("[model\nname = 'pendubot'\n", "not valid TOML"),
     ],
@@ -143,7 +146,10 @@ def test_run_diverged_writes_the_summary_with_the_divergence(tmp_path, capsys):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["simulate"]["diverged"] is True and summary["simulate"]["step"] > 0
     assert "diverged" in summary["simulate"]["message"]
-    assert summary["simulate"]["trajectory"] == str(out / "scene.npz") and (out / "scene.npz").is_file()
+    # the partial run goes beside, never over, the NAME.npz of a complete run
+    partial = out / "scene.partial.npz"
+    assert summary["simulate"]["trajectory"] == str(partial) and partial.is_file()
+    assert not (out / "scene.npz").exists()
 
 
 def test_run_says_joint_for_one_and_joints_for_more(tmp_path, capsys):

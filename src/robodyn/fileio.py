@@ -34,6 +34,16 @@ def write_atomically(path: Path, write: Callable[[IO[bytes]], None]) -> Path:
     return path
 
 
+def write_text_atomically(path: Path, text: str) -> Path:
+    """Write ``text`` as UTF-8 to ``path`` through :func:`write_atomically`; return the path."""
+    data = text.encode("utf-8")
+
+    def write(fh: IO[bytes]) -> None:
+        fh.write(data)
+
+    return write_atomically(path, write)
+
+
 def _umask() -> int:
     """The process's umask (mkstemp creates files 0600; a saved result is as readable as any other file)."""
     mask = os.umask(0)

@@ -42,6 +42,8 @@ Relative paths (``urdf``, ``srdf``, ``output``, ``view.html``) are read from the
 
 from __future__ import annotations
 
+import math
+import reprlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -69,6 +71,15 @@ TABLES = {
     "output": ("dir",),
 }
 CONTROL_KINDS = ("none", "constant", "pd")
+
+# Bounds on hostile input: a scene file is a few lines of TOML (a larger one is not parsed);
+# [check] samples random states and [bench] repeat timed calls, each at most 100,000; [check]
+# seed up to the largest TOML integer; [view] port a TCP port.
+MAX_SCENE_BYTES = 1024 * 1024
+MAX_SAMPLES = 100_000
+MAX_REPEAT = 100_000
+MAX_SEED = 2**63 - 1
+MAX_PORT = 65535
 
 
 @dataclass(frozen=True)
@@ -171,7 +182,9 @@ class Scene:
         for name, entry in value.items():
             if name not in robot.joint_names:
                 raise self.error(
-                    table, key, f"no joint {name!r} in the scene's model; joints: {', '.join(robot.joint_names)}"
+                    table,
+                    key,
+                    f"no joint {reprlib.repr(name)} in the scene's model; joints: {', '.join(robot.joint_names)}",
                 )
             joint = robot.joint(name)
             values = np.atleast_1d(np.asarray(entry, dtype=np.float64))
@@ -232,13 +245,34 @@ def _fail(path: Path, where: str, message: str) -> SceneError:
     return SceneError(f"{path}: {where}: {message}")
 
 
-def _number(path: Path, table: str, key: str, value: Any, *, positive: bool = False, integer: bool = False) -> Any:
+def _number(
+    path: Path,
+    table: str,
+    key: str,
+    value: Any,
+    *,
+    positive: bool = False,
+    integer: bool = False,
+    low: float = -math.inf,
+    high: float = math.inf,
+) -> Any:
+    """``value`` when it is a finite number (whole with ``integer``) in range, else a one-line SceneError.
+
+    The range is ``low <= value <= high``, and ``value > 0`` with ``positive``; the message states it.
+    """
     ok_type = isinstance(value, int) if integer else isinstance(value, (int, float))
-    if isinstance(value, bool) or not ok_type or not np.isfinite(value):
-        raise _fail(path, f"[{table}] {key}", f"expected a {'whole ' if integer else ''}number, got {value!r}")
-    if positive and value <= 0:
-        raise _fail(path, f"[{table}] {key}", f"expected a number > 0, got {value!r}")
+    word = "whole number" if integer else "number"
+    expected = f"a {word} > 0" if positive else f"a {word} >= {_shown(low)}" if low > -math.inf else f"a {word}"
+    if low > -math.inf and high < math.inf:
+        expected = f"a {word} from {_shown(low)} to {_shown(high)}"
+    inside = ok_type and not isinstance(value, bool) and math.isfinite(value) and low <= value <= high
+    if not inside or (positive and value <= 0):
+        raise _fail(path, f"[{table}] {key}", f"expected {expected}, got {reprlib.repr(value)}")
     return value
+
+
+def _shown(x: float) -> str:
+    return str(int(x)) if float(x).is_integer() else f"{x:g}"
 
 
 def _joint_values(path: Path, table: str, key: str, value: Any) -> Any:
@@ -252,18 +286,20 @@ def _joint_values(path: Path, table: str, key: str, value: Any) -> Any:
             for y in x if isinstance(x, list) else [x]:
                 _number(path, table, f"{key}.{name}", y)
         return dict(value)
-    raise _fail(path, f"[{table}] {key}", f"expected a list of numbers or a table of joint = value, got {value!r}")
+    raise _fail(
+        path, f"[{table}] {key}", f"expected a list of numbers or a table of joint = value, got {reprlib.repr(value)}"
+    )
 
 
 def _bool(path: Path, table: str, key: str, value: Any) -> bool:
     if not isinstance(value, bool):
-        raise _fail(path, f"[{table}] {key}", f"expected true or false, got {value!r}")
+        raise _fail(path, f"[{table}] {key}", f"expected true or false, got {reprlib.repr(value)}")
     return value
 
 
 def _string(path: Path, table: str, key: str, value: Any) -> str:
     if not isinstance(value, str) or not value:
-        raise _fail(path, f"[{table}] {key}", f"expected a non-empty string, got {value!r}")
+        raise _fail(path, f"[{table}] {key}", f"expected a non-empty string, got {reprlib.repr(value)}")
     return value
 
 
@@ -276,16 +312,7 @@ def read_scene(path: str | Path) -> Scene:
     """
     path = Path(path)
     toml = _toml()
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise SceneError(f"{path}: no such scene file (expected a .toml file)") from None
-    except OSError as exc:
-        raise SceneError(f"{path}: cannot read the scene file: {exc.strerror}") from None
-    try:
-        data = toml.loads(text)
-    except toml.TOMLDecodeError as exc:
-        raise SceneError(f"{path}: not valid TOML: {exc}") from None
+    data = _parse(path, toml, _read_text(path))
     for table, body in data.items():
         if table not in TABLES:
             raise _fail(path, f"[{table}]", f"unknown table; expected one of: {', '.join(TABLES)}")
@@ -315,11 +342,11 @@ def read_scene(path: str | Path) -> Scene:
     if "keep" in model:
         keep = model["keep"]
         if not isinstance(keep, list) or not keep or not all(isinstance(k, str) and k for k in keep):
-            raise _fail(path, "[model] keep", f"expected a non-empty list of joint names, got {keep!r}")
+            raise _fail(path, "[model] keep", f"expected a non-empty list of joint names, got {reprlib.repr(keep)}")
     if "lock" in model:
         lock = model["lock"]
         if not isinstance(lock, dict):
-            raise _fail(path, "[model] lock", f"expected a table of joint = value, got {lock!r}")
+            raise _fail(path, "[model] lock", f"expected a table of joint = value, got {reprlib.repr(lock)}")
         _joint_values(path, "model", "lock", lock)
     if "reference" in model:
         _string(path, "model", "reference", model["reference"])
@@ -332,7 +359,7 @@ def read_scene(path: str | Path) -> Scene:
         raise _fail(
             path,
             "[control] kind",
-            f"unknown controller {control['kind']!r}; expected one of: {', '.join(CONTROL_KINDS)}",
+            f"unknown controller {reprlib.repr(control['kind'])}; expected one of: {', '.join(CONTROL_KINDS)}",
         )
     kind = control.get("kind", "constant" if "torque" in control else "none")
     if kind == "constant" and "torque" not in control:
@@ -345,8 +372,7 @@ def read_scene(path: str | Path) -> Scene:
         if key in control:
             if kind != "pd":
                 raise _fail(path, f"[control] {key}", f'only kind = "pd" takes gains, not kind = "{kind}"')
-            if _number(path, "control", key, control[key]) < 0:
-                raise _fail(path, f"[control] {key}", f"expected a gain >= 0, got {control[key]!r}")
+            _number(path, "control", key, control[key], low=0)
     if "target" in control:
         _joint_values(path, "control", "target", control["target"])
     if "gravity_compensation" in control:
@@ -355,9 +381,9 @@ def read_scene(path: str | Path) -> Scene:
     check = dict(data["check"]) if "check" in data else None
     if check is not None:
         if "samples" in check:
-            _number(path, "check", "samples", check["samples"], positive=True, integer=True)
+            _number(path, "check", "samples", check["samples"], integer=True, low=1, high=MAX_SAMPLES)
         if "seed" in check:
-            _number(path, "check", "seed", check["seed"], integer=True)
+            _number(path, "check", "seed", check["seed"], integer=True, low=0, high=MAX_SEED)
         if "formula" in check:
             _string(path, "check", "formula", check["formula"])
         if "exactness" in check:
@@ -370,7 +396,7 @@ def read_scene(path: str | Path) -> Scene:
                 )
     bench = dict(data["bench"]) if "bench" in data else None
     if bench is not None and "repeat" in bench:
-        _number(path, "bench", "repeat", bench["repeat"], positive=True, integer=True)
+        _number(path, "bench", "repeat", bench["repeat"], integer=True, low=1, high=MAX_REPEAT)
     view = dict(data["view"]) if "view" in data else None
     if view is not None:
         if simulate is None:
@@ -380,11 +406,45 @@ def read_scene(path: str | Path) -> Scene:
         if "html" in view:
             view["html"] = base / _string(path, "view", "html", view["html"])
         if "port" in view:
-            _number(path, "view", "port", view["port"], positive=True, integer=True)
+            _number(path, "view", "port", view["port"], integer=True, low=1, high=MAX_PORT)
     output = None
     if "output" in data and "dir" in data["output"]:
         output = base / _string(path, "output", "dir", data["output"]["dir"])
     return Scene(path, model, initial, control, simulate, check, bench, view, output)
+
+
+def _read_text(path: Path) -> str:
+    """The scene file's text: UTF-8 and at most :data:`MAX_SCENE_BYTES`, or one line saying what is wrong."""
+    try:
+        with path.open("rb") as fh:
+            raw = fh.read(MAX_SCENE_BYTES + 1)
+    except FileNotFoundError:
+        raise SceneError(f"{path}: no such scene file (expected a .toml file)") from None
+    except IsADirectoryError:
+        raise SceneError(f"{path}: is a folder (expected a .toml scene file)") from None
+    except OSError as exc:
+        raise SceneError(f"{path}: cannot read the scene file: {exc.strerror}") from None
+    if len(raw) > MAX_SCENE_BYTES:
+        raise SceneError(f"{path}: larger than {MAX_SCENE_BYTES // 1024} KiB; a scene file is a few lines of TOML")
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        raise SceneError(
+            f"{path}: not UTF-8 text: byte 0x{raw[exc.start]:02x} on line {line} (a scene file is UTF-8 TOML)"
+        ) from None
+
+
+def _parse(path: Path, toml: Any, text: str) -> dict[str, Any]:
+    """The TOML document, or one line: not TOML, or nested deeper than a scene ever is."""
+    try:
+        return dict(toml.loads(text))
+    except toml.TOMLDecodeError as exc:
+        raise SceneError(f"{path}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise SceneError(
+            f"{path}: arrays or tables nested too deeply to read; a scene nests a few levels at most"
+        ) from None
 
 
 def _toml() -> Any:
@@ -429,16 +489,26 @@ def _read_simulate(path: Path, data: dict[str, Any]) -> dict[str, Any] | None:
             raise _fail(
                 path,
                 "[simulate] integrator",
-                f"unknown integrator {sim['integrator']!r}; expected one of: {', '.join(integrators.names())}",
+                f"unknown integrator {reprlib.repr(sim['integrator'])}; "
+                f"expected one of: {', '.join(integrators.names())}",
             )
     given = set(sim)
     for key, default in SIMULATE_DEFAULTS.items():
         sim.setdefault(key, default)
+    origin = " (the default)" if not given >= {"dt", "duration"} else ""
     if sim["dt"] > sim["duration"]:
-        origin = " (the default)" if not given >= {"dt", "duration"} else ""
         raise _fail(
             path,
             "[simulate] dt",
             f"the step {sim['dt']} s is longer than the duration {sim['duration']} s{origin}",
+        )
+    from robodyn.sim.simulation import MAX_STEPS
+
+    if sim["duration"] / sim["dt"] > MAX_STEPS:
+        raise _fail(
+            path,
+            "[simulate] duration",
+            f"{sim['duration']} s in steps of {sim['dt']} s{origin} is {sim['duration'] / sim['dt']:.3g} steps; "
+            f"at most {MAX_STEPS:.0e}",
         )
     return sim

@@ -6,19 +6,26 @@ Only the command line prints, writes files and picks exit codes: library code ra
 :class:`robodyn.RobodynError`, whose ``exit_code`` is returned here after one line on
 stderr. Exit codes: 0 ok, 1 check mismatch, 2 bad input, 3 diverged, 4 missing optional
 dependency, 5 resource unavailable (e.g. a port in use), 130 interrupted.
+
+numpy's floating-point RuntimeWarnings (overflow, invalid value) are counted, not printed:
+a run that ends 0 or 1 says how many in one note line; a failure's own line says enough.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import os
 import re
 import sys
-from collections.abc import Sequence
+import warnings
+from collections import Counter
+from collections.abc import Iterator, Sequence
+from typing import TextIO
 
 from robodyn import __version__
-from robodyn.errors import RobodynError
+from robodyn.errors import EXIT_BAD_INPUT, RobodynError
 
 # Subcommand -> module in robodyn.cli, in the order shown by --help.
 SUBCOMMANDS = {
@@ -74,13 +81,32 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the process exit code."""
     parser = get_argument_parser()
     args = parser.parse_args(_attach_negative_values(sys.argv[1:] if argv is None else argv))
+    with _numeric_warnings() as counts:
+        code = _run(args)
+    if counts and code in (0, 1):  # a refusal or a failure says what went wrong in its own one line
+        print(f"robodyn {args.command}: note: {_describe_warnings(counts)}", file=sys.stderr)
+    return code
+
+
+def _run(args: argparse.Namespace) -> int:
+    """Call the subcommand; turn robodyn's errors, Ctrl-C and a closed pipe into an exit code."""
     try:
         return int(args.handler(args))
     except RobodynError as exc:
-        print(f"robodyn {args.command}: error: {exc}", file=sys.stderr)
+        one_line = str(exc).replace("\r", "\\r").replace("\n", "\\n")  # a name from a hostile file may hold one
+        print(f"robodyn {args.command}: error: {one_line}", file=sys.stderr)
         return exc.exit_code
-    except KeyboardInterrupt:
-        print(f"robodyn {args.command}: interrupted", file=sys.stderr)
+    except RecursionError:
+        # The last net under hostile input: a reader given a file nested thousands deep (JSON,
+        # TOML, XML) that does not catch it itself. Each reader should name its file.
+        print(
+            f"robodyn {args.command}: error: an input file is nested too deeply to read "
+            f"(more than about {sys.getrecursionlimit()} levels); expected a flat file",
+            file=sys.stderr,
+        )
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt as exc:
+        print(f"robodyn {args.command}: {str(exc) or 'interrupted'}", file=sys.stderr)
         return 130
     except BrokenPipeError:
         # The reader of our output went away (e.g. `robodyn info talos | head`): not an error.
@@ -88,6 +114,44 @@ def main(argv: Sequence[str] | None = None) -> int:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         return 0
+
+
+@contextlib.contextmanager
+def _numeric_warnings() -> Iterator[Counter[str]]:
+    """Count numpy's floating-point RuntimeWarnings (overflow, invalid value...) instead of printing them.
+
+    They would break the one-line promise (a warning and its source line in the middle of a
+    progress bar); :func:`main` folds their count into one note. Other warnings pass through.
+    """
+    counts: Counter[str] = Counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", RuntimeWarning)
+        show = warnings.showwarning
+
+        def count(
+            message: Warning | str,
+            category: type[Warning],
+            filename: str,
+            lineno: int,
+            file: TextIO | None = None,
+            line: str | None = None,
+        ) -> None:
+            if issubclass(category, RuntimeWarning):
+                counts[str(message)] += 1
+            else:
+                show(message, category, filename, lineno, file, line)
+
+        warnings.showwarning = count
+        yield counts
+
+
+def _describe_warnings(counts: Counter[str]) -> str:
+    """``numpy reported 12 floating-point warnings: overflow encountered in add (10), ...``."""
+    total = sum(counts.values())
+    common = ", ".join(f"{message} ({n})" for message, n in counts.most_common(3))
+    more = f" and {len(counts) - 3} other kinds" if len(counts) > 3 else ""
+    what = "warning" if total == 1 else "warnings"
+    return f"numpy reported {total} floating-point {what} during the run: {common}{more}"
 
 
 if __name__ == "__main__":  # pragma: no cover

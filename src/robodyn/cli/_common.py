@@ -4,11 +4,18 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+
+def shown(text: str, limit: int = 40) -> str:
+    """``text`` quoted for a message, cut to ``limit`` characters (a hostile value keeps the line short)."""
+    return repr(text) if len(text) <= limit else f"{text[:limit]!r}... ({len(text)} characters)"
 
 
 def float_list(text: str) -> np.ndarray:
@@ -16,34 +23,56 @@ def float_list(text: str) -> np.ndarray:
     try:
         values = [float(x) for x in text.replace(" ", "").split(",") if x != ""]
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected comma-separated numbers like 0.1,-2, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers like 0.1,-2, got {shown(text)}") from None
     if not values:
         raise argparse.ArgumentTypeError("expected at least one number")
     if not np.all(np.isfinite(values)):
-        raise argparse.ArgumentTypeError(f"expected finite numbers, got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected finite numbers, got {shown(text)}")
     return np.array(values, dtype=np.float64)
 
 
-def positive_float(text: str) -> float:
-    """Argparse type: a finite number > 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
-    if not np.isfinite(value) or value <= 0:
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
-    return value
+def number_in(
+    *, low: float = 0.0, high: float = math.inf, low_open: bool = True, integer: bool = False, noun: str = ""
+) -> Callable[[str], Any]:
+    """An argparse type: a finite number (a whole number with ``integer``) in a stated range.
+
+    The range is ``low < x <= high`` (``low <= x`` when not ``low_open``); the one line of
+    error states it, e.g. "expected a positive whole number from 1 to 100000, got '0'".
+    ``noun`` names the value ("port number"; default "positive number" for ranges above 0).
+    """
+    positive = (low == 0 and low_open) or (integer and low == 1 and not low_open)
+    noun = noun or ("positive " if positive else "") + ("whole number" if integer else "number")
+    lo, hi = (str(int(x)) if integer and math.isfinite(x) else f"{x:g}" for x in (low, high))
+    if high == math.inf:
+        expected = f"a {noun}" if integer and positive else f"a {noun} ({'>' if low_open else '>='} {lo})"
+    else:
+        expected = f"a {noun} {f'> {lo} and <=' if low_open else f'from {lo} to'} {hi}"
+
+    def convert(text: str) -> Any:
+        try:
+            value: Any = int(text) if integer else float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {expected}, got {shown(text)}") from None
+        inside = (low < value if low_open else low <= value) and value <= high
+        if not (math.isfinite(value) and inside):
+            raise argparse.ArgumentTypeError(f"expected {expected}, got {shown(text)}")
+        return value
+
+    convert.__name__ = noun.replace(" ", "_") or ("whole_number" if integer else "number")
+    return convert
 
 
-def positive_int(text: str) -> int:
-    """Argparse type: an integer >= 1."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive whole number, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive whole number, got {text!r}")
-    return value
+positive_float = number_in()
+"""Argparse type: a finite number > 0."""
+
+positive_int = number_in(integer=True, low=1, low_open=False)
+"""Argparse type: a whole number >= 1."""
+
+MAX_SEED = 2**63 - 1
+"""The largest seed: what a TOML integer (and a C int64) holds; numpy takes any number >= 0."""
+
+seed_number = number_in(integer=True, low=0, high=MAX_SEED, low_open=False, noun="seed")
+"""Argparse type: a random seed, a whole number from 0 to 2**63 - 1."""
 
 
 def add_model_arguments(parser: argparse.ArgumentParser, *, many: bool = False) -> None:

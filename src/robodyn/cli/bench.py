@@ -1,17 +1,34 @@
-"""``robodyn bench``: work--precision charts, stability limits and a report, written to a folder."""
+"""``robodyn bench``: work--precision charts, stability limits and a report, written to a folder.
+
+Everything is written into a fresh private folder inside ``--out`` (``bench.partial.XXXX``,
+made by ``tempfile.mkdtemp``) and moved into ``--out`` only once the report is written: the
+old ``report.md`` goes first and the new one comes last, so the folder never holds a report
+beside results it does not describe. Ctrl-C keeps the results so far in that partial folder
+and leaves ``--out`` as it was.
+"""
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
+import shutil
 import sys
+import tempfile
 import time
 from pathlib import Path
 from typing import Any
 
 from robodyn.cli._common import _json_default
+from robodyn.fileio import write_text_atomically
 
 BUILTINS = ("pendubot", "cart_pole", "geared_arm")
+
+# Files every run writes under these names (the charts of each model are named after it): a
+# run that does not write one of them (e.g. --no-stability) removes the old one, which
+# would describe another run.
+FIXED_OUTPUTS = ("bench.json", "stability.json", "stability.png", "stability.svg", "lyapunov.png", "lyapunov.svg")
+REPORT = "report.md"
 
 
 def add_parser(sub: Any) -> None:
@@ -67,7 +84,8 @@ class ProgressBar:
 
 
 def _write_json(path: Path, obj: Any) -> None:
-    path.write_text(json.dumps(obj, indent=1, default=_json_default, allow_nan=False) + "\n")
+    text = json.dumps(obj, indent=1, default=_json_default, allow_nan=False) + "\n"
+    write_text_atomically(path, text)
 
 
 def _clean(obj: Any) -> Any:
@@ -90,16 +108,41 @@ def _none_for_text_numbers(obj: Any) -> Any:
 
 def run(args: argparse.Namespace) -> int:
     """Run the sweeps, then the stability study; write everything under ``--out``."""
-    from robodyn import charts
-    from robodyn.cli._output import writable_path
+    from robodyn.cli._output import refuse_clobbering, writable_path
     from robodyn.model.load import load
-    from robodyn.studies import bench, report
 
     out: Path = args.out
     writable_path(out / "bench.json")
-    progress = ProgressBar(not args.no_progress)
     names = args.models or list(BUILTINS)
     robots = [load(name) for name in names]  # bad names fail here, before any work
+    written = [("the output", out / name) for name in (*FIXED_OUTPUTS, REPORT)]
+    for robot in robots:
+        inputs = [(f"the URDF of {robot.name}", robot.urdf_path), (f"the SRDF of {robot.name}", robot.srdf_path)]
+        refuse_clobbering(written, inputs)
+    stage = Path(tempfile.mkdtemp(prefix="bench.partial.", dir=out))
+    try:
+        runs = _bench(args, robots, stage)
+    except KeyboardInterrupt:
+        if any(stage.iterdir()):
+            raise KeyboardInterrupt(
+                f"interrupted; the results so far are in {stage} ({out} is left as it was)"
+            ) from None
+        stage.rmdir()
+        raise
+    except BaseException:
+        shutil.rmtree(stage, ignore_errors=True)
+        raise
+    _publish(stage, out)
+    print(f"wrote {out / 'bench.json'} ({runs} runs), charts and {out / REPORT}")
+    return 0
+
+
+def _bench(args: argparse.Namespace, robots: list[Any], out: Path) -> int:
+    """Write the results of the sweeps, the stability study and the report into ``out``; the number of runs."""
+    from robodyn import charts
+    from robodyn.studies import bench, report
+
+    progress = ProgressBar(not args.no_progress)
     plan = bench.default_plan(quick=args.quick)
     sweeps: list[bench.Sweep] = []
     figures: dict[str, list[str]] = {}
@@ -115,9 +158,26 @@ def run(args: argparse.Namespace) -> int:
         progress.note("robodyn bench: stability study")
         findings = _stability(robots, out, quick=args.quick, progress=progress)
     text = report.bench_report(sweeps, figures, findings, quick=args.quick, seconds=time.perf_counter() - started)
-    (out / "report.md").write_text(text)
-    print(f"wrote {out / 'bench.json'} ({sum(len(s.results) for s in sweeps)} runs), charts and {out / 'report.md'}")
-    return 0
+    write_text_atomically(out / REPORT, text)
+    return sum(len(s.results) for s in sweeps)
+
+
+def _publish(stage: Path, out: Path) -> None:
+    """Move the files of ``stage`` into ``out``: the old report out first, the new one in last.
+
+    The fixed-name results of an earlier run that this one did not write go too. Should the
+    moves be cut short, ``out`` holds no report rather than one that describes other files.
+    """
+    produced = {path.name for path in stage.iterdir()}
+    for name in (REPORT, *(x for x in FIXED_OUTPUTS if x not in produced)):
+        old = out / name
+        if old.is_symlink() or old.is_file():
+            old.unlink()
+    for path in sorted(stage.iterdir()):
+        if path.name != REPORT:
+            os.replace(path, out / path.name)
+    os.replace(stage / REPORT, out / REPORT)
+    stage.rmdir()
 
 
 def _sweep_charts(result: Any, out: Path, charts: Any) -> list[str]:

@@ -13,9 +13,11 @@ from robodyn.cli._common import (
     positive_float,
     positive_int,
     print_json,
+    seed_number,
     warn_ignored_mimic,
 )
 from robodyn.errors import EXIT_MISMATCH, EXIT_OK, InputError
+from robodyn.kinds.sandbox import DEFAULT_TIMEOUT, MAX_TIMEOUT
 
 
 def add_parser(sub: Any) -> None:
@@ -35,8 +37,8 @@ def add_parser(sub: Any) -> None:
         ".py file with your own derivation; without it only the structural properties and Pinocchio's "
         "identities are checked",
     )
-    p.add_argument("--samples", type=positive_int, default=100, help="number of random states (default 100)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the random states (default 0)")
+    p.add_argument("--samples", type=_samples, default=100, help="number of random states, 1 to 100,000 (default 100)")
+    p.add_argument("--seed", type=seed_number, default=0, help="seed of the random states (default 0)")
     p.add_argument("--rtol", type=positive_float, default=1e-9, help="relative tolerance (default 1e-9)")
     p.add_argument(
         "--params",
@@ -44,6 +46,14 @@ def add_parser(sub: Any) -> None:
         metavar="FILE.json",
         help="use these formula parameters (a JSON object, or the output of robodyn params) instead of "
         "reading them from the model: checks a URDF against numbers you trust",
+    )
+    p.add_argument(
+        "--formula-timeout",
+        type=_formula_timeout,
+        default=DEFAULT_TIMEOUT,
+        metavar="SECONDS",
+        help=f"time limit on the code of a formula FILE.py, which runs in a process of its own: its import, then "
+        f"all its evaluations together (default {DEFAULT_TIMEOUT:g} s); past it, exit 2 naming the function",
     )
     p.add_argument(
         "--mimic", action="store_true", help="keep URDF <mimic> couplings as mimic joints (checked with CRBA)"
@@ -54,18 +64,34 @@ def add_parser(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Check each model, print a table (or JSON) per model; exit 1 if any mismatches."""
-    from robodyn.kinds.check import check
-    from robodyn.kinds.params import detect_kind
+    from robodyn.kinds.sandbox import FormulaProcess
+    from robodyn.kinds.user import looks_like_file
 
     if args.params is not None and args.formula in (None, "auto"):
         raise InputError("--params needs --formula KIND: parameters belong to one formula kind")
     given = read_params(args.params) if args.params is not None else None
+    user_file = args.formula not in (None, "auto") and looks_like_file(args.formula)
+    # A formula file runs in a Python of its own: start it now, so that it starts while the models load.
+    process = FormulaProcess(Path(args.formula), args.formula, timeout=args.formula_timeout) if user_file else None
+    try:
+        return _check_all(args, given, process)
+    finally:
+        if process is not None:
+            process.close()
+
+
+def _check_all(args: argparse.Namespace, given: dict[str, Any] | None, process: Any) -> int:
+    from robodyn.kinds.check import check
+    from robodyn.kinds.params import detect_kind
+    from robodyn.kinds.user import load_user_formula
+
     robots = [load_robot(args, name, mimic=args.mimic) for name in args.models]  # bad input fails before any work
     for robot in robots:
         warn_ignored_mimic(robot, mimic=args.mimic, command="check")
+    user = load_user_formula(args.formula, process=process) if process is not None else None
     reports = []
     for robot in robots:
-        formula = detect_kind(robot) if args.formula == "auto" else args.formula
+        formula = user if user is not None else (detect_kind(robot) if args.formula == "auto" else args.formula)
         report = check(robot, formula, samples=args.samples, seed=args.seed, rtol=args.rtol, params=given)
         reports.append(report)
         if not args.json:
@@ -77,6 +103,24 @@ def run(args: argparse.Namespace) -> int:
     elif len(reports) > 1:
         print("\nsummary: " + ", ".join(f"{r.model} {'pass' if r.passed else 'FAIL'}" for r in reports))
     return EXIT_OK if all(r.passed for r in reports) else EXIT_MISMATCH
+
+
+def _samples(text: str) -> int:
+    """Argparse type: a whole number from 1 to MAX_SAMPLES (the help states it; a test holds the two together)."""
+    from robodyn.kinds.check import MAX_SAMPLES  # here, not at the top: it loads Pinocchio
+
+    value = positive_int(text)
+    if value > MAX_SAMPLES:
+        raise argparse.ArgumentTypeError(f"expected a whole number from 1 to {MAX_SAMPLES}, got {text!r}")
+    return value
+
+
+def _formula_timeout(text: str) -> float:
+    """Argparse type: seconds in (0, MAX_TIMEOUT]."""
+    value = positive_float(text)
+    if value > MAX_TIMEOUT:
+        raise argparse.ArgumentTypeError(f"expected at most {MAX_TIMEOUT:g} seconds (a day), got {text!r}")
+    return value
 
 
 def read_params(path: Path) -> dict[str, Any]:

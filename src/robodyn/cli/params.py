@@ -78,12 +78,14 @@ def run(args: argparse.Namespace) -> int:
     params = extract(robot, kind)
     report: dict[str, Any] = {"model": robot.name, "urdf": str(robot.urdf_path), "kind": kind}
     if args.set is not None or args.write is not None:
-        from robodyn.cli._output import writable_path
+        from robodyn.cli._output import refuse_clobbering, writable_path
         from robodyn.kinds.edit import check_changes, refuse_own_file, write_params
 
         changes = check_changes(kind, [pair for group in args.set or [] for pair in group])
         if args.write is not None:
             refuse_own_file(robot, args.write)
+            written_files = [("--write", args.write), ("--write's SRDF", args.write.with_suffix(".srdf"))]
+            refuse_clobbering(written_files, [("the model's URDF", robot.urdf_path), ("its SRDF", robot.srdf_path)])
             out = writable_path(args.write, suffix=".urdf")
             written = write_params(robot, kind, changes, out, free_flyer=args.free_flyer)
             report["written"] = {"urdf": str(written.urdf), "srdf": None if written.srdf is None else str(written.srdf)}

@@ -1,4 +1,10 @@
-"""``robodyn run scene.toml``: build the minimal model of a scene and run what it asks for."""
+"""``robodyn run scene.toml``: build the minimal model of a scene and run what it asks for.
+
+Everything is checked before the work: the output folder, that no output is an input (the
+scene, its URDF and SRDF) or another output, and how many frames [view] would render. A
+simulation that stops early (diverged, Ctrl-C) writes ``NAME.partial.npz``, never over the
+``NAME.npz`` of an earlier complete run, then the summary saying so.
+"""
 
 from __future__ import annotations
 
@@ -7,8 +13,15 @@ import json
 from pathlib import Path
 from typing import Any
 
-from robodyn.cli._output import check_output_file, check_output_folder, writable_path
+from robodyn.cli._output import (
+    check_output_file,
+    check_output_folder,
+    partial_path,
+    refuse_clobbering,
+    writable_path,
+)
 from robodyn.errors import EXIT_MISMATCH, EXIT_OK
+from robodyn.fileio import write_text_atomically
 
 
 def add_parser(sub: Any) -> None:
@@ -19,7 +32,8 @@ def add_parser(sub: Any) -> None:
         description="Read a scene file (TOML: [model], [initial], [control], [simulate], [check], [bench], "
         "[view], [output]), build the minimal model (joints not kept are locked), and run the parts the file "
         "asks for. Results go to [output] dir (default scene-out/<scene name>). Exit codes: 0 ok, 1 a check "
-        "failed, 2 bad scene, 3 the simulation diverged (the partial trajectory is written first).",
+        "failed, 2 bad scene, 3 the simulation diverged, 130 interrupted (either way the trajectory so far is "
+        "written first, as NAME.partial.npz).",
     )
     p.add_argument("scene", type=Path, metavar="SCENE.toml", help="the scene file")
     p.add_argument("--out", type=Path, default=None, help="output folder (overrides the scene's [output] dir)")
@@ -29,7 +43,7 @@ def add_parser(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the scene; print one block per part; write the results."""
-    from robodyn.errors import DivergenceError
+    from robodyn.errors import DivergenceError, SimulationInterrupted
     from robodyn.scene import read_scene
 
     scene = read_scene(args.scene)
@@ -38,7 +52,18 @@ def run(args: argparse.Namespace) -> int:
     view = None if args.no_view else scene.view
     if view is not None and "html" in view:
         check_output_file(view["html"])
+    outputs = _outputs(scene, out, view)
+    refuse_clobbering(
+        outputs, [("the scene", scene.path), *_model_files(scene.model.get("urdf"), scene.model.get("srdf"))]
+    )
+    if view is not None and scene.simulate is not None:
+        from robodyn.cli.view import check_frame_count
+
+        what = f"{scene.path}: [simulate] duration (played back by [view])"
+        hint = "shorten [simulate] duration, or run with --no-view"
+        check_frame_count(float(scene.simulate["duration"]), speed=1.0, fps=None, what=what, hint=hint)
     robot, reduction = scene.build()
+    refuse_clobbering(outputs, _model_files(robot.urdf_path, robot.srdf_path))
     summary: dict[str, Any] = {"scene": str(scene.path), "model": robot.name, "nq": robot.nq, "nv": robot.nv}
     if reduction is not None:
         values = {k: v.tolist() for k, v in reduction.lock_values().items()}
@@ -58,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
     if scene.simulate is not None:
         try:
             trajectory = _simulate(scene, robot, reduction, q0, v0, torque, out, summary)
-        except DivergenceError:
+        except (DivergenceError, SimulationInterrupted):
             _write_summary(out, summary)  # the divergence is in it, next to the partial trajectory
             raise
     if scene.bench is not None:
@@ -73,9 +98,24 @@ def run(args: argparse.Namespace) -> int:
     return status
 
 
+def _outputs(scene: Any, out: Path, view: dict[str, Any] | None) -> list[tuple[str, Path | None]]:
+    """(label, path) of every file the scene may write."""
+    html = view.get("html") if view is not None else None
+    return [
+        ("the summary", out / "summary.json"),
+        ("the trajectory", out / f"{scene.name}.npz" if scene.simulate is not None else None),
+        ("[view] html", html),
+    ]
+
+
+def _model_files(urdf: Path | None, srdf: Path | None) -> list[tuple[str, Path | None]]:
+    return [("the model's URDF", urdf), ("the model's SRDF", srdf)]
+
+
 def _write_summary(out: Path, summary: dict[str, Any]) -> None:
     path = writable_path(out / "summary.json")
-    path.write_text(json.dumps(summary, indent=2, default=_jsonable) + "\n", encoding="utf-8")
+    text = json.dumps(summary, indent=2, default=_jsonable) + "\n"
+    write_text_atomically(path, text)
     print(f"summary: {path}")
 
 
@@ -152,7 +192,7 @@ def _simulate(
 ) -> Any:
     import dataclasses
 
-    from robodyn.errors import DivergenceError, ModelError
+    from robodyn.errors import DivergenceError, ModelError, SimulationInterrupted
     from robodyn.sim.simulation import simulate
 
     duration, dt, integrator = _timing(scene)
@@ -168,13 +208,8 @@ def _simulate(
             torque=torque,
             backend=scene.simulate.get("backend"),  # None: simulate picks (crba with mimic joints)
         )
-    except DivergenceError as exc:
-        summary["simulate"] = {"diverged": True, "message": str(exc), "step": exc.step, "time": exc.time}
-        if exc.trajectory is not None:
-            exc.trajectory.save(writable_path(path))
-            summary["simulate"]["trajectory"] = str(path)
-            print(f"simulate: diverged; partial trajectory written to {path}")
-        raise
+    except (DivergenceError, SimulationInterrupted) as exc:
+        raise _stopped_early(exc, path, summary) from None
     except RuntimeError as exc:  # Pinocchio refusing the model (e.g. ABA and mimic joints)
         from robodyn.model.load import pinocchio_message
 
@@ -200,6 +235,33 @@ def _simulate(
         "trajectory": str(path),
     }
     return trajectory
+
+
+def _stopped_early(exc: BaseException, path: Path, summary: dict[str, Any]) -> BaseException:
+    """Write the partial trajectory as ``NAME.partial.npz``, note it in ``summary``; return the error to raise.
+
+    The error's one line then says where the partial run went, and that ``path`` (an
+    earlier complete run) is left as it was.
+    """
+    from robodyn.errors import DivergenceError, SimulationInterrupted
+
+    trajectory = getattr(exc, "trajectory", None)
+    diverged = isinstance(exc, DivergenceError)
+    record: dict[str, Any] = {"diverged": diverged, "interrupted": not diverged, "message": str(exc)}
+    if isinstance(exc, DivergenceError):
+        record.update(step=exc.step, time=exc.time)
+    summary["simulate"] = record
+    message = str(exc)
+    if trajectory is not None:
+        partial = writable_path(partial_path(path))
+        trajectory.save(partial)
+        record["trajectory"] = str(partial)
+        kept = f" ({path} left as it was)" if path.exists() else ""
+        message += f"; partial trajectory written to {partial}{kept}"
+        print(f"simulate: {'diverged' if diverged else 'interrupted'}; partial trajectory written to {partial}")
+    if isinstance(exc, DivergenceError):
+        return DivergenceError(message, step=exc.step, time=exc.time, trajectory=trajectory)
+    return SimulationInterrupted(message, trajectory=trajectory)
 
 
 def _bench(scene: Any, robot: Any, reduction: Any, summary: dict[str, Any]) -> None:

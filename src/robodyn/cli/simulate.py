@@ -2,9 +2,10 @@
 
 Exit codes: 0 the run finished; 2 bad input (wrong vector lengths, a cos/sin pair or
 quaternion off the unit sphere, a singular mass matrix, non-positive dt or duration, an
-unknown integrator or backend, an unwritable output path); 3 the run diverged (the
-trajectory up to the failing step is written first); 130 interrupted by Ctrl-C (the
-trajectory so far is written first).
+unknown integrator or backend, an unwritable output path, an output that is an input or
+another output); 3 the run diverged; 130 interrupted by Ctrl-C. A run that stops early
+writes what it computed as ``x.partial.npz`` (and ``x.partial.csv``), beside and never over
+the ``x.npz`` of an earlier complete run.
 """
 
 from __future__ import annotations
@@ -16,12 +17,22 @@ from typing import Any
 
 import numpy as np
 
-from robodyn.cli._common import float_list, load_robot, positive_float, print_json, warn_ignored_mimic
-from robodyn.cli._output import writable_path
+from robodyn.cli._common import (
+    float_list,
+    load_robot,
+    number_in,
+    positive_float,
+    print_json,
+    warn_ignored_mimic,
+)
+from robodyn.cli._output import partial_path, refuse_clobbering, writable_path
 from robodyn.errors import EXIT_DIVERGED, EXIT_OK, InputError
 from robodyn.registry import BACKENDS
 
 EXIT_INTERRUPTED = 130
+
+TOLERANCE = number_in(high=1.0, noun="relative tolerance")
+"""Argparse type of --rtol: above 1 every step passes, so (0, 1]."""
 
 
 def add_parser(sub: Any) -> None:
@@ -31,8 +42,8 @@ def add_parser(sub: Any) -> None:
         help="integrate a model's motion and keep the energy and work books",
         description="Integrate M a + C v + G = tau + tau_damping from (q0, v0), print the steps, wall time, final "
         "state, energy drift and ledger residual E - E0 - W_input - W_damping, and save the trajectory. "
-        "Exit 0: done; 2: bad input; 3: diverged (the trajectory up to that step is still written); "
-        "130: interrupted by Ctrl-C (the trajectory so far is still written).",
+        "Exit 0: done; 2: bad input; 3: diverged; 130: interrupted by Ctrl-C. A run that stops early writes "
+        "the trajectory so far as X.partial.npz (X.partial.csv), never over the X.npz of an earlier run.",
     )
     p.add_argument(
         "model",
@@ -55,10 +66,10 @@ def add_parser(sub: Any) -> None:
         "have norm 1 within 1e-9, or give one angle per continuous joint",
     )
     p.add_argument("--v0", type=float_list, help="initial velocity c,d,... [rad/s | m/s] (default: zero)")
-    p.add_argument("--duration", type=float, default=2.0, help="simulated time [s] (default: %(default)g s)")
+    p.add_argument("--duration", type=positive_float, default=2.0, help="simulated time [s] (default: %(default)g s)")
     p.add_argument(
         "--dt",
-        type=float,
+        type=positive_float,
         default=1e-3,
         help="time step, or output interval of adaptive methods [s] (default: %(default)g s)",
     )
@@ -77,7 +88,7 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument(
         "--rtol",
-        type=positive_float,
+        type=TOLERANCE,
         default=1e-9,
         help="relative tolerance of the adaptive methods, dimensionless (default: %(default)g)",
     )
@@ -98,7 +109,9 @@ def add_parser(sub: Any) -> None:
     p.add_argument(
         "--out", type=Path, metavar="FILE.npz", help="write the trajectory to this .npz file (its folder must exist)"
     )
-    p.add_argument("--csv", type=Path, metavar="PATH", help="also write the trajectory as CSV (its folder must exist)")
+    p.add_argument(
+        "--csv", type=Path, metavar="FILE.csv", help="also write the trajectory as CSV (its folder must exist)"
+    )
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.add_argument("--view", action="store_true", help="afterwards, play the motion in the browser (meshcat)")
     p.set_defaults(handler=run)
@@ -116,9 +129,17 @@ def run(args: argparse.Namespace) -> int:
     method = integrators.get(args.integrator)  # an unknown name fails before anything is loaded
     # Checked before any work and without creating anything: a run that fails leaves no empty file.
     out = writable_path(args.out, create_parents=False, suffix=".npz") if args.out is not None else None
-    csv = writable_path(args.csv, create_parents=False) if args.csv is not None else None
+    csv = writable_path(args.csv, create_parents=False, suffix=".csv") if args.csv is not None else None
+    outputs = [("--out", out), ("--csv", csv)]
+    given = Path(args.model)
+    refuse_clobbering(outputs, [("the model", given if given.is_file() else None), ("--srdf", args.srdf)])
+    if args.view:
+        from robodyn.cli.view import check_frame_count
+
+        hint = "simulate less, or save it with --out and play it with robodyn view --speed"
+        check_frame_count(args.duration, speed=1.0, fps=None, what="--view of --duration", hint=hint)
     robot = load_robot(args, mimic=args.mimic)
-    warn_ignored_mimic(robot, mimic=args.mimic, command="simulate")
+    refuse_clobbering(outputs, [("the model's URDF", robot.urdf_path), ("the model's SRDF", robot.srdf_path)])
     q0 = args.q0 if args.q0 is not None else robot.neutral()
     v0 = args.v0 if args.v0 is not None else np.zeros(robot.nv)
 
@@ -146,20 +167,31 @@ def run(args: argparse.Namespace) -> int:
         trajectory, failure = exc.trajectory, exc
     except SimulationInterrupted as exc:  # Ctrl-C: no lost work, the trajectory so far is written
         trajectory, failure = exc.trajectory, exc
+    # Said after the run, not before it: a refused input stays one line on stderr.
+    warn_ignored_mimic(robot, mimic=args.mimic, command="simulate")
+    kept: list[Path] = []
+    if failure is not None:  # what was computed goes beside, never over, an earlier complete run
+        kept = [p for p in (out, csv) if p is not None and p.exists()]
+        out, csv = (None if p is None else partial_path(p) for p in (out, csv))
     _write(trajectory, out, csv)
     _report(trajectory, out, csv, as_json=args.json)
-    if isinstance(failure, SimulationInterrupted):
-        written = f"; partial trajectory written to {out}" if out is not None else ""
-        print(f"robodyn simulate: {failure}{written}", file=sys.stderr)
-        return EXIT_INTERRUPTED
     if failure is not None:
-        print(f"robodyn simulate: {failure}", file=sys.stderr)
-        return EXIT_DIVERGED
+        print(f"robodyn simulate: {failure}{_partial_note(out, csv, kept)}", file=sys.stderr)
+        return EXIT_INTERRUPTED if isinstance(failure, SimulationInterrupted) else EXIT_DIVERGED
     if args.view:
         from robodyn.cli.view import serve_and_play
 
         return serve_and_play(robot, trajectory, speed=1.0, open_browser=False, zmq_url=None)
     return EXIT_OK
+
+
+def _partial_note(out: Path | None, csv: Path | None, kept: list[Path]) -> str:
+    """``; partial trajectory written to x.partial.npz (x.npz left as it was)``, or nothing without files."""
+    written = [p for p in (out, csv) if p is not None]
+    if not written:
+        return ""
+    left = f" ({' and '.join(map(str, kept))} left as {'they were' if len(kept) > 1 else 'it was'})" if kept else ""
+    return f"; partial trajectory written to {' and '.join(map(str, written))}{left}"
 
 
 def _write(trajectory: Any, out: Path | None, csv: Path | None) -> None:

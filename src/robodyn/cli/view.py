@@ -4,6 +4,10 @@ With a trajectory the motion is baked into one meshcat animation and sent once; 
 browser plays it with meshcat's own time slider and play/pause. ``--html`` writes one
 self-contained file that replays offline; otherwise a meshcat server is started on a free
 localhost port (or ``--zmq-url`` names a running one) and the command waits for Ctrl-C.
+
+The playback renders (duration / speed) x fps frames: at most :data:`MAX_FRAMES`, refused in
+one line before anything is built. The ``--html`` page never goes over the trajectory, the
+model's files or any other input.
 """
 
 from __future__ import annotations
@@ -14,9 +18,12 @@ import webbrowser
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from robodyn.cli._common import add_model_arguments, float_list, load_robot, positive_float
-from robodyn.cli._output import check_output_file, writable_path
+import numpy as np
+
+from robodyn.cli._common import add_model_arguments, float_list, load_robot, number_in, positive_float
+from robodyn.cli._output import check_output_file, refuse_clobbering, writable_path
 from robodyn.errors import InputError, UnavailableError
+from robodyn.fileio import write_text_atomically
 
 if TYPE_CHECKING:
     from robodyn.robot import Robot
@@ -45,7 +52,10 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument("--speed", type=positive_float, default=1.0, help="playback speed, 1 = real time (default 1)")
     p.add_argument(
-        "--fps", type=positive_float, default=30.0, help="rendered frames per second of playback (default 30)"
+        "--fps",
+        type=positive_float,
+        default=30.0,
+        help=f"rendered frames per second of playback (default 30; at most {MAX_FRAMES:,} frames in all)",
     )
     p.add_argument("--q", type=float_list, default=None, metavar="Q1,Q2,...", help="pose to show without a trajectory")
     p.add_argument(
@@ -66,15 +76,31 @@ def add_parser(sub: Any) -> None:
     p.set_defaults(handler=run)
 
 
-def port_number(text: str) -> int:
-    """Argparse type: a TCP port, a whole number from 1 to 65535."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a port number from 1 to 65535, got {text!r}") from None
-    if not 1 <= value <= 65535:
-        raise argparse.ArgumentTypeError(f"expected a port number from 1 to 65535, got {text!r}")
-    return value
+port_number = number_in(integer=True, low=1, high=65535, low_open=False, noun="port number")
+"""Argparse type: a TCP port, a whole number from 1 to 65535."""
+
+MAX_FRAMES = 100_000
+"""Rendered frames of one playback at most: 55 minutes at 30 fps; each frame holds a pose of every link."""
+
+
+def check_frame_count(
+    duration: float, *, speed: float, fps: float | None, what: str, hint: str = "lower --fps or raise --speed"
+) -> None:
+    """Raise :class:`InputError` when ``duration`` [s] of motion at ``speed`` and ``fps`` renders too many frames.
+
+    ``fps`` None is the viewer's default; ``what`` names the input that sets the duration and
+    ``hint`` says what to change.
+    """
+    if fps is None:
+        from robodyn.viewer.sampling import DEFAULT_FPS
+
+        fps = DEFAULT_FPS
+    frames = float(np.floor(duration / speed * fps + 1e-9)) + 1  # as robodyn.viewer.sampling counts them
+    if frames > MAX_FRAMES:
+        raise InputError(
+            f"{what}: {duration:g} s of motion at speed x{speed:g} and {fps:g} frames per second renders "
+            f"{frames:.3g} frames; at most {MAX_FRAMES:,} ({hint})"
+        )
 
 
 def open_in_browser(target: str, *, by_hand: str) -> bool:
@@ -100,14 +126,19 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--html writes a file and starts no server; leave out --zmq-url and --port")
     if args.zmq_url is not None and args.port is not None:
         raise InputError("--port is for the server robodyn starts; with --zmq-url the running server keeps its own")
+    given = Path(args.model)
+    inputs = [("the trajectory", args.trajectory), ("the model", given if given.is_file() else None)]
+    refuse_clobbering([("--html", args.html)], [*inputs, ("--srdf", args.srdf)])
     if args.html is not None:
         check_output_file(args.html)  # before the work: a bad path fails in a moment, not after the baking
     trajectory = Trajectory.load(args.trajectory) if args.trajectory is not None else None
     if trajectory is not None and args.q is not None:
         raise InputError("--q shows a still pose; leave it out when playing a trajectory")
+    if trajectory is not None and len(trajectory.t) > 1:
+        span = float(trajectory.t[-1] - trajectory.t[0])
+        check_frame_count(span, speed=args.speed, fps=args.fps, what=f"{args.trajectory}")
     robot = load_robot(args)
-    if trajectory is not None:
-        _note_trajectory(robot, trajectory, args.trajectory)
+    refuse_clobbering([("--html", args.html)], [("the model's URDF", robot.urdf_path), ("its SRDF", robot.srdf_path)])
     playback = viewer.build(
         robot,
         trajectory,
@@ -118,6 +149,8 @@ def run(args: argparse.Namespace) -> int:
         trace=not args.no_trace,
         loop=args.loop,
     )
+    if trajectory is not None:  # notes once the input is known good: a refusal stays one line
+        _note_trajectory(robot, trajectory, args.trajectory)
     _describe(playback)
     if args.html is not None:
         write_html(playback, args.html, open_browser=args.open)
@@ -145,6 +178,8 @@ def serve_and_play(
     """
     from robodyn import viewer
 
+    span = float(trajectory.t[-1] - trajectory.t[0])
+    check_frame_count(span, speed=speed, fps=None, what="the trajectory", hint="play a shorter one")
     playback = viewer.build(robot, trajectory, speed=speed, trace_frame=trace_frame)
     _describe(playback)
     return serve_playback(playback, open_browser=open_browser, zmq_url=zmq_url, port=None)
@@ -155,7 +190,7 @@ def write_html(playback: Playback, html: Path, *, open_browser: bool) -> Path:
     from robodyn import viewer
 
     path = writable_path(html)
-    path.write_text(viewer.to_html(playback), encoding="utf-8")
+    write_text_atomically(path, viewer.to_html(playback))
     print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB): open it in a browser, no server needed")
     if open_browser:
         open_in_browser(path.resolve().as_uri(), by_hand=str(path))

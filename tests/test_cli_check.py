@@ -57,8 +57,12 @@ def test_bad_input_is_one_line_with_exit_2(tmp_path, capsys):
         ["check", "pendubot", "--formula", "cart_pole"],
         ["check", "pendubot", "--formula", str(tmp_path / "absent.py")],
         ["check", "pendubot", "--samples", "0"],
+        ["check", "pendubot", "--samples", "100001"],  # past MAX_SAMPLES
+        ["check", "pendubot", "--formula-timeout", "0"],
+        ["check", "pendubot", "--formula", str(tmp_path / "exits.py")],  # sys.exit(0) at import
         ["params", "pendubot", "--kind", "geared_arm"],
     ]
+    (tmp_path / "exits.py").write_text("import sys\nsys.exit(0)\n")
     (tmp_path / "broken.urdf").write_text("<robot name='x'><link name='a'></robot>")
     cases.append(["check", str(tmp_path / "broken.urdf")])
     (tmp_path / "neg.urdf").write_text(

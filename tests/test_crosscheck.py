@@ -113,7 +113,7 @@ def test_model_perturbed_away_from_trusted_parameters_fails(tmp_path):
         (
             lambda d: _urdf.pendubot(
                 d / "r.urdf",
-                inertia1=np.diag([1e-4, 2.5e-3, 2.7e-3]),
+                inertia1=np.diag([3e-4, 2.5e-3, 2.7e-3]),  # principal moments that can be (3e-4 + 2.5e-3 >= 2.7e-3)
                 rpy1=(0.4, -0.3, 0.9),
                 inertia2=np.diag([2e-4, 1e-3, 1.1e-3]),
                 rpy2=(1.2, 0.2, -0.5),

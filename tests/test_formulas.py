@@ -176,6 +176,10 @@ def test_user_formula_errors_are_one_line(tmp_path):
         formulas.load_user_formula(missing)
     with pytest.raises(FormulaError, match="no such formula file"):
         formulas.load_user_formula(tmp_path / "absent.py")
+    failing = tmp_path / "failing.py"
+    failing.write_text("KIND = 'pendubot'\n1 / 0\n")
+    with pytest.raises(FormulaError, match=r"failed to import: ZeroDivisionError: division by zero \(line 2\)"):
+        formulas.load_user_formula(failing)
     raising = tmp_path / "raising.py"
     raising.write_text(
         "KIND = 'geared_arm'\ndef mass_matrix(q, p):\n  return p['mass']\n"

@@ -143,7 +143,7 @@ def test_body_with_massive_fixed_links_and_rotated_frames(tmp_path, capsys):
 def test_a_body_cannot_weigh_less_than_its_fixed_links(tmp_path, capsys):
     src = _urdf.pendubot(tmp_path / "p.urdf")
     extra = (
-        '<link name="bob"><inertial><mass value="0.5"/><inertia ixx="1e-5" iyy="1e-5" izz="1e-5"/></inertial></link>'
+        '<link name="bob"><inertial><mass value="0.5"/><inertia ixx="1e-5" iyy="1e-5" izz="1e-5" ixy="0" ixz="0" iyz="0"/></inertial></link>'
         '<joint name="bob_joint" type="fixed"><parent link="l2"/><child link="bob"/><origin xyz="0.2 0 0"/></joint>'
         "</robot>"
     )

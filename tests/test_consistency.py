@@ -2,11 +2,21 @@
 
 from __future__ import annotations
 
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
 import numpy as np
 import pinocchio as pin
 import pytest
 
-from robodyn.model.consistency import all_findings, impossible_inertials, inertial_findings, joint_findings
+from robodyn.model.consistency import (
+    all_findings,
+    impossible_inertials,
+    inertial_findings,
+    joint_findings,
+    link_findings,
+    link_inertials,
+)
 
 
 def one_body(mass: float, inertia: np.ndarray, *, armature: float = 0.0) -> pin.Model:
@@ -63,3 +73,33 @@ def test_impossible_means_errors_only():
     model = one_body(1.0, np.diag([1e-3, 1e-3, 3e-3]))
     assert [f.code for f in impossible_inertials(model)] == ["triangle"]
     assert all(f.severity == "warning" for f in inertial_findings(one_body(1.0, np.zeros((3, 3)))))
+
+
+def _rotated(principal: list[float], angle: float = np.pi / 4) -> np.ndarray:
+    """diag(principal) turned by ``angle`` about x: off-diagonal terms, same principal moments."""
+    c, s = np.cos(angle), np.sin(angle)
+    R = np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+    return R @ np.diag(principal) @ R.T
+
+
+def test_the_triangle_inequality_is_on_the_principal_moments():
+    impossible = _rotated([1e-3, 1e-3, 3e-3])  # diagonal (1, 2, 2)e-3: every diagonal triangle holds
+    d = np.diag(impossible)
+    assert d[0] + d[1] >= d[2] and d[1] + d[2] >= d[0] and d[0] + d[2] >= d[1]
+    assert "triangle" in codes(one_body(1.0, impossible))
+    assert codes(one_body(1.0, _rotated([1e-3, 2e-3, 2.5e-3]))) == set()  # a real box, turned
+
+
+def test_link_findings_check_each_link_of_the_file_before_the_merge():
+    root = ET.parse(Path(__file__).resolve().parents[1] / "models" / "pendubot.urdf").getroot()
+    tip = root.find("link[@name='tip']")
+    ET.SubElement(tip, "inertial").extend(
+        [
+            ET.Element("mass", value="0.01"),
+            ET.Element("inertia", ixx="-1e-6", iyy="1e-6", izz="1e-6", ixy="0", ixz="0", iyz="0"),
+        ]
+    )
+    inertials = link_inertials(root)
+    assert [i.link for i in inertials] == ["base", "link1", "link2", "tip"]
+    assert inertials[1].mass == 1.336 and inertials[1].xyz == (0.10, 0.0, 0.0)
+    assert [(f.body, f.code) for f in link_findings(inertials)] == [("tip", "inertia_not_psd")]

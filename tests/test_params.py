@@ -37,7 +37,7 @@ def test_builtin_parameters_are_the_documented_ones():
 
 
 def test_rotated_inertial_frame_gives_the_axis_inertia(tmp_path):
-    principal = np.diag([1e-4, 2.5e-3, 2.7e-3])
+    principal = np.diag([1e-4, 2.5e-3, 2.55e-3])  # a real body: 1e-4 + 2.5e-3 >= 2.55e-3
     rpy = (0.4, -0.3, 0.9)
     path = _urdf.pendubot(tmp_path / "p.urdf", inertia1=principal, rpy1=rpy)
     p = extract(robodyn.load(path), "pendubot")

@@ -43,6 +43,16 @@ def test_builtin_models_are_valid(name):
         ('<axis xyz="0 -1 0"/>', '<axis xyz="0 -1 zero"/>', r"<axis xyz='0 -1 zero'> is not 3 finite numbers"),
         ('type="revolute"', 'type="hinge"', r"type='hinge', expected one of revolute"),
         ('<mass value="0.5"/>', "<mass/>", r"link 'link2': <mass> has no value="),
+        ('ixy="0" ixz="0" iyz="0"/>', 'ixz="0" iyz="0"/>', r"<inertia> has no ixy= \(expected a number: urdfdom drops"),
+        ('<mass value="0.5"/>', "", r"link 'link2': <inertial> has no <mass>"),
+        ('<mass value="0.5"/>', '<mass value="0.5"/><mass value="0.5"/>', r"link 'link2': 2 <mass> elements"),
+        ('<box size="0.252 0.02 0.01"/>', '<mesh filename="m.stl" scale="1 1"/>', r"<mesh scale='1 1'> is not 3 fin"),
+        (
+            '<robot name="pendubot">',
+            '<robot name="pendubot"><material name="red"><color rgba="1 0 0"/></material>',
+            r"material 'red': <color rgba='1 0 0'> is not 4 finite numbers",
+        ),
+        ("</joint>", '<calibration rising="1_0"/></joint>', r"joint 'joint1': <calibration rising='1_0'> is not a"),
     ],
 )
 def test_malformed_numbers_are_named(old, new, message):
@@ -55,7 +65,10 @@ def test_malformed_numbers_are_named(old, new, message):
 
 # --------------------------------------------------------------------------- structure
 
-_LINK = '<link name="{}"><inertial><mass value="0.1"/><inertia ixx="1e-4" iyy="1e-4" izz="1e-4"/></inertial></link>'
+_LINK = (
+    '<link name="{}"><inertial><mass value="0.1"/>'
+    '<inertia ixx="1e-4" iyy="1e-4" izz="1e-4" ixy="0" ixz="0" iyz="0"/></inertial></link>'
+)
 _FIXED = '<joint name="{}" type="fixed"><parent link="{}"/><child link="{}"/></joint>'
 
 

@@ -9,7 +9,7 @@ code               level    meaning
 =================  =======  ====================================================
 negative_mass      error    a body's mass is below zero
 inertia_not_psd    error    a rotational inertia with a negative eigenvalue
-triangle           error    Ixx + Iyy >= Izz (or a permutation) is broken
+triangle           error    principal moments break I1 + I2 >= I3
 zero_mass          warning  a moving body with zero mass
 massless_subtree   error    a joint that moves nothing with mass or inertia: M is singular
 inertia_singular   warning  a body with mass whose inertia is not positive definite
@@ -19,16 +19,24 @@ mesh_missing       warning  a mesh file the URDF refers to does not exist
 =================  =======  ====================================================
 
 Inertias are checked per Pinocchio body (the links welded to one joint, merged), which is
-what the dynamics sees; a moving body may have zero mass as long as its subtree has some.
+what the dynamics sees; a moving body may have zero mass as long as its subtree has some. Each
+link's own ``<inertial>`` in the file is checked too (:func:`link_findings`): the merge of
+welded links can hide a negative mass, and the root link's body is not a joint's. The triangle
+inequality is tested on the principal moments (the eigenvalues of the tensor), not its diagonal:
+I1 + I2 >= I3 for the two smallest, which holds in every frame for a real mass distribution.
 """
 
 from __future__ import annotations
 
+import xml.etree.ElementTree as ET
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
+
+from robodyn.model.urdf import parse_numbers
 
 # Relative slack for the eigenvalue and triangle-inequality tests: URDF inertias are often
 # printed with 4-6 significant digits, so a violation smaller than this is rounding.
@@ -79,19 +87,16 @@ def _inertia_findings(name: str, mass: float, I: np.ndarray) -> list[Finding]:
             )
         )
         return findings
-    d = np.diag(I)
-    axes = "xyz"
-    for a, b, c in ((1, 2, 0), (0, 2, 1), (0, 1, 2)):
-        if d[a] + d[b] < d[c] - slack:
-            findings.append(
-                Finding(
-                    name,
-                    "error",
-                    f"inertia breaks the triangle inequality I{axes[a] * 2} + I{axes[b] * 2} >= I{axes[c] * 2} "
-                    f"({d[a]:.6g} + {d[b]:.6g} < {d[c]:.6g} kg m^2)",
-                    "triangle",
-                )
+    if eig[0] + eig[1] < eig[2] - slack:  # eigvalsh sorts ascending: the one inequality that can fail
+        findings.append(
+            Finding(
+                name,
+                "error",
+                f"principal moments of inertia {eig[0]:.6g}, {eig[1]:.6g}, {eig[2]:.6g} kg m^2 break the "
+                f"triangle inequality ({eig[0]:.6g} + {eig[1]:.6g} < {eig[2]:.6g})",
+                "triangle",
             )
+        )
     if mass > 0 and eig.min() <= slack:
         what = "a point mass" if eig.max() <= INERTIA_FLOOR else "a thin rod or flat plate"
         findings.append(
@@ -103,6 +108,71 @@ def _inertia_findings(name: str, mass: float, I: np.ndarray) -> list[Finding]:
             )
         )
     return findings
+
+
+@dataclass(frozen=True)
+class LinkInertial:
+    """One link's ``<inertial>`` as written in the file (zeros for a link without one)."""
+
+    link: str
+    mass: float  # [kg]
+    xyz: tuple[float, float, float]  # [m] centre of mass in the link frame
+    rpy: tuple[float, float, float]  # [rad] orientation of the inertia's frame in the link frame
+    inertia: np.ndarray  # (3, 3) [kg m^2] about the centre of mass, in the inertial frame
+
+
+def _vector(element: ET.Element | None, attribute: str) -> tuple[float, float, float]:
+    values = parse_numbers(element.get(attribute, "0 0 0"), 3) if element is not None else None
+    return (values[0], values[1], values[2]) if values else (0.0, 0.0, 0.0)
+
+
+def _scalar(element: ET.Element | None, attribute: str) -> float:
+    values = parse_numbers(element.get(attribute, "0"), 1) if element is not None else None
+    return values[0] if values else 0.0
+
+
+def link_inertials(root: ET.Element) -> list[LinkInertial]:
+    """Every link's inertial in ``root``, in file order (a number that does not parse reads as 0: validate first)."""
+    out = []
+    for link in root.findall("link"):
+        inertial = link.find("inertial")
+        mass, I = 0.0, np.zeros((3, 3))
+        if inertial is not None:
+            mass = _scalar(inertial.find("mass"), "value")
+            element = inertial.find("inertia")
+            t = {n: _scalar(element, n) for n in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
+            I = np.array(
+                [[t["ixx"], t["ixy"], t["ixz"]], [t["ixy"], t["iyy"], t["iyz"]], [t["ixz"], t["iyz"], t["izz"]]]
+            )
+        origin = inertial.find("origin") if inertial is not None else None
+        out.append(LinkInertial(str(link.get("name")), mass, _vector(origin, "xyz"), _vector(origin, "rpy"), I))
+    return out
+
+
+def link_findings(inertials: Sequence[LinkInertial]) -> list[Finding]:
+    """The errors of each link's own inertial as written in the file (before any merge of welded links)."""
+    findings: list[Finding] = []
+    for link in inertials:
+        findings += [f for f in _inertia_findings(link.link, link.mass, link.inertia) if f.severity == "error"]
+    return findings
+
+
+def file_findings(urdf: Path) -> list[Finding]:
+    """:func:`link_findings` of the URDF file ``urdf``."""
+    from robodyn.model.files import read_xml
+
+    return link_findings(link_inertials(read_xml(urdf, "URDF")))
+
+
+def _distinct(findings: list[Finding]) -> list[Finding]:
+    """``findings`` without repeats of a (body, code) pair: a lone link is also its own body."""
+    seen: set[tuple[str, str]] = set()
+    out = []
+    for finding in findings:
+        if (finding.body, finding.code) not in seen:
+            seen.add((finding.body, finding.code))
+            out.append(finding)
+    return out
 
 
 def _subtree_has_inertia(model: pin.Model) -> list[bool]:
@@ -185,13 +255,16 @@ def mesh_findings(urdf: Path) -> list[Finding]:
 
 
 def all_findings(model: pin.Model, *, urdf: Path | None = None, geometry: bool = False) -> list[Finding]:
-    """Every finding about ``model``; mesh files are looked for only when ``geometry`` is True."""
+    """Every finding about ``model`` and, given ``urdf``, its file's links; meshes only when ``geometry``."""
     findings = inertial_findings(model) + joint_findings(model)
-    if geometry and urdf is not None:
-        findings += mesh_findings(urdf)
-    return findings
+    if urdf is not None:
+        findings += file_findings(urdf)
+        if geometry:
+            findings += mesh_findings(urdf)
+    return _distinct(findings)
 
 
-def impossible_inertials(model: pin.Model) -> list[Finding]:
-    """The findings that no real body can have."""
-    return [f for f in inertial_findings(model) + joint_findings(model) if f.severity == "error"]
+def impossible_inertials(model: pin.Model, *, links: Sequence[LinkInertial] = ()) -> list[Finding]:
+    """The findings that no real body can have, in ``model`` and in the file's ``links``."""
+    findings = inertial_findings(model) + joint_findings(model) + link_findings(links)
+    return _distinct([f for f in findings if f.severity == "error"])

@@ -256,6 +256,10 @@ def resolve(name_or_path: str | Path, *, srdf: str | Path | None = None) -> Mode
     """Turn a built-in or library name, or a URDF path, into a :class:`ModelSource`."""
     if looks_like_path(name_or_path):
         urdf = Path(name_or_path)
+        if urdf.is_dir():
+            raise ModelError("is a directory (expected a path to a .urdf file or a model name)", path=urdf)
+        if urdf.exists() and not urdf.is_file():
+            raise ModelError("is not a regular file (expected a path to a .urdf file or a model name)", path=urdf)
         if not urdf.is_file():
             raise ModelError("no such URDF file (expected a path to a .urdf file or a model name)", path=urdf)
         found = Path(srdf) if srdf is not None else find_srdf(urdf)

@@ -20,6 +20,11 @@ if TYPE_CHECKING:
 
 Array = NDArray[np.float64]
 
+# A state is an equilibrium when |nle(q) - S u| stays below this fraction of the weight scale
+# m_total |g| (1 m) [N m | N]: round-off in G at an exact equilibrium is ~1e-16 of it, while an
+# angle off by a microradian leaves ~1e-6.
+EQUILIBRIUM_TOL = 1e-9
+
 
 def as_vector(value: ArrayLike, size: int, name: str) -> Array:
     """``value`` as a float64 vector of length ``size``, or an :class:`InputError` naming ``name``."""
@@ -213,6 +218,90 @@ class Robot:
             f"backend {backend!r} is not a method of Robot: it needs a seed kind's formula; use "
             f"robodyn.simulate(..., backend={backend!r}) or robodyn.formulas.get(kind).forward_dynamics"
         )
+
+    def linearize(
+        self, q: ArrayLike, v: ArrayLike, tau: ArrayLike, *, equilibrium: bool = True, losses: bool = True
+    ) -> tuple[Array, Array]:
+        """State-space linearisation (A, B) of x' = f(x, u) at (q, v, tau), from Pinocchio's ABA derivatives.
+
+        State and input ordering:
+
+        * x = [q_1 .. q_n, v_1 .. v_n] (n = nq = nv; models with cos/sin pairs or quaternions are refused),
+          so A is (2n, 2n);
+        * u = the torques on the actuated joints only, in model order [N m | N], so B is (2n, n_act)
+          with one column per actuated joint.
+
+        A = [[0, I], [da/dq, da/dv]], B = [[0], [M^-1 S]] with S (nv, n_act) selecting the actuated
+        joints, a = ABA(q, v, S u - D v). ``losses`` includes the URDF's viscous joint damping D as
+        :func:`robodyn.simulate` applies it (da/dv gains -M^-1 D). Coulomb friction is left out: it is
+        not differentiable at v = 0 (simulate smooths it over 1e-3 rad/s, a slope no linear design
+        should rest on).
+
+        Args:
+            q: configuration (nq,) [rad | m].
+            v: velocity (nv,) [rad/s | m/s].
+            tau: torque, nv entries (zero on passive joints) or one per actuated joint [N m | N].
+            equilibrium: require (q, v, tau) to be an equilibrium: v = 0 and nle(q) - S u = 0 to
+                ``EQUILIBRIUM_TOL`` times the weight scale m_total |g| (1 m); False linearises anywhere.
+            losses: include the joint damping (as simulate does by default).
+
+        Raises:
+            InputError: nq != nv, bad vectors, a torque on a passive joint, or (with ``equilibrium``)
+                a state that is not an equilibrium: the message gives the residual nle(q) - S u.
+        """
+        if not self.nq_equals_nv:
+            raise InputError(
+                f"linearize needs plain coordinates (nq == nv); {self.name} has nq={self.nq}, nv={self.nv}"
+            )
+        q_, v_ = self.q_(q), self.v_(v)
+        u = self.input_vector(tau)
+        S = self.input_matrix()
+        damping = self.damping if losses else np.zeros(self.nv)
+        if equilibrium:
+            self._require_equilibrium(q_, v_, S @ u)
+        da_dq, da_dv, Minv = dynamics.aba_derivatives(self.model, self.data, q_, v_, S @ u - damping * v_)
+        if not np.array_equal(Minv, Minv.T):  # should a release fill only the upper triangle
+            Minv = np.triu(Minv) + np.triu(Minv, 1).T
+        n = self.nv
+        A = np.zeros((2 * n, 2 * n))
+        A[:n, n:] = np.eye(n)
+        A[n:, :n] = da_dq
+        A[n:, n:] = da_dv - Minv * damping  # d(-D v)/dv = -D: Minv @ diag(-D)
+        B = np.zeros((2 * n, S.shape[1]))
+        B[n:] = Minv @ S
+        return A, B
+
+    def input_matrix(self) -> Array:
+        """S (nv, n_act): column k is the unit vector of the k-th actuated velocity; tau = S u."""
+        return np.eye(self.nv)[:, self.actuated]
+
+    def input_vector(self, tau: ArrayLike, name: str = "tau") -> Array:
+        """The actuated torques u (n_act,) from nv entries (zero on passive joints) or n_act entries."""
+        mask = self.actuated
+        n_act = int(mask.sum())
+        if n_act != self.nv and np.size(tau) == n_act:
+            return as_vector(tau, n_act, name)
+        full = as_vector(tau, self.nv, name)
+        if np.any(full[~mask]):
+            raise InputError(
+                f"{name} = {full} pushes on passive joint(s) {', '.join(self.passive_joints)} of {self.name}; "
+                f"give zeros there or one entry per actuated joint ({n_act})"
+            )
+        return full[mask]
+
+    def _require_equilibrium(self, q: Array, v: Array, tau: Array) -> None:
+        """Raise :class:`InputError` unless v = 0 and nle(q, 0) = tau within the tolerance."""
+        if np.any(v):
+            raise InputError(f"{self.name}: v = {v} is not an equilibrium: the velocity must be 0")
+        residual = dynamics.nonlinear_effects(self.model, self.data, q, v) - tau
+        scale = self.total_mass * float(np.linalg.norm(self.model.gravity.linear)) * 1.0
+        tol = EQUILIBRIUM_TOL * max(scale, 1.0)
+        if np.max(np.abs(residual)) > tol:
+            raise InputError(
+                f"{self.name}: q = {np.array2string(q, precision=6)} with tau = {np.array2string(tau, precision=6)} "
+                f"is not an equilibrium: residual nle(q) - B u = {np.array2string(residual, precision=6)} "
+                f"[N m | N], max |.| {np.max(np.abs(residual)):.3g} > {tol:.3g}"
+            )
 
     def kinetic_energy(self, q: ArrayLike, v: ArrayLike) -> float:
         """Kinetic energy 1/2 v^T M(q) v [J] (includes rotor armature)."""

@@ -1,0 +1,122 @@
+"""The controllers by name: ``make(name, robot, **gains)`` builds a torque callable tau(t, q, v) for one robot.
+
+Built in:
+
+* ``lqr``: LQR balance at the upright (or a given) equilibrium (:mod:`robodyn.control.lqr`);
+  gains ``Q``, ``R``, ``K``, ``q_eq``, ``u_eq``;
+* ``swing_up``: energy swing-up from anywhere, handing over to that LQR inside its estimated
+  region of attraction (:mod:`robodyn.control.swing_up`, :mod:`robodyn.control.switch`); gains
+  ``Q``, ``R``, ``K`` of the LQR, ``rho`` (the region's level; default estimated), ``samples`` and
+  ``seed`` of that estimate, and the swing-up law's own: for the cart-pole ``k_energy``,
+  ``accel_max``, ``k_position``, ``k_velocity``, ``kick``, ``energy_offset``; for the Pendubot
+  ``k_energy``, ``k_d``, ``k_p``, ``k_v``, ``energy_offset``.
+
+A name that ends in ``.py`` or holds a path separator is a user's controller file
+(:mod:`robodyn.control.user`). An unknown name, or an unknown gain, raises
+:class:`UnknownNameError` with the close matches.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robodyn.control import lqr, region, swing_up
+from robodyn.control.plant import CONTROLLED_KINDS, plant
+from robodyn.control.switch import Switched
+from robodyn.control.user import load_user_controller, looks_like_file
+from robodyn.errors import InputError, UnknownNameError
+from robodyn.registry import Registry
+from robodyn.robot import Robot
+
+Array = NDArray[np.float64]
+Controller = Callable[[float, Array, Array], Array]
+
+
+@dataclass(frozen=True)
+class ControllerSpec:
+    """A built-in controller: what it does (one line) and the factory make(robot, **gains)."""
+
+    summary: str
+    factory: Callable[..., Controller]
+
+
+CONTROLLERS: Registry[ControllerSpec] = Registry("controller")
+
+LQR_GAINS = ("K", "Q", "R", "q_eq", "u_eq")
+REGION_GAINS = ("rho", "samples", "seed")
+SWING_UP_GAINS = {
+    "cart_pole": ("accel_max", "energy_offset", "k_energy", "k_position", "k_velocity", "kick"),
+    "pendubot": ("energy_offset", "k_d", "k_energy", "k_p", "k_v"),
+}
+
+
+def names() -> tuple[str, ...]:
+    """The built-in controller names, sorted."""
+    return CONTROLLERS.names()
+
+
+def make(name: str, robot: Robot, **gains: Any) -> Controller:
+    """The controller ``name`` (or a user's controller file) for ``robot``, a callable tau(t, q, v) -> u (n_act,).
+
+    Pass it to :func:`robodyn.simulate` as ``torque=``.
+
+    Raises:
+        UnknownNameError: an unknown controller or gain (with close matches).
+        InputError: gains of the wrong shape or sign, a robot the controller cannot serve, or a
+            controller file that fails (its file and line).
+    """
+    if looks_like_file(name):
+        return load_user_controller(name, robot, **gains)
+    return CONTROLLERS.get(name).factory(robot, **gains)
+
+
+def _check_gains(controller: str, gains: dict[str, Any], allowed: tuple[str, ...]) -> None:
+    for key in gains:
+        if key not in allowed:
+            raise UnknownNameError(f"gain of controller {controller!r}", key, allowed)
+
+
+def _make_lqr(robot: Robot, **gains: Any) -> lqr.LQR:
+    _check_gains("lqr", gains, LQR_GAINS)
+    return lqr.design(robot, **gains)
+
+
+def _make_swing_up(robot: Robot, **gains: Any) -> Switched:
+    p = plant(robot)
+    if p.kind is None:
+        raise InputError(
+            f"controller 'swing_up' knows the {' and the '.join(CONTROLLED_KINDS)}; {robot.name} is neither"
+        )
+    own = SWING_UP_GAINS[p.kind]
+    _check_gains(f"swing_up ({p.kind})", gains, LQR_GAINS[:3] + REGION_GAINS + own)
+    balance = lqr.design(robot, **{k: gains[k] for k in LQR_GAINS[:3] if k in gains})
+    rho = gains.get("rho")
+    estimated = region.estimate(
+        balance,
+        samples=_count(gains.get("samples", region.DEFAULT_SAMPLES), "samples"),
+        seed=_count(gains.get("seed", 0), "seed", minimum=0),
+    )
+    if rho is not None:
+        if isinstance(rho, bool) or not isinstance(rho, (int, float)) or not np.isfinite(rho) or rho <= 0:
+            raise InputError(f"swing_up gain rho must be a positive number (a level of e^T P e), got {rho!r}")
+        estimated = region.Region(float(rho), estimated.rho_lyapunov, estimated.rho_rail, estimated.c_max, 0, 0)
+    law_gains = {k: gains[k] for k in own if k in gains}
+    law = swing_up.cart_pole(p, **law_gains) if p.kind == "cart_pole" else swing_up.pendubot(p, **law_gains)
+    return Switched(law, balance, estimated)
+
+
+def _count(value: Any, name: str, *, minimum: int = 1) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+        raise InputError(f"swing_up gain {name} must be a whole number >= {minimum}, got {value!r}")
+    return int(value)
+
+
+CONTROLLERS.register("lqr", ControllerSpec("LQR balance at the upright (or a given) equilibrium", _make_lqr))
+CONTROLLERS.register(
+    "swing_up", ControllerSpec("energy swing-up from hanging, handing over to LQR balance", _make_swing_up)
+)

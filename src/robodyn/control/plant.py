@@ -1,0 +1,129 @@
+"""What a controller knows about its robot: the upright and hanging states, wrapped errors, the limits.
+
+The seed systems' conventions (see :mod:`robodyn.kinds.cart_pole` and :mod:`robodyn.kinds.pendubot`):
+
+* cart-pole, q = (y [m], theta [rad]) with theta from the upward vertical: upright q = (0, 0),
+  hanging q = (0, pi);
+* Pendubot, q = (q1, q2) [rad] with q1 from the horizontal and q2 relative to link 1: upright
+  q = (pi/2, 0), hanging q = (-pi/2, 0).
+
+State errors x - x_eq wrap every revolute coordinate to [-pi, pi), so "upright" means upright
+whatever the number of turns. The limits are read from the model: the effort limit of each
+actuated joint (``model.effortLimit``; a URDF's effort="0", or no limit, reads as unlimited) and,
+for an actuated prismatic joint with finite position limits (the cart's rail), the usable interval:
+the limits less ``RAIL_MARGIN`` of the half-length at each end.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from robodyn.errors import InputError
+from robodyn.kinds import params
+from robodyn.robot import Robot
+
+Array = NDArray[np.float64]
+
+# The cart keeps this fraction of the rail's half-length clear of each end (0.2 m on a +-2 m rail):
+# room to brake from the speeds the swing-up reaches, before the simulator's rail stop.
+RAIL_MARGIN = 0.1
+
+# The seed kinds a controller knows the upright and hanging states of.
+CONTROLLED_KINDS = ("cart_pole", "pendubot")
+
+_UPRIGHT = {"cart_pole": (0.0, 0.0), "pendubot": (np.pi / 2, 0.0)}
+_HANGING = {"cart_pole": (0.0, np.pi), "pendubot": (-np.pi / 2, 0.0)}
+
+
+@dataclass(frozen=True, eq=False)
+class Plant:
+    """A robot as a controller sees it.
+
+    ``kind`` is the seed kind or None; ``angular`` (nq,) marks the revolute coordinates whose
+    errors wrap; ``effort`` (n_act,) the effort limits [N m | N] (inf: none); ``rail`` the usable
+    interval [m] of the actuated prismatic joint ``rail_index`` (into q), margin taken off, or None.
+    """
+
+    robot: Robot
+    kind: str | None
+    angular: NDArray[np.bool_]
+    effort: Array
+    rail: tuple[float, float] | None
+    rail_index: int | None
+
+    @property
+    def n(self) -> int:
+        """Degrees of freedom (nq == nv)."""
+        return self.robot.nv
+
+    @property
+    def n_act(self) -> int:
+        """Number of actuated joints (the columns of B)."""
+        return int(self.effort.size)
+
+    def upright(self) -> Array:
+        """The upright configuration (nq,) of a seed kind; InputError for other robots."""
+        return self._seed_state(_UPRIGHT, "upright")
+
+    def hanging(self) -> Array:
+        """The hanging configuration (nq,) of a seed kind (its stable rest); InputError for other robots."""
+        return self._seed_state(_HANGING, "hanging")
+
+    def _seed_state(self, table: dict[str, tuple[float, float]], what: str) -> Array:
+        if self.kind is None:
+            raise InputError(
+                f"{self.robot.name} is none of {', '.join(CONTROLLED_KINDS)}: it has no known {what} state; "
+                "give the equilibrium q_eq"
+            )
+        return np.array(table[self.kind], dtype=np.float64)
+
+    def error(self, q: ArrayLike, v: ArrayLike, q_eq: Array) -> Array:
+        """The state error e = x - x_eq = [q - q_eq (revolute entries wrapped to [-pi, pi)), v].
+
+        Shape (2n,), or (m, 2n) for a batch.
+        """
+        q_, v_ = np.asarray(q, dtype=np.float64), np.asarray(v, dtype=np.float64)
+        dq = q_ - q_eq
+        dq = np.where(self.angular, wrap(dq), dq)
+        return np.concatenate([dq, v_], axis=-1)
+
+    def saturate(self, u: Array) -> Array:
+        """``u`` (n_act,) or (m, n_act) clipped to the effort limits."""
+        return np.clip(u, -self.effort, self.effort)
+
+
+def wrap(angle: ArrayLike) -> Array:
+    """Angles [rad] wrapped to [-pi, pi)."""
+    return np.asarray((np.asarray(angle, dtype=np.float64) + np.pi) % (2.0 * np.pi) - np.pi, dtype=np.float64)
+
+
+def plant(robot: Robot) -> Plant:
+    """The :class:`Plant` of ``robot``; InputError if nq != nv or nothing is actuated."""
+    if not robot.nq_equals_nv:
+        raise InputError(
+            f"controllers need plain coordinates (nq == nv); {robot.name} has nq={robot.nq}, nv={robot.nv}"
+        )
+    mask = robot.actuated
+    if not np.any(mask):
+        raise InputError(f"{robot.name} has no actuated joint: there is nothing to control")
+    kind = params.detect_kind(robot)
+    kind = kind if kind in CONTROLLED_KINDS else None
+    angular = np.zeros(robot.nq, dtype=bool)
+    rail: tuple[float, float] | None = None
+    rail_index: int | None = None
+    lower = np.array(robot.model.lowerPositionLimit, dtype=np.float64)
+    upper = np.array(robot.model.upperPositionLimit, dtype=np.float64)
+    for joint in robot.joints:
+        if joint.kind.startswith("JointModelR"):
+            angular[joint.idx_q] = True
+        elif joint.kind.startswith("JointModelP") and joint.actuated and rail is None:
+            lo, hi = float(lower[joint.idx_q]), float(upper[joint.idx_q])
+            if np.isfinite(lo) and np.isfinite(hi) and hi > lo:
+                margin = RAIL_MARGIN * 0.5 * (hi - lo)
+                rail, rail_index = (lo + margin, hi - margin), joint.idx_q
+    effort = np.array(robot.model.effortLimit, dtype=np.float64)[mask]
+    effort = np.where(np.isfinite(effort) & (effort > 0), effort, np.inf)
+    return Plant(robot, kind, angular, effort, rail, rail_index)

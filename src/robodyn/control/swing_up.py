@@ -1,0 +1,215 @@
+"""Energy-based swing-up from hanging: Astrom-Furuta for the cart-pole, Spong's collocated PFL for the Pendubot.
+
+Both pump the mechanical energy E towards its value E_up at the upright equilibrium, and both
+give their torque through the collocated partial feedback linearisation of
+:mod:`robodyn.control.pfl` (a commanded acceleration of the actuated joint), clipped to the
+URDF's effort limit. Neither balances: :mod:`robodyn.control.switch` hands over to the LQR.
+
+**Cart-pole** (K. J. Astrom and K. Furuta, "Swinging up a pendulum by energy control",
+Automatica 36, 2000). The pole's own energy E = 1/2 J theta'^2 + m g l (cos theta - 1),
+J = m l^2 + I, is 0 upright at rest and obeys dE/dt = -m l y'' theta' cos theta. The cart's
+acceleration
+
+    y''_cmd = sat_{a_max}( k_E (E - E_up) (theta' cos theta + kick) ) - k_y y - k_v y'
+
+makes dE/dt = -m l k_E (E - E_up) (theta' cos theta)^2 <= 0 towards E_up (the small ``kick``
+starts the swing from rest, where theta' = 0, and vanishes with E - E_up). The PD terms keep the
+cart near the middle; a rail guard brakes at ``a_max`` when the cart could not otherwise stop
+inside the rail's usable interval. Assumes: the pole's hinge is frictionless (the energy law
+ignores its damping), the cart's force is its only input, the state is measured.
+
+**Pendubot** (I. Fantoni, R. Lozano and M. W. Spong, "Energy based control of the Pendubot",
+IEEE TAC 45(4), 2000, written through Spong's collocated PFL q1'' = w). With E the total
+energy (dE/dt = q1' u for lossless joints) and the Lyapunov function
+W = 1/2 k_E (E - E_up)^2 + 1/2 k_D q1'^2 + 1/2 k_P (q1 - pi/2)^2, the outer loop
+
+    w = -(k_V q1' + k_P (q1 - pi/2) + k_E (E - E_up) hbar) / (k_E (E - E_up) Mbar + k_D)
+
+gives dW/dt = -k_V q1'^2, so E -> E_up with link 1 upright at rest: link 2 then rides the
+homoclinic orbit into the upright. The denominator must stay positive for every energy from
+hanging up: k_D > k_E (E_up - E_hanging) max Mbar, checked when the controller is made.
+Assumes: lossless joints, the torque on the shoulder is the only input, the state is measured.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robodyn import dynamics
+from robodyn.control.pfl import Collocated, collocated
+from robodyn.control.plant import Plant, wrap
+from robodyn.errors import InputError
+from robodyn.kinds import params
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True, eq=False)
+class CartPoleEnergy:
+    """Astrom-Furuta energy swing-up of a cart-pole; call as tau(t, q, v) -> (force [N],).
+
+    ``k_energy`` [m/s^2 per J rad/s], ``accel_max`` [m/s^2], ``k_position`` [1/s^2],
+    ``k_velocity`` [1/s], ``kick`` [rad/s]; ``m``, ``l``, ``J``, ``g`` the pole's parameters.
+    """
+
+    plant: Plant
+    pfl: Collocated
+    k_energy: float
+    accel_max: float
+    k_position: float
+    k_velocity: float
+    kick: float
+    m: float
+    l: float
+    J: float
+    g: float
+    energy_up: float = 0.0
+
+    def energy(self, q: Array, v: Array) -> float:
+        """The pole's energy 1/2 J theta'^2 + m g l (cos theta - 1) [J], 0 upright at rest."""
+        return 0.5 * self.J * float(v[1]) ** 2 + self.m * self.g * self.l * (float(np.cos(q[1])) - 1.0)
+
+    def acceleration(self, q: Array, v: Array) -> float:
+        """The commanded cart acceleration [m/s^2], rail guard applied."""
+        sigma = float(v[1] * np.cos(q[1])) + self.kick
+        pump = float(np.clip(self.k_energy * (self.energy(q, v) - self.energy_up) * sigma, -1.0, 1.0))
+        accel = self.accel_max * pump - self.k_position * float(q[0]) - self.k_velocity * float(v[0])
+        return rail_guard(self.plant, float(q[0]), float(v[0]), accel, self.accel_max)
+
+    def __call__(self, t: float, q: Array, v: Array) -> Array:
+        """The cart force [N] (1,), from the commanded acceleration by collocated PFL, clipped to the effort limit."""
+        return self.plant.saturate(self.pfl.torque(q, v, np.array([self.acceleration(q, v)])))
+
+
+@dataclass(frozen=True, eq=False)
+class PendubotEnergy:
+    """Fantoni-Lozano-Spong energy swing-up of a Pendubot through collocated PFL; call as tau(t, q, v) -> (u [N m],).
+
+    Gains ``k_energy`` [1/J^2 scale], ``k_d``, ``k_p``, ``k_v`` as in the module's W; ``energy_up`` [J]
+    the target, the total energy at the upright equilibrium at rest.
+    """
+
+    plant: Plant
+    pfl: Collocated
+    k_energy: float
+    k_d: float
+    k_p: float
+    k_v: float
+    energy_up: float
+
+    def energy(self, q: Array, v: Array) -> float:
+        """Total mechanical energy 1/2 v^T M v + V [J] (armature included)."""
+        robot = self.plant.robot
+        M = dynamics.mass_matrix(robot.model, robot.data, q)
+        return 0.5 * float(v @ M @ v) + dynamics.potential_energy(robot.model, robot.data, q)
+
+    def __call__(self, t: float, q: Array, v: Array) -> Array:
+        """The shoulder torque [N m] (1,), clipped to the effort limit."""
+        robot = self.plant.robot
+        Mbar, hbar, M = self.pfl.reduced(q, v)
+        e = 0.5 * float(v @ M @ v) + dynamics.potential_energy(robot.model, robot.data, q) - self.energy_up
+        q1_error = float(wrap(q[0] - np.pi / 2))
+        numerator = self.k_v * float(v[0]) + self.k_p * q1_error + self.k_energy * e * float(hbar[0])
+        w = -numerator / (self.k_energy * e * float(Mbar[0, 0]) + self.k_d)
+        return self.plant.saturate(Mbar @ np.array([w]) + hbar)
+
+
+def rail_guard(plant: Plant, y: float, vy: float, accel: float, brake: float) -> float:
+    """``accel`` [m/s^2], or full braking ``-brake sign(vy)`` when the cart could not stop inside the rail.
+
+    The cart is at y [m] moving at vy [m/s]; braking at ``brake`` [m/s^2] it stops at y + vy |vy| / (2 brake).
+    """
+    if plant.rail is None:
+        return accel
+    lo, hi = plant.rail
+    stop = y + vy * abs(vy) / (2.0 * brake)  # where the cart stops braking at ``brake`` from now on
+    if vy > 0 and stop >= hi:
+        return min(accel, -brake)
+    if vy < 0 and stop <= lo:
+        return max(accel, brake)
+    return accel
+
+
+def cart_pole(
+    plant: Plant,
+    *,
+    k_energy: float = 1.0,
+    accel_max: float | None = None,
+    k_position: float = 2.0,
+    k_velocity: float = 3.0,
+    kick: float = 0.1,
+    energy_offset: float = 0.0,
+) -> CartPoleEnergy:
+    """The cart-pole's swing-up law.
+
+    ``accel_max`` defaults to g (Astrom-Furuta's n = 1), capped at 80 % of what the effort limit gives.
+
+    ``energy_offset`` [J] shifts the target E_up = 0 (for experiments; the upright needs 0).
+    """
+    p = params.extract(plant.robot, "cart_pole")
+    m, l, g = p["m"], p["l"], p["g"]
+    J = m * l * l + p["I"]
+    if accel_max is None:
+        accel_max = min(g, 0.8 * float(plant.effort[0]) / (p["M"] + m))
+    _positive(k_energy=k_energy, accel_max=accel_max)
+    _non_negative(k_position=k_position, k_velocity=k_velocity, kick=kick)
+    return CartPoleEnergy(
+        plant, collocated(plant.robot), k_energy, accel_max, k_position, k_velocity, kick, m, l, J, g, energy_offset
+    )
+
+
+def pendubot(
+    plant: Plant,
+    *,
+    k_energy: float = 1.0,
+    k_d: float | None = None,
+    k_p: float = 30.0,
+    k_v: float = 2.0,
+    energy_offset: float = 0.0,
+) -> PendubotEnergy:
+    """The Pendubot's swing-up; ``k_d`` defaults to ``K_D_FACTOR`` times the smallest value that keeps the law defined.
+
+    Only the ratios of the gains matter (W scales with them). The defaults were picked on the seed
+    model with its 2 N m effort limit: k_d close to its bound lets the energy term dominate, and
+    k_p = 30 holds link 1 near upright while k_v = 2 dissipates W.
+
+    ``energy_offset`` [J] shifts the target E_up (for experiments; the upright needs 0).
+    """
+    robot = plant.robot
+    up, down = plant.upright(), plant.hanging()
+    energy_up = robot.potential_energy(up) + energy_offset
+    deficit = energy_up - robot.potential_energy(down)
+    pfl = collocated(robot)
+    Mbar_max = max(float(pfl.reduced(np.array([0.0, q2]), np.zeros(2))[0][0, 0]) for q2 in _Q2_GRID)
+    k_d_min = k_energy * deficit * Mbar_max
+    if k_d is None:
+        k_d = K_D_FACTOR * k_d_min
+    _positive(k_energy=k_energy, k_p=k_p, k_v=k_v)
+    if not k_d > k_d_min:
+        raise InputError(
+            f"swing_up gain k_d = {k_d!r} must exceed k_energy (E_up - E_hanging) max Mbar = {k_d_min:.4g} "
+            "(else the Pendubot law divides by zero on the way up)"
+        )
+    return PendubotEnergy(plant, pfl, k_energy, float(k_d), k_p, k_v, energy_up)
+
+
+# The default k_d sits this factor above its bound k_E (E_up - E_hanging) max Mbar.
+K_D_FACTOR = 1.02
+
+# Mbar depends on q2 only (the Pendubot's inertia does not change with q1): a grid over one turn.
+_Q2_GRID = np.linspace(-np.pi, np.pi, 73)
+
+
+def _positive(**gains: float) -> None:
+    for name, value in gains.items():
+        if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
+            raise InputError(f"swing_up gain {name} must be a positive number, got {value!r}")
+
+
+def _non_negative(**gains: float) -> None:
+    for name, value in gains.items():
+        if not (isinstance(value, (int, float)) and np.isfinite(value) and value >= 0):
+            raise InputError(f"swing_up gain {name} must be a number >= 0, got {value!r}")

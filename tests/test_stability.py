@@ -203,3 +203,32 @@ def test_study_methods_come_from_the_registry():
     # quick: explicit methods of the lowest and highest order, implicit of the highest
     assert stab.QUICK_FIXED_METHODS == ("euler", "semi_implicit_euler", "rk4", "implicit_midpoint")
     assert set(stab.QUICK_FIXED_METHODS) <= set(fixed)
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda: stab.predicted_limit("rk4", np.array([[-1.0]]), np.array([[0.0]]), rtol=0.0),
+        lambda: stab.bisect_limit(lambda dt: dt > 1.0, dt_lo=0.5, dt_hi=2.0, rtol=0.0),
+        lambda: stab.bisect_limit(lambda dt: dt > 1.0, dt_lo=0.5, dt_hi=2.0, expand=float("inf")),
+        lambda: stab.bisect_limit(lambda dt: dt > 1.0, dt_lo=0.5, dt_hi=2.0, expand=float("nan")),
+    ],
+)
+def test_bisections_refuse_tolerances_they_could_never_reach(call):
+    """rtol = 0 or an infinite expansion made these loops spin for ever; now they are refused.
+
+    An alarm turns a regression (a loop that spins) into a failure instead of a hung suite.
+    """
+    import signal
+
+    def spun(signum, frame):
+        raise AssertionError("the loop spun for 20 s instead of refusing its arguments")
+
+    previous = signal.signal(signal.SIGALRM, spun)
+    signal.alarm(20)
+    try:
+        with pytest.raises(InputError):
+            call()
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)

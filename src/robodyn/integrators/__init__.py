@@ -24,7 +24,16 @@ from __future__ import annotations
 
 from robodyn.integrators.adaptive import EmbeddedRungeKutta
 from robodyn.integrators.arrays import Solution, solve, step_count
-from robodyn.integrators.base import FixedStepIntegrator, Integrator, Stepper
+from robodyn.integrators.base import (
+    MAX_STEPS,
+    MAX_STEPS_PER_INTERVAL,
+    MIN_RELATIVE_STEP,
+    AdaptiveIntegrator,
+    FixedStepIntegrator,
+    Integrator,
+    StepBudget,
+    Stepper,
+)
 from robodyn.integrators.explicit import ClassicRK4, ExplicitEuler, ExplicitRungeKutta
 from robodyn.integrators.problem import Array, ArrayProblem, SecondOrderProblem, finite_difference_jacobian
 from robodyn.integrators.registry import INTEGRATORS, get, names
@@ -44,11 +53,15 @@ __all__ = [
     "DORMAND_PRINCE_54",
     "HEUN",
     "INTEGRATORS",
+    "MAX_STEPS",
+    "MAX_STEPS_PER_INTERVAL",
+    "MIN_RELATIVE_STEP",
     "NEWTON_MAX_ITER",
     "NEWTON_RTOL",
     "NEWTON_STALL",
     "SCIPY_METHODS",
     "TABLEAU_TOL",
+    "AdaptiveIntegrator",
     "Array",
     "ArrayProblem",
     "ButcherTableau",
@@ -63,6 +76,7 @@ __all__ = [
     "SecondOrderProblem",
     "SemiImplicitEuler",
     "Solution",
+    "StepBudget",
     "Stepper",
     "SymplecticEuler",
     "finite_difference_jacobian",

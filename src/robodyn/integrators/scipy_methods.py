@@ -3,6 +3,13 @@
 They are independent implementations, kept as references and cross-checks of robodyn's own
 methods, and for stiff problems (the implicit ones). The module is not called ``scipy`` so
 that it cannot shadow the SciPy package; SciPy itself is imported only when a run starts.
+
+Their work is bounded like robodyn's own (:class:`~robodyn.integrators.base.AdaptiveIntegrator`):
+each ``solver.step()`` counts against ``max_steps_per_interval`` and ``max_steps``, and a step
+taken below ``min_relative_step * max(|t|, output interval)`` and smaller than the step before
+it stops the run with a one-line :class:`StepError` (SciPy bounds the rejected attempts
+inside one ``step()`` itself: it fails once the step falls below ten spacings of floating-point
+numbers at t).
 """
 
 from __future__ import annotations
@@ -13,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from robodyn.errors import StepError
-from robodyn.integrators.base import Integrator, Stepper
+from robodyn.integrators.base import AdaptiveIntegrator, StepBudget, Stepper
 from robodyn.integrators.problem import Array, SecondOrderProblem
 
 # solve_ivp method -> (highest order, implicit, description).
@@ -32,7 +39,7 @@ SCIPY_METHODS = {
 
 
 @dataclass(frozen=True)
-class ScipyIntegrator(Integrator):
+class ScipyIntegrator(AdaptiveIntegrator):
     """One of scipy's ``solve_ivp`` methods, stepped through its ``OdeSolver`` class.
 
     The state is y = [x, v, w] with q = q0 (+) x: x is a chart of the configuration
@@ -42,6 +49,9 @@ class ScipyIntegrator(Integrator):
 
     ``forced_step`` [s] (explicit methods only) turns error control off and takes steps of
     exactly that size -- how the tests measure the order of RK45 and DOP853.
+
+    The work bounds (``max_steps_per_interval``, ``max_steps``, ``min_relative_step``) are
+    :class:`~robodyn.integrators.base.AdaptiveIntegrator`'s keyword options.
 
     Raises:
         ValueError: ``forced_step`` given to an implicit method, or not > 0.
@@ -77,6 +87,8 @@ class _ScipyStepper(Stepper):
         from scipy import integrate as sp_integrate
 
         self.problem = problem
+        self.name = method.name
+        self.budget = StepBudget(method, problem, sees_rejections=False)
         self.q0 = np.array(q0, dtype=np.float64)
         nv = problem.nv
         self.nv = nv
@@ -89,6 +101,7 @@ class _ScipyStepper(Stepper):
             options["jac"] = self._jac
         self.solver = cls(self._fun, t0, y0, t_end, **options)
         self.dense: Any = None
+        self.last_step = 0.0  # the last step taken [s]; 0 before the first, which is never checked
 
     def _q(self, x: Array) -> Array:
         return self.problem.integrate(self.q0, x)
@@ -109,15 +122,29 @@ class _ScipyStepper(Stepper):
         return J
 
     def advance(self, t: float, q: Array, u: Array, h: float) -> tuple[Array, Array, Array | None]:
-        """Step the scipy solver past t + h and read the state there from dense output."""
+        """Step the scipy solver past t + h and read the state there from dense output.
+
+        Raises:
+            StepError: the solver failed, or a bound of the integrator was hit (see :class:`StepBudget`).
+        """
         target = t + h
         solver = self.solver
+        budget = self.budget
+        budget.interval(t, h)
         while solver.t < target and solver.status == "running":
+            budget.take(solver.t)  # at most max_steps_per_interval steps: the loop ends
             message = solver.step()
             self.dense = None
             if solver.status == "failed":
-                what = f"scipy {type(solver).__name__} failed at t = {solver.t:.6g} s: {message}"
-                raise StepError(what, time=t, reason=what)
+                what = f"{self.name} (scipy {type(solver).__name__}) failed at t = {solver.t:.6g} s: {message}"
+                raise StepError(f"{what}; {budget.advice}", time=solver.t, reason=what)
+            taken = float(solver.step_size)
+            # Only a step the error control shrank is a verdict: a small first step (LSODA starts
+            # near 1e-16 s under a large torque and holds it for a few steps) is the solver's
+            # guess, and the last one may be clipped to t_end.
+            if solver.status == "running" and taken < self.last_step:
+                budget.check_step(solver.t, taken)
+            self.last_step = taken
         if solver.t == target:
             y = solver.y.copy()
         else:  # the last step went past the target: read it from that step's interpolant

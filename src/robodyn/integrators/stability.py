@@ -139,6 +139,7 @@ def predicted_limit(integrator: str | FixedStepIntegrator, K: Array, D: Array, *
     (``dt_max = 0``: the region misses an eigenvalue's ray near the origin). It stops at
     ``CAP_TIMES_FASTEST / |lambda|_max`` (``dt_max = inf``).
     """
+    _check_rtol(rtol)
     method = _fixed(integrator)
     lam = np.linalg.eigvals(np.block([[np.zeros_like(K), np.eye(K.shape[0])], [K, D]]))
     fastest = float(np.max(np.abs(lam)))
@@ -236,8 +237,11 @@ def bisect_limit(
     ``dt_lo`` is shrunk (down to dt_lo / expand) until stable and ``dt_hi`` grown (up to
     dt_hi * expand) until unstable before bisecting.
     """
-    if not (0 < dt_lo < dt_hi):
-        raise InputError(f"need 0 < dt_lo < dt_hi, got dt_lo={dt_lo!r}, dt_hi={dt_hi!r}")
+    if not (0 < dt_lo < dt_hi < np.inf):
+        raise InputError(f"need 0 < dt_lo < dt_hi < inf, got dt_lo={dt_lo!r}, dt_hi={dt_hi!r}")
+    _check_rtol(rtol)
+    if not (1.0 < expand < np.inf):
+        raise InputError(f"expand must be a finite number above 1, got {expand!r}")
     runs = 0
     lo, hi = dt_lo, dt_hi
     floor, ceiling = dt_lo / expand, dt_hi * expand
@@ -394,3 +398,11 @@ def separation_time(
     gap = np.max(np.abs(qa - qb), axis=1)
     over = np.flatnonzero(gap > threshold)
     return (float(t[over[0]]) if over.size else float("inf")), t, gap
+
+
+def _check_rtol(rtol: float) -> None:
+    """A bisection's relative tolerance must be reachable in float64: at least 4 ulps, and finite."""
+    if not (4 * EPS <= rtol < 1.0):
+        raise InputError(
+            f"rtol must be in [{4 * EPS:.3g}, 1) (a bisection cannot resolve less than 4 ulps), got {rtol!r}"
+        )

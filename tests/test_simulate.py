@@ -123,7 +123,10 @@ def test_callable_torque_drives_the_motion() -> None:
 
     traj = simulate(robot, [0.0], [0.0], duration=3.0, dt=1e-3, torque=pd)
     assert calls and abs(traj.q[-1, 0] - 0.93) < 0.1  # gravity sags it below the target
-    np.testing.assert_allclose(traj.tau[:, 0], 2.0 * (1.0 - traj.q[:, 0]) - 0.2 * traj.v[:, 0], atol=1e-12)
+    # The first samples command 2 N m, beyond the gearhead's effort of 1.5 N m: clamped there.
+    command = 2.0 * (1.0 - traj.q[:, 0]) - 0.2 * traj.v[:, 0]
+    np.testing.assert_allclose(traj.tau[:, 0], np.clip(command, -1.5, 1.5), atol=1e-12)
+    assert traj.meta["effort_clamped_samples"] == np.count_nonzero(command > 1.5) > 0
     assert traj.max_ledger_residual < 1e-6 * traj.meta["energy_scale"]  # RK4 at dt = 1e-3
 
 

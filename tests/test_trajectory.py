@@ -114,3 +114,38 @@ def test_summary_names_the_figures_the_cli_prints() -> None:
     s = hand_made().summary()
     assert s["steps"] == 2 and s["energy_final"] == 6.5 and s["work_damping"] == -1.0
     assert s["q_final"] == [0.3] and s["max_ledger_residual"] == 0.0
+
+
+def test_stop_work_and_power_are_saved_and_loaded(tmp_path: Path) -> None:
+    robot = robodyn.load("cart_pole")
+    traj = simulate(robot, [2.0, 0.1], [1.0, 0.0], duration=0.6, dt=1e-3, torque=[0.5], restitution=0.3)
+    assert traj.work_limits[-1] < 0 and traj.meta["impacts"] == 1
+    path = traj.save(tmp_path / "traj.npz")
+    with np.load(path) as npz:
+        np.testing.assert_array_equal(npz["power"], traj.power)
+        assert json.loads(str(npz["metadata"]))["format_version"] == 2
+    back = Trajectory.load(path)
+    np.testing.assert_array_equal(back.work_limits, traj.work_limits)
+    np.testing.assert_array_equal(back.ledger_residual, traj.ledger_residual)
+    assert back.summary()["work_limits"] == traj.work_limits[-1]
+    header = traj.save_csv(tmp_path / "traj.csv").read_text().splitlines()[0].split(",")
+    assert header[-4:] == ["work_damping", "work_limits", "power", "ledger_residual"]
+
+
+def test_a_version_1_file_loads_with_no_stop_work(tmp_path: Path) -> None:
+    traj = hand_made()
+    path = tmp_path / "old.npz"
+    arrays = {name: getattr(traj, name) for name in Trajectory._ARRAYS}
+    info = {"format_version": 1, "wall_time_s": 0.0, "evaluations": 0, "status": "ok", "message": "", "meta": traj.meta}
+    np.savez_compressed(path, energy=traj.energy, metadata=np.array(json.dumps(info)), **arrays)
+    back = Trajectory.load(path)
+    np.testing.assert_array_equal(back.work_limits, np.zeros(3))
+    assert back.max_ledger_residual == 0.0
+
+
+def test_the_ledger_books_the_stops() -> None:
+    traj = hand_made()
+    with_stop = Trajectory(
+        **{**{f: getattr(traj, f) for f in Trajectory._ARRAYS}, "work_limits": np.array([0.0, 0.0, -0.5])}
+    )
+    np.testing.assert_array_equal(with_stop.ledger_residual, [0.0, 0.0, 0.5])  # E - E0 - W_in - W_d - W_lim

@@ -1,1 +1,10 @@
-"""Simulation: the integrated system, energy, the run loop, trajectories, batches, the compiled path."""
+"""Simulation: what is integrated and how a run goes.
+
+* the step's stages: ``springs`` (positions), ``actuation`` (torque, clamped at the efforts),
+  ``smooth`` (the backend's M^-1 (tau - C v - G)), ``limits`` (joint stops: impacts, holding)
+  and ``loops`` (closed chains, Pinocchio's constraint dynamics), assembled by ``system``;
+* what the user asks for: ``constraints`` (the frozen spec), ``couplings`` (mimic joints);
+* a run: ``events`` (impacts and releases located inside a step), ``run`` (the stepping loop),
+  ``simulation`` (:func:`robodyn.simulate`), ``energy`` and ``trajectory`` (the books);
+* many states at once (``batch``) and the compiled closed forms (``fast``).
+"""

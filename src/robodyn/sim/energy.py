@@ -3,9 +3,11 @@
 The principle of work and energy for a system of rigid bodies, U12 = T2 - T1, with the
 work of gravity moved to the left as a potential V, reads
 
-    E(t) - E(0) = W_input(t) + W_damping(t),   E = T + V,
+    E(t) - E(0) = W_input(t) + W_damping(t) + W_limits(t),   E = T + V,
 
-and its rate form P = dE/dt = tau_in . v + tau_loss . v. ``T = 1/2 v^T M(q) v`` [J] with
+and its rate form P = dE/dt = tau_in . v + tau_loss . v between impacts; each impact at a
+joint stop changes T by the (booked) jump W_limits. V includes the joint springs'
+1/2 k (q - rest)^2 (added by the run, :mod:`robodyn.sim.springs`). ``T = 1/2 v^T M(q) v`` [J] with
 M from CRBA, which includes the rotors' reflected inertia (armature); Pinocchio's own
 ``computeKineticEnergy`` leaves that out on non-canonical axes, so robodyn never relies on
 a single energy routine: :func:`cross_check` compares CRBA with RNEA for T and
@@ -144,6 +146,7 @@ def energy_scale(robot: Robot, kinetic0: float, potential0: float) -> float:
     return max(kinetic0 + abs(potential0), reference_energy(robot))
 
 
-def ledger_residual(energy: Array, work_input: Array, work_damping: Array) -> Array:
-    """E(t) - E(0) - W_input(t) - W_damping(t) [J]: zero up to the integrator's error."""
-    return energy - energy[0] - work_input - work_damping
+def ledger_residual(energy: Array, work_input: Array, work_damping: Array, work_limits: Array | None = None) -> Array:
+    """E(t) - E(0) - W_input(t) - W_damping(t) - W_limits(t) [J]: zero up to the integrator's error."""
+    residual = energy - energy[0] - work_input - work_damping
+    return residual if work_limits is None else residual - work_limits

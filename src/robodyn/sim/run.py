@@ -1,7 +1,9 @@
 """One run's stepping loop: take the steps, record them, watch for divergence block by block.
 
 :class:`Run` steps a :class:`~robodyn.sim.system.RobotSystem` with an integrator over a time
-grid, records q, v, a, the energies and the works of every sample, and checks each block of
+grid (through :class:`~robodyn.sim.events.EventStepper`, which takes the stop impacts and the
+loop projections between steps), records q, v, a, the energies (springs included) and the
+works of every sample (the stops' ``work_limits`` too), and checks each block of
 ``CHECK_EVERY`` steps: a non-finite state, a step the method cannot take, or an energy error
 above the allowed growth stops the run at the exact step, with :func:`diagnose` naming the
 likely cause. :func:`robodyn.simulate` validates the inputs, builds the run and turns its
@@ -18,6 +20,7 @@ from numpy.typing import NDArray
 from robodyn.errors import StepError
 from robodyn.integrators import Integrator
 from robodyn.sim import energy
+from robodyn.sim.events import EventStepper
 from robodyn.sim.system import SINGULAR_MASS_RTOL, RobotSystem
 from robodyn.sim.trajectory import Trajectory
 
@@ -40,12 +43,22 @@ def _step_sizes(t: Array) -> list[float]:
     return steps
 
 
-def diagnose(method: Integrator, dt: float, system: RobotSystem, states: list[Array]) -> tuple[str, str]:
+def diagnose(
+    method: Integrator, dt: float, system: RobotSystem, states: list[Array], *, reason: str = ""
+) -> tuple[str, str]:
     """(likely cause, one suggestion) for a run of ``method`` at step ``dt`` [s] that failed.
 
     ``states`` are the finite configurations (nq,) around the failure: if M is singular at
-    one of them, the integrator is not to blame.
+    one of them, the integrator is not to blame. ``reason`` is what failed; a constraint
+    solver or a stop that failed is blamed before the integrator.
     """
+    if "loop" in reason and system.loops is not None:
+        return (
+            "the loop closures cannot be solved there (a fold of the linkage, or frames pulled apart)",
+            "check the loops' frames and q0, or try a smaller dt",
+        )
+    if "stop events" in reason:
+        return "a joint chatters on its stop", "lower the restitution or try a smaller dt"
     for q in states:
         if not np.all(np.isfinite(q)):
             continue
@@ -106,10 +119,13 @@ class Run:
         self.A = np.full((n, nv), np.nan)
         self.kinetic = np.empty(n)
         self.potential = np.empty(n)
+        self.work_limits = np.zeros(n)
         self.Q[0] = q0
         self.U[0, :nv] = v0
         self.U[0, nv:] = 0.0
-        self.stepper = method.start(system, float(t[0]), q0, self.U[0].copy(), t_end=float(t[-1]), rtol=rtol, atol=atol)
+        self.stepper = EventStepper(
+            method, system, float(t[0]), q0, self.U[0].copy(), t_end=float(t[-1]), rtol=rtol, atol=atol
+        )
         self.meter = energy.EnergyMeter.for_robot(robot, q0)
         self.n = n  # samples kept (shrinks on failure)
         self.failure: tuple[int, float, str] | None = None
@@ -127,12 +143,14 @@ class Run:
     def _energies(self, lo: int, hi: int) -> None:
         nv = self.system.nv
         self.kinetic[lo:hi], self.potential[lo:hi] = self.meter(self.Q[lo:hi], self.U[lo:hi, :nv])
+        if not self.system.springs.empty:
+            self.potential[lo:hi] += self.system.springs.energy(self.Q[lo:hi])
 
     def _residual(self, lo: int, hi: int) -> Array:
         nv = self.system.nv
         e = self.kinetic[lo:hi] + self.potential[lo:hi]
         w = self.U[lo:hi, nv:].sum(axis=1) if self.system.nw else 0.0
-        return e - (self.kinetic[0] + self.potential[0]) - w
+        return e - (self.kinetic[0] + self.potential[0]) - w - self.work_limits[lo:hi]
 
     def _counters(self) -> tuple[int, int]:
         return int(self.system.evaluations), int(getattr(self.system, "jacobian_evaluations", 0))
@@ -151,7 +169,8 @@ class Run:
         """Every ``CHECK_EVERY`` steps store the block and check it."""
         times = self.t.tolist()
         steps = _step_sizes(self.t)
-        advance = self.stepper.advance
+        stepper = self.stepper
+        advance = stepper.advance
         system = self.system
         q, u = self.Q[0].copy(), self.U[0].copy()
         n_steps = len(steps)
@@ -161,6 +180,7 @@ class Run:
                 qs: list[Array] = []
                 us: list[Array] = []
                 ks: list[Array | None] = []
+                wl: list[float] = []
                 work: list[tuple[int, int]] = []
                 self._block_lo, self._block_work = lo, work
                 failed: BaseException | None = None
@@ -171,6 +191,7 @@ class Run:
                         qs.append(q)
                         us.append(u)
                         ks.append(k_start)
+                        wl.append(stepper.work_limits)
                         work.append((system.evaluations, system.jacobian_evaluations))
                 except (StepError, np.linalg.LinAlgError) as exc:
                     failed = exc
@@ -179,6 +200,7 @@ class Run:
                 done = lo + len(qs)
                 if failed is not None or interrupted:
                     work.append(self._counters())  # the failed or interrupted step's work
+                self.work_limits[lo + 1 : lo + 1 + len(wl)] = wl
                 self._store(lo, qs, us, ks)
                 self._check_block(lo + 1, done + 1)
                 if self.failure is None and failed is not None:
@@ -245,7 +267,9 @@ class Run:
             where = f"step {step} (t = {float(self.t[step - 1]):.6g} -> {t_fail:.6g} s)"
         else:
             where = f"step {step} (t = {t_fail:.6g} s)"
-        cause, suggestion = diagnose(self.method, float(self.t[1] - self.t[0]), self.system, [self.Q[keep - 1]])
+        cause, suggestion = diagnose(
+            self.method, float(self.t[1] - self.t[0]), self.system, [self.Q[keep - 1]], reason=what
+        )
         self.failure = (step, t_fail, f"diverged at {where}: {what}; likely cause: {cause}; {suggestion}")
         self.n = keep
         self.A[step:] = np.nan  # rates from steps after the failure are not counted: recompute them
@@ -268,10 +292,13 @@ class Run:
         before = system.evaluations
         with np.errstate(all="ignore"):
             for k in missing:
-                A[k] = system.rates(float(t[k]), Q[k], U[k])[:nv]
+                try:
+                    A[k] = system.rates(float(t[k]), Q[k], U[k])[:nv]
+                except (StepError, np.linalg.LinAlgError):  # where the run failed: left NaN
+                    continue
         evaluations, jacobians = self.work if self.work is not None else self._counters()
         evaluations += system.evaluations - before  # the accelerations filled in just now
-        tau = self._torques(t, Q, U[:, :nv])
+        tau, clamped = self._torques(t, Q, U[:, :nv])
         works = U[:, nv:] if system.nw else np.zeros((n, 2))
         if self.failure is not None:
             status, message = "diverged", self.failure[2]
@@ -280,6 +307,8 @@ class Run:
         else:
             status, message = "ok", ""
         meta["evaluations_jacobian"] = jacobians
+        meta["effort_clamped_samples"] = clamped
+        meta.update(self._constraint_meta(Q))
         return Trajectory(
             t=t.copy(),
             q=Q.copy(),
@@ -290,6 +319,7 @@ class Run:
             potential=self.potential[:n].copy(),
             work_input=works[:, 0].copy(),
             work_damping=works[:, 1].copy(),
+            work_limits=self.work_limits[:n].copy(),
             wall_time_s=float(wall_time),
             evaluations=int(evaluations),
             status=status,
@@ -297,11 +327,33 @@ class Run:
             meta=meta,
         )
 
-    def _torques(self, t: Array, Q: Array, V: Array) -> Array:
-        source = self.system.torque
+    def _torques(self, t: Array, Q: Array, V: Array) -> tuple[Array, int]:
+        """The applied (clamped) torque of every sample (n, nv), and how many samples were clamped."""
+        system = self.system
+        source = system.torque
         if source.kind != "callable":
-            return np.tile(source.constant, (t.size, 1))
-        tau = np.empty_like(V)
+            command = system.commanded_torque(0.0, Q[0], V[0])
+            clamped = int(t.size) if np.any(command != source.constant) else 0
+            return np.tile(source.constant, (t.size, 1)), clamped
+        command = np.empty_like(V)
         for k in range(t.size):
-            tau[k] = self.system.input_torque(float(t[k]), Q[k], V[k])
-        return tau
+            command[k] = system.commanded_torque(float(t[k]), Q[k], V[k])
+        return system.effort.clamp_batch(command), int(np.count_nonzero(system.effort.clamped(command)))
+
+    def _constraint_meta(self, Q: Array) -> dict[str, Any]:
+        """What the constraints did: impacts, releases, the worst excursion past a stop, the loop drift."""
+        stepper, system = self.stepper, self.system
+        worst, joint = system.stops.violation(Q)
+        meta: dict[str, Any] = {
+            "work_limits": float(self.work_limits[self.n - 1]),
+            "impacts": stepper.n_impacts,
+            "releases": stepper.n_releases,
+            "impact_log": [vars(r) for r in stepper.impacts],
+            "held_at_end": sorted(system.stops.names[k] for k in system.held),
+            "limit_violation": worst,
+            "limit_violation_joint": joint,
+        }
+        if system.loops is not None:
+            meta["loop_drift"] = system.loops.drift(Q)
+            meta["loop_projections"] = stepper.projections
+        return meta

@@ -1,9 +1,10 @@
 """Simulate a robot: integrate its dynamics, keep the energy books, stop where it blows up.
 
 :func:`simulate` assembles a :class:`robodyn.sim.system.RobotSystem` (robot + backend + losses
-+ torque), steps it with an integrator from :mod:`robodyn.integrators`, records every
-step, and returns a :class:`robodyn.Trajectory` whose ledger residual
-E(t) - E(0) - W_input(t) - W_damping(t) measures the integrator's error.
++ torque + the constraints: joint stops, effort limits, loops, couplings, springs), steps it
+with an integrator from :mod:`robodyn.integrators`, records every step, and returns a
+:class:`robodyn.Trajectory` whose ledger residual
+E(t) - E(0) - W_input(t) - W_damping(t) - W_limits(t) measures the integrator's error.
 
 Divergence is watched block by block (every ``CHECK_EVERY`` steps, then located to the
 exact step): a non-finite state, a step the method cannot take, or an energy error above
@@ -14,12 +15,15 @@ up to the last step taken, with status ``"interrupted"``.
 
 Before the run, q0 is checked (a ``continuous`` joint's cos/sin pair and a quaternion must
 have norm 1 within ``UNIT_NORM_TOL``) and so is M(q0): a singular mass matrix is refused
-rather than integrated into a blow-up that would look like the integrator's fault.
+rather than integrated into a blow-up that would look like the integrator's fault. A q0
+outside a joint's stops is moved onto the stop, and a q0 (v0) that violates a loop is
+projected onto it; both are recorded in the metadata (``q0_clamped``, ``loop_projection``).
 """
 
 from __future__ import annotations
 
 import time
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -29,6 +33,8 @@ from robodyn import dynamics, integrators
 from robodyn.errors import DivergenceError, InputError, ModelError, SimulationInterrupted
 from robodyn.integrators import Integrator
 from robodyn.sim import energy
+from robodyn.sim.constraints import Constraints, Coupling, Loop, Spring
+from robodyn.sim.loops import close_initial_state
 from robodyn.sim.run import Run
 from robodyn.sim.system import SINGULAR_MASS_RTOL, RobotSystem, TorqueFn, coordinate_units, robot_system
 from robodyn.sim.trajectory import Trajectory
@@ -71,6 +77,13 @@ def simulate(
     torque: ArrayLike | TorqueFn | None = None,
     backend: str | None = None,
     losses: bool = True,
+    limits: bool = True,
+    restitution: float = 0.0,
+    effort_limits: bool = True,
+    loops: Sequence[Loop | Mapping[str, Any]] = (),
+    couplings: Sequence[Coupling | Mapping[str, Any]] = (),
+    springs: Mapping[str, Spring | Mapping[str, Any] | tuple[float, float] | float] | None = None,
+    constraints: Constraints | None = None,
     rtol: float = 1e-9,
     atol: float = 1e-12,
     max_energy_growth: float | None = DEFAULT_MAX_ENERGY_GROWTH,
@@ -92,6 +105,21 @@ def simulate(
         backend: forward dynamics: ``"aba"``, ``"crba"`` or ``"formula"``; None picks
             ``"aba"``, or ``"crba"`` on a model with mimic joints (which ABA refuses).
         losses: apply the URDF joint damping and friction (their work is booked).
+        limits: enforce the URDF joint limits as stops (False: joints pass through them).
+        restitution: e in [0, 1] at every stop: 0 (the default) perfectly inelastic, 1 elastic.
+            The energy a stop takes is booked as ``work_limits``.
+        effort_limits: clamp the commanded torque at each joint's URDF ``effort`` (an effort
+            of 0 declares none); the clamped samples are counted in the metadata.
+        loops: loop closures, each a :class:`~robodyn.sim.constraints.Loop` or a dict
+            ``{"frame_a": ..., "frame_b": ..., "kind": "point" | "6d"}`` (frames: link names,
+            or the frames Pinocchio makes).
+        couplings: ``{"joint": follower, "leader": ..., "ratio": r, "offset": o}`` entries,
+            q_follower = r q_leader + o, simulated as mimic joints (CRBA); q0, v0 and a
+            constant torque may then be given in the coupled or in the full coordinates.
+        springs: joint name -> ``{"stiffness": k, "rest": r}`` (or (k, r), or k): the
+            torque -k (q - r), whose energy k (q - r)^2 / 2 is potential energy.
+        constraints: all of the above as one :class:`~robodyn.sim.constraints.Constraints`
+            (from a scene or a JSON file); then those keyword arguments must keep their defaults.
         rtol: relative tolerance of the adaptive methods.
         atol: absolute tolerance of the adaptive methods.
         max_energy_growth: stop when |ledger residual| exceeds this many times the
@@ -103,26 +131,48 @@ def simulate(
     Raises:
         InputError: bad vectors (a cos/sin pair or quaternion off the unit sphere
             included), dt, duration, torque or tolerances; backend ``"aba"`` on a model
-            with mimic joints.
+            with mimic joints; a negative stiffness, a restitution outside [0, 1], a
+            coupling cycle, a loop whose frames cannot meet (its residual in m).
+        UnknownNameError: an unknown frame or joint in a constraint (with close matches).
         ModelError: M(q0) is singular (a velocity direction that moves no mass or inertia).
         UnknownNameError: an unknown integrator or backend.
-        DivergenceError: the run blew up; ``.trajectory`` holds it up to the failing step.
+        DivergenceError: the run blew up, or its constraint solver failed (the step and
+            the residual); ``.trajectory`` holds it up to the failing step.
         SimulationInterrupted: Ctrl-C during the run; ``.trajectory`` holds it so far.
     """
     duration, dt = _check_times(duration, dt)
     method = integrators.get(integrator) if isinstance(integrator, str) else integrator
-    q = configuration(robot, q0)
-    v = robot.v_(v0, "v0")
+    spec = Constraints.build(
+        limits=limits,
+        restitution=restitution,
+        effort_limits=effort_limits,
+        loops=loops,
+        couplings=couplings,
+        springs=springs,
+    )
+    if constraints is not None:
+        if not spec.is_default:
+            raise InputError("give the constraints either as constraints=... or as keyword arguments, not both")
+        spec = constraints
     if max_energy_growth is not None and not max_energy_growth > 0:
         raise InputError(f"max_energy_growth must be > 0 or None, got {max_energy_growth!r}")
-    system = robot_system(robot, backend=backend, torque=torque, losses=losses)
+    system = robot_system(robot, backend=backend, torque=torque, losses=losses, constraints=spec)
+    notes: dict[str, Any] = {}
+    if system.couplings is not None:
+        q0, v0, mapped = system.couplings.state(q0, v0)
+        notes["state_coupled"] = mapped
+        robot = system.robot
+    q = configuration(robot, q0)
+    v = robot.v_(v0, "v0")
+    q, v = _respect_constraints(system, q, v, notes)
     _refuse_singular_mass(robot, system, q)
     check = energy.cross_check(robot, q, v)
     t_grid = _time_grid(duration, dt)
     run = Run(robot, system, method, t_grid, q, v, rtol=rtol, atol=atol, max_energy_growth=max_energy_growth)
     start = time.perf_counter()
     run.integrate()
-    trajectory = run.trajectory(time.perf_counter() - start, _meta(robot, system, method, run, dt, duration, check))
+    meta = _meta(robot, system, method, run, dt, duration, check) | notes
+    trajectory = run.trajectory(time.perf_counter() - start, meta)
     if run.failure is not None:
         step, t_fail, message = run.failure
         raise DivergenceError(message, step=step, time=t_fail, trajectory=trajectory)
@@ -173,6 +223,22 @@ def check_unit_norms(robot: Robot, q: Array, name: str = "q") -> None:
                         f"it must have norm 1 within {UNIT_NORM_TOL:g}{hint}"
                     )
                 break
+
+
+def _respect_constraints(system: RobotSystem, q: Array, v: Array, notes: dict[str, Any]) -> tuple[Array, Array]:
+    """q0 moved inside the stops, then (q0, v0) projected onto the loops; what moved goes to ``notes``.
+
+    Raises:
+        InputError: a loop whose frames cannot meet.
+    """
+    if not system.stops.empty:
+        q, moved = system.stops.clamp(q)
+        if moved:
+            notes["q0_clamped"] = {name: [given, inside] for name, given, inside in moved}
+    if system.loops is not None:
+        q, v, projection = close_initial_state(system.loops, q, v)
+        notes["loop_projection"] = projection
+    return q, v
 
 
 def _refuse_singular_mass(robot: Robot, system: RobotSystem, q: Array) -> None:

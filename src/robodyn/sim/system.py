@@ -1,22 +1,29 @@
-"""What :func:`robodyn.simulate` integrates: robot, backend, joint losses and torque source.
+"""What :func:`robodyn.simulate` integrates: one step's forces as a pipeline of named stages.
 
-Together they are presented to the integrators as a
-:class:`robodyn.integrators.SecondOrderProblem`.
+:class:`RobotSystem` is presented to the integrators as a
+:class:`robodyn.integrators.SecondOrderProblem`. Its ``rates`` read as the pipeline of a step:
+
+1. **positions** -- joint springs, tau_spring = -k (q - rest) (:mod:`robodyn.sim.springs`);
+2. **velocities** -- joint losses, tau_loss = -D v - F tanh(v / v_friction);
+3. **actuation** -- the commanded torque, clamped at the URDF efforts (:mod:`robodyn.sim.actuation`);
+4. **smooth acceleration** -- M a = tau - C v - G by the backend (ABA, CRBA or the closed form);
+5. **constraint solve** -- joints held at their stops (:mod:`robodyn.sim.limits`), or the loop
+   closures, which Pinocchio's ``constraintDynamics`` solves together with step 4
+   (:mod:`robodyn.sim.loops`).
+
+Impacts at the stops are velocity jumps between steps, taken by :mod:`robodyn.sim.events`;
+couplings are mimic joints of the model itself (:mod:`robodyn.sim.couplings`).
 
 The state the integrators see is q (nq,) and u = [v, w]: w holds the running integrals
 of the ledger, w = [W_input, W_damping] [J], whose rates are the powers
 
-* P_input = tau_in . v (the applied torque), and
-* P_damping = tau_loss . v <= 0 with tau_loss = -D v - F tanh(v / v_friction)
-  (URDF viscous damping D and Coulomb friction F, regularised below ``v_friction``),
+* P_input = tau_in . v (the applied torque, clamped), and
+* P_damping = tau_loss . v <= 0 (URDF viscous damping D and Coulomb friction F, regularised
+  below ``v_friction``),
 
-so the works are integrated by the same method and to the same order as the motion, and
-E(t) - E(0) - W_input(t) - W_damping(t) measures the integrator's error alone. When no
-torque acts and the joints are lossless, w is empty and u is just v.
-
-A constrained system or a controller-in-the-loop may replace :class:`RobotSystem` by any
-object with the same attributes (``nq, nv, nw, flat, evaluations``) and methods
-(``rates, integrate, jacobian``); torque callables tau(t, q, v) are the controller hook.
+so the works are integrated by the same method and to the same order as the motion; the
+springs' energy is potential energy. When no torque acts and the joints are lossless, w is
+empty and u is just v. Torque callables tau(t, q, v) are the controller hook.
 """
 
 from __future__ import annotations
@@ -30,14 +37,44 @@ from numpy.typing import ArrayLike, NDArray
 
 from robodyn import dynamics
 from robodyn.errors import InputError, RobodynError
-from robodyn.kinds import formulas, params
-from robodyn.registry import BACKENDS
+from robodyn.sim import limits
+from robodyn.sim.actuation import (
+    PASSIVE_TORQUE_TOL,
+    EffortLimits,
+    TorqueFn,
+    TorqueSource,
+    check_passive,
+    effort_limits,
+    expand_torque,
+    torque_source,
+)
+from robodyn.sim.constraints import Constraints
+from robodyn.sim.couplings import CouplingMap, couple
+from robodyn.sim.limits import Stops, no_stops, stops_of
+from robodyn.sim.loops import Loops, loops_on
+from robodyn.sim.smooth import backend_function, formula_of, resolve_backend
+from robodyn.sim.springs import Springs, no_springs, springs_on
 
 if TYPE_CHECKING:
     from robodyn.robot import Robot
 
 Array = NDArray[np.float64]
-TorqueFn = Callable[[float, Array, Array], ArrayLike]
+
+__all__ = [
+    "PASSIVE_TORQUE_TOL",
+    "SINGULAR_MASS_RTOL",
+    "V_FRICTION",
+    "RobotSystem",
+    "TorqueFn",
+    "TorqueSource",
+    "check_passive",
+    "coordinate_units",
+    "expand_torque",
+    "resolve_backend",
+    "robot_system",
+    "torque_source",
+    "velocity_names",
+]
 
 
 # M(q) is taken as singular when its smallest eigenvalue is below this fraction of its
@@ -49,98 +86,16 @@ SINGULAR_MASS_RTOL = 1e-12
 # side stays differentiable for the integrators; [rad/s | m/s].
 V_FRICTION = 1e-3
 
-# A torque on a passive joint is refused when its magnitude exceeds this [N m | N]; exact
-# zeros are what a well-formed controller returns there.
-PASSIVE_TORQUE_TOL = 0.0
-
-
-@dataclass(frozen=True)
-class TorqueSource:
-    """The input torque: none, a constant vector, or a callable tau(t, q, v).
-
-    ``constant`` is the full (nv,) vector for a constant input (zeros for none); ``fn`` the
-    callable, whose result may have nv entries or one per actuated joint.
-    """
-
-    kind: str  # "none" | "constant" | "callable"
-    constant: Array
-    fn: TorqueFn | None = None
-
-    def describe(self) -> str:
-        """One line for the metadata: 'none', the vector, or the callable's name."""
-        if self.kind == "callable":
-            return f"callable {getattr(self.fn, '__qualname__', type(self.fn).__name__)}"
-        if self.kind == "constant":
-            return "constant " + np.array2string(self.constant, separator=",")
-        return "none"
-
-
-def torque_source(robot: Robot, torque: ArrayLike | TorqueFn | None) -> TorqueSource:
-    """Validate ``torque`` against ``robot``'s actuated joints.
-
-    Args:
-        robot: the robot.
-        torque: None, a vector with nv entries or one per actuated joint [N m | N], or a
-            callable tau(t [s], q (nq,), v (nv,)) returning either size.
-
-    Raises:
-        InputError: wrong length, non-finite values, or a torque on a passive joint.
-    """
-    nv = robot.nv
-    if torque is None:
-        return TorqueSource("none", np.zeros(nv))
-    if callable(torque):
-        return TorqueSource("callable", np.zeros(nv), torque)
-    tau = expand_torque(robot, torque, where="torque")
-    if not np.any(tau):
-        return TorqueSource("none", np.zeros(nv))
-    return TorqueSource("constant", tau)
-
-
-def expand_torque(robot: Robot, value: ArrayLike, *, where: str) -> Array:
-    """``value`` as a full (nv,) torque; one entry per actuated joint is spread over them."""
-    mask = robot.actuated
-    try:
-        arr = np.asarray(value, dtype=np.float64).reshape(-1)
-    except (TypeError, ValueError):
-        raise InputError(f"{where} must be a vector of numbers, got {value!r}") from None
-    n_act = int(mask.sum())
-    if arr.size == robot.nv:
-        tau = arr.copy()
-    elif arr.size == n_act:
-        tau = np.zeros(robot.nv)
-        tau[mask] = arr
-    else:
-        sizes = f"{robot.nv} (one per velocity)" + (
-            f" or {n_act} (one per actuated joint)" if n_act != robot.nv else ""
-        )
-        raise InputError(f"{where} must have {sizes} entries for {robot.name}, got {arr.size}")
-    if not np.all(np.isfinite(tau)):
-        raise InputError(f"{where} must be finite, got {tau}")
-    check_passive(robot, tau, where=where)
-    return tau
-
-
-def check_passive(robot: Robot, tau: Array, *, where: str) -> None:
-    """Raise :class:`InputError` if ``tau`` pushes on a joint that has no actuator."""
-    for j in robot.joints:
-        if not j.actuated:
-            value = tau[j.idx_v : j.idx_v + j.nv]
-            if np.any(np.abs(value) > PASSIVE_TORQUE_TOL):
-                raise InputError(
-                    f"{where} applies {np.array2string(value, precision=6)} to joint {j.name!r} of {robot.name}, "
-                    f"which is passive (no actuator); actuated joints: "
-                    f"{', '.join(x.name for x in robot.joints if x.actuated) or 'none'}"
-                )
-
 
 @dataclass(eq=False)
 class RobotSystem:
-    """A robot with a forward-dynamics backend, joint losses and a torque source.
+    """A robot with a forward-dynamics backend, its passive forces, its actuation and its constraints.
 
     Satisfies :class:`robodyn.integrators.SecondOrderProblem`. Build with
     :func:`robot_system`. ``evaluations`` counts ``rates`` calls (each one forward
     dynamics), ``jacobian_evaluations`` the ABA-derivative calls of implicit methods.
+    ``held`` maps each stop row held by the run (limited joint k -> side) and is changed
+    only through :meth:`hold`, which re-picks the ``rates`` path.
     """
 
     robot: Robot
@@ -154,6 +109,14 @@ class RobotSystem:
     flat: bool
     evaluations: int = 0
     jacobian_evaluations: int = 0
+    springs: Springs = field(default_factory=no_springs)
+    effort: EffortLimits = field(default_factory=lambda: EffortLimits(np.zeros(0, dtype=np.intp), np.zeros(0)))
+    stops: Stops = field(default_factory=no_stops)
+    loops: Loops | None = None
+    couplings: CouplingMap | None = None
+    constraints: Constraints = field(default_factory=Constraints)
+    held: dict[int, int] = field(default_factory=dict)
+    command: Array | None = None  # a constant torque as commanded, before the effort clamp
     _forward: Callable[[Array, Array, Array], Array] = field(init=False, repr=False)
     _zero: Array = field(init=False, repr=False)
     _passive: NDArray[np.intp] = field(init=False, repr=False)
@@ -163,32 +126,70 @@ class RobotSystem:
         self._zero = np.zeros(self.nv)
         self._passive = np.flatnonzero(~self.robot.actuated)
         self._actuated = np.flatnonzero(self.robot.actuated)
-        self._formula = _formula(self.robot) if self.backend == "formula" else None
-        self._forward = _backend(self.robot, self.backend, self._formula)
+        self._formula = formula_of(self.robot) if self.backend == "formula" else None
+        self._forward = backend_function(self.robot, self.backend, self._formula)
         self._has_friction = bool(np.any(self.friction))
         self._lossy = self._has_friction or bool(np.any(self.damping))
+        self._sprung = not self.springs.empty
+        self._clamp = self.torque.kind == "callable" and not self.effort.empty
         self._model, self._data = self.robot.model, self.robot.data
-        if self.nw == 0:  # nothing to book: u is v, and the rates are the acceleration alone
-            self.rates = self._rates_free_aba if self.backend == "aba" else self._rates_free  # type: ignore[method-assign]
+        self._held_iv = np.zeros(0, dtype=np.intp)
+        self._free_iv = np.arange(self.nv, dtype=np.intp)
+        self._commanded = self.command if self.command is not None else self.torque.constant
+        self._choose_rates()
 
-    # ------------------------------------------------------------------ forces
+    def _choose_rates(self) -> None:
+        """The ``rates`` path: the bare ones when nothing but the smooth dynamics is left to compute."""
+        plain = not (self._sprung or self._held_iv.size or self.loops is not None)
+        if self.nw == 0 and plain:  # nothing to book: u is v, and the rates are the acceleration alone
+            self.rates = self._rates_free_aba if self.backend == "aba" else self._rates_free  # type: ignore[method-assign]
+        elif self.nw == 0:
+            self.rates = self._rates_conservative  # type: ignore[method-assign]
+        else:
+            self.rates = self._rates  # type: ignore[method-assign]
+
+    @property
+    def constrained(self) -> bool:
+        """True while the constraint solve has work: a joint held at a stop, or loops."""
+        return bool(self._held_iv.size) or self.loops is not None
+
+    def hold(self, held: dict[int, int], q: Array) -> None:
+        """Hold the stop rows ``held`` (limited joint k -> side) from configuration q on."""
+        self.held = dict(held)
+        self._held_iv = np.array(sorted(self.stops.iv[k] for k in held), dtype=np.intp)
+        self._free_iv = np.setdiff1d(np.arange(self.nv), self._held_iv).astype(np.intp)
+        if self.loops is not None:
+            ids = tuple(sorted(int(self._model.getJointId(self.stops.names[k])) for k in held))
+            self.loops.hold(q, ids)
+        self._choose_rates()
+
+    # ------------------------------------------------------------------ stages
     def input_torque(self, t: float, q: Array, v: Array) -> Array:
-        """The applied torque tau_in(t, q, v) [N m | N], shape (nv,)."""
+        """The applied torque tau_in(t, q, v) [N m | N], shape (nv,): commanded, clamped at the efforts."""
         if self.torque.kind != "callable":
-            return self.torque.constant
+            return self.torque.constant  # clamped once, when the system was built
         raw = self.torque.fn(t, q, v)  # type: ignore[misc]
         tau = np.asarray(raw, dtype=np.float64)
         if tau.shape != (self.nv,):
             tau = self._reshape_callable(tau, t)
         if self._passive.size and np.any(tau[self._passive]):
             check_passive(self.robot, tau, where=f"torque callable at t = {t:.6g} s")
-        return tau
+        return self.effort.clamp(tau) if self._clamp else tau
+
+    def commanded_torque(self, t: float, q: Array, v: Array) -> Array:
+        """The torque before the effort clamp [N m | N], shape (nv,)."""
+        if self.torque.kind != "callable":
+            return self._commanded
+        tau = np.asarray(self.torque.fn(t, q, v), dtype=np.float64)  # type: ignore[misc]
+        return tau if tau.shape == (self.nv,) else self._reshape_callable(tau, t)
 
     def _reshape_callable(self, tau: Array, t: float) -> Array:
         if tau.shape == (self._actuated.size,):
             full = np.zeros(self.nv)
             full[self._actuated] = tau
             return full
+        if self.couplings is not None and tau.shape == (self.couplings.full.nv,):
+            return self.couplings.torque(tau)  # a torque on a follower acts on its leader
         raise InputError(
             f"torque callable must return {self.nv} (or {self._actuated.size} actuated) entries, "
             f"got shape {tau.shape} at t = {t:.6g} s"
@@ -200,6 +201,39 @@ class RobotSystem:
             return -self.damping * v
         return -self.damping * v - self.friction * np.tanh(v / V_FRICTION)
 
+    def spring_torque(self, q: Array) -> Array:
+        """Joint springs -k (q - rest) [N m | N], shape (nv,)."""
+        return self.springs.torque(q, self.nv) if self._sprung else self._zero
+
+    def acceleration(self, t: float, q: Array, v: Array, tau: Array) -> Array:
+        """The smooth acceleration M^-1 (tau - C v - G), then the constraint solve [rad/s^2 | m/s^2]."""
+        if self.loops is not None:  # smooth dynamics and loop closures in one Pinocchio call
+            return self.loops.acceleration(t, q, v, tau)
+        if self._held_iv.size:
+            return limits.hold(self.mass_matrix_free(q), self._force(q, v, tau), self._held_iv, self._free_iv)[0]
+        return self._forward(q, v, tau)
+
+    def _force(self, q: Array, v: Array, tau: Array) -> Array:
+        """The smooth force tau - C v - G = M a_smooth [N m | N]: by RNEA, or from the closed form."""
+        if self._formula is not None:
+            return self.mass_matrix_free(q) @ self._forward(q, v, tau)
+        return tau - dynamics.nonlinear_effects(self._model, self._data, q, v)
+
+    def stop_forces(self, t: float, q: Array, u: Array) -> Array:
+        """The generalized force of the held stops at (t, q, u) [N m | N], shape (nv,).
+
+        f = M a - (tau - C v - G): zero off the held joints (loops add theirs elsewhere).
+        """
+        v = u[: self.nv]
+        tau = self.input_torque(t, q, v) + self.spring_torque(q)
+        if self._lossy:
+            tau = tau + self.loss_torque(v)
+        self.evaluations += 1
+        if self.loops is not None:
+            self.loops.acceleration(t, q, v, tau)
+            return self.loops.weld_forces(q, self._held_iv)
+        return limits.hold(self.mass_matrix_free(q), self._force(q, v, tau), self._held_iv, self._free_iv)[1]
+
     # ------------------------------------------------------------------ SecondOrderProblem
     def _rates_free(self, t: float, q: Array, u: Array) -> Array:
         self.evaluations += 1
@@ -209,24 +243,47 @@ class RobotSystem:
         self.evaluations += 1
         return dynamics.aba(self._model, self._data, q, u, self._zero)
 
-    def rates(self, t: float, q: Array, u: Array) -> Array:
-        """du/dt = [a, P_input, P_damping] at (t, q, u)."""
+    def _rates_conservative(self, t: float, q: Array, u: Array) -> Array:
+        self.evaluations += 1
+        return self.acceleration(t, q, u, self.spring_torque(q))
+
+    def _rates(self, t: float, q: Array, u: Array) -> Array:
+        """du/dt = [a, P_input, P_damping] at (t, q, u): the stages of one step, in order."""
         self.evaluations += 1
         nv = self.nv
         v = u[:nv]
-        tau_in = self.input_torque(t, q, v)
-        tau_loss = self.loss_torque(v) if self._lossy else self._zero
+        tau_in = self.input_torque(t, q, v)  # actuation, clamped at the efforts
+        tau_loss = self.loss_torque(v) if self._lossy else self._zero  # velocities
+        tau = tau_in + tau_loss
+        if self._sprung:  # positions
+            tau = tau + self.spring_torque(q)
         out = np.empty(nv + 2)
-        out[:nv] = self._forward(q, v, tau_in + tau_loss)
+        out[:nv] = self.acceleration(t, q, v, tau)  # smooth acceleration, then the constraint solve
         out[nv] = tau_in @ v
         out[nv + 1] = tau_loss @ v
         return out
 
-    def mass_matrix(self, q: Array) -> Array:
+    def rates(self, t: float, q: Array, u: Array) -> Array:
+        """du/dt = [a, P_input, P_damping] at (t, q, u) (replaced per instance by the path that applies)."""
+        return self._rates(t, q, u)  # pragma: no cover
+
+    def mass_matrix_free(self, q: Array) -> Array:
         """M(q) [kg m^2 | kg] (nv, nv) from the backend (CRBA, or the formula), armature included."""
         if self._formula is not None:
             return self._formula[0].mass_matrix(q, self._formula[1])
         return dynamics.mass_matrix(self._model, self._data, q)
+
+    def mass_matrix(self, q: Array) -> Array:
+        """M(q) of the momentum p = M v the symplectic methods step; a held joint's row and column are e_j.
+
+        A held joint has v_j = 0, so p_j = v_j = 0 stays put and the rest is M_ff v_f.
+        """
+        M = self.mass_matrix_free(q)
+        if self._held_iv.size:
+            M[self._held_iv, :] = 0.0
+            M[:, self._held_iv] = 0.0
+            M[self._held_iv, self._held_iv] = 1.0
+        return M
 
     def mass_conditioning(self, q: Array) -> tuple[float, Array]:
         """(lambda_min / lambda_max of M(q), the unit eigenvector (nv,) of lambda_min).
@@ -234,7 +291,7 @@ class RobotSystem:
         NaN for a non-finite M. A ratio below ``SINGULAR_MASS_RTOL`` means M is singular:
         that velocity direction moves no mass, no inertia and no armature.
         """
-        M = self.mass_matrix(q)
+        M = self.mass_matrix_free(q)
         if not np.all(np.isfinite(M)):
             return float("nan"), np.full(self.nv, np.nan)
         w, vectors = np.linalg.eigh(M)
@@ -248,18 +305,23 @@ class RobotSystem:
         return " + ".join(f"{vector[i]:.2g} {names[i]}" for i in big).replace("+ -", "- ")
 
     def momentum_rates(self, t: float, q: Array, u: Array) -> Array:
-        """[dp/dt, P_input, P_damping] with dp/dt = tau + C^T v - G for p = M(q) v."""
+        """[dp/dt, P_input, P_damping] with dp/dt = tau + C^T v - G (+ the constraint force) for p = M(q) v."""
         self.evaluations += 1
         nv = self.nv
         v = u[:nv]
         tau_in = self.input_torque(t, q, v) if self.torque.kind != "none" else self._zero
         tau_loss = self.loss_torque(v) if self._lossy else self._zero
+        tau = tau_in + tau_loss + self.spring_torque(q)
         out = np.empty(nv + self.nw)
         if self._formula is not None:
             formula, p = self._formula
-            out[:nv] = formula.momentum_rate(q, v, tau_in + tau_loss, p)
+            out[:nv] = formula.momentum_rate(q, v, tau, p)
         else:
-            out[:nv] = dynamics.momentum_rate(self.robot.model, self.robot.data, q, v, tau_in + tau_loss)
+            out[:nv] = dynamics.momentum_rate(self.robot.model, self.robot.data, q, v, tau)
+        if self.constrained:  # + J^T lambda = M a - (tau - C v - G); a held joint's momentum stays 0
+            a = self.acceleration(t, q, v, tau)
+            out[:nv] += self.mass_matrix_free(q) @ a - self._force(q, v, tau)
+            out[self._held_iv] = 0.0
         if self.nw:
             out[nv] = tau_in @ v
             out[nv + 1] = tau_loss @ v
@@ -274,15 +336,15 @@ class RobotSystem:
     def jacobian(self, t: float, q: Array, u: Array) -> tuple[Array, Array]:
         """(da/dq, da/dv) from Pinocchio's analytical ABA derivatives, losses included.
 
-        Backends other than ABA use forward differences. The torque callable's own
-        dependence on (q, v) is not differentiated (the implicit methods then run a
-        simplified Newton iteration, which still converges).
+        Backends other than ABA, springs and constraints use forward differences. The torque
+        callable's own dependence on (q, v) is not differentiated (the implicit methods then
+        run a simplified Newton iteration, which still converges).
         """
         self.jacobian_evaluations += 1
         nv = self.nv
         v = u[:nv]
         tau = self.input_torque(t, q, v) + (self.loss_torque(v) if self._lossy else self._zero)
-        if self.backend != "aba":  # CRBA serves mimic joints, which ABA derivatives refuse
+        if self.backend != "aba" or self._sprung or self.constrained:
             from robodyn.integrators import finite_difference_jacobian
 
             return finite_difference_jacobian(self, t, q, u)
@@ -297,38 +359,21 @@ class RobotSystem:
     # ------------------------------------------------------------------ metadata
     def describe(self) -> dict[str, Any]:
         """The system's settings, for a trajectory's metadata."""
+        names = velocity_names(self.robot)
         return {
             "backend": self.backend,
             "torque": self.torque.describe(),
             "damping": self.damping.tolist(),
             "friction": self.friction.tolist(),
             "friction_velocity": V_FRICTION if np.any(self.friction) else None,
+            "constraints": self.constraints.describe(),
+            "stops": self.stops.describe(),
+            "free_joints": {name: reason for name, reason in self.stops.free},
+            "effort_limits": self.effort.describe(names),
+            "springs": self.springs.describe(),
+            "loops": self.loops.describe() if self.loops is not None else [],
+            "couplings": self.couplings.describe() if self.couplings is not None else [],
         }
-
-
-def _formula(robot: Robot) -> tuple[Any, Any]:
-    """The seed kind's closed-form dynamics and parameters, or an InputError."""
-    kind = params.detect_kind(robot)
-    if kind is None:
-        raise InputError(
-            f"backend 'formula' needs one of the seed kinds ({', '.join(formulas.KINDS.names())}); "
-            f"{robot.name} is none of them: use backend 'aba' or 'crba'"
-        )
-    return formulas.get(kind), params.extract(robot, kind)
-
-
-def _backend(robot: Robot, name: str, formula: tuple[Any, Any] | None) -> Callable[[Array, Array, Array], Array]:
-    """The forward-dynamics function a(q, v, tau) of backend ``name``."""
-    model, data = robot.model, robot.data
-    if name == "aba":
-        return lambda q, v, tau: dynamics.aba(model, data, q, v, tau)
-    if name == "crba":
-        return lambda q, v, tau: dynamics.crba_solve(model, data, q, v, tau)
-    if name == "formula" and formula is not None:
-        f, p = formula
-        return lambda q, v, tau: f.forward_dynamics(q, v, tau, p)
-    BACKENDS.get(name)  # an unknown name lists the backends
-    raise InputError(f"backend {name!r} needs a seed kind's formula, which {robot.name} has not")
 
 
 def velocity_names(robot: Robot) -> list[str]:
@@ -378,30 +423,13 @@ def coordinate_units(robot: Robot) -> tuple[list[str], list[str]]:
     return q_units, v_units
 
 
-def resolve_backend(robot: Robot, backend: str | None) -> str:
-    """The forward-dynamics backend for ``robot``: ``backend``, or by default ``"aba"`` (``"crba"`` with mimic joints).
-
-    Raises:
-        UnknownNameError: an unknown backend.
-        InputError: ``"aba"`` asked for a model with mimic joints, which Pinocchio's ABA refuses.
-    """
-    mimic = dynamics.has_mimic_joints(robot.model)
-    if backend is None:
-        return "crba" if mimic else "aba"
-    BACKENDS.get(backend)  # an unknown name lists the backends
-    if backend == "aba" and mimic:
-        raise InputError(
-            f"{robot.name} has mimic joints, which Pinocchio's ABA refuses: use backend 'crba' (--backend crba)"
-        )
-    return backend
-
-
 def robot_system(
     robot: Robot,
     *,
     backend: str | None = None,
     torque: ArrayLike | TorqueFn | None = None,
     losses: bool = True,
+    constraints: Constraints | None = None,
 ) -> RobotSystem:
     """Assemble the system that :func:`robodyn.simulate` integrates.
 
@@ -410,24 +438,41 @@ def robot_system(
         backend: ``"aba"`` (Pinocchio's articulated-body algorithm), ``"crba"`` (CRBA +
             Cholesky; serves mimic joints) or ``"formula"`` (the hand-derived closed form
             of a seed kind); None (the default) picks ``"aba"``, or ``"crba"`` on a model
-            with mimic joints.
-        torque: None, a constant vector [N m | N] or a callable tau(t, q, v).
+            with mimic joints (couplings included).
+        torque: None, a constant vector [N m | N] or a callable tau(t, q, v); with
+            couplings it may also have one entry per velocity of the uncoupled robot.
         losses: apply the URDF's joint damping and friction (False: a lossless model).
+        constraints: stops, efforts, loops, couplings and springs (default: the URDF's stops
+            and efforts). With couplings, ``system.robot`` is the coupled robot.
 
     Raises:
         InputError: a bad torque or a backend that cannot serve this robot (``"aba"`` on
-            mimic joints, ``"formula"`` on a model that is no seed kind).
-        UnknownNameError: an unknown backend.
+            mimic joints, ``"formula"`` on a model that is no seed kind or with loops).
+        UnknownNameError: an unknown backend, joint or frame.
     """
+    spec = constraints if constraints is not None else Constraints()
+    coupling = couple(robot, spec.couplings)
+    if coupling is not None:
+        robot = coupling.coupled
     backend = resolve_backend(robot, backend)
     if backend == "formula" and robot.nq != robot.nv:
         raise InputError(f"backend 'formula' needs plain coordinates (nq == nv); {robot.name} has nq={robot.nq}")
+    if backend == "formula" and spec.loops:
+        raise InputError("backend 'formula' has no loop closures: use backend 'aba' with loops")
+    if coupling is not None and torque is not None and not callable(torque) and np.size(torque) == coupling.full.nv:
+        torque = coupling.torque(np.asarray(torque, dtype=np.float64).reshape(-1))
     source = torque_source(robot, torque)
+    effort = effort_limits(robot, enabled=spec.effort_limits)
+    command = None
+    if source.kind == "constant" and not effort.empty:
+        command = source.constant
+        source = TorqueSource("constant", effort.clamp(source.constant))
     damping = robot.damping if losses else np.zeros(robot.nv)
     friction = robot.friction if losses else np.zeros(robot.nv)
     if np.any(damping < 0) or np.any(friction < 0):
         raise InputError(f"{robot.name}: joint damping and friction must be >= 0, got {damping} and {friction}")
     has_work = source.kind != "none" or bool(np.any(damping)) or bool(np.any(friction))
+    followers = coupling.followers if coupling is not None else None
     system = RobotSystem(
         robot=robot,
         backend=backend,
@@ -438,6 +483,13 @@ def robot_system(
         nv=robot.nv,
         nw=2 if has_work else 0,
         flat=robot.nq == robot.nv,
+        springs=springs_on(robot, spec.spring_map, followers) if spec.springs else no_springs(),
+        effort=effort,
+        stops=stops_of(robot, restitution=spec.restitution) if spec.limits else no_stops(),
+        loops=loops_on(robot, spec.loops),
+        couplings=coupling,
+        constraints=spec,
+        command=command,
     )
     if source.kind == "callable":
         q0 = dynamics.neutral(robot.model)

@@ -1,4 +1,4 @@
-"""The :class:`Trajectory`: a simulated motion with its energy books, saved to ``.npz``."""
+"""The :class:`Trajectory`: a simulated motion with its energy books and its power, saved to ``.npz``."""
 
 from __future__ import annotations
 
@@ -16,7 +16,9 @@ from robodyn.fileio import write_atomically
 
 Array = NDArray[np.float64]
 
-FORMAT_VERSION = 1
+# 2: adds ``work_limits`` (the energy the stops took) and ``power``; a version-1 file loads
+# with work_limits = 0 (it was written by a run without stops).
+FORMAT_VERSION = 2
 
 # Every .npz starts with a zip local-file header.
 _ZIP_MAGIC = b"PK\x03\x04"
@@ -29,13 +31,16 @@ class Trajectory:
     """A simulated trajectory, sampled at ``n = len(t)`` instants.
 
     Arrays: ``t`` (n,) [s]; ``q`` (n, nq); ``v``, ``a``, ``tau`` (n, nv) in joint units;
-    ``kinetic``, ``potential`` (n,) [J]; ``work_input``, ``work_damping`` (n,) [J],
-    cumulative work done by the applied torque and by damping/friction since t[0]
-    (the damping work is negative: it removes energy).
+    ``kinetic``, ``potential`` (n,) [J] (the potential includes the joint springs');
+    ``work_input``, ``work_damping``, ``work_limits`` (n,) [J], cumulative work done by the
+    applied torque, by damping/friction and by the joint stops since t[0] (the last two are
+    negative: they remove energy; a stop takes 1/2 (J v)^2 / (J M^-1 J^T) (1 - e^2) at each
+    impact). ``tau`` is the applied torque (clamped at the efforts), and ``power`` (n, nv)
+    = tau * v [W] per joint, ``power_total`` its sum: the rate of the input work (19.22-19.23).
 
-    The books follow the principle of work and energy, U12 = T2 - T1, with gravity moved
-    to the left as a potential: E(t) - E(0) = W_input(t) + W_damping(t). ``ledger_residual``
-    is what is left over; it is zero up to the integrator's accuracy.
+    The books follow the principle of work and energy, U12 = T2 - T1, with gravity and the
+    springs moved to the left as a potential: E(t) - E(0) = W_input + W_damping + W_limits.
+    ``ledger_residual`` is what is left over; it is zero up to the integrator's accuracy.
 
     ``meta`` records the model (name, URDF path), the integrator, dt and backend, and
     ``wall_time_s`` and ``evaluations`` (dynamics calls) the cost of the run. ``status``
@@ -53,11 +58,37 @@ class Trajectory:
     potential: Array
     work_input: Array
     work_damping: Array
+    work_limits: Array | None = None
     wall_time_s: float = 0.0
     evaluations: int = 0
     status: str = "ok"
     message: str = ""
     meta: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.work_limits is None:  # a run without stops (or a file from before them)
+            object.__setattr__(self, "work_limits", np.zeros_like(self.work_input))
+
+    @property
+    def stop_work(self) -> Array:
+        """``work_limits`` as an array [J], shape (n,)."""
+        return self.work_limits if self.work_limits is not None else np.zeros_like(self.work_input)
+
+    @property
+    def power(self) -> Array:
+        """The input power tau_i v_i of every joint [W], shape (n, nv)."""
+        return self.tau * self.v
+
+    @property
+    def power_total(self) -> Array:
+        """The total input power tau . v [W], shape (n,); its integral over t is ``work_input``."""
+        return np.einsum("ni,ni->n", self.tau, self.v)
+
+    @property
+    def average_power(self) -> float:
+        """The input work over the elapsed time, W_input(T) / (T - t0) [W] (textbook Eq. 19.24)."""
+        elapsed = float(self.t[-1] - self.t[0])
+        return float(self.work_input[-1]) / elapsed if elapsed > 0 else 0.0
 
     @property
     def energy(self) -> Array:
@@ -66,9 +97,9 @@ class Trajectory:
 
     @property
     def ledger_residual(self) -> Array:
-        """E(t) - E(0) - W_input(t) - W_damping(t) [J], shape (n,)."""
+        """E(t) - E(0) - W_input(t) - W_damping(t) - W_limits(t) [J], shape (n,)."""
         e = self.energy
-        return e - e[0] - self.work_input - self.work_damping
+        return e - e[0] - self.work_input - self.work_damping - self.stop_work
 
     @property
     def energy_drift(self) -> float:
@@ -84,7 +115,7 @@ class Trajectory:
 
     @property
     def max_ledger_residual(self) -> float:
-        """Largest |E(t) - E(0) - W_input(t) - W_damping(t)| [J]."""
+        """Largest |E(t) - E(0) - W_input(t) - W_damping(t) - W_limits(t)| [J]."""
         return float(np.max(np.abs(self.ledger_residual)))
 
     @property
@@ -120,11 +151,18 @@ class Trajectory:
             "relative_energy_drift": self.relative_energy_drift,
             "work_input": float(self.work_input[-1]),
             "work_damping": float(self.work_damping[-1]),
+            "work_limits": float(self.stop_work[-1]),
+            "average_power": self.average_power,
             "max_ledger_residual": self.max_ledger_residual,
+            "effort_clamped_samples": self.meta.get("effort_clamped_samples", 0),
+            "impacts": self.meta.get("impacts", 0),
+            "limit_violation": self.meta.get("limit_violation"),
+            "loop_drift": self.meta.get("loop_drift"),
         }
 
     # ------------------------------------------------------------------ persistence
     _ARRAYS = ("t", "q", "v", "a", "tau", "kinetic", "potential", "work_input", "work_damping")
+    _OPTIONAL = ("work_limits",)  # absent from version-1 files
 
     def save(self, path: str | Path) -> Path:
         """Write to ``.npz`` (arrays plus ``energy`` and JSON metadata); return the path.
@@ -138,7 +176,7 @@ class Trajectory:
         path = Path(path)
         if path.suffix != ".npz":
             raise InputError(f"{path}: expected a .npz path for a trajectory (got suffix {path.suffix!r})")
-        arrays = {name: getattr(self, name) for name in self._ARRAYS}
+        arrays = {name: getattr(self, name) for name in (*self._ARRAYS, *self._OPTIONAL)}
         info = {
             "format_version": FORMAT_VERSION,
             "wall_time_s": self.wall_time_s,
@@ -149,7 +187,7 @@ class Trajectory:
         }
 
         def write(fh: IO[bytes]) -> None:
-            np.savez_compressed(fh, energy=self.energy, metadata=np.array(json.dumps(info)), **arrays)
+            np.savez_compressed(fh, energy=self.energy, power=self.power, metadata=np.array(json.dumps(info)), **arrays)
 
         return write_atomically(path, write)
 
@@ -165,10 +203,12 @@ class Trajectory:
             + [f"q{i}" for i in range(nq)]
             + [f"v{i}" for i in range(nv)]
             + [f"tau{i}" for i in range(nv)]
-            + ["kinetic", "potential", "energy", "work_input", "work_damping", "ledger_residual"]
+            + ["kinetic", "potential", "energy", "work_input", "work_damping", "work_limits", "power"]
+            + ["ledger_residual"]
         )
         columns = [self.t, self.q, self.v, self.tau, self.kinetic, self.potential, self.energy]
-        table = np.column_stack([*columns, self.work_input, self.work_damping, self.ledger_residual])
+        works = [self.work_input, self.work_damping, self.stop_work, self.power_total]
+        table = np.column_stack([*columns, *works, self.ledger_residual])
         return write_atomically(
             path, lambda fh: np.savetxt(fh, table, delimiter=",", header=",".join(header), comments="", fmt="%.17g")
         )
@@ -202,6 +242,9 @@ class Trajectory:
                 if missing:
                     raise InputError(f"{path}: not a robodyn trajectory: no {', '.join(missing)} in it ({expected})")
                 arrays = {name: np.array(npz[name], dtype=np.float64) for name in cls._ARRAYS}
+                for name in cls._OPTIONAL:
+                    if name in npz.files:
+                        arrays[name] = np.array(npz[name], dtype=np.float64)
                 info = json.loads(str(npz["metadata"]))
         except InputError:
             raise
@@ -213,7 +256,7 @@ class Trajectory:
         if not isinstance(info, dict):
             raise InputError(f"{path}: not a robodyn trajectory: its metadata is not a JSON object")
         n = arrays["t"].shape[0]
-        for name in cls._ARRAYS:
+        for name in arrays:
             if arrays[name].shape[:1] != (n,):
                 raise InputError(f"{path}: array {name!r} has {arrays[name].shape[0]} rows, expected {n} (one per t)")
         for name in ("q", "v", "a", "tau"):
@@ -221,5 +264,5 @@ class Trajectory:
                 raise InputError(f"{path}: array {name!r} must be 2-D (samples x coordinates)")
         known = {f.name for f in fields(cls)}
         # Metadata never overrides an array: a key such as 't' in a hand-made file is ignored.
-        extra = {k: v for k, v in info.items() if k in known and k not in cls._ARRAYS}
+        extra = {k: v for k, v in info.items() if k in known and k not in (*cls._ARRAYS, *cls._OPTIONAL)}
         return cls(**arrays, **extra)  # type: ignore[arg-type]

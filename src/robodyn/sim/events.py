@@ -1,0 +1,409 @@
+"""Stepping across events: a joint reaching its stop, a held joint letting go, a loop drifting open.
+
+:class:`EventStepper` wraps an integrator's stepper. Each ``advance`` takes the step; if a
+joint ended past its stop, or a held stop ended pulling, it finds the first such instant
+inside the step by regula falsi (Illinois) on the step length -- every trial a fresh step
+of the same integrator from the step's start, so the event is located to round-off, not to
+the step -- and there:
+
+* **impact**: the joints that reach their stop get the exact restitution impulse
+  (:func:`robodyn.sim.limits.impact`); the kinetic energy it removes is booked as
+  ``work_limits``. A joint whose rebound would land again within one step (or any joint at
+  e = 0) is held at its stop from then on;
+* **release**: a held joint whose stop force crosses zero is let go.
+
+Then the rest of the step is taken with the new set of held joints (the integrator restarts
+there, so an adaptive method never reuses rates from before a velocity jump). After the step
+a loop whose residual exceeds ``PROJECT_ABOVE`` is projected back (:mod:`robodyn.sim.loops`).
+On a robot without stops in range and without loops, ``advance`` is the integrator's own: the
+arithmetic of an unconstrained run is untouched.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robodyn.errors import StepError
+from robodyn.integrators import Integrator, Stepper
+from robodyn.sim import limits
+from robodyn.sim.loops import PROJECT_ABOVE, PROJECTION_TOL
+from robodyn.sim.system import RobotSystem
+
+Array = NDArray[np.float64]
+
+# The event is located when the bracket on the step length is this narrow relative to the
+# step (~5 ulps of a step): the joint then sits within |v| x 1e-15 h of its stop.
+LOCATE_RTOL = 1e-15
+# An adaptive method refuses steps below ~1e-12 x max(|t|, interval) (no progress): for
+# those the bracket stops, and a step's rest is dropped, below this x max(|t|, h).
+ADAPTIVE_FLOOR = 1e-11
+LOCATE_ITERATIONS = 100
+# ...or when the event function is past zero by less than this fraction of its value at the
+# step's end (a gap of ~1e-13 of the step's travel).
+LOCATE_FTOL = 1e-13
+
+# More events than this within one step is chattering (a bouncing joint whose rebounds
+# shrink faster than the step): the run stops with a StepError rather than spin.
+MAX_EVENTS_PER_STEP = 64
+
+# A held stop lets go when its force pulls by more than this [N m | N].
+RELEASE_TOL = 1e-12
+
+# Impacts kept in the metadata (the count is always exact).
+IMPACTS_KEPT = 200
+
+
+@dataclass(frozen=True)
+class ImpactRecord:
+    """One impact: time [s], joint, side ('lower' | 'upper'), joint speed before and after, dT [J]."""
+
+    time: float
+    joint: str
+    side: str
+    speed_before: float
+    speed_after: float
+    energy_change: float
+
+
+class EventStepper(Stepper):
+    """An integrator's stepper that also takes the stop events and the loop projection of a run."""
+
+    def __init__(
+        self,
+        method: Integrator,
+        system: RobotSystem,
+        t0: float,
+        q0: Array,
+        u0: Array,
+        *,
+        t_end: float,
+        rtol: float,
+        atol: float,
+    ) -> None:
+        self.method, self.problem, self.t_end, self.rtol, self.atol = method, system, t_end, rtol, atol
+        self.system = system
+        self.inner = method.start(system, t0, q0, u0, t_end=t_end, rtol=rtol, atol=atol)
+        self.stops = system.stops
+        tol = self.stops.tolerance()
+        self._lower_in, self._upper_in = self.stops.lower + tol, self.stops.upper - tol
+        self.work_limits = 0.0
+        self.impacts: list[ImpactRecord] = []
+        self.n_impacts = 0
+        self.n_releases = 0
+        self.projections = 0
+        self._steps = 0
+        self._rejected = 0
+        if self.stops.empty and system.loops is None:
+            self.advance = self.inner.advance  # type: ignore[method-assign]
+
+    @property
+    def steps(self) -> int | None:
+        """Accepted steps of an adaptive method, over every restart."""
+        inner = getattr(self.inner, "steps", None)
+        return None if inner is None else self._steps + inner
+
+    @property
+    def rejected(self) -> int | None:
+        """Rejected steps of an adaptive method, over every restart."""
+        inner = getattr(self.inner, "rejected", None)
+        return None if inner is None else self._rejected + inner
+
+    def _restart(self, t: float, q: Array, u: Array) -> None:
+        self._steps += getattr(self.inner, "steps", 0) or 0
+        self._rejected += getattr(self.inner, "rejected", 0) or 0
+        self.inner = self.method.start(self.system, t, q, u, t_end=self.t_end, rtol=self.rtol, atol=self.atol)
+
+    def _trial(self, t: float, q: Array, u: Array, s: float) -> tuple[Array, Array]:
+        """A fresh step of length s from (t, q, u): the state the run would have at t + s."""
+        stepper = self.method.start(self.system, t, q, u, t_end=t + s, rtol=self.rtol, atol=self.atol)
+        q1, u1, _ = stepper.advance(t, q, u, s)
+        return q1, u1
+
+    def _floor(self, t: float, h: float) -> float:
+        """The shortest time the event location resolves [s]: round-off, or what an adaptive method accepts."""
+        if self.method.adaptive:
+            return max(LOCATE_RTOL * h, ADAPTIVE_FLOOR * max(abs(t), h))
+        return LOCATE_RTOL * h
+
+    # ------------------------------------------------------------------ the step
+    def _clear(self, q: Array) -> bool:
+        """True when every limited joint is clear of its stops at q (farther than the tolerance)."""
+        x = q[self.stops.iq]
+        return bool((x > self._lower_in).all() and (x < self._upper_in).all())
+
+    def advance(self, t: float, q: Array, u: Array, h: float) -> tuple[Array, Array, Array | None]:
+        """Move (q, u) from t to t + h [s], taking every event inside the step."""
+        if not self.system.held and self._clear(q):  # the common case: free at both ends of the step
+            q1, u1, k = self.inner.advance(t, q, u, h)
+            if self._clear(q1):
+                return (*self._close_loops(t + h, q1, u1), k)
+            return self._events_in_step(t, q, u, h, (q1, u1, k))
+        return self._events_in_step(t, q, u, h, None)
+
+    def _events_in_step(
+        self, t: float, q: Array, u: Array, h: float, first: tuple[Array, Array, Array | None] | None
+    ) -> tuple[Array, Array, Array | None]:
+        """The step from t to t + h with its events; ``first`` is the step already taken from (t, q, u)."""
+        t_stop = t + h
+        k_start: Array | None = None
+        if first is None:
+            q, u = self._touch(t, q, u, h)
+        remaining = h  # the step as asked (t + h - t is not always h in floating point)
+        for _ in range(MAX_EVENTS_PER_STEP):
+            if first is not None:
+                (q1, u1, k), first = first, None
+            else:
+                q1, u1, k = self.inner.advance(t, q, u, remaining)
+            if k_start is None:
+                k_start = k
+            watch = self._events(t + remaining, q1, u1)
+            if not watch:
+                return (*self._close_loops(t_stop, q1, u1), k_start)
+            s, q, u = self._locate(t, q, u, remaining, q1, u1, watch)
+            t = t_stop if remaining - s <= self._floor(t_stop, h) else t + s
+            q, u = self._take(t, q, u, h)
+            self._restart(t, q, u)
+            if t >= t_stop:
+                return (*self._close_loops(t_stop, q, u), k_start)
+            remaining = t_stop - t
+        joints = ", ".join(
+            sorted({self.stops.names[k] for k in self.system.held} | {r.joint for r in self.impacts[-3:]})
+        )
+        raise StepError(
+            f"more than {MAX_EVENTS_PER_STEP} stop events within one step at t = {t:.6g} s ({joints})",
+            time=t,
+            reason=f"more than {MAX_EVENTS_PER_STEP} stop events within one step at joint(s) {joints} (chattering)",
+        )
+
+    def _events(self, t: float, q: Array, u: Array) -> dict[tuple[int, int], float]:
+        """The event functions that are negative at (t, q, u): stops crossed, held stops pulling."""
+        held = self.system.held
+        rows = self.stops.crossed(q, held) + [(k, side) for k, side in held.items()]
+        values = self._values(t, q, u, rows)
+        return {row: value for row, value in zip(rows, values, strict=True) if value < 0}
+
+    def _values(self, t: float, q: Array, u: Array, rows: list[tuple[int, int]]) -> list[float]:
+        """The event functions of ``rows`` at (t, q, u); each crosses 0 exactly where its event happens.
+
+        A free row: gap + tolerance (negative once the joint is past its stop); a held row:
+        its stop force + RELEASE_TOL (negative once the stop pulls).
+        """
+        held = self.system.held
+        f = self.system.stop_forces(t, q, u) if any(k in held for k, _ in rows) else None
+        tol = self.stops.tolerance()
+        out = []
+        for k, side in rows:
+            if k in held and f is not None:
+                out.append(side * float(f[self.stops.iv[k]]) + RELEASE_TOL)
+            else:
+                out.append(self.stops.gap(q, (k, side)) + float(tol[k]))
+        return out
+
+    def _locate(
+        self,
+        t: float,
+        q: Array,
+        u: Array,
+        h: float,
+        q1: Array,
+        u1: Array,
+        watch: dict[tuple[int, int], float],
+    ) -> tuple[float, Array, Array]:
+        """The first instant s in [0, h] where a watched function reaches 0; the state there (just past it).
+
+        Regula falsi (Illinois) on F(s) = min over the watched rows of f(s) / |f(h)|.
+        """
+        rows = list(watch)
+        scale = np.array([abs(watch[r]) for r in rows])
+        scale[scale == 0] = 1.0
+        f_start = float(np.min(np.array(self._values(t, q, u, rows)) / scale))
+        if f_start <= 0:  # already there at the start: take it now
+            return 0.0, q, u
+
+        def F(s: float) -> tuple[float, Array, Array]:
+            qs, us = self._trial(t, q, u, s)
+            return float(np.min(np.array(self._values(t + s, qs, us, rows)) / scale)), qs, us
+
+        lo, f_lo = 0.0, f_start
+        hi, f_hi, q_hi, u_hi = h, -1.0, q1, u1
+        side = 0
+        for _ in range(LOCATE_ITERATIONS):
+            if hi - lo <= self._floor(t + hi, h):
+                break
+            s = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
+            if not lo < s < hi:
+                s = 0.5 * (lo + hi)
+            f_s, qs, us = F(s)
+            if -LOCATE_FTOL <= f_s < 0:  # just past the event: close enough
+                return s, qs, us
+            if f_s < 0:
+                hi, f_hi, q_hi, u_hi = s, f_s, qs, us
+                f_lo = f_lo * 0.5 if side == -1 else f_lo
+                side = -1
+            else:
+                lo, f_lo = s, f_s
+                f_hi = f_hi * 0.5 if side == 1 else f_hi
+                side = 1
+        return hi, q_hi, u_hi
+
+    def _take(self, t: float, q: Array, u: Array, h: float) -> tuple[Array, Array]:
+        """At time t: the impact of the stops reached, then the held set made consistent (:meth:`_settle`)."""
+        stops, held = self.stops, self.system.held
+        hitting = stops.crossed(q, held)
+        hitting += [r for r in stops.touching(q, u[: self.system.nv], held) if r not in hitting]
+        if hitting:
+            q = stops.snap(q, hitting)
+            u = self._impact(t, q, u, h, hitting, stops.restitution)
+        return q, self._settle(t, q, u, h)
+
+    def _touch(self, t: float, q: Array, u: Array, h: float) -> tuple[Array, Array]:
+        """Before a step: a joint that sits on a stop moving into it (the initial state, say) hits it now."""
+        if self.stops.empty:
+            return q, u
+        x = q[self.stops.iq]
+        tol = self.stops.tolerance()
+        at_stop = (np.abs(x - self.stops.lower) <= tol) | (np.abs(x - self.stops.upper) <= tol)
+        if not any(at_stop[k] for k in range(x.size) if k not in self.system.held):
+            return q, u
+        q1, u1 = self._take(t, q, u, h)
+        if q1 is not q or u1 is not u:
+            self._restart(t, q1, u1)
+        return q1, u1
+
+    def _settle(self, t: float, q: Array, u: Array, h: float) -> Array:
+        """Make the held set consistent at t, one row at a time; return u.
+
+        Let go a held stop that pulls; hold a joint that sits on its stop, is pushed into it
+        and would not leave it for a whole step (the small speed it has is taken by a
+        plastic impulse, booked).
+        """
+        system, stops = self.system, self.stops
+        nv = system.nv
+        tol = stops.tolerance()
+        for _ in range(2 * stops.iq.size + 2):
+            if system.held:
+                f = system.stop_forces(t, q, u)
+                pull = {k: side * float(f[stops.iv[k]]) for k, side in system.held.items()}
+                k = min(pull, key=lambda j: pull[j])
+                if pull[k] < -RELEASE_TOL:
+                    system.hold({j: s for j, s in system.held.items() if j != k}, q)
+                    self.n_releases += 1
+                    continue
+            rows = [
+                (k, side)
+                for k in range(stops.iq.size)
+                if k not in system.held
+                for side in (1, -1)
+                if abs(stops.gap(q, (k, side))) <= tol[k]
+            ]
+            if not rows:
+                return u
+            a = system.rates(t, q, u)[:nv]
+            resting = {}
+            for k, side in rows:
+                push = side * float(a[stops.iv[k]])  # < 0: pushed into the stop
+                speed = side * float(u[stops.iv[k]])  # > 0: leaving it
+                if push < -RELEASE_TOL and (speed <= 0 or 2.0 * speed < -push * h):  # back within a step
+                    resting[(k, side)] = push
+            if not resting:
+                return u
+            row = min(resting, key=lambda r: resting[r])
+            u = self._rest(t, q, u, row)
+        return u
+
+    def _rest(self, t: float, q: Array, u: Array, row: tuple[int, int]) -> Array:
+        """Bring ``row`` to rest at its stop with the held rows: a plastic impulse (booked); returns u."""
+        system, stops = self.system, self.stops
+        nv = system.nv
+        M = system.mass_matrix_free(q)
+        J_loops = system.loops.jacobian(q) if system.loops is not None else None
+        held_rows = list(system.held.items())
+        result = limits.impact(M, u[:nv], stops, [], [*held_rows, row], J_loops, plastic=True)
+        self.work_limits += result.energy_change
+        held = dict([*held_rows, row])
+        u = u.copy()
+        u[:nv] = result.v
+        u[stops.iv[list(held)]] = 0.0
+        system.hold(held, q)
+        return u
+
+    def _impact(
+        self, t: float, q: Array, u: Array, h: float, hitting: list[tuple[int, int]], restitution: float
+    ) -> Array:
+        """The impulse of ``hitting`` (restitution e) with the held rows (and loops) holding; returns u.
+
+        A row whose rebound would land again within the step h is held instead (e = 0 for it).
+        """
+        system, stops = self.system, self.stops
+        nv = system.nv
+        M = system.mass_matrix_free(q)
+        J_loops = system.loops.jacobian(q) if system.loops is not None else None
+        held_rows = list(system.held.items())
+        v = u[:nv]
+        result = limits.impact(M, v, stops, hitting, held_rows, J_loops, restitution=restitution)
+        resting = [r for r in hitting if r in result.contact and self._rests(t, q, result.v, r, h, restitution)]
+        if resting and restitution > 0:  # rebounds that land within a step: held now
+            bouncing = [r for r in hitting if r not in resting]
+            result = limits.impact(M, v, stops, bouncing, held_rows + resting, J_loops, restitution=restitution)
+        self._record(t, v, result, hitting)
+        held = {k: side for k, side in result.contact if (k, side) in held_rows or (k, side) in resting}
+        self.n_releases += sum(1 for row in held_rows if row not in result.contact)
+        u = u.copy()
+        u[:nv] = result.v
+        u[stops.iv[list(held)]] = 0.0
+        system.hold(held, q)
+        return u
+
+    def _rests(self, t: float, q: Array, v: Array, row: tuple[int, int], h: float, restitution: float) -> bool:
+        """True when ``row`` stays at its stop: e = 0, or its rebound would land again within one step h."""
+        if restitution == 0.0:
+            return True
+        k, side = row
+        speed = side * float(v[self.stops.iv[k]])
+        if speed <= 0.0:
+            return True
+        u = np.concatenate([v, np.zeros(self.system.nw)])
+        a = self.system.rates(t, q, u)[: self.system.nv]
+        pull = -side * float(a[self.stops.iv[k]])
+        return pull > 0 and 2.0 * speed / pull < h
+
+    def _record(self, t: float, v: Array, result: limits.Impact, hitting: list[tuple[int, int]]) -> None:
+        self.work_limits += result.energy_change
+        for k, side in hitting:
+            self.n_impacts += 1
+            if len(self.impacts) < IMPACTS_KEPT:
+                i = self.stops.iv[k]
+                self.impacts.append(
+                    ImpactRecord(
+                        float(t),
+                        self.stops.names[k],
+                        "lower" if side > 0 else "upper",
+                        float(v[i]),
+                        float(result.v[i]),
+                        result.energy_change,
+                    )
+                )
+
+    def _close_loops(self, t: float, q: Array, u: Array) -> tuple[Array, Array]:
+        """Project (q, v) back onto the loops when the step left a residual above ``PROJECT_ABOVE``."""
+        loops = self.system.loops
+        if loops is None:
+            return q, u
+        if float(np.max(np.abs(loops.residual(q)), initial=0.0)) <= PROJECT_ABOVE:
+            return q, u
+        nv = self.system.nv
+        free = np.setdiff1d(np.arange(nv), self.stops.iv[list(self.system.held)]).astype(np.intp)
+        q, v, left = loops.project(q, u[:nv], free)
+        if not left <= 1e3 * PROJECTION_TOL:
+            raise StepError(
+                f"the loops cannot be closed after the step to t = {t:.6g} s (residual {left:.3g} m)",
+                time=t,
+                reason=f"the loop projection did not converge (residual {left:.3g} m)",
+            )
+        self.projections += 1
+        u = u.copy()
+        u[:nv] = v
+        return q, u

@@ -53,3 +53,50 @@ def wait_for_url(process: subprocess.Popen[str]) -> str:
             if line == "" and process.poll() is not None:
                 break
     raise AssertionError(f"robodyn view printed no URL: {process.stderr.read() if process.stderr else ''}")
+
+
+SLIDER_URDF = """<?xml version="1.0"?>
+<robot name="slider">
+  <link name="base"/>
+  <joint name="rail" type="prismatic">
+    <parent link="base"/>
+    <child link="cart"/>
+    <axis xyz="1 0 0"/>
+    <limit lower="-1000" upper="1000" effort="200" velocity="1000"/>
+  </joint>
+  <link name="cart">
+    <inertial><mass value="2"/><inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial>
+    <visual><geometry><box size="0.5 0.3 0.25"/></geometry></visual>
+  </link>
+</robot>
+"""
+"""A box (0.5 m long) on a prismatic rail along x: the robot that travels far."""
+
+
+def travel_trajectory(robot, *, distance: float = 100.0, duration: float = 2.0, force: float = 50.0):  # type: ignore[no-untyped-def]
+    """The box pushed from rest by a constant ``force`` [N] so that it covers ``distance`` [m] in ``duration`` [s].
+
+    The mass follows from the distance (x = F t^2 / 2 m); returns a Trajectory with its books.
+    """
+    import numpy as np
+
+    from robodyn.sim.trajectory import Trajectory
+
+    mass = float(robot.model.inertias[1].mass)
+    accel = 2 * distance / duration**2
+    t = np.linspace(0.0, duration, 201)
+    x, v = 0.5 * accel * t**2, accel * t
+    tau = np.full_like(t, mass * accel)
+    kinetic = 0.5 * mass * v**2
+    return Trajectory(
+        t=t,
+        q=x[:, None],
+        v=v[:, None],
+        a=np.full((len(t), 1), accel),
+        tau=tau[:, None],
+        kinetic=kinetic,
+        potential=np.zeros_like(t),
+        work_input=kinetic.copy(),
+        work_damping=np.zeros_like(t),
+        meta={"model": robot.name, "joint_names": list(robot.joint_names), "integrator": "exact"},
+    )

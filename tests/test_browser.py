@@ -1,13 +1,15 @@
 """End to end in a real browser: headless Chromium renders the replay with WebGL (SwiftShader).
 
-Two pages are loaded: the self-contained HTML file written by ``robodyn view --html`` and
-the live page of the meshcat server started by ``robodyn view``. Each is photographed at two
-animation times; the screenshots are kept in ``test-artifacts/browser/``.
+Pages are loaded from the self-contained HTML files written by ``robodyn view --html`` and
+from the live page of the meshcat server started by ``robodyn view``, each photographed at
+two animation times; the screenshots are kept in ``test-artifacts/browser/`` (the README's
+``docs/figures/replay_*.png`` are copies of two of them).
 
-In the HTML file the time is set exactly (``#t=...`` in the URL), so the test projects the
-centre of each link through the scene's camera and checks that the pixel there has the
-link's colour, and that the links moved between the two times; the energy chart's legend
-swatches are projected the same way and must show the colours of T, V and E. The live page starts playing
+In the HTML file the time is set exactly (``#t=...`` in the URL), so the test projects
+points through the scene's camera (the 3D pane is the left ``WIDTH - PANEL_WIDTH_PX`` pixels)
+and checks the colours there: each link's centre, the trace's tip, each run's ghost; the
+robot's pixels fill a stated fraction of the pane in fit and follow modes; the chart
+panel's magenta cursor sits at the x of the animation's time. The live page starts playing
 on its own; it is photographed after two different virtual-time budgets and must show the
 links' colours and differ between the two shots where the robot is.
 
@@ -29,12 +31,14 @@ import pytest
 import robodyn
 from robodyn import viewer
 from robodyn.cli import main
+from robodyn.viewer import camera as _camera  # noqa: F401  (loads viewer.camera for box_corners)
 
-from ._viewer_helpers import interrupt, view_process
+from ._viewer_helpers import SLIDER_URDF, interrupt, travel_trajectory, view_process
 
 pytestmark = pytest.mark.browser
 
-WIDTH, HEIGHT = 800, 600
+PANE = 700  # the 3D pane is square: the aspect robodyn frames for (viewer.PANE_ASPECT = 1)
+WIDTH, HEIGHT = PANE + viewer.PANEL_WIDTH_PX, PANE
 ARTIFACTS = Path(__file__).resolve().parents[1] / "test-artifacts" / "browser"
 HUE_TOLERANCE = 0.04  # of a full turn (~14 degrees): Lambert shading changes brightness, barely the hue
 MIN_SATURATION = 0.35  # the sky-blue background and the grey base are less saturated or far in hue
@@ -42,6 +46,11 @@ SEARCH_RADIUS_PX = 4  # around a projected link centre: antialiasing and roundin
 MIN_MOVE_PX = 25.0  # how far (in the image) a link centre must travel between the two shots
 MIN_LINK_PIXELS = 150  # pixels of each link colour in a live-page shot (a link covers several hundred)
 MIN_CHANGED_PIXELS = 300  # pixels that change between the two live shots (moving links and marker)
+MIN_FILL = 0.5  # of FRAME_FRACTION: the robot's silhouette spans at least half of its framed box's projection
+BOX_MARGIN_PX = 6  # the silhouette stays inside the projected box, up to antialiasing
+CURSOR_MIN_PIXELS = 60  # magenta pixels in the cursor's column (a 2 px line through four ~60 px plots)
+CURSOR_STRAY_PIXELS = 6  # antialiased edges of the purple E curve come close to the cursor's hue
+CURSOR_WINDOW_PX = 3  # the cursor's x is rounded to a pixel and drawn 2 px wide
 
 
 CHROMIUM_NAMES = ("chromium", "chromium-browser", "google-chrome")
@@ -116,19 +125,26 @@ def screenshot(chromium: str, url: str, out: Path, *, budget_ms: int, profile: P
     return image
 
 
-def project(playback: viewer.Playback, point: np.ndarray) -> np.ndarray:
-    """Pixel (x, y) of a world point [m] through meshcat's camera as robodyn places it."""
+def project(playback: viewer.Playback, point: np.ndarray, frame: int = 0) -> np.ndarray:
+    """Pixel (x, y) of a world point [m] at a rendered frame, through meshcat's camera in the 3D pane."""
     eye = playback.camera_position
     forward = -eye / np.linalg.norm(eye)  # the camera looks at the origin
     right = np.cross(forward, [0.0, 0.0, 1.0])
     right /= np.linalg.norm(right)
     up = np.cross(right, forward)
-    d = np.asarray(point) + playback.offset - eye
+    d = np.asarray(point) + playback.offsets[frame] - eye
     depth = d @ forward
     tan_half = np.tan(np.radians(viewer.CAMERA_FOV_DEG / 2))
-    x_ndc = (d @ right) / (depth * tan_half * WIDTH / HEIGHT)
+    x_ndc = (d @ right) / (depth * tan_half * PANE / HEIGHT)
     y_ndc = (d @ up) / (depth * tan_half)
-    return np.array([(x_ndc + 1) / 2 * WIDTH, (1 - y_ndc) / 2 * HEIGHT])
+    return np.array([(x_ndc + 1) / 2 * PANE, (1 - y_ndc) / 2 * HEIGHT])
+
+
+def near(mask: np.ndarray, pixel: np.ndarray, radius: int = SEARCH_RADIUS_PX) -> bool:
+    """Whether ``mask`` holds any pixel within ``radius`` of ``pixel`` (x, y)."""
+    x, y = np.round(pixel).astype(int)
+    assert 0 <= x < WIDTH and 0 <= y < HEIGHT, pixel
+    return bool(mask[max(y - radius, 0) : y + radius + 1, max(x - radius, 0) : x + radius + 1].any())
 
 
 def hue_mask(image: np.ndarray, color: int) -> np.ndarray:
@@ -146,6 +162,20 @@ def hue_mask(image: np.ndarray, color: int) -> np.ndarray:
     return (distance < HUE_TOLERANCE) & (saturation > MIN_SATURATION) & (chroma > 0.15)
 
 
+def cursor_x(playback: viewer.Playback, frame: int) -> float:
+    """Pixel x of the chart cursor at a rendered frame: the panel's plotting area maps playback time linearly."""
+    margins = viewer.PLOT_MARGINS_PX
+    left = PANE + margins["left"]
+    right = PANE + viewer.PANEL_WIDTH_PX - 1 - margins["right"]  # the canvases are one pixel narrower (border)
+    return left + playback.playback_times[frame] / playback.duration * (right - left)
+
+
+def cursor_column(image: np.ndarray, playback: viewer.Playback, frame: int) -> int:
+    """Magenta pixels in the panel's column at the cursor's x for ``frame`` (CURSOR_WINDOW_PX either side)."""
+    x = round(cursor_x(playback, frame))
+    return int(hue_mask(image, viewer.CURSOR_COLOR)[:, x - CURSOR_WINDOW_PX : x + CURSOR_WINDOW_PX + 1].sum())
+
+
 def link_centres(playback: viewer.Playback, frame: int) -> dict[str, tuple[np.ndarray, int]]:
     """Pixel position of the centre of each moving link's box, and its colour, at a rendered frame."""
     out = {}
@@ -154,13 +184,13 @@ def link_centres(playback: viewer.Playback, frame: int) -> dict[str, tuple[np.nd
         if name in ("link1_0", "link2_0"):
             centre = obj.placements[frame] @ np.append(obj.corners.mean(axis=0), 1.0)
             joint = 1 if name == "link1_0" else 2
-            out[name] = (project(playback, centre[:3]), viewer.LINK_COLORS[joint - 1])
+            out[name] = (project(playback, centre[:3], frame), viewer.LINK_COLORS[joint - 1])
     return out
 
 
 def test_exported_html_shows_the_pendubot_swinging(artifacts: Path, swing: Path, tmp_path: Path) -> None:
     chromium = find_chromium()
-    page = artifacts / "pendubot_replay.html"
+    page = artifacts / "pendubot_replay.html"  # fit mode, with the chart panel: docs/figures/replay_fit_pendubot.png
     assert main(["view", "pendubot", str(swing), "--html", str(page)]) == 0
     robot = robodyn.load("pendubot")
     playback = viewer.build(robot, robodyn.Trajectory.load(swing))
@@ -183,14 +213,8 @@ def test_exported_html_shows_the_pendubot_swinging(artifacts: Path, swing: Path,
                 y - SEARCH_RADIUS_PX : y + SEARCH_RADIUS_PX + 1, x - SEARCH_RADIUS_PX : x + SEARCH_RADIUS_PX + 1
             ]
             assert window.any(), f"t = {t}: no {name} colour near pixel ({x}, {y}); see {artifacts}"
-        assert playback.chart is not None
-        for key, swatch in playback.chart.swatches.items():  # the legend: each curve's colour beside its name
-            x, y = np.round(project(playback, playback.chart.to_world(swatch))).astype(int)
-            window = hue_mask(image, viewer.ENERGY_COLORS[key])[
-                y - SEARCH_RADIUS_PX : y + SEARCH_RADIUS_PX + 1, x - SEARCH_RADIUS_PX : x + SEARCH_RADIUS_PX + 1
-            ]
-            assert window.any(), f"t = {t}: no legend swatch of {key} near pixel ({x}, {y}); see {artifacts}"
-        tip = np.round(project(playback, playback.trace[frame])).astype(int)
+        assert cursor_column(image, playback, frame) >= CURSOR_MIN_PIXELS, f"t = {t}: no cursor; see {artifacts}"
+        tip = np.round(project(playback, playback.trace[frame], frame)).astype(int)
         assert hue_mask(image, viewer.TRACE_COLOR)[tip[1] - 6 : tip[1] + 7, tip[0] - 6 : tip[0] + 7].any()
         shots[when] = (image, centres)
     (first, a), (_, b) = shots[0.6], shots[2.2]
@@ -219,3 +243,149 @@ def test_live_server_page_plays_the_animation(artifacts: Path, swing: Path, tmp_
     robot_colours |= hue_mask(images[1], viewer.LINK_COLORS[0]) | hue_mask(images[1], viewer.LINK_COLORS[1])
     changed = np.abs(images[0].astype(int) - images[1].astype(int)).sum(axis=2) > 60
     assert (changed & robot_colours).sum() > MIN_CHANGED_PIXELS, "the robot did not move between the two shots"
+
+
+ROBOT_COLORS = tuple(c for c in viewer.LINK_COLORS if c not in (0x16A085, 0x2E86C1, 0xF1C40F))
+"""Link colours whose hue neither the sky-blue background (teal, blue) nor the yellow trace has."""
+
+
+def robot_mask(image: np.ndarray) -> np.ndarray:
+    """Pixels of the 3D pane in any link colour (the panel at the right is blanked)."""
+    mask = np.zeros(image.shape[:2], dtype=bool)
+    for color in ROBOT_COLORS:
+        mask |= hue_mask(image, color)
+    mask[:, PANE:] = False
+    return mask
+
+
+def framed_box_pixels(playback: viewer.Playback, frame: int) -> tuple[np.ndarray, np.ndarray]:
+    """Pixel bounding box (low x, y), (high x, y) of the box the camera frames at ``frame``."""
+    framing = playback.framing
+    corners = framing.centres[frame] + viewer.camera.box_corners(framing.half)
+    pixels = np.array([project(playback, c, frame) for c in corners])
+    return pixels.min(axis=0), pixels.max(axis=0)
+
+
+@pytest.fixture(scope="module")
+def slider(tmp_path_factory: pytest.TempPathFactory) -> tuple[robodyn.Robot, Path]:
+    """The box on a rail, pushed 100 m in 2 s (a 0.5 m robot that travels 200 times its size)."""
+    folder = tmp_path_factory.mktemp("slider")
+    urdf = folder / "slider.urdf"
+    urdf.write_text(SLIDER_URDF)
+    robot = robodyn.load(str(urdf))
+    return robot, travel_trajectory(robot).save(folder / "travel.npz")
+
+
+@pytest.fixture(scope="module")
+def panda_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The Panda released from its neutral pose without torque, 1 s (robodyn simulate panda, shortened)."""
+    out = tmp_path_factory.mktemp("panda") / "panda.npz"
+    assert main(["simulate", "panda", "--duration", "1", "--out", str(out)]) == 0
+    return out
+
+
+@pytest.mark.parametrize("case", ["panda_fit", "slider_follow"])
+def test_the_camera_frames_the_robot_not_its_travel(
+    case: str,
+    artifacts: Path,
+    tmp_path: Path,
+    panda_run: Path,
+    slider: tuple[robodyn.Robot, Path],
+    request: pytest.FixtureRequest,
+) -> None:
+    chromium = find_chromium()
+    if case == "panda_fit":
+        robot, file, mode, model = robodyn.load("panda"), panda_run, "fit", "panda"
+    else:
+        (robot, file), mode = slider, "follow"
+        model = str(robot.urdf_path)
+    page = tmp_path / f"{case}.html"
+    assert main(["view", model, str(file), "--html", str(page)]) == 0  # the default camera picks the mode
+    playback = viewer.build(robot, robodyn.Trajectory.load(file))
+    assert playback.camera_mode == mode
+    silhouettes = []
+    for when in (0.25, 0.9):
+        frame = round(when * (playback.n_frames - 1))
+        t = float(playback.times[frame])
+        image = screenshot(
+            chromium,
+            f"{page.resolve().as_uri()}#t={t!r}",
+            artifacts / f"camera_{case}_{when}.png",
+            budget_ms=3000,
+            profile=tmp_path / f"profile_{when}",
+        )
+        ys, xs = np.nonzero(robot_mask(image))
+        assert len(xs) > MIN_LINK_PIXELS, f"t = {t}: the robot is not in view; see {artifacts}"
+        low, high = framed_box_pixels(playback, frame)
+        # the framed box spans FRAME_FRACTION of the pane (the larger of its width and height)
+        span = max((high[0] - low[0]) / PANE, (high[1] - low[1]) / HEIGHT)
+        assert abs(span - viewer.FRAME_FRACTION) < 0.01, span
+        assert xs.min() >= low[0] - BOX_MARGIN_PX and xs.max() <= high[0] + BOX_MARGIN_PX, (
+            xs.min(),
+            xs.max(),
+            low,
+            high,
+        )
+        assert ys.min() >= low[1] - BOX_MARGIN_PX and ys.max() <= high[1] + BOX_MARGIN_PX, (
+            ys.min(),
+            ys.max(),
+            low,
+            high,
+        )
+        silhouettes.append((xs.min(), ys.min(), xs.max(), ys.max()))
+    boxes = np.array(silhouettes)
+    if mode == "fit":  # the motion's silhouette (both shots) fills the framed box
+        boxes = np.array([[*boxes[:, :2].min(axis=0), *boxes[:, 2:].max(axis=0)]])
+    for x0, y0, x1, y1 in boxes:
+        fill = max((x1 - x0) / PANE, (y1 - y0) / HEIGHT)
+        assert fill >= MIN_FILL * viewer.FRAME_FRACTION, f"the robot spans {fill:.2f} of the pane; see {artifacts}"
+
+
+def test_the_chart_cursor_sits_at_the_animation_time_after_a_seek(artifacts: Path, swing: Path, tmp_path: Path) -> None:
+    chromium = find_chromium()
+    page = tmp_path / "cursor.html"
+    assert main(["view", "pendubot", str(swing), "--html", str(page)]) == 0
+    playback = viewer.build(robodyn.load("pendubot"), robodyn.Trajectory.load(swing))
+    frames = [round(f * (playback.n_frames - 1)) for f in (0.2, 0.75)]
+    for frame, other in (frames, frames[::-1]):
+        t = float(playback.times[frame])
+        image = screenshot(
+            chromium,
+            f"{page.resolve().as_uri()}#t={t!r}",
+            artifacts / f"cursor_t{t:.2f}.png",
+            budget_ms=1500,
+            profile=tmp_path / f"profile_{frame}",
+        )
+        assert cursor_column(image, playback, frame) >= CURSOR_MIN_PIXELS, f"t = {t}: no cursor at its x"
+        assert cursor_column(image, playback, other) <= CURSOR_STRAY_PIXELS, f"t = {t}: a cursor at another time's x"
+
+
+def test_two_runs_play_as_ghosts_at_their_own_poses(artifacts: Path, tmp_path: Path) -> None:
+    chromium = find_chromium()
+    robot = robodyn.load("pendubot")
+    rk4 = robodyn.simulate(robot, [0.5, 0.0], [0.0, 0.0], duration=3.0, dt=0.002)
+    euler = robodyn.simulate(robot, [0.5, 0.0], [0.0, 0.0], duration=3.0, dt=0.005, integrator="euler")
+    files = [rk4.save(tmp_path / "rk4.npz"), euler.save(tmp_path / "euler.npz")]
+    page = artifacts / "two_runs.html"  # Euler beside RK4: docs/figures/replay_two_runs.png
+    assert main(["view", "pendubot", str(files[1]), str(files[0]), "--html", str(page)]) == 0
+    playback = viewer.build(robot, [euler, rk4], names=["euler", "rk4"])
+    assert [run.name for run in playback.runs] == ["euler", "rk4"]
+    for when in (1.5, 2.6):
+        frame = int(np.argmin(np.abs(playback.times - when)))
+        t = float(playback.times[frame])
+        image = screenshot(
+            chromium,
+            f"{page.resolve().as_uri()}#t={t!r}",
+            artifacts / f"two_runs_t{when:.1f}.png",
+            budget_ms=1500,
+            profile=tmp_path / f"profile_{when}",
+        )
+        tips = [project(playback, run_trace[frame], frame) for run_trace in playback.traces]
+        assert np.linalg.norm(tips[0] - tips[1]) > MIN_MOVE_PX, "the runs sit at the same pose: a weak test time"
+        for run, objects in zip(playback.runs, playback.ghosts, strict=True):
+            mask = hue_mask(image, run.color)
+            for obj in objects:
+                if obj.path[-1] in ("link1_0", "link2_0"):
+                    centre = (obj.placements[frame] @ np.append(obj.corners.mean(axis=0), 1.0))[:3]
+                    pixel = project(playback, centre, frame)
+                    assert near(mask, pixel), f"t = {t}: no {run.name} ghost at {obj.path[-1]} {pixel}; see {artifacts}"

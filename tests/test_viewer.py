@@ -32,7 +32,8 @@ from ._viewer_helpers import SERVER_WAIT_S, interrupt, view_process
 
 TRANSFORM_ATOL = 1e-12  # float64 matrix -> quaternion -> matrix round trip, nothing else in between
 TIME_RTOL = 1e-12  # keyframe times are (t - t0) / speed * fps / fps: a few roundings
-CURSOR_ATOL = 1e-9  # the chart cursor is an affine map of (tau, E): exact up to roundings at chart scale
+LEDGER_ATOL = 1e-12  # the panel's residual sums the same works in another order: roundings of ~1 J
+FRACTION_RTOL = 1e-6  # the camera distance is bisected to far below this
 
 ROOT = viewer.ROOT
 
@@ -135,63 +136,46 @@ def test_the_trace_marker_rides_on_the_tip_frame(pendubot: robodyn.Robot, motion
     np.testing.assert_allclose(playback.trace, np.array(expected), atol=TRANSFORM_ATOL)
 
 
-def test_the_energy_cursor_is_an_affine_image_of_time_and_energy(pendubot: robodyn.Robot, motion: Trajectory) -> None:
+def test_the_panel_charts_energy_ledger_power_and_torques_with_units(
+    pendubot: robodyn.Robot, motion: Trajectory
+) -> None:
     playback = viewer.build(pendubot, motion)
-    _, cursor = viewer.keyframes(playback, (*ROOT, "energy", "cursor"))
-    x, y = cursor[:, 0, 3], cursor[:, 1, 3]
-    energy = motion.energy[playback.sample_index]
-    for coordinate, source in ((x, playback.playback_times), (y, energy)):
-        design = np.column_stack([source, np.ones_like(source)])
-        slope, intercept = np.linalg.lstsq(design, coordinate, rcond=None)[0]
-        assert slope > 0
-        np.testing.assert_allclose(coordinate, slope * source + intercept, atol=CURSOR_ATOL)
+    charts = {chart.key: chart for chart in playback.charts}
+    assert list(charts) == ["energy", "ledger", "power", "torque"]  # no drift: the trajectory has none
+    assert {key: chart.unit for key, chart in charts.items()} == {
+        "energy": "J",
+        "ledger": "J",
+        "power": "W",
+        "torque": "N m",
+    }
+    index = playback.sample_index
+    energy = {s.label: s.values for s in charts["energy"].series}
+    np.testing.assert_array_equal(energy["E = T + V"], motion.energy[index])
+    np.testing.assert_array_equal(energy["T kinetic"], motion.kinetic[index])
+    ledger = {s.label: s.values for s in charts["ledger"].series}
+    np.testing.assert_allclose(ledger["E - E(0) - W"], motion.ledger_residual[index], atol=LEDGER_ATOL)
+    power = charts["power"].series[0].values
+    np.testing.assert_allclose(power, np.einsum("ni,ni->n", motion.tau, motion.v)[index], atol=0.0)
+    limits = sorted(value for _, value, _ in charts["torque"].limits)
+    effort = np.asarray(pendubot.model.effortLimit)
+    effort = effort[effort > 0]  # the Pendubot's elbow is passive (effort 0): no limit line for it
+    np.testing.assert_array_equal(limits, sorted([*effort, *(-effort)]))
+    info = json.loads(re.search(r'id="robodyn-info">(.*?)</script>', viewer.to_html(playback), re.S).group(1))
+    assert [c["key"] for c in info["panel"]["charts"]] == list(charts) and info["camera"] == "fit"
+    assert info["panel"]["width"] == viewer.PANEL_WIDTH_PX
 
 
-def _drawn_texts(playback: viewer.Playback) -> set[str]:
-    """Every text the scene draws (meshcat canvas textures)."""
-    texts = set()
-    for command in playback.commands:
-        material = getattr(getattr(command, "object", None), "material", None)
-        texture = getattr(material, "map", None)
-        if texture is not None and hasattr(texture, "text"):
-            texts.add(texture.text)
-    return texts
+def test_a_constraint_drift_is_charted_when_the_trajectory_has_one(pendubot: robodyn.Robot, motion: Trajectory) -> None:
+    drift = 1e-9 * np.arange(len(motion.t), dtype=np.float64)
 
+    class WithDrift:  # a trajectory as the constraint work will carry it (a per-sample array)
+        def __getattr__(self, name: str) -> object:
+            return drift if name == "constraint_drift" else getattr(motion, name)
 
-def test_the_chart_has_a_legend_and_units_and_no_label_overlaps(pendubot: robodyn.Robot, motion: Trajectory) -> None:
-    playback = viewer.build(pendubot, motion)
-    chart = playback.chart
-    assert chart is not None
-    labels = {label.key: label for label in chart.labels}
-    # a legend names each curve (its colour is the swatch beside it), wherever the curves end
-    assert [labels[f"legend_{key}"].text for key in "ETV"] == ["E = T + V", "T kinetic", "V potential"]
-    assert set(chart.swatches) == {"E", "T", "V"}
-    assert len(set(viewer.ENERGY_COLORS.values()) | set(viewer.LINK_COLORS[:2])) == 5  # curves never look like links
-    # units on the ticks: joules on the energy axis, seconds on the time axis
-    assert labels["e_max"].text.endswith(" J") and labels["e_min"].text.endswith(" J")
-    assert labels["t_min"].text == "0 s" and labels["t_max"].text.endswith(" s") and labels["t_axis"].text == "t [s]"
-    assert {label.text for label in chart.labels} <= _drawn_texts(playback)
-    boxes = [label.box for label in chart.labels]
-    for i, a in enumerate(boxes):
-        assert 0 <= a[0] and a[2] <= chart.width and 0 <= a[1] and a[3] <= chart.height, chart.labels[i]
-        for j in range(i + 1, len(boxes)):
-            b = boxes[j]
-            apart = a[2] <= b[0] or b[2] <= a[0] or a[3] <= b[1] or b[3] <= a[1]
-            assert apart, (chart.labels[i], chart.labels[j])
-    left, _bottom, _right, top = chart.plot
-    for key in ("legend_E", "legend_T", "legend_V"):
-        assert labels[key].box[1] > top  # the legend band lies above the curves: no curve runs through it
-    # and with the energies of any motion: a tiny one and a huge one lay out the same way
-    for scale in (1e-6, 1e6):
-        scaled = Trajectory(
-            **{**{f: getattr(motion, f) for f in ("t", "q", "v", "a", "tau", "work_input", "work_damping", "meta")}},
-            kinetic=scale * motion.kinetic,
-            potential=scale * motion.potential,
-        )
-        other = viewer.build(pendubot, scaled).chart
-        assert other is not None and [lb.key for lb in other.labels] == [lb.key for lb in chart.labels]
-        widest = max(lb.box[2] for lb in other.labels if lb.key.startswith("e_"))
-        assert widest < left * other.width / chart.width and min(lb.box[0] for lb in other.labels) >= 0
+    playback = viewer.build(pendubot, WithDrift())  # type: ignore[arg-type]
+    chart = {c.key: c for c in playback.charts}["drift"]
+    assert chart.unit == "m"
+    np.testing.assert_array_equal(chart.series[0].values, drift[playback.sample_index])
 
 
 def test_the_animation_is_sent_once_and_nothing_else_moves(pendubot: robodyn.Robot, motion: Trajectory) -> None:
@@ -203,7 +187,7 @@ def test_the_animation_is_sent_once_and_nothing_else_moves(pendubot: robodyn.Rob
     transforms = [path for kind, path, _ in packed if kind == "set_transform" and path in robot_paths]
     assert sorted(transforms) == sorted(robot_paths)  # one initial pose each; the motion is the animation
     clips = playback.animation.lower()
-    assert len(clips) == len(playback.objects) + 2  # + trace marker + energy cursor
+    assert len(clips) == len(playback.objects) + 1  # + trace marker (fit mode: the camera stays put)
     for clip in clips:
         for track in clip["clip"]["tracks"]:
             assert len(track["keys"]) == playback.n_frames
@@ -379,7 +363,7 @@ def test_cli_writes_the_html_file(
     assert links <= drawn  # the pendubot's links are in the scene
     assert [c["type"] for c in commands].count("set_animation") == 1 and commands[-1]["type"] == "set_animation"
     clips = {entry["path"]: entry["clip"] for entry in commands[-1]["animations"]}
-    assert links | {f"/{'/'.join(ROOT)}/trace/marker", f"/{'/'.join(ROOT)}/energy/cursor"} <= set(clips)
+    assert links | {f"/{'/'.join(ROOT)}/trace/marker"} <= set(clips)
     frames = len(viewer.render_samples(motion.t, speed=0.5))  # the baked motion: one keyframe per rendered frame
     for path in links:
         keys = {track["name"]: track["keys"] for track in clips[path]["tracks"]}
@@ -456,3 +440,67 @@ def test_importing_the_viewer_does_not_import_meshcat() -> None:
     code = "import sys, robodyn.viewer, robodyn.cli.view; print('meshcat' in sys.modules)"
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=os.environ)
     assert result.stdout.strip() == "False"
+
+
+# --------------------------------------------------------------------------- camera and runs (headless)
+def test_fit_frames_the_robot_box_and_follow_moves_with_a_long_travel(pendubot: robodyn.Robot, tmp_path: Path) -> None:
+    from robodyn.viewer.camera import box_corners, project_ndc
+
+    from ._viewer_helpers import SLIDER_URDF, travel_trajectory
+
+    urdf = tmp_path / "slider.urdf"
+    urdf.write_text(SLIDER_URDF)
+    slider = robodyn.load(str(urdf))
+    travel = travel_trajectory(slider)
+    follow = viewer.build(slider, travel)
+    assert follow.camera_mode == "follow"  # 100 m against a 0.5 m box
+    ndc = project_ndc(follow.camera_position, box_corners(follow.framing.half))
+    span = max(np.ptp(ndc[:, 0]), np.ptp(ndc[:, 1])) / 2
+    np.testing.assert_allclose(span, viewer.FRAME_FRACTION, rtol=FRACTION_RTOL)
+    _, shifts = viewer.keyframes(follow, ROOT)  # the drawing's shift is animated: the box stays at the target
+    box_x = np.array([obj.placements[:, 0, 3] for obj in follow.objects]).mean(axis=0)
+    np.testing.assert_allclose(shifts[:, 0, 3] + box_x, 0.0, atol=TRANSFORM_ATOL)
+    _, grid = viewer.keyframes(follow, ("Grid",))
+    assert np.all(np.abs(grid[:, 0, 3]) <= viewer.camera.GRID_CELL / 2 + 1e-12)  # the ground scrolls cell by cell
+    fixed = viewer.build(slider, travel, camera="fixed")
+    assert fixed.framing.half[0] > 50.0 and not fixed.framing.animated  # robot and trace: 100 m wide
+    fit = viewer.build(pendubot, closed_form_trajectory(pendubot, duration=0.5))
+    assert fit.camera_mode == "fit" and not fit.framing.animated
+
+
+def test_two_runs_on_different_grids_show_their_nearest_samples(pendubot: robodyn.Robot, motion: Trajectory) -> None:
+    coarse = closed_form_trajectory(pendubot, duration=2.5, dt=0.01)
+    playback = viewer.build(pendubot, [motion, coarse], names=["fine", "coarse"])
+    assert [r.name for r in playback.runs] == ["fine", "coarse"]
+    np.testing.assert_allclose(playback.times[[0, -1]], [0.0, 2.5])  # the union of the two spans
+    for run in playback.runs:
+        t = run.trajectory.t
+        nearest = np.abs(t[None, :] - playback.times[:, None]).min(axis=1)
+        np.testing.assert_allclose(np.abs(t[run.index] - playback.times), nearest, atol=1e-15)
+    ghost = playback.ghosts[1][1]
+    assert ghost.path[:3] == (*ROOT, "ghost1")
+    _, placements = viewer.keyframes(playback, ghost.path)
+    np.testing.assert_allclose(placements, ghost.placements, atol=TRANSFORM_ATOL)
+    assert {c.key: len(c.series) for c in playback.charts}["energy"] == 6  # T, V, E for each run
+
+
+def test_cli_refuses_bad_runs_in_one_line(
+    motion_file: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    renamed = closed_form_trajectory(robodyn.load("pendubot"), duration=0.5)
+    renamed.meta["joint_names"] = ["shoulder", "elbow"]
+    other = renamed.save(tmp_path / "other.npz")
+    no_time = tmp_path / "no_time.npz"
+    with np.load(motion_file) as npz:
+        np.savez(no_time, **{k: npz[k] for k in npz.files if k != "t"})
+    html = tmp_path / "out.html"
+    cases = [
+        ([str(motion_file), str(other)], "runs of different models cannot share a replay"),
+        ([str(motion_file)] * 9, "at most 8 runs"),
+        ([str(motion_file), str(no_time)], "no t in it"),
+    ]
+    for files, message in cases:
+        assert main(["view", "pendubot", *files, "--html", str(html)]) == 2, files
+        err = capsys.readouterr().err
+        assert message in err and len(err.splitlines()) == 1 and "Traceback" not in err, err
+    assert not html.exists()

@@ -1,7 +1,12 @@
-"""``robodyn view URDF_OR_NAME [TRAJ.npz]``: the robot, or its motion, in the browser (meshcat).
+"""``robodyn view URDF_OR_NAME [TRAJ.npz ...]``: the robot, or its motion, in the browser (meshcat).
 
 With a trajectory the motion is baked into one meshcat animation and sent once; the
-browser plays it with meshcat's own time slider and play/pause. ``--html`` writes one
+browser plays it with meshcat's own time slider and play/pause, beside a panel of charts
+(energy, works, power, torques, drift) whose cursor follows the animation. Several
+trajectories of one model (up to 8) play together as translucent ghosts, each named by its
+file stem. ``--camera`` frames the robot over the motion (fit), follows it (follow) or frames
+robot and trace (fixed); by default it follows when the robot travels more than 5 times its
+size. ``--html`` writes one
 self-contained file that replays offline; otherwise a meshcat server is started on a free
 localhost port (or ``--zmq-url`` names a running one) and the command waits for Ctrl-C.
 
@@ -44,11 +49,19 @@ def add_parser(sub: Any) -> None:
     add_model_arguments(p)
     p.add_argument(
         "trajectory",
-        nargs="?",
+        nargs="*",
         type=Path,
-        default=None,
+        default=[],
         metavar="TRAJ.npz",
-        help="trajectory to play (from robodyn simulate --out); without it the robot is shown still",
+        help="trajectory to play (from robodyn simulate --out); several (at most 8, same model) play together as "
+        "ghosts named by their file stems; without one the robot is shown still",
+    )
+    p.add_argument(
+        "--camera",
+        choices=("fit", "follow", "fixed"),
+        default=None,
+        help="fit: frame the robot over the motion; follow: the camera moves with the robot; fixed: frame robot and "
+        "trace (default: follow when the robot travels more than 5 times its size, else fit)",
     )
     p.add_argument("--speed", type=positive_float, default=1.0, help="playback speed, 1 = real time (default 1)")
     p.add_argument(
@@ -126,17 +139,24 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--html writes a file and starts no server; leave out --zmq-url and --port")
     if args.zmq_url is not None and args.port is not None:
         raise InputError("--port is for the server robodyn starts; with --zmq-url the running server keeps its own")
+    from robodyn.viewer.runs import MAX_RUNS
+
+    files: list[Path] = list(args.trajectory)
+    if len(files) > MAX_RUNS:
+        raise InputError(f"{len(files)} trajectory files given; one replay shows at most {MAX_RUNS} runs")
     given = Path(args.model)
-    inputs = [("the trajectory", args.trajectory), ("the model", given if given.is_file() else None)]
+    inputs = [*(("a trajectory", f) for f in files), ("the model", given if given.is_file() else None)]
     refuse_clobbering([("--html", args.html)], [*inputs, ("--srdf", args.srdf)])
     if args.html is not None:
         check_output_file(args.html)  # before the work: a bad path fails in a moment, not after the baking
-    trajectory = Trajectory.load(args.trajectory) if args.trajectory is not None else None
-    if trajectory is not None and args.q is not None:
+    loaded = [Trajectory.load(f) for f in files]
+    if loaded and args.q is not None:
         raise InputError("--q shows a still pose; leave it out when playing a trajectory")
-    if trajectory is not None and len(trajectory.t) > 1:
-        span = float(trajectory.t[-1] - trajectory.t[0])
-        check_frame_count(span, speed=args.speed, fps=args.fps, what=f"{args.trajectory}")
+    if loaded:
+        start, end = min(float(tr.t[0]) for tr in loaded), max(float(tr.t[-1]) for tr in loaded)
+        what = str(files[0]) if len(files) == 1 else f"{len(files)} runs"
+        check_frame_count(end - start, speed=args.speed, fps=args.fps, what=what)
+    trajectory = loaded if len(loaded) > 1 else (loaded[0] if loaded else None)
     robot = load_robot(args)
     refuse_clobbering([("--html", args.html)], [("the model's URDF", robot.urdf_path), ("its SRDF", robot.srdf_path)])
     playback = viewer.build(
@@ -147,15 +167,25 @@ def run(args: argparse.Namespace) -> int:
         fps=args.fps,
         trace_frame=args.trace,
         trace=not args.no_trace,
+        camera=args.camera,
+        names=_stems(files) if len(files) > 1 else None,
         loop=args.loop,
     )
-    if trajectory is not None:  # notes once the input is known good: a refusal stays one line
-        _note_trajectory(robot, trajectory, args.trajectory)
+    for file, run in zip(files, loaded, strict=True):  # notes once the input is known good: a refusal stays one line
+        _note_trajectory(robot, run, file)
     _describe(playback)
     if args.html is not None:
         write_html(playback, args.html, open_browser=args.open)
         return 0
     return serve_playback(playback, open_browser=args.open, zmq_url=args.zmq_url, port=args.port)
+
+
+def _stems(files: list[Path]) -> list[str]:
+    """The runs' names in the legend: the file stems, with the folder when two stems repeat."""
+    stems = [f.stem for f in files]
+    if len(set(stems)) < len(stems):
+        return [str(f.with_suffix("")) for f in files]
+    return stems
 
 
 def serve_and_play(
@@ -245,8 +275,9 @@ def _describe(playback: Playback) -> None:
         print(f"robodyn view: note: not drawn (unsupported shape): {', '.join(playback.skipped)}", file=sys.stderr)
     if playback.animation is not None:
         trace = f", tracing frame {playback.trace_frame!r}" if playback.trace_frame else ""
+        runs = f", {len(playback.runs)} runs" if len(playback.runs) > 1 else ""
         print(
             f"{playback.robot_name}: {playback.n_frames} frames, {playback.duration:.2f} s of playback "
-            f"at x{playback.speed:g}{trace}",
+            f"at x{playback.speed:g}{trace}{runs}, camera {playback.camera_mode}",
             flush=True,
         )

@@ -12,15 +12,21 @@ transforms in a loop. Three ways to look at it, all from the same :class:`Playba
 * :func:`show`: an inline view in Jupyter (the same HTML in an iframe, no server, no loop).
 
 Besides the links, the scene shows the path of a chosen frame (its trace, with a marker
-riding on the frame) and a small chart of the energies T, V and E = T + V whose cursor
-moves with the animation.
+riding on the frame). The camera frames the robot over the motion (``fit``), follows it
+when it travels far (``follow``), or frames robot and trace (``fixed``). Beside the 3D
+pane, a panel of charts (energy, the ledger's works, power, joint torques against their
+effort limits, constraint drift) has a cursor that moves with the animation; clicking a
+chart seeks it. Up to 8 runs of one model play together as translucent ghosts, each in its
+own colour with its own trace and curves.
 
 The modules, in the order data flows through them:
 
 * ``backend``: the lazy meshcat import and the scene-tree root; ``transforms``: 4 x 4 helpers;
 * ``sampling``: the playback time grid (which trajectory rows become rendered frames);
 * ``geometry``: the robot's shapes and their placements; ``trace``: the path of one frame;
-* ``layout``: the chart's place, the centring shift and the camera; ``chart3d``: the energy chart;
+* ``runs``: several runs checked, named, coloured and put on one time grid;
+* ``camera``: the framed box, the centring shift (animated in follow mode) and the camera;
+* ``panel``: the chart panel's curves and units (drawn by ``assets/replay.js``);
 * ``animation``: the one meshcat Animation; ``playback``: :func:`build` and :class:`Playback`;
 * ``packing``: the commands in meshcat's wire format; ``html_export``: :func:`to_html`;
 * ``server``: :func:`serve` and the server process (``python -m robodyn.viewer``);
@@ -31,13 +37,14 @@ light, and dynamics-only work never loads geometry or parses meshes.
 """
 
 from robodyn.viewer.backend import INSTALL_HINT, ROOT
-from robodyn.viewer.chart3d import CHART_LEGEND, ENERGY_COLORS, ChartLabel, ChartLayout
+from robodyn.viewer.camera import CAMERA_DIRECTION, CAMERA_FOV_DEG, CAMERA_MODES, FRAME_FRACTION, PANE_ASPECT
 from robodyn.viewer.geometry import BASE_COLOR, LINK_COLORS, SceneObject
 from robodyn.viewer.html_export import meshcat_javascript, to_html
-from robodyn.viewer.layout import CAMERA_DIRECTION, CAMERA_FOV_DEG
 from robodyn.viewer.notebook import Replay, show
 from robodyn.viewer.packing import keyframes, packed_commands, scene_commands
+from robodyn.viewer.panel import CURSOR_COLOR, ENERGY_COLORS, PANEL_WIDTH_PX, PLOT_MARGINS_PX
 from robodyn.viewer.playback import Playback, build
+from robodyn.viewer.runs import GHOST_OPACITY, MAX_RUNS, RUN_COLORS
 from robodyn.viewer.sampling import DEFAULT_FPS, check_trajectory, render_samples
 from robodyn.viewer.server import (
     CONNECT_TIMEOUT_MS,
@@ -53,19 +60,25 @@ __all__ = [
     "BASE_COLOR",
     "CAMERA_DIRECTION",
     "CAMERA_FOV_DEG",
-    "CHART_LEGEND",
+    "CAMERA_MODES",
     "CONNECT_TIMEOUT_MS",
+    "CURSOR_COLOR",
     "DEFAULT_FPS",
     "ENERGY_COLORS",
+    "FRAME_FRACTION",
+    "GHOST_OPACITY",
     "INSTALL_HINT",
     "LINK_COLORS",
+    "MAX_RUNS",
     "MAX_TRACE_POINTS",
+    "PANEL_WIDTH_PX",
+    "PANE_ASPECT",
+    "PLOT_MARGINS_PX",
     "REPLY_TIMEOUT_MS",
     "ROOT",
+    "RUN_COLORS",
     "SERVER_START_TIMEOUT_S",
     "TRACE_COLOR",
-    "ChartLabel",
-    "ChartLayout",
     "Playback",
     "Replay",
     "SceneObject",

@@ -52,7 +52,7 @@ class SceneObject:
 
 
 def geometry_objects(
-    robot: Robot, geometry: pin.GeometryModel | None, configurations: Array
+    robot: Robot, geometry: pin.GeometryModel | None, configurations: Array, *, group: str = "robot"
 ) -> tuple[list[SceneObject], list[Any], list[str]]:
     """Every drawable geometry with its world placements (k, 4, 4); the names of those skipped.
 
@@ -60,6 +60,7 @@ def geometry_objects(
         robot: the model.
         geometry: its visual ``GeometryModel``; None loads it from the URDF (meshes are parsed only now).
         configurations: the rendered configurations, shape (k, nq).
+        group: the scene group the objects are drawn under (``ROOT/group/name``).
 
     Returns:
         The objects, the Pinocchio geometry object behind each, and the names of the geometries skipped.
@@ -82,17 +83,18 @@ def geometry_objects(
             continue
         name = _unique(str(geom.name).replace("/", "_") or f"geometry_{i}", used)
         objects.append(
-            SceneObject(
-                (*ROOT, "robot", name), kind, placements[:, i], intrinsic, _box_corners(geom), str(geom.meshPath)
-            )
+            SceneObject((*ROOT, group, name), kind, placements[:, i], intrinsic, _box_corners(geom), str(geom.meshPath))
         )
         geoms.append(geom)
     return objects, geoms, skipped
 
 
-def object_commands(mc: Any, obj: SceneObject, geom: Any) -> list[Any]:
-    """The meshcat commands that draw ``obj`` (its shape, colour and first placement)."""
-    color, opacity = _color(geom)
+def object_commands(mc: Any, obj: SceneObject, geom: Any, *, tint: tuple[int, float] | None = None) -> list[Any]:
+    """The meshcat commands that draw ``obj`` (its shape, colour and first placement).
+
+    ``tint`` (colour, opacity) overrides the shape's own colour: a run's ghost in a replay of several.
+    """
+    color, opacity = _color(geom) if tint is None else tint
     material = mc.geometry.MeshLambertMaterial(color=color, opacity=opacity)
     path = scene_path(mc, obj.path)
     return [

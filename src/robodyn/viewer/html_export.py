@@ -1,8 +1,11 @@
 """HTML export: one self-contained page that replays a playback offline (no server, no network).
 
 The page (``assets/replay.html``) inlines meshcat's bundled JavaScript, the packed scene
-commands (base64, as JSON) and ``assets/replay.js``, which feeds the commands to meshcat's
-viewer and keeps a text overlay of the time and the total energy in step with the animation.
+commands (base64, as JSON), the chart panel's curves and ``assets/replay.js``, which feeds
+the commands to meshcat's viewer, keeps a text overlay of the time and the total energy in
+step with the animation, and draws the charts beside the 3D pane with a cursor at the
+animation's time (a click on a chart seeks there). The camera's mode (fit, follow, fixed)
+is baked into the commands: the page works offline.
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from typing import TYPE_CHECKING
 from robodyn.errors import MissingDependencyError
 from robodyn.viewer.backend import INSTALL_HINT, import_meshcat
 from robodyn.viewer.packing import packed_commands
+from robodyn.viewer.panel import panel_info
 
 if TYPE_CHECKING:
     from robodyn.viewer.playback import Playback
@@ -46,7 +50,8 @@ def to_html(playback: Playback, *, title: str | None = None) -> str:
 
     The page inlines meshcat's JavaScript and the scene commands; meshcat's panel (Open
     Controls -> Animations) has play, pause and the time slider. A text overlay shows the
-    simulation time and the total energy in step with the animation. Open the file with
+    simulation time and the total energy in step with the animation; the chart panel at the
+    right shows the curves with a cursor at the animation's time (click a chart to seek). Open the file with
     ``#t=1.5`` appended to its URL to start paused at t = 1.5 s of simulation time.
     """
     commands = [base64.b64encode(data).decode("ascii") for _, _, data in packed_commands(playback)]
@@ -58,6 +63,8 @@ def to_html(playback: Playback, *, title: str | None = None) -> str:
         "energy": [float(x) for x in playback.energy] if len(playback.kinetic) else [],
         "traceFrame": playback.trace_frame,
         "animated": playback.animation is not None,
+        "camera": playback.camera_mode,
+        "panel": panel_info(playback.charts, playback.runs),
     }
     fields = {
         "TITLE": html.escape(title or f"robodyn: {playback.robot_name}"),

@@ -8,6 +8,7 @@ Given a running server's ``zmq_url``, the scene is also sent there and the ifram
 from __future__ import annotations
 
 import html
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -27,7 +28,7 @@ class Replay:
 
     playback: Playback
     html: str
-    height: int = 420
+    height: int = 560
     url: str | None = None
 
     def _repr_html_(self) -> str:
@@ -43,7 +44,7 @@ class Replay:
 
 def show(
     robot: Robot,
-    trajectory: Trajectory | None = None,
+    trajectory: Trajectory | Sequence[Trajectory] | None = None,
     *,
     q: Any = None,
     speed: float = 1.0,
@@ -51,17 +52,32 @@ def show(
     trace_frame: str | None = None,
     trace: bool = True,
     loop: bool = False,
+    camera: str | None = None,
+    names: Sequence[str] | None = None,
     zmq_url: str | None = None,
-    height: int = 420,
+    height: int = 560,
 ) -> Replay:
     """Show ``robot`` (playing ``trajectory`` if given) inline in a Jupyter notebook.
 
     Without ``zmq_url`` nothing is started: the returned :class:`Replay` renders the
     self-contained page in an iframe (meshcat's static inline display), so it works offline
-    and in exported notebooks. With ``zmq_url`` the scene is also sent to that running
+    and in exported notebooks, with the chart panel beside the 3D view. A list of up to 8
+    trajectories plays them together as ghosts (see :func:`~robodyn.viewer.build`, which
+    also documents ``camera`` and ``names``). With ``zmq_url`` the scene is also sent to that running
     meshcat server and the iframe shows the server's page. Never blocks.
     """
-    playback = build(robot, trajectory, q=q, speed=speed, fps=fps, trace_frame=trace_frame, trace=trace, loop=loop)
+    playback = build(
+        robot,
+        trajectory,
+        q=q,
+        speed=speed,
+        fps=fps,
+        trace_frame=trace_frame,
+        trace=trace,
+        camera=camera,
+        names=names,
+        loop=loop,
+    )
     url = None
     if zmq_url is not None:
         with serve(playback, zmq_url=zmq_url) as server:  # a running server: closing only disconnects

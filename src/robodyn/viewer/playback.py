@@ -1,13 +1,15 @@
 """A robot's scene and its motion baked into a :class:`Playback`: what every way of showing it sends.
 
-:func:`build` samples the trajectory on the playback grid, places the robot's shapes at
-every rendered frame, draws the trace and the energy chart, frames the whole, and bakes the
-motion into one meshcat animation. Nothing is sent anywhere: the HTML export, the server
+:func:`build` samples the trajectories (one run, or up to eight overlaid as ghosts) on the
+playback grid, places the robot's shapes at every rendered frame, draws the traces, frames
+the robot with the camera (fit, follow or fixed), computes the chart panel's curves, and
+bakes the motion into one meshcat animation. Nothing is sent anywhere: the HTML export, the server
 and the notebook view all show the same :class:`Playback`.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -16,11 +18,19 @@ from numpy.typing import NDArray
 
 from robodyn.viewer.animation import bake_animation
 from robodyn.viewer.backend import ROOT, import_meshcat, scene_path
-from robodyn.viewer.chart3d import CURSOR_PATH, ChartLayout, chart_commands
+from robodyn.viewer.camera import Framing, follow_tracks, frame_motion, view_commands
 from robodyn.viewer.geometry import SceneObject, geometry_objects, object_commands
-from robodyn.viewer.layout import Layout, view_commands
-from robodyn.viewer.sampling import DEFAULT_FPS, check_rate, rendered_frames
-from robodyn.viewer.trace import MARKER_PATH, choose_trace_frame, dense_path, frame_positions, trace_commands
+from robodyn.viewer.panel import Chart, panel_charts
+from robodyn.viewer.runs import GHOST_OPACITY, RUN_COLORS, Run, check_runs, common_frames, run_names
+from robodyn.viewer.sampling import DEFAULT_FPS, check_rate
+from robodyn.viewer.trace import (
+    MARKER_PATH,
+    TRACE_COLOR,
+    choose_trace_frame,
+    dense_path,
+    frame_positions,
+    trace_commands,
+)
 from robodyn.viewer.transforms import translations
 
 if TYPE_CHECKING:
@@ -38,21 +48,26 @@ class Playback:
 
     Attributes:
         robot_name: the model's name.
-        objects: the link geometries, in Pinocchio's geometry order.
+        objects: the link geometries of the first run, in Pinocchio's geometry order.
         commands: meshcat commands that build the static scene, in send order.
         animation: the whole motion as one ``meshcat.animation.Animation`` (None without a trajectory).
         loop: repeat the animation forever (else it plays once).
-        sample_index: trajectory rows shown, one per rendered frame, shape (k,).
+        sample_index: the first run's trajectory rows shown, one per rendered frame, shape (k,).
         times: simulation time of each rendered frame [s], shape (k,).
-        playback_times: time of each rendered frame in the browser [s], (times - t[0]) / speed.
-        kinetic, potential: T and V at the rendered frames [J], shape (k,) (empty without a trajectory).
+        playback_times: time of each rendered frame in the browser [s], (times - times[0]) / speed.
+        kinetic, potential: the first run's T and V at the rendered frames [J], shape (k,) (empty without).
         trace_frame: name of the frame whose path is drawn, or None.
-        trace: that frame's world positions at every rendered frame [m], shape (k, 3).
-        offset: translation applied to the whole drawing so that it is centred on the camera target [m].
+        trace: that frame's world positions at every rendered frame (first run) [m], shape (k, 3).
+        offsets: translation applied to the whole drawing at each rendered frame [m], shape (k, 3):
+            constant but in follow mode, where it keeps the robot at the camera's target.
         camera_position: meshcat camera position in world coordinates (z up) [m]; it looks at the origin.
+        framing: the camera mode and the box it frames.
         speed, fps: playback speed and rendered frames per second.
         skipped: names of geometries that could not be drawn (unsupported shape).
-        chart: where the energy chart's legend, ticks and plot went (None without a chart).
+        runs: every run (name, colour, rows shown); one for a single trajectory, none for a still pose.
+        ghosts: the objects of every run (``ghosts[0]`` is ``objects``).
+        traces: every run's traced positions (k, 3) [m].
+        charts: the chart panel's charts (empty without a trajectory or with ``charts=False``).
     """
 
     robot_name: str
@@ -67,12 +82,26 @@ class Playback:
     potential: Array
     trace_frame: str | None
     trace: Array
-    offset: Array
+    offsets: Array
     camera_position: Array
+    framing: Framing
     speed: float
     fps: float
     skipped: tuple[str, ...] = ()
-    chart: ChartLayout | None = None
+    runs: tuple[Run, ...] = ()
+    ghosts: tuple[tuple[SceneObject, ...], ...] = ()
+    traces: tuple[Array, ...] = ()
+    charts: tuple[Chart, ...] = ()
+
+    @property
+    def offset(self) -> Array:
+        """The drawing's shift at the first rendered frame [m], shape (3,) (see ``offsets``)."""
+        return self.offsets[0]
+
+    @property
+    def camera_mode(self) -> str:
+        """The camera mode: fit, follow or fixed."""
+        return self.framing.mode
 
     @property
     def energy(self) -> Array:
@@ -90,85 +119,135 @@ class Playback:
         return len(self.sample_index)
 
 
+def _as_runs(trajectory: Trajectory | Sequence[Trajectory] | None) -> list[Trajectory]:
+    if trajectory is None:
+        return []
+    if isinstance(trajectory, (list, tuple)):
+        return list(trajectory)
+    return [trajectory]  # type: ignore[list-item]
+
+
 def build(
     robot: Robot,
-    trajectory: Trajectory | None = None,
+    trajectory: Trajectory | Sequence[Trajectory] | None = None,
     *,
     q: Any = None,
     speed: float = 1.0,
     fps: float = DEFAULT_FPS,
     trace_frame: str | None = None,
     trace: bool = True,
-    energy_chart: bool = True,
+    charts: bool = True,
+    camera: str | None = None,
+    names: Sequence[str] | None = None,
     loop: bool = False,
     geometry: pin.GeometryModel | None = None,
 ) -> Playback:
-    """Bake ``robot`` and, if given, ``trajectory`` into a :class:`Playback` (no server, no browser).
+    """Bake ``robot`` and, if given, its motion into a :class:`Playback` (no server, no browser).
 
     Args:
         robot: the model; its visual geometry is loaded here (meshes are parsed only now).
-        trajectory: the motion to play; its ``q`` must have ``robot.nq`` columns.
+        trajectory: the motion to play, or a list of up to 8 runs of the same model (overlaid
+            as translucent ghosts, each in its own colour, on the union of their time spans);
+            each ``q`` must have ``robot.nq`` columns.
         q: without a trajectory, the configuration to show (default: neutral), shape (nq,).
         speed: playback speed (1 = real time).
         fps: rendered frames per second of playback.
         trace_frame: frame whose path is drawn; None picks the frame that travels farthest.
         trace: draw the trace at all.
-        energy_chart: draw the small T, V, E chart with a cursor that follows the animation.
+        charts: compute the chart panel (energy, ledger, power, torques, drift) the page shows.
+        camera: "fit" (the robot over the motion), "follow" (the camera moves with the robot),
+            "fixed" (the robot and its trace); None: follow when the robot travels more than
+            5 times its size, else fit.
+        names: the runs' names in the legend (default: each run's integrator).
         loop: repeat the animation forever instead of playing it once.
         geometry: an already loaded visual ``GeometryModel`` (default: loaded from the URDF).
 
     Raises:
-        InputError: a trajectory that does not fit the model, or a bad speed/fps.
-        UnknownNameError: a ``trace_frame`` the model does not have.
+        InputError: a trajectory that does not fit the model, runs of different models, more
+            than 8 runs, or a bad speed/fps.
+        UnknownNameError: a ``trace_frame`` the model does not have, or an unknown camera mode.
         MissingDependencyError: meshcat is not installed.
     """
     mc = import_meshcat()
     check_rate("speed", speed)
     check_rate("fps", fps)
-    configurations, index, times, kinetic, potential = rendered_frames(robot, trajectory, q, speed=speed, fps=fps)
-    objects, geoms, skipped = geometry_objects(robot, geometry, configurations)
-    frames = frame_positions(robot, configurations)
-    chosen = choose_trace_frame(frames, trace_frame) if trace and trajectory is not None else None
-    trace_xyz = frames[chosen] if chosen is not None else np.zeros((0, 3))
+    trajectories = _as_runs(trajectory)
+    labels = run_names(trajectories, names)
+    if trajectories:
+        check_runs(robot, trajectories, labels)
+        times, indices = common_frames(trajectories, speed=speed, fps=fps)
+        colors = [TRACE_COLOR] if len(trajectories) == 1 else list(RUN_COLORS)
+        runs = [Run(n, c, tr, ix) for n, c, tr, ix in zip(labels, colors, trajectories, indices, strict=False)]
+        configurations = [np.asarray(run.trajectory.q, dtype=np.float64)[run.index] for run in runs]
+    else:
+        runs = []
+        q0 = robot.neutral() if q is None else robot.q_(q)
+        times, configurations = np.zeros(1), [q0[None, :]]
+    ghost_objects: list[list[SceneObject]] = []
+    ghost_geoms: list[list[Any]] = []
+    skipped: list[str] = []
+    for r, configs in enumerate(configurations):
+        objects, geoms, skipped = geometry_objects(robot, geometry, configs, group="robot" if r == 0 else f"ghost{r}")
+        ghost_objects.append(objects)
+        ghost_geoms.append(geoms)
+    frames = [frame_positions(robot, configs) for configs in configurations]
+    chosen = choose_trace_frame(frames[0], trace_frame) if trace and trajectories else None
+    traces = [f[chosen] if chosen is not None else np.zeros((0, 3)) for f in frames]
     playback_times = (times - times[0]) / speed
+    framing = frame_motion(
+        [obj for objs in ghost_objects for obj in objs],
+        np.concatenate([*traces, np.zeros((0, 3))]),
+        len(times),
+        mode=camera,
+    )
 
-    layout = Layout.fit(objects, trace_xyz, with_chart=energy_chart and trajectory is not None)
     commands: list[Any] = [mc.commands.Delete(scene_path(mc, ROOT))]
     tracks: dict[tuple[str, ...], Array] = {}
-    for obj, geom in zip(objects, geoms, strict=True):
-        commands += object_commands(mc, obj, geom)
-        tracks[obj.path] = obj.placements
+    for r, (objects, geoms) in enumerate(zip(ghost_objects, ghost_geoms, strict=True)):
+        tint = (runs[r].color, GHOST_OPACITY) if len(runs) > 1 else None
+        for obj, geom in zip(objects, geoms, strict=True):
+            commands += object_commands(mc, obj, geom, tint=tint)
+            tracks[obj.path] = obj.placements
     if chosen is not None:
-        dense = dense_path(robot, trajectory, chosen) if trajectory is not None else trace_xyz
-        commands += trace_commands(mc, dense, trace_xyz, layout.size)
-        tracks[MARKER_PATH] = translations(trace_xyz)
-    if layout.chart is not None:
-        chart_part, cursor, chart_layout = chart_commands(mc, layout, playback_times, kinetic, potential)
-        commands += chart_part
-        tracks[CURSOR_PATH] = cursor
-    else:
-        chart_layout = None
-    commands += view_commands(mc, layout)
-    animation = None
-    if trajectory is not None:
-        animation = bake_animation(mc, tracks, playback_times, fps=fps)
+        for r, run in enumerate(runs):
+            dense = dense_path(robot, run.trajectory, chosen)
+            group = "trace" if r == 0 else f"trace{r}"
+            commands += trace_commands(mc, dense, traces[r], framing.size, color=run.color, group=group)
+            tracks[MARKER_PATH if r == 0 else (*ROOT, group, "marker")] = translations(traces[r])
+    commands += view_commands(mc, framing)
+    tracks.update(follow_tracks(framing))
+    animation = bake_animation(mc, tracks, playback_times, fps=fps) if trajectories else None
+    first = runs[0] if runs else None
+    chart_list = panel_charts(robot, runs) if charts and runs else []
     return Playback(
         robot_name=robot.name,
-        objects=tuple(objects),
+        objects=tuple(ghost_objects[0]),
         commands=tuple(commands),
         animation=animation,
         loop=loop,
-        sample_index=index,
+        sample_index=first.index if first is not None else np.zeros(1, dtype=np.int64),
         times=times,
         playback_times=playback_times,
-        kinetic=kinetic,
-        potential=potential,
+        kinetic=_energy_rows(first, "kinetic"),
+        potential=_energy_rows(first, "potential"),
         trace_frame=chosen,
-        trace=trace_xyz,
-        offset=layout.offset,
-        camera_position=layout.camera,
+        trace=traces[0],
+        offsets=framing.offsets,
+        camera_position=framing.camera,
+        framing=framing,
         speed=float(speed),
         fps=float(fps),
         skipped=tuple(skipped),
-        chart=chart_layout,
+        runs=tuple(runs),
+        ghosts=tuple(tuple(objs) for objs in ghost_objects),
+        traces=tuple(traces),
+        charts=tuple(chart_list),
     )
+
+
+def _energy_rows(run: Run | None, name: str) -> Array:
+    """The run's T or V at its rendered rows [J], or empty when it does not carry one per sample."""
+    if run is None:
+        return np.zeros(0)
+    values = np.asarray(getattr(run.trajectory, name), dtype=np.float64)
+    return values[run.index] if values.shape == np.shape(run.trajectory.t) else np.zeros(0)

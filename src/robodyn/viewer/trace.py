@@ -74,27 +74,31 @@ def dense_path(robot: Robot, trajectory: Trajectory, frame: str) -> Array:
     return np.array([dynamics.frame_placements(robot.model, robot.data, q[i])[index][:3, 3] for i in rows])
 
 
-def trace_commands(mc: Any, dense: Array, xyz: Array, size: float) -> list[Any]:
-    """The path as a line through ``dense`` (m, 3), dots at the rendered frames ``xyz`` (k, 3), a marker."""
+def trace_commands(
+    mc: Any, dense: Array, xyz: Array, size: float, *, color: int = TRACE_COLOR, group: str = "trace"
+) -> list[Any]:
+    """The path as a line through ``dense`` (m, 3), dots at the rendered frames ``xyz`` (k, 3), a marker.
+
+    Drawn in ``color`` under ``ROOT/group`` (a run of a replay of several has its own).
+    """
+    marker_path = (*ROOT, group, "marker")
     line = np.ascontiguousarray(dense.T, dtype=np.float32)
     points = np.ascontiguousarray(xyz.T, dtype=np.float32)
-    marker = mc.geometry.Mesh(mc.geometry.Sphere(0.02 * size), mc.geometry.MeshLambertMaterial(color=TRACE_COLOR))
+    marker = mc.geometry.Mesh(mc.geometry.Sphere(0.02 * size), mc.geometry.MeshLambertMaterial(color=color))
     return [
         mc.commands.SetObject(
-            mc.geometry.Line(
-                mc.geometry.PointsGeometry(line), mc.geometry.LineBasicMaterial(color=TRACE_COLOR, linewidth=2)
-            ),
-            path=scene_path(mc, (*ROOT, "trace", "path")),
+            mc.geometry.Line(mc.geometry.PointsGeometry(line), mc.geometry.LineBasicMaterial(color=color, linewidth=2)),
+            path=scene_path(mc, (*ROOT, group, "path")),
         ),
         mc.commands.SetObject(
             mc.geometry.Points(
-                mc.geometry.PointsGeometry(points, color=np.tile(_rgb(TRACE_COLOR), (len(xyz), 1)).T),
+                mc.geometry.PointsGeometry(points, color=np.tile(_rgb(color), (len(xyz), 1)).T),
                 mc.geometry.PointsMaterial(size=0.012 * size),
             ),
-            path=scene_path(mc, (*ROOT, "trace", "dots")),
+            path=scene_path(mc, (*ROOT, group, "dots")),
         ),
-        mc.commands.SetObject(marker, path=scene_path(mc, MARKER_PATH)),
-        mc.commands.SetTransform(translations(xyz[:1])[0], scene_path(mc, MARKER_PATH)),
+        mc.commands.SetObject(marker, path=scene_path(mc, marker_path)),
+        mc.commands.SetTransform(translations(xyz[:1])[0], scene_path(mc, marker_path)),
     ]
 
 

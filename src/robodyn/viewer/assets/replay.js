@@ -1,11 +1,19 @@
 // robodyn replay page: builds the meshcat scene from the embedded commands (the same
 // msgpack messages a meshcat server would send), then shows the simulation time and the
-// total energy in step with meshcat's animation clock. "#t=1.5" in the URL opens the
-// page paused at t = 1.5 s of simulation time.
+// total energy in step with meshcat's animation clock, and draws the chart panel at the
+// right of the 3D pane: one canvas per chart, a magenta cursor at the animation's time,
+// and a click on a chart seeks the animation there. "#t=1.5" in the URL opens the page
+// paused at t = 1.5 s of simulation time.
 (function () {
   "use strict";
   var info = JSON.parse(document.getElementById("robodyn-info").textContent);
   var commands = JSON.parse(document.getElementById("robodyn-commands").textContent);
+  var panelInfo = info.panel;
+  var hasPanel = info.animated && panelInfo && panelInfo.charts.length > 0;
+  if (hasPanel) {
+    document.body.style.setProperty("--panel-width", panelInfo.width + "px");
+    document.body.classList.add("with-panel");
+  }
   var viewer = new MeshCat.Viewer(document.getElementById("meshcat-pane"));
   window.viewer = viewer;
 
@@ -18,6 +26,8 @@
     return bytes;
   }
   commands.forEach(function (c) { viewer.handle_command_bytearray(decode(c)); });
+
+  var duration = info.tau.length ? info.tau[info.tau.length - 1] : 0;
 
   // Index of the last rendered frame at or before playback time tau (binary search).
   function frameAt(tau) {
@@ -39,10 +49,188 @@
     return (1 - s) * info.energy[k] + s * info.energy[k + 1];
   }
 
+  function seek(tau) {
+    var animator = viewer.animator;
+    tau = Math.max(0, Math.min(duration, tau));
+    animator.play();
+    animator.pause();
+    animator.seek(tau);
+    animator.display_progress(tau);
+  }
+
+  function currentTau() {
+    return (info.animated && viewer.animator) ? viewer.animator.time : 0;
+  }
+
+  // ------------------------------------------------------------------ the chart panel
+  function fmt(x) {
+    if (x === 0) { return "0"; }
+    var a = Math.abs(x);
+    return (a >= 1e4 || a < 1e-3) ? x.toExponential(2) : String(parseFloat(x.toPrecision(3)));
+  }
+
+  function svgKey(color, dash) {
+    var ns = "http://www.w3.org/2000/svg";
+    var svg = document.createElementNS(ns, "svg");
+    svg.setAttribute("width", "22");
+    svg.setAttribute("height", "8");
+    var line = document.createElementNS(ns, "line");
+    line.setAttribute("x1", "0"); line.setAttribute("y1", "4");
+    line.setAttribute("x2", "22"); line.setAttribute("y2", "4");
+    line.setAttribute("stroke", color); line.setAttribute("stroke-width", "2.5");
+    if (dash.length) { line.setAttribute("stroke-dasharray", dash.join(" ")); }
+    svg.appendChild(line);
+    return svg;
+  }
+
+  function addKey(parent, color, dash, text) {
+    var key = document.createElement("span");
+    key.className = "robodyn-key";
+    key.appendChild(svgKey(color, dash));
+    key.appendChild(document.createTextNode(text));
+    parent.appendChild(key);
+  }
+
+  var charts = [];
+  function buildPanel() {
+    var panel = document.getElementById("robodyn-panel");
+    var runs = panelInfo.runs;
+    if (runs.length > 1) {
+      var header = document.createElement("div");
+      header.className = "robodyn-runs";
+      runs.forEach(function (run) { addKey(header, run.color, [], run.name); });
+      panel.appendChild(header);
+    }
+    var headerHeight = runs.length > 1 ? 24 : 0;
+    var each = Math.max(130, Math.floor((window.innerHeight - headerHeight) / panelInfo.charts.length));
+    panelInfo.charts.forEach(function (chart) {
+      var box = document.createElement("div");
+      box.className = "robodyn-chart";
+      box.setAttribute("data-chart", chart.key);
+      var title = document.createElement("div");
+      title.className = "robodyn-title";
+      title.textContent = chart.title + " [" + chart.unit + "]";
+      box.appendChild(title);
+      var legend = document.createElement("div");
+      legend.className = "robodyn-legend";
+      var seen = {};
+      chart.series.forEach(function (s) {
+        if (runs.length > 1) {
+          if (seen[s.label]) { return; }
+          seen[s.label] = true;
+          addKey(legend, "#555", s.dash, s.label);
+        } else {
+          addKey(legend, s.color, s.dash, s.label);
+        }
+      });
+      box.appendChild(legend);
+      panel.appendChild(box);
+      var height = Math.max(80, each - title.offsetHeight - legend.offsetHeight);
+      var holder = document.createElement("div");
+      holder.className = "robodyn-canvases";
+      holder.style.height = height + "px";
+      var plot = document.createElement("canvas");
+      var cursor = document.createElement("canvas");
+      [plot, cursor].forEach(function (c) {
+        c.width = panelInfo.width - 1;
+        c.height = height;
+        holder.appendChild(c);
+      });
+      box.appendChild(holder);
+      var entry = { chart: chart, plot: plot, cursor: cursor, width: plot.width, height: height };
+      drawChart(entry);
+      cursor.addEventListener("click", function (event) {
+        var rect = cursor.getBoundingClientRect();
+        seek(tauOfX(entry, event.clientX - rect.left));
+      });
+      charts.push(entry);
+    });
+  }
+
+  function plotBox(entry) {
+    var m = panelInfo.margins;
+    return { left: m.left, right: entry.width - m.right, top: m.top, bottom: entry.height - m.bottom };
+  }
+
+  function xOfTau(entry, tau) {
+    var b = plotBox(entry);
+    return b.left + (duration > 0 ? tau / duration : 0) * (b.right - b.left);
+  }
+
+  function tauOfX(entry, x) {
+    var b = plotBox(entry);
+    return duration * (x - b.left) / (b.right - b.left);
+  }
+
+  function drawChart(entry) {
+    var chart = entry.chart, ctx = entry.plot.getContext("2d"), b = plotBox(entry);
+    var lo = Infinity, hi = -Infinity;
+    chart.series.forEach(function (s) {
+      s.values.forEach(function (v) { lo = Math.min(lo, v); hi = Math.max(hi, v); });
+    });
+    chart.limits.forEach(function (l) { lo = Math.min(lo, l.value); hi = Math.max(hi, l.value); });
+    if (!(hi > lo)) { var c = isFinite(lo) ? lo : 0; lo = c - 1; hi = c + 1; }
+    var pad = 0.05 * (hi - lo);
+    lo -= pad; hi += pad;
+    function y(v) { return b.bottom - (v - lo) / (hi - lo) * (b.bottom - b.top); }
+    ctx.fillStyle = "#fff";
+    ctx.fillRect(0, 0, entry.width, entry.height);
+    ctx.strokeStyle = "#333"; ctx.lineWidth = 1; ctx.setLineDash([]);
+    ctx.beginPath();
+    ctx.moveTo(b.left, b.top); ctx.lineTo(b.left, b.bottom); ctx.lineTo(b.right, b.bottom);
+    ctx.stroke();
+    ctx.fillStyle = "#222"; ctx.font = "11px sans-serif";
+    // value ticks, with the unit
+    ctx.textAlign = "right"; ctx.textBaseline = "middle";
+    var ticks = [lo + pad, hi - pad];
+    if (lo < 0 && hi > 0 && Math.min(Math.abs(y(0) - y(ticks[0])), Math.abs(y(0) - y(ticks[1]))) > 14) {
+      ticks.push(0);
+    }
+    ticks.forEach(function (v) {
+      ctx.fillText(fmt(v) + " " + chart.unit, b.left - 4, y(v));
+      ctx.strokeStyle = "#e3e3e3"; ctx.beginPath(); ctx.moveTo(b.left + 1, y(v)); ctx.lineTo(b.right, y(v)); ctx.stroke();
+    });
+    // time ticks, in simulation time
+    ctx.textAlign = "center"; ctx.textBaseline = "top";
+    [0, 0.5, 1].forEach(function (f) {
+      var tau = f * duration;
+      ctx.fillText(fmt(info.t0 + tau * info.speed) + " s", xOfTau(entry, tau), b.bottom + 3);
+    });
+    ctx.textAlign = "right";
+    ctx.fillText("t [s]", b.right, b.bottom + 15);
+    // limits, dashed
+    chart.limits.forEach(function (l) {
+      ctx.strokeStyle = l.color; ctx.lineWidth = 1; ctx.setLineDash([5, 4]);
+      ctx.beginPath(); ctx.moveTo(b.left, y(l.value)); ctx.lineTo(b.right, y(l.value)); ctx.stroke();
+    });
+    // curves
+    chart.series.forEach(function (s) {
+      ctx.strokeStyle = s.color; ctx.lineWidth = 1.6; ctx.setLineDash(s.dash);
+      ctx.beginPath();
+      s.values.forEach(function (v, k) {
+        var x = xOfTau(entry, info.tau[k]);
+        if (k === 0) { ctx.moveTo(x, y(v)); } else { ctx.lineTo(x, y(v)); }
+      });
+      ctx.stroke();
+    });
+    ctx.setLineDash([]);
+  }
+
+  function drawCursors(tau) {
+    charts.forEach(function (entry) {
+      var ctx = entry.cursor.getContext("2d"), b = plotBox(entry), x = Math.round(xOfTau(entry, tau)) + 0.5;
+      ctx.clearRect(0, 0, entry.width, entry.height);
+      ctx.strokeStyle = panelInfo.cursor; ctx.lineWidth = 2;
+      ctx.beginPath(); ctx.moveTo(x, b.top); ctx.lineTo(x, b.bottom); ctx.stroke();
+    });
+    document.body.setAttribute("data-cursor-tau", String(tau));
+  }
+
+  // ------------------------------------------------------------------ the overlay, every frame
   var overlay = document.getElementById("robodyn-overlay");
-  var last = "";
+  var last = "", lastTau = null;
   function update() {
-    var tau = (info.animated && viewer.animator) ? viewer.animator.time : 0;
+    var tau = currentTau();
     var text = info.robot + "   t = " + (info.t0 + tau * info.speed).toFixed(3) + " s";
     if (info.energy.length) {
       text += "   E = " + energyAt(tau).toPrecision(6) + " J";
@@ -52,10 +240,15 @@
     }
     if (info.animated) {
       text += "\nOpen Controls > Animations: play, pause, time slider";
+      if (hasPanel) { text += "\nClick a chart to seek; camera: " + info.camera; }
     }
     if (text !== last) {
       overlay.textContent = text;
       last = text;
+    }
+    if (hasPanel && tau !== lastTau) {
+      drawCursors(tau);
+      lastTau = tau;
     }
     window.requestAnimationFrame(update);
   }
@@ -63,14 +256,10 @@
   function seekFromHash() {
     var match = /(?:^|[#&])t=([-+0-9.eE]+)/.exec(window.location.hash);
     if (!match || !info.animated) { return; }
-    var tau = Math.max(0, (parseFloat(match[1]) - info.t0) / info.speed);
-    var animator = viewer.animator;
-    animator.play();
-    animator.pause();
-    animator.seek(tau);
-    animator.display_progress(tau);
+    seek((parseFloat(match[1]) - info.t0) / info.speed);
   }
 
+  if (hasPanel) { buildPanel(); }
   seekFromHash();
   window.addEventListener("hashchange", seekFromHash);
   update();

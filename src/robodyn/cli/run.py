@@ -20,6 +20,7 @@ from robodyn.cli._output import (
     refuse_clobbering,
     writable_path,
 )
+from robodyn.cli.simulate import constraint_lines
 from robodyn.errors import EXIT_MISMATCH, EXIT_OK
 from robodyn.fileio import write_text_atomically
 
@@ -78,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
     torque = scene.torque(robot, reduction)
     status = EXIT_OK
     trajectory = None
-    if scene.check is not None:
+    if scene.structural_check:
         status = max(status, _check(scene, robot, reduction, q0, v0, torque, summary))
     if scene.simulate is not None:
         try:
@@ -86,9 +87,13 @@ def run(args: argparse.Namespace) -> int:
         except (DivergenceError, SimulationInterrupted):
             _write_summary(out, summary)  # the divergence is in it, next to the partial trajectory
             raise
+    if scene.check is not None and "closed_form" in scene.check:
+        from robodyn.cli._closed_form import compare
+
+        status = max(status, compare(scene, robot, trajectory, summary))
     if scene.bench is not None:
         _bench(scene, robot, reduction, summary)
-    playback = _view(view, robot, trajectory, summary) if view is not None else None
+    playback = _view(view, _simulated_robot(scene, robot), trajectory, summary) if view is not None else None
     _write_summary(out, summary)
     if view is not None and playback is not None:  # last: the server runs until Ctrl-C
         from robodyn.cli.view import serve_playback
@@ -192,7 +197,7 @@ def _simulate(
 ) -> Any:
     import dataclasses
 
-    from robodyn.errors import DivergenceError, ModelError, SimulationInterrupted
+    from robodyn.errors import DivergenceError, InputError, ModelError, SimulationInterrupted, UnknownNameError
     from robodyn.sim.simulation import simulate
 
     duration, dt, integrator = _timing(scene)
@@ -207,9 +212,16 @@ def _simulate(
             integrator=integrator,
             torque=torque,
             backend=scene.simulate.get("backend"),  # None: simulate picks (crba with mimic joints)
+            constraints=scene.constraints,
         )
     except (DivergenceError, SimulationInterrupted) as exc:
         raise _stopped_early(exc, path, summary) from None
+    except UnknownNameError as exc:  # a frame or joint of [constraints] or [springs]
+        raise scene.error(*_constraint_key(exc), str(exc)) from None
+    except InputError as exc:
+        if str(exc).startswith(("loops[", "couplings[")):  # frames that cannot meet, a joint already coupled
+            raise scene.error("constraints", str(exc).split(" ")[0].split(":")[0], str(exc)) from None
+        raise
     except RuntimeError as exc:  # Pinocchio refusing the model (e.g. ABA and mimic joints)
         from robodyn.model.load import pinocchio_message
 
@@ -228,13 +240,35 @@ def _simulate(
         f"{trajectory.wall_time_s:.3f} s wall; energy ledger residual {abs(trajectory.ledger_residual).max():.2e} J; "
         f"written to {path}"
     )
+    print(f"  power: average {trajectory.average_power:.6g} W (W_input {float(trajectory.work_input[-1]):.6g} J)")
+    for line in constraint_lines(trajectory):
+        print(f"  {line}")
+    s = trajectory.summary()
     summary["simulate"] = {
         "steps": trajectory.n_steps,
         "wall_time_s": trajectory.wall_time_s,
         "ledger_residual": float(abs(trajectory.ledger_residual).max()),
         "trajectory": str(path),
+        **{key: s[key] for key in CONSTRAINT_FIGURES},
     }
     return trajectory
+
+
+# The figures of a run's constraints that go to summary.json (as Trajectory.summary() names them).
+CONSTRAINT_FIGURES = (
+    "work_limits",
+    "average_power",
+    "effort_clamped_samples",
+    "impacts",
+    "limit_violation",
+    "loop_drift",
+)
+
+
+def _constraint_key(exc: Any) -> tuple[str, str]:
+    """([table], key) of an unknown name: ``frame (loops[0].frame_a)`` -> constraints, loops[0].frame_a."""
+    inside = str(exc.what).partition("(")[2].rstrip(")")
+    return ("springs", str(exc.name)) if inside == "springs" else ("constraints", inside or "loops")
 
 
 def _stopped_early(exc: BaseException, path: Path, summary: dict[str, Any]) -> BaseException:
@@ -262,6 +296,16 @@ def _stopped_early(exc: BaseException, path: Path, summary: dict[str, Any]) -> B
     if isinstance(exc, DivergenceError):
         return DivergenceError(message, step=exc.step, time=exc.time, trajectory=trajectory)
     return SimulationInterrupted(message, trajectory=trajectory)
+
+
+def _simulated_robot(scene: Any, robot: Any) -> Any:
+    """The robot whose coordinates the trajectory holds: with couplings, the coupled one (followers as mimic joints)."""
+    if not scene.constraints.couplings:
+        return robot
+    from robodyn.sim.couplings import couple
+
+    coupled = couple(robot, scene.constraints.couplings)
+    return robot if coupled is None else coupled.coupled
 
 
 def _bench(scene: Any, robot: Any, reduction: Any, summary: dict[str, Any]) -> None:

@@ -1,9 +1,16 @@
 """``robodyn simulate``: integrate a model, print the energy books, save the trajectory.
 
+The URDF's joint stops and effort limits are enforced unless ``--no-limits`` /
+``--no-effort-limits``; ``--restitution`` sets the stops' e in [0, 1]; ``--constraints FILE.json``
+adds loops, couplings and springs (the keys of a scene's ``[constraints]`` table, plus
+``springs``: the ``[springs]`` table).
+
 Exit codes: 0 the run finished; 2 bad input (wrong vector lengths, a cos/sin pair or
 quaternion off the unit sphere, a singular mass matrix, non-positive dt or duration, an
 unknown integrator or backend, an unwritable output path, an output that is an input or
-another output); 3 the run diverged; 130 interrupted by Ctrl-C. A run that stops early
+another output, an unknown frame or joint in a constraint, a coupling cycle, a negative
+stiffness, a restitution outside [0, 1], a loop whose frames cannot meet); 3 the run diverged
+or its constraint solver failed to converge; 130 interrupted by Ctrl-C. A run that stops early
 writes what it computed as ``x.partial.npz`` (and ``x.partial.csv``), beside and never over
 the ``x.npz`` of an earlier complete run.
 """
@@ -11,6 +18,8 @@ the ``x.npz`` of an earlier complete run.
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -26,13 +35,19 @@ from robodyn.cli._common import (
     warn_ignored_mimic,
 )
 from robodyn.cli._output import partial_path, refuse_clobbering, writable_path
-from robodyn.errors import EXIT_DIVERGED, EXIT_OK, InputError
+from robodyn.errors import EXIT_DIVERGED, EXIT_OK, InputError, UnknownNameError
 from robodyn.registry import BACKENDS
 
 EXIT_INTERRUPTED = 130
 
 TOLERANCE = number_in(high=1.0, noun="relative tolerance")
 """Argparse type of --rtol: above 1 every step passes, so (0, 1]."""
+
+RESTITUTION = number_in(low=0.0, high=1.0, low_open=False, noun="restitution")
+"""Argparse type of --restitution: e in [0, 1] (0 inelastic, 1 elastic)."""
+
+# A constraints file is a few lines of JSON; a larger one is not read (and /dev/zero never ends).
+MAX_CONSTRAINTS_BYTES = 2**20
 
 
 def add_parser(sub: Any) -> None:
@@ -101,6 +116,31 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument("--no-damping", action="store_true", help="ignore the URDF's joint damping and friction")
     p.add_argument(
+        "--no-limits", action="store_true", help="let the joints pass through the URDF's position limits (no stops)"
+    )
+    p.add_argument(
+        "--no-effort-limits",
+        action="store_true",
+        help="apply the commanded torque as given (default: clamped at each joint's URDF effort)",
+    )
+    p.add_argument(
+        "--restitution",
+        type=RESTITUTION,
+        default=None,
+        metavar="E",
+        help="coefficient of restitution at the joint stops, 0 (inelastic) to 1 (elastic) (default: 0, or the "
+        "--constraints file's)",
+    )
+    p.add_argument(
+        "--constraints",
+        type=Path,
+        default=None,
+        metavar="FILE.json",
+        help="loops, couplings and springs as a JSON object: the keys of a scene's [constraints] table (limits, "
+        'restitution, effort_limits, loops, couplings) and "springs" (the [springs] table); the flags above '
+        "override it",
+    )
+    p.add_argument(
         "--max-energy-growth",
         type=positive_float,
         default=1.0,
@@ -132,7 +172,9 @@ def run(args: argparse.Namespace) -> int:
     csv = writable_path(args.csv, create_parents=False, suffix=".csv") if args.csv is not None else None
     outputs = [("--out", out), ("--csv", csv)]
     given = Path(args.model)
-    refuse_clobbering(outputs, [("the model", given if given.is_file() else None), ("--srdf", args.srdf)])
+    inputs = [("the model", given if given.is_file() else None), ("--srdf", args.srdf)]
+    refuse_clobbering(outputs, [*inputs, ("--constraints", args.constraints)])
+    constraints = constraints_from_args(args)
     if args.view:
         from robodyn.cli.view import check_frame_count
 
@@ -161,12 +203,17 @@ def run(args: argparse.Namespace) -> int:
             rtol=args.rtol,
             atol=args.atol,
             max_energy_growth=args.max_energy_growth,
+            constraints=constraints,
         )
         failure: BaseException | None = None
     except DivergenceError as exc:
         trajectory, failure = exc.trajectory, exc
     except SimulationInterrupted as exc:  # Ctrl-C: no lost work, the trajectory so far is written
         trajectory, failure = exc.trajectory, exc
+    except UnknownNameError as exc:  # a frame or joint of a constraint: name the file it came from
+        if args.constraints is None:
+            raise
+        raise InputError(f"--constraints {args.constraints}: {exc}") from None
     # Said after the run, not before it: a refused input stays one line on stderr.
     warn_ignored_mimic(robot, mimic=args.mimic, command="simulate")
     kept: list[Path] = []
@@ -183,6 +230,74 @@ def run(args: argparse.Namespace) -> int:
 
         return serve_and_play(robot, trajectory, speed=1.0, open_browser=False, zmq_url=None)
     return EXIT_OK
+
+
+def constraints_from_args(args: argparse.Namespace) -> Any:
+    """The run's :class:`~robodyn.sim.constraints.Constraints`: the --constraints file, then the flags over it.
+
+    Raises:
+        InputError: one line naming the file (or the flag) and what is wrong.
+    """
+    from robodyn.sim.constraints import Constraints
+
+    spec = Constraints() if args.constraints is None else read_constraints(args.constraints)
+    changes: dict[str, Any] = {}
+    if args.no_limits:
+        changes["limits"] = False
+    if args.no_effort_limits:
+        changes["effort_limits"] = False
+    if args.restitution is not None:
+        changes["restitution"] = float(args.restitution)
+    return dataclasses.replace(spec, **changes) if changes else spec
+
+
+def read_constraints(path: Path) -> Any:
+    """The constraints of a JSON file: ``{"limits": .., "loops": [..], "couplings": [..], "springs": {..}}``.
+
+    The keys are a scene's ``[constraints]`` table's, with ``springs`` its ``[springs]`` table;
+    ``{"constraints": {..}, "springs": {..}}`` (the two tables as they are) is read too.
+
+    Raises:
+        InputError: the file cannot be read, is larger than :data:`MAX_CONSTRAINTS_BYTES`, is not
+            UTF-8 JSON, or holds a bad entry; one line starting with the file's name.
+    """
+    from robodyn.sim.constraints import Constraints
+
+    try:
+        with path.open("rb") as stream:
+            raw = stream.read(MAX_CONSTRAINTS_BYTES + 1)
+    except OSError as exc:
+        raise InputError(f"--constraints {path}: cannot read it: {exc.strerror or exc}") from None
+    if len(raw) > MAX_CONSTRAINTS_BYTES:
+        raise InputError(f"--constraints {path}: larger than 1 MiB (expected a short JSON object)")
+    try:
+        data = json.loads(raw.decode("utf-8"))
+    except UnicodeDecodeError as exc:
+        raise InputError(
+            f"--constraints {path}: not UTF-8 text: byte 0x{raw[exc.start]:02x} at offset {exc.start}"
+        ) from None
+    except json.JSONDecodeError as exc:
+        raise InputError(f"--constraints {path}: not valid JSON ({exc.msg} at line {exc.lineno})") from None
+    except (RecursionError, ValueError) as exc:
+        raise InputError(
+            f"--constraints {path}: cannot be read ({type(exc).__name__}); expected a flat JSON object"
+        ) from None
+    if not isinstance(data, dict):
+        raise InputError(f"--constraints {path}: expected a JSON object of the [constraints] keys, got {_kind(data)}")
+    if "constraints" in data:  # the two scene tables, as they are
+        unknown = sorted(set(data) - {"constraints", "springs"})
+        if unknown:
+            raise InputError(f"--constraints {path}: unknown key {unknown[0]!r} beside 'constraints'; expected springs")
+        if not isinstance(data["constraints"], dict):
+            raise InputError(f"--constraints {path}: 'constraints' must be an object, got {_kind(data['constraints'])}")
+        return Constraints.from_mapping(data["constraints"], springs=data.get("springs"), where=f"--constraints {path}")
+    return Constraints.from_mapping(data, where=f"--constraints {path}")
+
+
+def _kind(value: Any) -> str:
+    """``a list``, ``a number``: what a JSON value is, for a message."""
+    names = {list: "a list", str: "a string", bool: "true or false", type(None): "null", dict: "an object"}
+    return names.get(type(value), "a number")
 
 
 def _partial_note(out: Path | None, csv: Path | None, kept: list[Path]) -> str:
@@ -220,6 +335,42 @@ def _vec(x: Any, units: list[str] | None) -> str:
     return "[" + ", ".join(f"{v:.7g} {u}" if u else f"{v:.7g}" for v, u in zip(values, units, strict=True)) + "]"
 
 
+def constraint_lines(trajectory: Any) -> list[str]:
+    """What the constraints did, one line each: clamped torques, impacts, the worst violation and loop drift."""
+    s, meta = trajectory.summary(), trajectory.meta
+    samples = len(trajectory.t)
+    clamped = int(s["effort_clamped_samples"] or 0)
+    efforts = "on" if (meta.get("constraints") or {}).get("effort_limits", True) else "off"
+    if clamped:
+        lines = [f"efforts: tau clamped at the effort limit in {clamped:,} of {samples:,} samples"]
+    else:
+        lines = [f"efforts: tau never clamped (effort limits {efforts}; {samples:,} samples)"]
+    limits = (meta.get("constraints") or {}).get("limits", True)
+    if not limits:
+        lines.append("stops: off (--no-limits): the joints pass through their limits")
+    else:
+        impacts = int(s["impacts"] or 0)
+        joint = meta.get("limit_violation_joint")
+        where = f" ({joint}, {_unit_of(meta, joint)})" if joint else " [rad | m]"
+        violation = float(s["limit_violation"] or 0.0)
+        restitution = (meta.get("constraints") or {}).get("restitution", 0.0)
+        lines.append(
+            f"stops: {impacts:,} impact{'' if impacts == 1 else 's'} (restitution {restitution:g}), "
+            f"W_limits = {s['work_limits']:.6g} J, worst limit violation {violation:.3e}{where}"
+        )
+    if s["loop_drift"] is not None:
+        lines.append(f"loops: worst drift max|residual| = {float(s['loop_drift']):.3e} m")
+    return lines
+
+
+def _unit_of(meta: dict[str, Any], joint: str) -> str:
+    """The unit of ``joint``'s coordinate (``rad`` or ``m``) from the metadata, ``rad | m`` if unknown."""
+    names, units = meta.get("joint_names") or [], meta.get("q_units") or []
+    if joint in names and len(names) == len(units):
+        return str(units[names.index(joint)]) or "rad | m"
+    return "rad | m"
+
+
 def _report(trajectory: Any, out: Path | None, csv: Path | None, *, as_json: bool) -> None:
     s = trajectory.summary()
     if out is not None:
@@ -242,8 +393,12 @@ def _report(trajectory: Any, out: Path | None, csv: Path | None, *, as_json: boo
     )
     print(
         f"ledger: W_input = {s['work_input']:.9g} J, W_damping = {s['work_damping']:.9g} J, "
-        f"residual max|E - E0 - W_input - W_damping| = {s['max_ledger_residual']:.3e} J"
+        f"W_limits = {s['work_limits']:.9g} J, "
+        f"residual max|E - E0 - W_input - W_damping - W_limits| = {s['max_ledger_residual']:.3e} J"
     )
+    print(f"power: average {s['average_power']:.6g} W (W_input over {s['t_final'] - float(trajectory.t[0]):g} s)")
+    for line in constraint_lines(trajectory):
+        print(line)
     for label, path in (("trajectory", out), ("CSV", csv)):
         if path is not None:
             print(f"wrote {label} {path}")

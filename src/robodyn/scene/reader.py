@@ -1,244 +1,34 @@
-"""Scene files: one small TOML file that says everything a scene needs.
-
-A scene names the model and the joints it moves (the rest are locked, so robodyn builds
-the minimal model), the initial state, the torque or controller, how long and how to
-integrate, and what to check, benchmark and show. :func:`read_scene` parses and validates
-it (every problem is one line naming the file, the table and the key); ``robodyn run``
-then builds the model and runs the parts asked for. Example::
-
-    [model]
-    name = "panda"                          # or: urdf = "path/to/robot.urdf"
-    keep = ["panda_joint2", "panda_joint4", "panda_joint6"]
-    reference = "default"                   # SRDF group state holding the locked joints
-
-    [initial]
-    q = { panda_joint2 = 0.3, panda_joint4 = -2.0 }   # by joint name, or a list of nq
-    v = [0.0, 0.0, 0.0]
-
-    [control]
-    kind = "pd"                             # "none", "constant" or "pd"
-    kp = 50.0
-    kd = 5.0
-    target = { panda_joint2 = 0.0 }
-    gravity_compensation = true
-
-    [simulate]                              # defaults as robodyn simulate: 2 s, 1e-3 s, rk4
-    duration = 2.0                          # [s]
-    dt = 1e-3                               # [s]
-    integrator = "rk4"
-
-    [check]                                 # structural identities (and a formula, if named)
-    samples = 20
-    exactness = true                        # reduced model == full model with locks held
-
-    [bench]
-    repeat = 200
-
-    [view]
-    html = "panda_arm.html"                 # write a standalone player (or: open = true)
-
-Relative paths (``urdf``, ``srdf``, ``output``, ``view.html``) are read from the scene file's folder.
-"""
+"""Reading a scene file: TOML parsed and every table and key validated, each problem in one line."""
 
 from __future__ import annotations
 
 import math
 import reprlib
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from robodyn.errors import InputError, SceneError
+from robodyn.errors import SceneError
+from robodyn.sim.constraints import Constraints
 
 if TYPE_CHECKING:
-    from robodyn.model.reduce import Reduction
-    from robodyn.robot import Robot
+    pass
+
+from robodyn.scene.model import (
+    CONTROL_KINDS,
+    MAX_PORT,
+    MAX_REPEAT,
+    MAX_SAMPLES,
+    MAX_SCENE_BYTES,
+    MAX_SEED,
+    TABLES,
+    Scene,
+)
 
 Array = NDArray[np.float64]
-
-TABLES = {
-    "model": ("name", "urdf", "srdf", "free_flyer", "mimic", "keep", "lock", "reference"),
-    "initial": ("q", "v"),
-    "control": ("kind", "torque", "kp", "kd", "target", "gravity_compensation"),
-    "simulate": ("duration", "dt", "integrator", "backend"),
-    "check": ("samples", "seed", "formula", "exactness"),
-    "bench": ("repeat",),
-    "view": ("open", "html", "port"),
-    "output": ("dir",),
-}
-CONTROL_KINDS = ("none", "constant", "pd")
-
-# Bounds on hostile input: a scene file is a few lines of TOML (a larger one is not parsed);
-# [check] samples random states and [bench] repeat timed calls, each at most 100,000; [check]
-# seed up to the largest TOML integer; [view] port a TCP port.
-MAX_SCENE_BYTES = 1024 * 1024
-MAX_SAMPLES = 100_000
-MAX_REPEAT = 100_000
-MAX_SEED = 2**63 - 1
-MAX_PORT = 65535
-
-
-@dataclass(frozen=True)
-class Scene:
-    """A validated scene file. Tables the file leaves out are None (not asked for)."""
-
-    path: Path
-    model: dict[str, Any]
-    initial: dict[str, Any] = field(default_factory=dict)
-    control: dict[str, Any] = field(default_factory=dict)
-    simulate: dict[str, Any] | None = None
-    check: dict[str, Any] | None = None
-    bench: dict[str, Any] | None = None
-    view: dict[str, Any] | None = None
-    output: Path | None = None
-
-    @property
-    def name(self) -> str:
-        """The scene's name: its file stem."""
-        return self.path.stem
-
-    def error(self, table: str, key: str, message: str) -> SceneError:
-        """A :class:`SceneError` naming this file, ``[table]`` and ``key``."""
-        return SceneError(f"{self.path}: [{table}] {key}: {message}")
-
-    # ----------------------------------------------------------------- model
-    def build(self) -> tuple[Robot, Reduction | None]:
-        """Load the model and reduce it to the joints the scene keeps.
-
-        Returns the robot to simulate (the reduced one when joints are locked) and the
-        :class:`robodyn.model.reduce.Reduction`, or None when nothing is locked.
-        """
-        from robodyn.errors import UnknownNameError
-        from robodyn.model.load import load, load_reduction
-
-        m = self.model
-        target = m.get("urdf") or m["name"]
-        options = {"srdf": m.get("srdf"), "free_flyer": m.get("free_flyer", False), "mimic": m.get("mimic", False)}
-        try:
-            if not m.get("keep") and not m.get("lock"):
-                return load(target, **options), None
-            reduction = load_reduction(
-                target, lock=m.get("lock"), keep=m.get("keep"), reference=m.get("reference"), **options
-            )
-        except UnknownNameError as exc:
-            raise self.error("model", self._model_key(exc.what), str(exc)) from None
-        except SceneError:
-            raise
-        except InputError as exc:
-            raise self.error("model", self._model_key(str(exc)), str(exc)) from None
-        return reduction.reduced, reduction
-
-    def _model_key(self, what: str) -> str:
-        """The [model] key an error about ``what`` comes from (keep, lock, reference or the model)."""
-        m = self.model
-        if "reference" in what:
-            return "reference"
-        if ("keep" in what or "kept" in what) and "keep" in m:
-            return "keep"
-        if "lock" in what and "lock" in m:
-            return "lock"
-        if "joint" in what:
-            return "keep" if "keep" in m else "lock"
-        return "name" if "name" in m else "urdf"
-
-    def initial_state(self, robot: Robot, reduction: Reduction | None = None) -> tuple[Array, Array]:
-        """(q0 (nq,), v0 (nv,)) of the scene for ``robot``, zero velocity by default.
-
-        Joints the scene leaves out start at the reference configuration ([model]
-        reference, an SRDF group state) or, without one, at Pinocchio's neutral.
-        """
-        if reduction is not None:
-            default = reduction.reduced_q(reduction.q_reference)
-        elif "reference" in self.model:
-            from robodyn.model.reduce import reference_configuration
-
-            default = reference_configuration(robot, self.model["reference"])
-        else:
-            default = robot.neutral()
-        q = self._joint_vector(robot, "initial", "q", self.initial.get("q"), default, configuration=True)
-        v = self._joint_vector(robot, "initial", "v", self.initial.get("v"), np.zeros(robot.nv), configuration=False)
-        return q, v
-
-    def _joint_vector(
-        self, robot: Robot, table: str, key: str, value: Any, default: Array, *, configuration: bool
-    ) -> Array:
-        from robodyn.robot import joint_coordinates
-
-        if value is None:
-            return default.copy()
-        size = robot.nq if configuration else robot.nv
-        if isinstance(value, list):
-            arr = np.asarray(value, dtype=np.float64)
-            if arr.shape != (size,):
-                raise self.error(
-                    table, key, f"expected {size} numbers for {robot.name} ({robot.nv} DoF), got {arr.size}"
-                )
-            return arr
-        out = default.copy()
-        for name, entry in value.items():
-            if name not in robot.joint_names:
-                raise self.error(
-                    table,
-                    key,
-                    f"no joint {reprlib.repr(name)} in the scene's model; joints: {', '.join(robot.joint_names)}",
-                )
-            joint = robot.joint(name)
-            values = np.atleast_1d(np.asarray(entry, dtype=np.float64))
-            if configuration:
-                try:
-                    out[joint.idx_q : joint.idx_q + joint.nq] = joint_coordinates(joint.kind, joint.nq, values)
-                except InputError as exc:
-                    raise self.error(table, f"{key}.{name}", str(exc)) from None
-            else:
-                if values.size != joint.nv:
-                    raise self.error(table, f"{key}.{name}", f"expected {joint.nv} number(s), got {values.size}")
-                out[joint.idx_v : joint.idx_v + joint.nv] = values
-        return out
-
-    # ----------------------------------------------------------------- control
-    def torque(
-        self, robot: Robot, reduction: Reduction | None = None
-    ) -> Array | Callable[[float, Array, Array], Array] | None:
-        """The input: None, a constant (nv,) vector [N m | N], or a controller tau(t, q, v).
-
-        ``pd`` is tau = kp (q* - q) - kd v (+ G(q) with ``gravity_compensation``), on the
-        actuated joints only (passive joints get zero). q* is ``target`` (the initial q
-        by default).
-        """
-        c = self.control
-        kind = c.get("kind", "constant" if "torque" in c else "none")
-        if kind == "none":
-            return None
-        actuated = robot.actuated
-        if kind == "constant":
-            tau = self._joint_vector(
-                robot, "control", "torque", c.get("torque"), np.zeros(robot.nv), configuration=False
-            )
-            if np.any(tau[~actuated] != 0):
-                raise self.error(
-                    "control", "torque", f"passive joints {', '.join(robot.passive_joints)} take no torque"
-                )
-            return tau
-        q0, _ = self.initial_state(robot, reduction)
-        target = self._joint_vector(robot, "control", "target", c.get("target"), q0, configuration=True)
-        kp, kd = float(c.get("kp", 0.0)), float(c.get("kd", 0.0))
-        compensate = bool(c.get("gravity_compensation", False))
-        mask = actuated.astype(np.float64)
-
-        def controller(t: float, q: Array, v: Array) -> Array:
-            from robodyn import dynamics
-
-            error = dynamics.difference(robot.model, q, target)
-            tau = kp * error - kd * v
-            if compensate:
-                tau = tau + robot.G(q)
-            return mask * tau
-
-        return controller
 
 
 def _fail(path: Path, where: str, message: str) -> SceneError:
@@ -319,7 +109,7 @@ def read_scene(path: str | Path) -> Scene:
         if not isinstance(body, dict):
             raise _fail(path, table, f"expected a table [{table}], got a value")
         for key in body:
-            if key not in TABLES[table]:
+            if key not in TABLES[table] and table != "springs":
                 raise _fail(path, f"[{table}] {key}", f"unknown key; expected one of: {', '.join(TABLES[table])}")
     if "model" not in data:
         raise _fail(path, "[model]", 'missing: a scene needs a model (name = "panda" or urdf = "robot.urdf")')
@@ -386,6 +176,18 @@ def read_scene(path: str | Path) -> Scene:
             _number(path, "check", "seed", check["seed"], integer=True, low=0, high=MAX_SEED)
         if "formula" in check:
             _string(path, "check", "formula", check["formula"])
+        if "closed_form" in check:
+            check["closed_form"] = base / _string(path, "check", "closed_form", check["closed_form"])
+            if not check["closed_form"].is_file():
+                raise _fail(path, "[check] closed_form", f"no such file {str(check['closed_form'])!r}")
+            if simulate is None:
+                raise _fail(
+                    path, "[check] closed_form", "needs [simulate]: the closed form is compared with the motion"
+                )
+        if "closed_form_rtol" in check:
+            if "closed_form" not in check:
+                raise _fail(path, "[check] closed_form_rtol", "needs closed_form (the file the tolerance is for)")
+            _number(path, "check", "closed_form_rtol", check["closed_form_rtol"], positive=True)
         if "exactness" in check:
             _bool(path, "check", "exactness", check["exactness"])
             if check["exactness"] and not (model.get("keep") or model.get("lock")):
@@ -410,7 +212,15 @@ def read_scene(path: str | Path) -> Scene:
     output = None
     if "output" in data and "dir" in data["output"]:
         output = base / _string(path, "output", "dir", data["output"]["dir"])
-    return Scene(path, model, initial, control, simulate, check, bench, view, output)
+    constraints = _read_constraints(path, data)
+    return Scene(path, model, initial, control, simulate, check, bench, view, output, constraints)
+
+
+def _read_constraints(path: Path, data: dict[str, Any]) -> Constraints:
+    """The [constraints] and [springs] tables as one spec; a bad entry is one line naming file, table and key."""
+    springs = data.get("springs")
+    Constraints.from_mapping(None, springs=springs, where=f"{path}: [springs]")  # its errors name [springs]
+    return Constraints.from_mapping(data.get("constraints"), springs=springs, where=f"{path}: [constraints]")
 
 
 def _read_text(path: Path) -> str:

@@ -1,0 +1,140 @@
+"""A scene's ``[check] closed_form``: the simulated motion against the book's closed form, sample by sample.
+
+The file (a path relative to the scene) is a user's Python module with the interface of
+``examples/textbook/*/closed_form.py``: ``parameters(scene_path) -> dict`` and
+``worst_deviation(t, q, v, params) -> {quantity: max |closed form - simulated| / max |closed form|}``,
+where ``t`` is (n,) [s] and ``q``, ``v`` map each one-coordinate joint's name to its (n,) series
+(a coupled joint's from its leader: ratio q_leader + offset). :func:`compare` prints the worst
+deviation of each quantity along the whole motion and fails (exit 1) above ``closed_form_rtol``.
+A file that cannot be imported or breaks its interface is one line naming it (exit 2).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+from collections.abc import Mapping
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+
+from robodyn.errors import EXIT_MISMATCH, EXIT_OK, SceneError
+from robodyn.scene import DEFAULT_CLOSED_FORM_RTOL, Scene
+
+FUNCTIONS = ("parameters", "worst_deviation")
+
+
+def compare(scene: Scene, robot: Any, trajectory: Any, summary: dict[str, Any]) -> int:
+    """Print and record the worst deviation of ``trajectory`` from the scene's closed form; 0 within tolerance, 1 not.
+
+    Raises:
+        SceneError: the closed-form file fails to import, lacks a function, raises, or returns
+            something other than {name: number}; one line naming the scene, ``[check] closed_form`` and the file.
+    """
+    assert scene.check is not None  # the caller's condition
+    path = Path(scene.check["closed_form"])
+    rtol = float(scene.check.get("closed_form_rtol", DEFAULT_CLOSED_FORM_RTOL))
+    module = load(scene, path)
+    q, v = joint_series(robot, trajectory, scene.constraints)
+    params = _call(scene, path, "parameters", module.parameters, scene.path)
+    deviation = _call(scene, path, "worst_deviation", module.worst_deviation, trajectory.t, q, v, params)
+    deviation = _deviations(scene, path, deviation)
+    worst = max(deviation.values(), default=0.0)
+    passed = all(x <= rtol for x in deviation.values())  # a NaN fails
+    duration = float(trajectory.t[-1] - trajectory.t[0])
+    listed = ", ".join(f"{name} {x:.3e}" for name, x in deviation.items())
+    print(
+        f"closed form: {'passed' if passed else 'FAILED'}: worst deviation from {path.name} over {duration:g} s "
+        f"({len(trajectory.t):,} samples): {listed} (tolerance {rtol:g}, relative to the largest value)"
+    )
+    summary["closed_form"] = {
+        "file": str(path),
+        "passed": passed,
+        "worst_deviation": deviation,
+        "worst": worst,
+        "tolerance": rtol,
+    }
+    return EXIT_OK if passed else EXIT_MISMATCH
+
+
+def load(scene: Scene, path: Path) -> ModuleType:
+    """Import ``path`` as a module of its own (like a user's formula file) and check its functions."""
+    spec = importlib.util.spec_from_file_location(f"robodyn_closed_form_{scene.name}", path)
+    if spec is None or spec.loader is None:
+        raise _error(scene, path, "cannot be imported (expected a .py file)")
+    module = importlib.util.module_from_spec(spec)
+    try:
+        spec.loader.exec_module(module)
+    except (Exception, SystemExit) as exc:  # the file's own failure, never robodyn's
+        raise _error(scene, path, f"fails to import: {_what(exc, path)}") from None
+    missing = [name for name in FUNCTIONS if not callable(getattr(module, name, None))]
+    if missing:
+        raise _error(
+            scene, path, f"defines no {' or '.join(f'{m}()' for m in missing)}; expected {', '.join(FUNCTIONS)}"
+        )
+    return module
+
+
+def joint_series(robot: Any, trajectory: Any, constraints: Any) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Joint name -> q (n,) [rad | m] and v (n,) [rad/s | m/s] of every one-DoF joint of ``robot``.
+
+    A continuous joint's q is its angle (unwrapped). With couplings the trajectory holds the
+    leaders only; a follower is ratio * leader + offset.
+    """
+    followers = {c.joint: c for c in constraints.couplings}
+    q, v, iq, iv = {}, {}, 0, 0
+    for joint in robot.joints:  # the simulated robot's layout: a follower takes no coordinate
+        if joint.name in followers:
+            continue
+        if joint.nv == 1 and joint.nq in (1, 2):  # a continuous joint's (cos, sin) pair: its angle, unwrapped
+            x = trajectory.q[:, iq : iq + joint.nq]
+            q[joint.name] = x[:, 0] if joint.nq == 1 else np.unwrap(np.arctan2(x[:, 1], x[:, 0]))
+            v[joint.name] = trajectory.v[:, iv]
+        iq, iv = iq + joint.nq, iv + joint.nv
+    for _ in followers:  # once per link of the longest chain
+        for name, c in followers.items():
+            if c.leader in q and name not in q:
+                q[name] = c.ratio * q[c.leader] + c.offset
+                v[name] = c.ratio * v[c.leader]
+    return q, v
+
+
+def _call(scene: Scene, path: Path, name: str, function: Any, *args: Any) -> Any:
+    try:
+        return function(*args)
+    except (Exception, SystemExit) as exc:
+        raise _error(scene, path, f"{name}() failed: {_what(exc, path)}") from None
+
+
+def _deviations(scene: Scene, path: Path, value: Any) -> dict[str, float]:
+    """``worst_deviation``'s answer as {name: float}, or one line saying what came instead."""
+    if not isinstance(value, Mapping) or not value:
+        raise _error(scene, path, f"worst_deviation() must return {{quantity: number}}, got {type(value).__name__}")
+    out = {}
+    for key, x in value.items():
+        try:
+            number = float(np.asarray(x, dtype=np.float64).reshape(()))
+        except (TypeError, ValueError):
+            raise _error(
+                scene, path, f"worst_deviation()[{str(key)!r}] must be a number, got {type(x).__name__}"
+            ) from None
+        out[str(key)] = number if not math.isnan(number) else math.nan
+    return out
+
+
+def _what(exc: BaseException, path: Path) -> str:
+    """``ZeroDivisionError: division by zero (line 12)``: the exception and the last line of ``path`` it passed."""
+    tb, line = exc.__traceback__, None
+    while tb is not None:
+        if Path(tb.tb_frame.f_code.co_filename) == path:
+            line = tb.tb_lineno
+        tb = tb.tb_next
+    where = f" (line {line})" if line is not None else ""
+    text = str(exc).splitlines()[0] if str(exc) else ""
+    return f"{type(exc).__name__}: {text}{where}" if text else f"{type(exc).__name__}{where}"
+
+
+def _error(scene: Scene, path: Path, message: str) -> SceneError:
+    return scene.error("check", "closed_form", f"{path}: {message}")

@@ -36,6 +36,7 @@ SUBCOMMANDS = {
     "view": "view",
     "bench": "bench",
     "run": "run",
+    "sweep": "sweep",
 }
 
 

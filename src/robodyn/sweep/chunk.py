@@ -1,0 +1,294 @@
+"""One chunk of runs, computed in one call (one Dask task): the fastest path that applies to all of them.
+
+The path is chosen per chunk (all its runs share a setting):
+
+* ``fast``: a seed kind without controller, integrator ``rk4`` or ``semi_implicit_euler``: the
+  compiled closed-form loop of :class:`robodyn.sim.fast.FastDynamics`, run by run;
+* ``closed_loop``: an LQR controller with ``rk4`` and only final state, energy drift, time to
+  balance or wall time asked: one vectorised RK4 over the chunk (as :mod:`robodyn.control.rollout`),
+  accelerations from the compiled closed form (seed kinds) or ABA, balance tracked every step;
+* ``batch``: any other torque-free lossless robot with an explicit fixed-step method and only final
+  state, energy drift or wall time asked: :func:`robodyn.sim.batch.rollout` (one thread);
+* ``simulate``: anything else, :func:`robodyn.simulate` run by run.
+
+Every operation in the vectorised paths acts on each run's row alone (no matrix product across
+runs), so a run's numbers do not depend on its chunk: a chunk of one gives the same bits.
+Workers keep the loaded robot, compiled dynamics and controllers of the last few settings.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robodyn import dynamics
+from robodyn.control import LQR, make, plant
+from robodyn.errors import DivergenceError, StepError
+from robodyn.integrators import FixedStepIntegrator, get, step_count
+from robodyn.integrators.stability import lyapunov
+from robodyn.model.load import load
+from robodyn.robot import Robot
+from robodyn.sim import batch
+from robodyn.sim.fast import KINDS, METHODS, FastDynamics
+from robodyn.sim.simulation import simulate
+from robodyn.sim.trajectory import Trajectory
+from robodyn.sweep import measures as ms
+from robodyn.sweep.plan import Chunk
+from robodyn.sweep.spec import NO_CONTROLLER
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Job:
+    """What every chunk of a sweep shares: duration [s], measures, controller gains (JSON), seed, joints."""
+
+    duration: float
+    measures: tuple[str, ...]
+    gains: str
+    seed: int
+    joint_names: tuple[str, ...]
+
+
+@lru_cache(maxsize=8)
+def robot_of(model: str) -> Robot:
+    """The loaded model (cached per worker process)."""
+    return load(model)
+
+
+@lru_cache(maxsize=8)
+def fast_of(model: str) -> FastDynamics | None:
+    """The compiled closed form of a seed-kind model (checked against ABA), or None."""
+    robot = robot_of(model)
+    from robodyn.kinds.params import detect_kind
+
+    kind = detect_kind(robot)
+    if kind not in KINDS or np.any(robot.friction != 0.0):
+        return None
+    return FastDynamics.from_robot(robot, kind)
+
+
+@lru_cache(maxsize=8)
+def controller_of(model: str, name: str, gains: str) -> Any:
+    """The controller ``name`` for the model, with its gains from the JSON text (cached)."""
+    if name == NO_CONTROLLER:
+        return None
+    return make(name, robot_of(model), **json.loads(gains).get(name, {}))
+
+
+def upright_of(robot: Robot) -> tuple[Array, NDArray[np.bool_]] | None:
+    """(upright q, revolute mask) of a cart-pole or Pendubot, else None."""
+    try:
+        p = plant(robot)
+        return p.upright(), p.angular
+    except Exception:  # a robot without an upright state has no time to balance
+        return None
+
+
+def path_of(chunk: Chunk, job: Job) -> str:
+    """The path that computes this chunk (see the module docstring)."""
+    robot = robot_of(chunk.model)
+    s = chunk.setting
+    wanted = set(job.measures)
+    controller = controller_of(chunk.model, s.controller, job.gains)
+    if controller is None:
+        if s.integrator in METHODS and fast_of(chunk.model) is not None:
+            return "fast"
+        method = get(s.integrator)
+        explicit = isinstance(method, FixedStepIntegrator) and not method.implicit and not method.symplectic
+        lossless = not np.any(robot.damping) and not np.any(robot.friction)
+        if wanted <= ms.BATCH_MEASURES and explicit and lossless and robot.nq_equals_nv:
+            return "batch"
+        return "simulate"
+    if isinstance(controller, LQR) and s.integrator == "rk4" and wanted <= ms.CLOSED_LOOP_MEASURES:
+        return "closed_loop"
+    return "simulate"
+
+
+def execute(chunk: Chunk, job: Job) -> dict[str, Any]:
+    """Compute every run of ``chunk``: columns ``run``, ``status``, the inputs and the measures, one row a run."""
+    path = path_of(chunk, job)
+    if path == "closed_loop":
+        rows = _closed_loop(chunk, job)
+    elif path == "batch":
+        rows = _batch(chunk, job)
+    else:
+        rows = [_one(chunk, job, k, path) for k in range(chunk.runs.size)]
+    columns: dict[str, Any] = {"run": chunk.runs.copy(), "path": [path] * chunk.runs.size}
+    for name, value in chunk.setting.params:
+        columns[f"params.{name}"] = np.full(chunk.runs.size, value)
+    columns["integrator"] = [chunk.setting.integrator] * chunk.runs.size
+    columns["dt"] = np.full(chunk.runs.size, chunk.setting.dt)
+    columns["controller"] = [chunk.setting.controller] * chunk.runs.size
+    for j, joint in enumerate(job.joint_names):
+        columns[f"q0.{joint}"] = chunk.q0[:, j].copy()
+        columns[f"v0.{joint}"] = chunk.v0[:, j].copy()
+    keys = list(rows[0]) if rows else []
+    for key in keys:
+        values = [row[key] for row in rows]
+        columns[key] = values if key == "status" else np.asarray(values, dtype=np.float64)
+    return columns
+
+
+def _single(chunk: Chunk, job: Job, path: str) -> Any:
+    """run(q0, v0, T) -> Trajectory on the chunk's setting: the compiled loop or robodyn.simulate."""
+    s = chunk.setting
+    robot = robot_of(chunk.model)
+    if path == "fast":
+        fast = fast_of(chunk.model)
+        assert fast is not None  # path_of chose "fast" because there is one
+        return lambda q, v, T: fast.simulate(q, v, duration=T, dt=s.dt, method=s.integrator)
+    controller = controller_of(chunk.model, s.controller, job.gains)
+    return lambda q, v, T: simulate(robot, q, v, duration=T, dt=s.dt, integrator=s.integrator, torque=controller)
+
+
+def _one(chunk: Chunk, job: Job, k: int, path: str) -> dict[str, Any]:
+    """One run on the ``fast`` or ``simulate`` path, every measure from its trajectory."""
+    robot = robot_of(chunk.model)
+    run = _single(chunk, job, path)
+    q0, v0 = chunk.q0[k], chunk.v0[k]
+    start = time.perf_counter()
+    try:
+        trajectory: Trajectory = run(q0, v0, job.duration)
+    except (DivergenceError, StepError):
+        trajectory = None  # type: ignore[assignment]
+    wall = time.perf_counter() - start
+    user = {m: ms.load_user_measure(m) for m in job.measures if ms.is_user(m)}
+    row: dict[str, Any] = {"status": "diverged" if trajectory is None else trajectory.status}
+    if trajectory is not None:
+        upright = upright_of(robot) if "time_to_balance" in job.measures else None
+        row.update(ms.from_trajectory(trajectory, job.measures, job.joint_names, upright=upright, user=user))
+    else:
+        row.update(_nan_row(job, robot))
+    if "lyapunov" in job.measures:
+        row["lyapunov"] = _lyapunov(run, q0, v0, job, int(chunk.runs[k]))
+    if "wall_time" in job.measures:
+        row["wall_time"] = wall
+    return row
+
+
+def _nan_row(job: Job, robot: Robot) -> dict[str, float]:
+    out: dict[str, float] = {}
+    for name in job.measures:
+        if name == "final_state":
+            for joint in job.joint_names:
+                out[f"q.{joint}"] = out[f"v.{joint}"] = math.nan
+        elif name in ("energy_drift", "time_to_balance"):
+            out[name] = math.nan
+    return out
+
+
+def _lyapunov(run: Any, q0: Array, v0: Array, job: Job, run_index: int) -> float:
+    """Benettin's estimate over the run's duration; NaN when a twin blows up."""
+
+    def step_run(q: Array, v: Array, T: float) -> tuple[Array, Array]:
+        trajectory = run(q, v, T)
+        return trajectory.q[-1].copy(), trajectory.v[-1].copy()
+
+    interval = min(ms.LYAPUNOV_INTERVAL, job.duration)
+    try:
+        estimate = lyapunov(step_run, q0, v0, duration=job.duration, interval=interval, seed=job.seed + run_index)
+    except Exception:  # a twin that diverges or stops has no exponent
+        return math.nan
+    return estimate.exponent
+
+
+def _energies(chunk: Chunk, Q: Array, V: Array) -> Array:
+    """E = K + V [J] of each state (n,), the closed form when compiled, else Pinocchio's."""
+    fast = fast_of(chunk.model)
+    robot = robot_of(chunk.model)
+    out = np.full(Q.shape[0], np.nan)
+    for k in range(Q.shape[0]):
+        if np.isfinite(Q[k]).all() and np.isfinite(V[k]).all():
+            if fast is not None:
+                out[k] = sum(fast.energies(Q[k], V[k]))
+            else:
+                out[k] = robot.kinetic_energy(Q[k], V[k]) + robot.potential_energy(Q[k])
+    return out
+
+
+def _rows(chunk: Chunk, job: Job, Q: Array, V: Array, balance: Array | None, wall: float) -> list[dict[str, Any]]:
+    """Per-run measures of a vectorised chunk from its final states."""
+    E0, E1 = _energies(chunk, chunk.q0, chunk.v0), _energies(chunk, Q, V)
+    rows = []
+    for k in range(Q.shape[0]):
+        finite = bool(np.isfinite(Q[k]).all() and np.isfinite(V[k]).all())
+        row: dict[str, Any] = {"status": "ok" if finite else "diverged"}
+        for name in job.measures:
+            if name == "final_state":
+                for j, joint in enumerate(job.joint_names):
+                    row[f"q.{joint}"], row[f"v.{joint}"] = float(Q[k, j]), float(V[k, j])
+            elif name == "energy_drift":
+                row["energy_drift"] = float(E1[k] - E0[k])
+            elif name == "time_to_balance":
+                row["time_to_balance"] = float(balance[k]) if balance is not None and finite else math.nan
+            elif name == "wall_time":
+                row["wall_time"] = wall / Q.shape[0]
+        rows.append(row)
+    return rows
+
+
+def _batch(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
+    """The torque-free chunk through Pinocchio's batch ABA, one thread."""
+    s = chunk.setting
+    result = batch.rollout(
+        robot_of(chunk.model), chunk.q0, chunk.v0, duration=job.duration, dt=s.dt, integrator=s.integrator, threads=1
+    )
+    return _rows(chunk, job, result.q, result.v, None, result.wall_time_s)
+
+
+def _closed_loop(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
+    """The chunk under its LQR: classical RK4 over the batch, torque at every stage, balance tracked."""
+    s = chunk.setting
+    robot = robot_of(chunk.model)
+    lqr: LQR = controller_of(chunk.model, s.controller, job.gains)
+    fast = fast_of(chunk.model)
+    upright = upright_of(robot)
+    actuated = np.flatnonzero(robot.actuated)
+    dt, steps = s.dt, step_count(job.duration, s.dt)
+
+    def accel(q: Array, v: Array, tau: Array) -> Array:
+        if fast is not None:
+            return np.asarray(fast.acceleration(q, v, tau), dtype=np.float64).reshape(q.shape)
+        out = np.full(q.shape, np.nan)
+        for k in range(q.shape[0]):
+            if np.isfinite(q[k]).all() and np.isfinite(v[k]).all() and np.isfinite(tau[k]).all():
+                out[k] = dynamics.aba(robot.model, robot.data, q[k], v[k], tau[k] - robot.damping * v[k])
+        return out
+
+    def rates(q: Array, v: Array) -> Array:
+        e = lqr.plant.error(q, v, lqr.q_eq)
+        u = np.repeat(lqr.u_eq[None, :], q.shape[0], axis=0)
+        for j in range(e.shape[1]):  # u_eq - K e, column by column: each row's sum in the same order
+            u = u - e[:, j : j + 1] * lqr.K[:, j]
+        tau = np.zeros_like(v)
+        tau[:, actuated] = lqr.plant.saturate(u)
+        return accel(q, v, tau)
+
+    Q, V = chunk.q0.copy(), chunk.v0.copy()
+    last_out = np.full(Q.shape[0], -1, dtype=np.int64)
+    start = time.perf_counter()
+    with np.errstate(all="ignore"):  # a state that blows up is kept as NaN, not raised on
+        for step in range(steps + 1):
+            if upright is not None:
+                last_out[~ms.inside_upright(Q, *upright)] = step
+            if step == steps:
+                break
+            k1q, k1v = V, rates(Q, V)
+            k2q, k2v = V + 0.5 * dt * k1v, rates(Q + 0.5 * dt * k1q, V + 0.5 * dt * k1v)
+            k3q, k3v = V + 0.5 * dt * k2v, rates(Q + 0.5 * dt * k2q, V + 0.5 * dt * k2v)
+            k4q, k4v = V + dt * k3v, rates(Q + dt * k3q, V + dt * k3v)
+            Q = Q + dt / 6.0 * (k1q + 2.0 * k2q + 2.0 * k3q + k4q)
+            V = V + dt / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v)
+            bad = ~np.isfinite(Q).all(axis=1) | ~np.isfinite(V).all(axis=1)
+            Q[bad], V[bad] = np.nan, np.nan
+    wall = time.perf_counter() - start
+    balance = np.where(last_out == steps, np.nan, (last_out + 1) * dt) if upright is not None else None
+    return _rows(chunk, job, Q, V, balance, wall)

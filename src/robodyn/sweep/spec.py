@@ -1,0 +1,280 @@
+"""The sweep file: a TOML description of many independent runs, read and checked into a :class:`SweepSpec`.
+
+A sweep file names a model and the axes of the runs; every axis with more than one value is
+crossed with every other (a full grid)::
+
+    model = "pendubot"            # a built-in name, an example-robot-data name or a URDF path
+    duration = 5.0                # [s] of every run
+    dt = 1e-3                     # [s]; a list makes it an axis
+    integrator = "rk4"            # or a list: an axis
+    controller = "lqr"            # optional; "none", a name, a list, or a controller file
+    measure = ["final_state", "time_to_balance", "wall_time", "my_measures.py:peak"]
+    chunk = 1000                  # runs per Dask task
+    seed = 0                      # the Lyapunov twins' seed (the run's index is added)
+
+    [q0]                          # initial configuration: joint -> value, list or grid
+    joint1 = { from = -3.14, to = 3.14, n = 101 }
+    joint2 = 0.0
+    [v0]
+    joint1 = [0.0, 1.0]
+    [params]                      # seed-kind parameters (robodyn params --set), each value an axis
+    m2 = [0.8, 1.0, 1.2]
+    [gains.lqr]                   # a controller's gains
+    R = 1.0
+
+Joints left out start at 0. Names (keys, joints, parameters, measures, integrators,
+controllers) are checked against what exists, and a miss names the close matches; the checks
+that need the model happen in :func:`check_against`.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import sys
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from robodyn.errors import InputError, UnknownNameError
+
+TOP_KEYS = (
+    "chunk",
+    "controller",
+    "dt",
+    "duration",
+    "gains",
+    "integrator",
+    "measure",
+    "model",
+    "params",
+    "q0",
+    "seed",
+    "v0",
+)
+# A grid of more than this many points on one axis is a typo, not a sweep.
+MAX_AXIS_POINTS = 10_000_000
+MAX_CHUNK = 1_000_000
+DEFAULT_CHUNK = 1000
+NO_CONTROLLER = "none"
+
+
+@dataclass(frozen=True)
+class SweepSpec:
+    """A checked sweep: the model, each axis's values (tuples of floats or names) and what to measure.
+
+    ``q0`` and ``v0`` map joint names to their values [rad | m] and [rad/s | m/s]; ``params`` a
+    seed-kind parameter name to its values (SI units); ``base`` is the folder that relative paths
+    in the file are read from; ``digest`` identifies everything that decides a run's numbers.
+    """
+
+    source: str
+    model: str
+    duration: float
+    dts: tuple[float, ...]
+    integrators: tuple[str, ...]
+    controllers: tuple[str, ...]
+    gains: Mapping[str, Mapping[str, Any]]
+    measures: tuple[str, ...]
+    q0: Mapping[str, tuple[float, ...]]
+    v0: Mapping[str, tuple[float, ...]]
+    params: Mapping[str, tuple[float, ...]]
+    chunk: int = DEFAULT_CHUNK
+    seed: int = 0
+    base: Path = field(default_factory=Path.cwd)
+    digest: str = ""
+
+
+def load(source: str | Path | Mapping[str, Any]) -> SweepSpec:
+    """Read a sweep file (path) or a mapping of the same keys into a :class:`SweepSpec`.
+
+    Raises:
+        InputError: an unreadable file, a wrong type or value (naming the key).
+        UnknownNameError: an unknown top-level key or measure (with close matches).
+    """
+    if isinstance(source, Mapping):
+        return parse(source, name="sweep", base=Path.cwd())
+    path = Path(source)
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such sweep file (expected a .toml file)") from None
+    except IsADirectoryError:
+        raise InputError(f"{path}: is a folder (expected a .toml sweep file)") from None
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: is not UTF-8 text (expected a .toml sweep file)") from None
+    toml = _toml()
+    try:
+        data = toml.loads(text)
+    except toml.TOMLDecodeError as exc:
+        raise InputError(f"{path}: not valid TOML: {exc}") from None
+    return parse(data, name=str(path), base=path.resolve().parent)
+
+
+def parse(data: Mapping[str, Any], *, name: str, base: Path) -> SweepSpec:
+    """Check the keys and values of a sweep mapping (no model needed); see :func:`load`."""
+    for key in data:
+        if key not in TOP_KEYS:
+            raise _unknown("key", str(key), TOP_KEYS, name)
+    if "model" not in data:
+        raise InputError(f"{name}: missing key 'model' (a built-in name, an example-robot-data name or a URDF path)")
+    model = _text(data["model"], f"{name}: model")
+    duration = _positive(data.get("duration", 5.0), f"{name}: duration [s]")
+    dts = tuple(_positive(x, f"{name}: dt [s]") for x in _listed(data.get("dt", 1e-3)))
+    integrators = tuple(_text(x, f"{name}: integrator") for x in _listed(data.get("integrator", "rk4")))
+    controllers = tuple(_text(x, f"{name}: controller") for x in _listed(data.get("controller", NO_CONTROLLER)))
+    measures = tuple(_text(x, f"{name}: measure") for x in _listed(data.get("measure", "final_state")))
+    gains = _table(data.get("gains", {}), f"{name}: gains")
+    for controller, table in gains.items():
+        if controller not in controllers:
+            raise _unknown("controller in [gains]", controller, controllers, name)
+        _table(table, f"{name}: gains.{controller}")
+    chunk = _whole(data.get("chunk", DEFAULT_CHUNK), f"{name}: chunk", 1, MAX_CHUNK)
+    seed = _whole(data.get("seed", 0), f"{name}: seed", 0, 2**32 - 1)
+    q0 = {k: _axis(v, f"{name}: q0.{k}") for k, v in _table(data.get("q0", {}), f"{name}: q0").items()}
+    v0 = {k: _axis(v, f"{name}: v0.{k}") for k, v in _table(data.get("v0", {}), f"{name}: v0").items()}
+    params = {k: _axis(v, f"{name}: params.{k}") for k, v in _table(data.get("params", {}), f"{name}: params").items()}
+    for label, values in (("dt", dts), ("integrator", integrators), ("controller", controllers), ("measure", measures)):
+        if len(set(values)) != len(values):
+            raise InputError(f"{name}: {label} lists a value twice: {list(values)}")
+    spec = SweepSpec(
+        source=name,
+        model=model,
+        duration=duration,
+        dts=dts,
+        integrators=integrators,
+        controllers=controllers,
+        gains={k: dict(v) for k, v in gains.items()},
+        measures=measures,
+        q0=q0,
+        v0=v0,
+        params=params,
+        chunk=chunk,
+        seed=seed,
+        base=base,
+    )
+    return spec
+
+
+def with_digest(spec: SweepSpec, files: Mapping[str, bytes]) -> SweepSpec:
+    """``spec`` with its digest: every number-deciding entry, plus the bytes of the files it reads.
+
+    ``files`` maps a label (model, a user measure or controller file) to its content, so that an
+    edited model or measure file makes every chunk new.
+    """
+    h = hashlib.sha256()
+    parts = (
+        spec.model,
+        repr(spec.duration),
+        repr(spec.measures),
+        repr(sorted((k, sorted(v.items())) for k, v in spec.gains.items())),
+        repr(spec.seed),
+    )
+    for part in parts:
+        h.update(part.encode() + b"\0")
+    for label in sorted(files):
+        h.update(label.encode() + b"\0" + hashlib.sha256(files[label]).digest())
+    return SweepSpec(**{**spec.__dict__, "digest": h.hexdigest()})
+
+
+def check_against(spec: SweepSpec, joint_names: tuple[str, ...], measure_names: tuple[str, ...]) -> None:
+    """Check the joint and measure names of ``spec`` against the model's joints and the known measures.
+
+    Raises:
+        UnknownNameError: an unknown joint or measure, with the close matches.
+    """
+    for label, table in (("q0", spec.q0), ("v0", spec.v0)):
+        for joint in table:
+            if joint not in joint_names:
+                raise _unknown(f"joint in [{label}]", joint, joint_names, spec.source)
+    for measure in spec.measures:
+        if ":" not in measure and measure not in measure_names:
+            raise _unknown("measure", measure, measure_names, spec.source)
+
+
+def resolve(spec: SweepSpec, name: str) -> str:
+    """A path named in the sweep file, made absolute against the file's folder (names pass through)."""
+    looks_like_path = name.endswith((".urdf", ".py", ".toml")) or "/" in name or "\\" in name
+    if not looks_like_path:
+        return name
+    path = Path(name)
+    return str(path if path.is_absolute() else (spec.base / path).resolve())
+
+
+# ----------------------------------------------------------------------------- values
+
+
+def _unknown(what: str, name: str, choices: tuple[str, ...] | Any, source: str = "") -> UnknownNameError:
+    """UnknownNameError with the close matches, its message led by the sweep file's name."""
+    error = UnknownNameError(what, name, tuple(choices))
+    if source:
+        error.args = (f"{source}: {error.args[0]}",)
+    return error
+
+
+def _listed(value: Any) -> list[Any]:
+    return list(value) if isinstance(value, list) else [value]
+
+
+def _text(value: Any, label: str) -> str:
+    if not isinstance(value, str) or not value.strip():
+        raise InputError(f"{label} must be a non-empty string, got {value!r}")
+    return value.strip()
+
+
+def _number(value: Any, label: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise InputError(f"{label} must be a finite number, got {value!r}")
+    return float(value)
+
+
+def _positive(value: Any, label: str) -> float:
+    x = _number(value, label)
+    if x <= 0:
+        raise InputError(f"{label} must be > 0, got {value!r}")
+    return x
+
+
+def _whole(value: Any, label: str, low: int, high: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+        raise InputError(f"{label} must be a whole number in [{low}, {high}], got {value!r}")
+    return value
+
+
+def _table(value: Any, label: str) -> dict[str, Any]:
+    if not isinstance(value, Mapping):
+        raise InputError(f"{label} must be a table (joint = value), got {value!r}")
+    return dict(value)
+
+
+def _axis(value: Any, label: str) -> tuple[float, ...]:
+    """A number, a list of numbers, or a grid ``{ from = a, to = b, n = k }`` (k points, ends included)."""
+    if isinstance(value, Mapping):
+        keys = set(value)
+        if keys != {"from", "to", "n"}:
+            extra = sorted(keys - {"from", "to", "n"})
+            what = f"unknown key {extra[0]!r}" if extra else f"missing {sorted({'from', 'to', 'n'} - keys)}"
+            raise InputError(f"{label}: a grid is {{ from = A, to = B, n = N }}; {what}")
+        lo, hi = _number(value["from"], f"{label}.from"), _number(value["to"], f"{label}.to")
+        n = _whole(value["n"], f"{label}.n", 1, MAX_AXIS_POINTS)
+        return tuple(float(x) for x in np.linspace(lo, hi, n))
+    values = tuple(_number(x, label) for x in _listed(value))
+    if not values:
+        raise InputError(f"{label} lists no value")
+    if len(set(values)) != len(values):
+        raise InputError(f"{label} lists a value twice: {list(values)}")
+    return values
+
+
+def _toml() -> Any:
+    """The stdlib TOML reader (Python >= 3.11), or tomli on Python 3.10."""
+    if sys.version_info >= (3, 11):
+        import tomllib
+
+        return tomllib
+    import tomli  # pragma: no cover - Python 3.10 only
+
+    return tomli

@@ -222,7 +222,7 @@ def test_user_controller_file_runs_in_simulate(tmp_path):
             "def make(robot):\n    raise RuntimeError('no gains')\n",
             r"c\.py:2: make\(robot, \*\*gains\) raised RuntimeError: no gains",
         ),
-        ("import sys\nsys.exit(3)\n", r"c\.py:2: the controller file failed to import: sys\.exit\(3\)"),
+        ("import sys\nsys.exit(3)\n", r"c\.py: the controller file called sys\.exit\(3\) at import \(line 2\)"),
         ("def make(robot)\n", r"c\.py:1: the controller file has a syntax error"),
         ("x = 1\n", r"c\.py: define make\(robot, \*\*gains\)"),
         (

@@ -11,7 +11,6 @@ A file that cannot be imported or breaks its interface is one line naming it (ex
 
 from __future__ import annotations
 
-import importlib.util
 import math
 from collections.abc import Mapping
 from pathlib import Path
@@ -20,8 +19,9 @@ from typing import Any
 
 import numpy as np
 
-from robodyn.errors import EXIT_MISMATCH, EXIT_OK, SceneError
+from robodyn.errors import EXIT_MISMATCH, EXIT_OK, InputError, SceneError
 from robodyn.scene import DEFAULT_CLOSED_FORM_RTOL, Scene
+from robodyn.userfile import at_line, import_user_file
 
 FUNCTIONS = ("parameters", "worst_deviation")
 
@@ -61,14 +61,10 @@ def compare(scene: Scene, robot: Any, trajectory: Any, summary: dict[str, Any]) 
 
 def load(scene: Scene, path: Path) -> ModuleType:
     """Import ``path`` as a module of its own (like a user's formula file) and check its functions."""
-    spec = importlib.util.spec_from_file_location(f"robodyn_closed_form_{scene.name}", path)
-    if spec is None or spec.loader is None:
-        raise _error(scene, path, "cannot be imported (expected a .py file)")
-    module = importlib.util.module_from_spec(spec)
     try:
-        spec.loader.exec_module(module)
-    except (Exception, SystemExit) as exc:  # the file's own failure, never robodyn's
-        raise _error(scene, path, f"fails to import: {_what(exc, path)}") from None
+        module = import_user_file(path, what="closed-form", expected=", ".join(FUNCTIONS))
+    except InputError as exc:  # the file's own failure, never robodyn's
+        raise scene.error("check", "closed_form", str(exc)) from None
     missing = [name for name in FUNCTIONS if not callable(getattr(module, name, None))]
     if missing:
         raise _error(
@@ -126,12 +122,7 @@ def _deviations(scene: Scene, path: Path, value: Any) -> dict[str, float]:
 
 def _what(exc: BaseException, path: Path) -> str:
     """``ZeroDivisionError: division by zero (line 12)``: the exception and the last line of ``path`` it passed."""
-    tb, line = exc.__traceback__, None
-    while tb is not None:
-        if Path(tb.tb_frame.f_code.co_filename) == path:
-            line = tb.tb_lineno
-        tb = tb.tb_next
-    where = f" (line {line})" if line is not None else ""
+    where = at_line(exc, path)
     text = str(exc).splitlines()[0] if str(exc) else ""
     return f"{type(exc).__name__}: {text}{where}" if text else f"{type(exc).__name__}{where}"
 

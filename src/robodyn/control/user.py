@@ -12,11 +12,8 @@ process of its own would cost more than the dynamics): load only files you trust
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from collections.abc import Callable
 from pathlib import Path
-from types import ModuleType, TracebackType
 from typing import Any
 
 import numpy as np
@@ -24,6 +21,7 @@ from numpy.typing import NDArray
 
 from robodyn.errors import InputError
 from robodyn.robot import Robot
+from robodyn.userfile import exit_call, import_user_file, user_line
 
 Array = NDArray[np.float64]
 
@@ -69,7 +67,7 @@ def load_user_controller(path: str | Path, robot: Robot, **gains: Any) -> UserCo
     """Import the controller file ``path``, call its ``make(robot, **gains)`` and wrap the callable it returns."""
     source = str(path)
     file = Path(path)
-    module = _import_file(file, source)
+    module = import_user_file(file, what="controller", expected="make(robot, **gains)", source=source)
     factory = getattr(module, "make", None)
     if not callable(factory):
         raise InputError(f"{source}: define make(robot, **gains) returning a callable tau(t, q, v)")
@@ -84,46 +82,14 @@ def load_user_controller(path: str | Path, robot: Robot, **gains: Any) -> UserCo
     return UserController(fn, source, file, robot)
 
 
-def _import_file(path: Path, source: str) -> ModuleType:
-    if not path.is_file():
-        raise InputError(f"{source}: no such controller file (expected a .py file defining make(robot, **gains))")
-    name = f"robodyn_user_controller_{abs(hash(str(path.resolve())))}"
-    spec = importlib.util.spec_from_file_location(name, path)
-    if spec is None or spec.loader is None:
-        raise InputError(f"{source}: cannot be imported as a Python module")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    try:
-        spec.loader.exec_module(module)
-    except SyntaxError as exc:
-        raise InputError(f"{source}:{exc.lineno}: the controller file has a syntax error: {exc.msg}") from None
-    except BaseException as exc:  # a user's file can raise anything on import, sys.exit included
-        if isinstance(exc, KeyboardInterrupt):
-            raise
-        raise InputError(f"{_where(source, exc, path)}: the controller file failed to import: {_what(exc)}") from None
-    finally:
-        sys.modules.pop(name, None)
-    return module
-
-
 def _what(exc: BaseException) -> str:
     """``ZeroDivisionError: division by zero``, or ``sys.exit(3)`` for an exit."""
     if isinstance(exc, SystemExit):
-        return "sys.exit()" if exc.code is None else f"sys.exit({exc.code!r})"
+        return exit_call(exc)
     return f"{type(exc).__name__}: {exc}"
 
 
 def _where(source: str, exc: BaseException, path: Path) -> str:
     """``source:line`` with the line of the deepest frame of the traceback in the user's file, or ``source``."""
-    line = _user_line(exc.__traceback__, path)
+    line = user_line(exc.__traceback__, path)
     return source if line is None else f"{source}:{line}"
-
-
-def _user_line(tb: TracebackType | None, path: Path) -> int | None:
-    target = path.resolve()
-    line = None
-    while tb is not None:
-        if Path(tb.tb_frame.f_code.co_filename).resolve() == target:
-            line = tb.tb_lineno
-        tb = tb.tb_next
-    return line

@@ -43,7 +43,8 @@ import numpy as np
 from robodyn.errors import FormulaError, InputError
 from robodyn.kinds.evaluation import FUNCTIONS, Points, Values, evaluate, value_shape
 from robodyn.kinds.formula import Array, Formula
-from robodyn.kinds.user_file import load_in_process, user_line
+from robodyn.kinds.user_file import load_in_process
+from robodyn.userfile import user_line
 
 DEFAULT_TIMEOUT = 60.0
 """Seconds of the formula's own time per request (its import; then one check's whole batch).

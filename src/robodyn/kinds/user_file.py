@@ -12,11 +12,8 @@ is the safe entry point.
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from types import ModuleType, TracebackType
 
 import numpy as np
 
@@ -24,8 +21,12 @@ from robodyn.errors import FormulaError
 from robodyn.kinds.formula import Array, Formula
 from robodyn.kinds.formulas import KINDS, get
 from robodyn.kinds.geared_arm import from_motor_coordinates
+from robodyn.userfile import at_line, exit_call, import_user_file
 
 REQUIRED_FUNCTIONS = ("mass_matrix", "coriolis_matrix", "gravity")
+
+
+EXPECTED_DEFINITIONS = "KIND, mass_matrix, coriolis_matrix, gravity"
 
 
 def load_in_process(path: Path, source: str) -> Formula:
@@ -36,7 +37,9 @@ def load_in_process(path: Path, source: str) -> Formula:
     link coordinate (M_l = n^2 M_m, C_l = n^2 C_m, G_l = n G_m).
     """
     path = path.resolve()
-    module = _import_file(path, source)
+    module = import_user_file(
+        path, what="formula", expected="KIND, mass_matrix, coriolis_matrix, gravity", source=source, error=FormulaError
+    )
     kind = getattr(module, "KIND", None)
     if not isinstance(kind, str):
         raise FormulaError(f"{source}: define KIND as one of {', '.join(KINDS.names())} (found {kind!r})")
@@ -63,34 +66,6 @@ def load_in_process(path: Path, source: str) -> Formula:
     return Formula(kind, source, builtin.param_names, M, C, G, V, n)
 
 
-def _import_file(path: Path, source: str) -> ModuleType:
-    if not path.is_file():
-        raise FormulaError(
-            f"{source}: no such formula file (expected a .py file defining KIND, mass_matrix, coriolis_matrix, gravity)"
-        )
-    name = f"robodyn_user_formula_{abs(hash(str(path.resolve())))}"
-    spec = importlib.util.spec_from_file_location(name, path)
-    if spec is None or spec.loader is None:
-        raise FormulaError(f"{source}: cannot be imported as a Python module")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    try:
-        spec.loader.exec_module(module)
-    except SyntaxError as exc:
-        raise FormulaError(f"{source}:{exc.lineno}: the formula file has a syntax error: {exc.msg}") from None
-    except SystemExit as exc:  # a formula file must define, not decide the exit code
-        raise FormulaError(
-            f"{source}: the formula file called {exit_call(exc)} at import{at_line(exc, path)}"
-        ) from None
-    except Exception as exc:  # a user's file can raise anything on import
-        raise FormulaError(
-            f"{source}: the formula file failed to import: {type(exc).__name__}: {exc}{at_line(exc, path)}"
-        ) from None
-    finally:
-        sys.modules.pop(name, None)
-    return module
-
-
 def _shape_checked(
     fn: Callable[..., object], name: str, shape: tuple[int, ...], source: str, user_file: Path
 ) -> Callable[..., Array]:
@@ -114,28 +89,6 @@ def _shape_checked(
         return out
 
     return wrapped
-
-
-def exit_call(exc: SystemExit) -> str:
-    """``sys.exit(0)``, ``sys.exit()`` or ``sys.exit('bye')``: the call as the user would have written it."""
-    return "sys.exit()" if exc.code is None else f"sys.exit({exc.code!r})"
-
-
-def user_line(tb: TracebackType | None, user_file: Path) -> int | None:
-    """The line of the deepest frame of ``tb`` in ``user_file`` (not in numpy or robodyn), or None."""
-    target = user_file.resolve()
-    line = None
-    while tb is not None:
-        if Path(tb.tb_frame.f_code.co_filename).resolve() == target:
-            line = tb.tb_lineno
-        tb = tb.tb_next
-    return line
-
-
-def at_line(exc: BaseException, user_file: Path) -> str:
-    """`` (line 17)`` when the exception passed through the user's file, else ``""``."""
-    line = user_line(exc.__traceback__, user_file)
-    return f" (line {line})" if line is not None else ""
 
 
 def _describe(exc: Exception, user_file: Path, args: tuple[object, ...]) -> str:

@@ -18,9 +18,7 @@ name the file and its line.
 
 from __future__ import annotations
 
-import importlib.util
 import math
-import sys
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -29,8 +27,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodyn.errors import InputError
-from robodyn.kinds.user_file import at_line, exit_call
 from robodyn.sim.trajectory import Trajectory
+from robodyn.userfile import at_line, exit_call, import_user_file
 
 Array = NDArray[np.float64]
 
@@ -123,26 +121,7 @@ def load_user_measure(name: str) -> UserMeasure:
     path = Path(file_name)
     if not path.is_file() or path.suffix != ".py":
         raise InputError(f"measure {name!r}: no such Python file {file_name} (expected path.py:function)")
-    module_name = f"robodyn_user_measure_{abs(hash(str(path)))}"
-    spec = importlib.util.spec_from_file_location(module_name, path)
-    if spec is None or spec.loader is None:
-        raise InputError(f"measure {name!r}: {file_name} cannot be imported as a Python module")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[module_name] = module
-    try:
-        spec.loader.exec_module(module)
-    except SyntaxError as exc:
-        raise InputError(f"{file_name}:{exc.lineno}: the measure file has a syntax error: {exc.msg}") from None
-    except SystemExit as exc:
-        raise InputError(
-            f"{file_name}: the measure file called {exit_call(exc)} at import{at_line(exc, path)}"
-        ) from None
-    except Exception as exc:  # a user's file can raise anything on import
-        raise InputError(
-            f"{file_name}: the measure file failed to import: {type(exc).__name__}: {exc}{at_line(exc, path)}"
-        ) from None
-    finally:
-        sys.modules.pop(module_name, None)
+    module = import_user_file(path, what="measure", expected=f"the function {function}", source=file_name)
     fn = getattr(module, function, None)
     if not callable(fn):
         found = sorted(n for n, v in vars(module).items() if callable(v) and not n.startswith("_"))

@@ -56,7 +56,10 @@ def write(tmp_path: Path, text: str) -> Path:
             "unknown integrator 'rk5'",
         ),
         ("[model]\nname = 'pendubot'\nkeep = 'joint1'\n", r"\[model\] keep: expected a non-empty list"),
-        ("[model]\nname = 'pendubot'\n[control]\nkind = 'lqr'\n", "unknown controller 'lqr'"),
+        (
+            "[model]\nname = 'pendubot'\n[control]\nkind = 'swing_upp'\n",
+            r"\[control\] kind: unknown controller 'swing_upp'; did you mean 'swing_up'\?",
+        ),
         ("[model]\nname = 'pendubot'\n[control]\nkind = 'constant'\n", r"\[control\] torque: missing"),
         ("[model]\nname = 'pendubot'\n[control]\nkp = 1.0\n", 'only kind = "pd" takes gains'),
         ("[model]\nname = 'pendubot'\n[initial]\nq = ['a']\n", r"\[initial\] q: expected a number"),
@@ -240,7 +243,7 @@ def test_run_bad_scene_exit_code(tmp_path, capsys):
     assert "[simulate] duration" in err and "Traceback" not in err
 
 
-@pytest.mark.parametrize("name", ["panda_arm", "geared_arm", "cart_pole", "pendubot"])
+@pytest.mark.parametrize("name", ["panda_arm", "geared_arm", "cart_pole", "pendubot", "cart_pole_swing_up"])
 def test_example_scenes_validate_and_build(name):
     scene = read_scene(EXAMPLES / f"{name}.toml")
     robot, reduction = scene.build()

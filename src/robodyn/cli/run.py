@@ -77,6 +77,10 @@ def run(args: argparse.Namespace) -> int:
         print(f"model: {robot.name}, {robot.nv} DoF (nothing locked)")
     q0, v0 = scene.initial_state(robot, reduction)
     torque = scene.torque(robot, reduction)
+    control = _control_record(scene)
+    if control is not None:
+        summary["control"] = control
+        print(f"control: {_describe_control(control)}")
     status = EXIT_OK
     trajectory = None
     if scene.structural_check:
@@ -101,6 +105,28 @@ def run(args: argparse.Namespace) -> int:
         served = serve_playback(playback, open_browser=bool(view.get("open")), zmq_url=None, port=view.get("port"))
         status = max(status, served)
     return status
+
+
+def _control_record(scene: Any) -> dict[str, Any] | None:
+    """{kind, gains (and path)} of a scene's controller (lqr, swing_up, file), or None for another input."""
+    from robodyn.scene.model import CONTROL_GAINS
+
+    c = scene.control
+    kind = c.get("kind")
+    if kind not in CONTROL_GAINS:
+        return None
+    if kind == "file":
+        return {"kind": kind, "path": str(c["path"]), "gains": dict(c.get("gains", {}))}
+    return {"kind": kind, "gains": {k: c[k] for k in CONTROL_GAINS[kind] if k in c}}
+
+
+def _describe_control(control: dict[str, Any]) -> str:
+    """``swing_up (gains: Q=[10, 10, 1, 1], R=1)``, ``file ctl.py (default gains)``."""
+    name = control["kind"] if control["kind"] != "file" else f"file {control['path']}"
+    gains = control["gains"]
+    if not gains:
+        return f"{name} (default gains)"
+    return f"{name} (gains: " + ", ".join(f"{k}={json.dumps(v)}" for k, v in gains.items()) + ")"
 
 
 def _outputs(scene: Any, out: Path, view: dict[str, Any] | None) -> list[tuple[str, Path | None]]:

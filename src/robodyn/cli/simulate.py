@@ -3,13 +3,17 @@
 The URDF's joint stops and effort limits are enforced unless ``--no-limits`` /
 ``--no-effort-limits``; ``--restitution`` sets the stops' e in [0, 1]; ``--constraints FILE.json``
 adds loops, couplings and springs (the keys of a scene's ``[constraints]`` table, plus
-``springs``: the ``[springs]`` table).
+``springs``: the ``[springs]`` table). ``--controller NAME_OR_FILE.py [--gains JSON_OR_FILE]``
+closes the loop with a controller of :mod:`robodyn.control` (``lqr``, ``swing_up``, or a user's
+file defining ``make(robot, **gains)``); ``--controller list`` names them.
 
 Exit codes: 0 the run finished; 2 bad input (wrong vector lengths, a cos/sin pair or
 quaternion off the unit sphere, a singular mass matrix, non-positive dt or duration, an
 unknown integrator or backend, an unwritable output path, an output that is an input or
 another output, an unknown frame or joint in a constraint, a coupling cycle, a negative
-stiffness, a restitution outside [0, 1], a loop whose frames cannot meet); 3 the run diverged
+stiffness, a restitution outside [0, 1], a loop whose frames cannot meet, an unknown
+controller or gain, gains of the wrong shape, a controller file that raises, an equilibrium
+that is not one, --controller with --torque); 3 the run diverged
 or its constraint solver failed to converge; 130 interrupted by Ctrl-C. A run that stops early
 writes what it computed as ``x.partial.npz`` (and ``x.partial.csv``), beside and never over
 the ``x.npz`` of an earlier complete run.
@@ -26,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from robodyn.cli import _control
 from robodyn.cli._common import (
     float_list,
     load_robot,
@@ -96,6 +101,20 @@ def add_parser(sub: Any) -> None:
         "actuated joint",
     )
     p.add_argument(
+        "--controller",
+        metavar="NAME_OR_FILE.py",
+        default=None,
+        help="close the loop: a built-in controller (lqr, swing_up; 'list' names them and exits) or a Python file "
+        "defining make(robot, **gains) that returns tau(t, q, v); not with --torque",
+    )
+    p.add_argument(
+        "--gains",
+        metavar="JSON_OR_FILE",
+        default=None,
+        help='the controller\'s gains as a JSON object, e.g. \'{"Q": [10, 10, 1, 1], "R": 0.1}\', or a file '
+        "holding one (default: the controller's own)",
+    )
+    p.add_argument(
         "--backend",
         choices=BACKENDS.names(),
         default=None,
@@ -164,16 +183,29 @@ def run(args: argparse.Namespace) -> int:
     if args.integrator == "list":
         _print_integrators(integrators, as_json=args.json)
         return EXIT_OK
+    if args.controller == "list":
+        _control.print_controllers(as_json=args.json)
+        return EXIT_OK
     if args.model is None:
         raise InputError("missing URDF_OR_NAME: a built-in model name or a path to a .urdf file")
     method = integrators.get(args.integrator)  # an unknown name fails before anything is loaded
+    if args.controller is not None and args.torque is not None:
+        raise InputError("--controller and --torque both give the input: give one (the controller sets the torque)")
+    if args.gains is not None and args.controller is None:
+        raise InputError("--gains needs --controller NAME_OR_FILE.py (the gains are the controller's)")
+    gains = _control.parse_gains(args.gains)
     # Checked before any work and without creating anything: a run that fails leaves no empty file.
     out = writable_path(args.out, create_parents=False, suffix=".npz") if args.out is not None else None
     csv = writable_path(args.csv, create_parents=False, suffix=".csv") if args.csv is not None else None
     outputs = [("--out", out), ("--csv", csv)]
     given = Path(args.model)
     inputs = [("the model", given if given.is_file() else None), ("--srdf", args.srdf)]
-    refuse_clobbering(outputs, [*inputs, ("--constraints", args.constraints)])
+    controller_file = Path(args.controller) if args.controller and args.controller.endswith(".py") else None
+    gains_file = Path(args.gains) if args.gains and Path(args.gains).is_file() else None
+    refuse_clobbering(
+        outputs,
+        [*inputs, ("--constraints", args.constraints), ("--controller", controller_file), ("--gains", gains_file)],
+    )
     constraints = constraints_from_args(args)
     if args.view:
         from robodyn.cli.view import check_frame_count
@@ -184,6 +216,7 @@ def run(args: argparse.Namespace) -> int:
     refuse_clobbering(outputs, [("the model's URDF", robot.urdf_path), ("the model's SRDF", robot.srdf_path)])
     q0 = args.q0 if args.q0 is not None else robot.neutral()
     v0 = args.v0 if args.v0 is not None else np.zeros(robot.nv)
+    torque = args.torque if args.controller is None else _control.build(robot, args.controller, gains)
 
     from robodyn.errors import DivergenceError, SimulationInterrupted
     from robodyn.sim.simulation import simulate
@@ -197,7 +230,7 @@ def run(args: argparse.Namespace) -> int:
             duration=args.duration,
             dt=args.dt,
             integrator=method,
-            torque=args.torque,
+            torque=torque,
             backend=args.backend,
             losses=not args.no_damping,
             rtol=args.rtol,
@@ -214,6 +247,9 @@ def run(args: argparse.Namespace) -> int:
         if args.constraints is None:
             raise
         raise InputError(f"--constraints {args.constraints}: {exc}") from None
+    if args.controller is not None:  # the trajectory file says what closed the loop
+        meta = {**trajectory.meta, "controller": {"name": args.controller, "gains": gains}}
+        trajectory = dataclasses.replace(trajectory, meta=meta)
     # Said after the run, not before it: a refused input stays one line on stderr.
     warn_ignored_mimic(robot, mimic=args.mimic, command="simulate")
     kept: list[Path] = []
@@ -377,15 +413,20 @@ def _report(trajectory: Any, out: Path | None, csv: Path | None, *, as_json: boo
         s["out"] = str(out)
     if csv is not None:
         s["csv"] = str(csv)
+    meta = trajectory.meta
+    controller = meta.get("controller")
+    if controller is not None:
+        s["controller"] = controller
     if as_json:
         print_json(s)
         return
-    meta = trajectory.meta
     print(
         f"{s['model']}: {s['integrator']} (order {meta.get('order')}), dt = {s['dt']:g} s, "
         f"{s['steps']} steps to t = {s['t_final']:g} s in {s['wall_time_s']:.3f} s wall "
         f"({s['evaluations']} dynamics evaluations, backend {meta.get('backend')})"
     )
+    if controller is not None:
+        print(f"controller: {_control.describe(controller['name'], controller['gains'])}")
     print(f"final state: q = {_vec(s['q_final'], s['q_units'])}, v = {_vec(s['v_final'], s['v_units'])}")
     print(
         f"energy: E0 = {s['energy_initial']:.9g} J, E(t) = {s['energy_final']:.9g} J, "

@@ -21,6 +21,9 @@ then builds the model and runs the parts asked for. Example::
     kd = 5.0
     target = { panda_joint2 = 0.0 }
     gravity_compensation = true
+    # or kind = "lqr" | "swing_up" with robodyn.control's gains as keys (Q, R, K, q_eq, u_eq, rho,
+    # k_energy, ...), e.g. Q = [10, 10, 1, 1] and R = 0.1; or kind = "file" with
+    # path = "my_controller.py" (defining make(robot, **gains)) and gains = { kp = 5.0 }
 
     [simulate]                              # defaults as robodyn simulate: 2 s, 1e-3 s, rk4
     duration = 2.0                          # [s]
@@ -49,7 +52,7 @@ then builds the model and runs the parts asked for. Example::
     [view]
     html = "panda_arm.html"                 # write a standalone player (or: open = true)
 
-Relative paths (``urdf``, ``srdf``, ``output``, ``view.html``, ``check.closed_form``) are read from
+Relative paths (``urdf``, ``srdf``, ``output``, ``view.html``, ``check.closed_form``, ``control.path``) are read from
 the scene file's folder.
 """
 

@@ -11,7 +11,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from robodyn.errors import InputError, SceneError
+from robodyn.control.controllers import LQR_GAINS, REGION_GAINS, SWING_UP_GAINS
+from robodyn.errors import InputError, SceneError, UnknownNameError
 from robodyn.sim.constraints import Constraints
 
 if TYPE_CHECKING:
@@ -20,10 +21,18 @@ if TYPE_CHECKING:
 
 Array = NDArray[np.float64]
 
+# The keys each controller kind of [control] takes besides kind: its gains as robodyn.control.make takes them.
+CONTROL_GAINS: dict[str, tuple[str, ...]] = {
+    "lqr": LQR_GAINS,
+    "swing_up": LQR_GAINS[:3] + REGION_GAINS + tuple(sorted({k for ks in SWING_UP_GAINS.values() for k in ks})),
+    "file": ("path", "gains"),
+}
+PD_KEYS = ("kp", "kd", "target", "gravity_compensation")
+
 TABLES = {
     "model": ("name", "urdf", "srdf", "free_flyer", "mimic", "keep", "lock", "reference"),
     "initial": ("q", "v"),
-    "control": ("kind", "torque", "kp", "kd", "target", "gravity_compensation"),
+    "control": tuple(dict.fromkeys(("kind", "torque", *PD_KEYS, *(k for ks in CONTROL_GAINS.values() for k in ks)))),
     "simulate": ("duration", "dt", "integrator", "backend"),
     "constraints": ("limits", "restitution", "effort_limits", "loops", "couplings"),
     "springs": (),  # joint names: checked by Constraints
@@ -32,7 +41,7 @@ TABLES = {
     "view": ("open", "html", "port"),
     "output": ("dir",),
 }
-CONTROL_KINDS = ("none", "constant", "pd")
+CONTROL_KINDS = ("none", "constant", "pd", "lqr", "swing_up", "file")
 CLOSED_FORM_KEYS = ("closed_form", "closed_form_rtol")
 
 # The worst deviation from a [check] closed_form allowed when the scene names none: far above
@@ -201,12 +210,15 @@ class Scene:
 
         ``pd`` is tau = kp (q* - q) - kd v (+ G(q) with ``gravity_compensation``), on the
         actuated joints only (passive joints get zero). q* is ``target`` (the initial q
-        by default).
+        by default). ``lqr`` and ``swing_up`` are :func:`robodyn.control.make`'s with the table's
+        gains; ``file`` is a user's controller file (``path``) given the ``gains`` table.
         """
         c = self.control
         kind = c.get("kind", "constant" if "torque" in c else "none")
         if kind == "none":
             return None
+        if kind in CONTROL_GAINS:
+            return self._controller(robot, kind)
         actuated = robot.actuated
         if kind == "constant":
             tau = self._joint_vector(
@@ -233,3 +245,33 @@ class Scene:
             return mask * tau
 
         return controller
+
+    def _controller(self, robot: Robot, kind: str) -> Callable[[float, Array, Array], Array]:
+        """The controller of [control] kind = "lqr" | "swing_up" | "file"; its errors name the scene's key."""
+        from robodyn import control
+
+        c = self.control
+        if kind == "file":
+            name, gains = str(c["path"]), dict(c.get("gains", {}))
+        else:
+            name, gains = kind, {k: c[k] for k in CONTROL_GAINS[kind] if k in c}
+        try:
+            return control.make(name, robot, **gains)
+        except UnknownNameError as exc:  # a gain this robot's controller does not take
+            key = f"gains.{exc.name}" if kind == "file" else str(exc.name)
+            raise self.error("control", key, str(exc)) from None
+        except InputError as exc:
+            raise self.error("control", _key_named(str(exc), kind, gains), str(exc)) from None
+
+
+def _key_named(message: str, kind: str, gains: dict[str, Any]) -> str:
+    """The [control] key a controller's error is about: a gain the message names, else path or kind."""
+    if kind == "file":
+        return "path"
+    words = set(message.replace(",", " ").replace(":", " ").split())
+    for key in gains:
+        if key in words:
+            return key
+    if "equilibrium" in message and "q_eq" in gains:
+        return "q_eq"
+    return "kind"

@@ -18,6 +18,7 @@ if TYPE_CHECKING:
     pass
 
 from robodyn.scene.model import (
+    CONTROL_GAINS,
     CONTROL_KINDS,
     MAX_PORT,
     MAX_REPEAT,
@@ -59,6 +60,14 @@ def _number(
     if not inside or (positive and value <= 0):
         raise _fail(path, f"[{table}] {key}", f"expected {expected}, got {reprlib.repr(value)}")
     return value
+
+
+def _close(name: Any, choices: tuple[str, ...]) -> str:
+    """``did you mean 'swing_up'? `` for a near miss, else nothing."""
+    import difflib
+
+    close = difflib.get_close_matches(name, choices, n=2, cutoff=0.6) if isinstance(name, str) else []
+    return f"did you mean {' or '.join(repr(c) for c in close)}? " if close else ""
 
 
 def _shown(x: float) -> str:
@@ -149,7 +158,8 @@ def read_scene(path: str | Path) -> Scene:
         raise _fail(
             path,
             "[control] kind",
-            f"unknown controller {reprlib.repr(control['kind'])}; expected one of: {', '.join(CONTROL_KINDS)}",
+            f"unknown controller {reprlib.repr(control['kind'])}; {_close(control['kind'], CONTROL_KINDS)}"
+            f"expected one of: {', '.join(CONTROL_KINDS)}",
         )
     kind = control.get("kind", "constant" if "torque" in control else "none")
     if kind == "constant" and "torque" not in control:
@@ -167,6 +177,7 @@ def read_scene(path: str | Path) -> Scene:
         _joint_values(path, "control", "target", control["target"])
     if "gravity_compensation" in control:
         _bool(path, "control", "gravity_compensation", control["gravity_compensation"])
+    _read_controller(path, control, kind)
     simulate = _read_simulate(path, data)
     check = dict(data["check"]) if "check" in data else None
     if check is not None:
@@ -214,6 +225,46 @@ def read_scene(path: str | Path) -> Scene:
         output = base / _string(path, "output", "dir", data["output"]["dir"])
     constraints = _read_constraints(path, data)
     return Scene(path, model, initial, control, simulate, check, bench, view, output, constraints)
+
+
+def _read_controller(path: Path, control: dict[str, Any], kind: str) -> None:
+    """[control] of kind lqr, swing_up or file: each key belongs to the kind, gains are numbers or arrays.
+
+    The gains' shapes and signs are checked when the controller is made for the model
+    (:meth:`Scene.torque`), whose messages name the key too. ``path`` is resolved against the scene's folder.
+    """
+    for key in control:
+        owners = [k for k, keys in CONTROL_GAINS.items() if key in keys]
+        if owners and kind not in owners:
+            takes = " or ".join(f'kind = "{k}"' for k in owners)
+            raise _fail(path, f"[control] {key}", f'only {takes} takes {key}, not kind = "{kind}"')
+    if kind == "file":
+        if "path" not in control:
+            raise _fail(path, "[control] path", 'missing: kind = "file" needs path = "my_controller.py"')
+        name = _string(path, "control", "path", control["path"])
+        if not name.endswith(".py"):
+            raise _fail(path, "[control] path", f"expected a Python file NAME.py, got {reprlib.repr(name)}")
+        control["path"] = path.parent / name
+        if not control["path"].is_file():
+            raise _fail(path, "[control] path", f"no such file {str(control['path'])!r}")
+        gains = control.get("gains", {})
+        if not isinstance(gains, Mapping):
+            raise _fail(path, "[control] gains", f"expected a table of gain = value, got {reprlib.repr(gains)}")
+        return
+    if kind not in ("lqr", "swing_up"):
+        return
+    for key in CONTROL_GAINS[kind]:
+        if key in control:
+            _gain(path, key, control[key])
+
+
+def _gain(path: Path, key: str, value: Any) -> None:
+    """A gain: a number, or a (nested) list of numbers; the shape is the controller's to check."""
+    if isinstance(value, list):
+        for item in value:
+            _gain(path, key, item)
+        return
+    _number(path, "control", key, value)
 
 
 def _read_constraints(path: Path, data: dict[str, Any]) -> Constraints:

@@ -53,3 +53,15 @@ def test_usage_error_is_one_line(capsys):
     assert err == [
         "robodyn check: error: argument --samples: expected a positive whole number, got '0' (see 'robodyn check --help')"
     ]
+
+
+def test_a_path_the_system_refuses_is_one_line(capsys, tmp_path, monkeypatch):
+    """A name longer than the file system allows made Path.is_file raise OSError (found by benchmarks/fuzz.py)."""
+    from robodyn.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    code = main(["simulate", "a" * 400, "--duration", "0.05"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1, err
+    assert "File name too long" in err[0] and "Traceback" not in err[0]
+    assert list(tmp_path.iterdir()) == []

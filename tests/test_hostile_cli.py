@@ -140,7 +140,7 @@ def test_view_never_writes_the_page_over_its_trajectory(
     elif how == "hardlink":
         os.link(trajectory, html)
     line = refused(["view", "pendubot", str(trajectory), "--html", str(html)], tmp_path, capsys)
-    assert f"cannot write --html {html}: it is the trajectory {trajectory}, an input" in line
+    assert f"cannot write --html {html}: it is a trajectory {trajectory}, an input" in line
 
 
 def test_view_never_writes_the_page_over_the_model(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -511,7 +511,7 @@ def test_real_processes_refuse_in_one_line(tmp_path: Path) -> None:
     (tmp_path / "deep.json").write_text("[" * 100_000 + "]" * 100_000)
     cases = [
         (["check", "pendubot", "--seed", "-1"], "argument --seed"),
-        (["view", "pendubot", "t.npz", "--html", "t.npz"], "cannot write --html t.npz: it is the trajectory"),
+        (["view", "pendubot", "t.npz", "--html", "t.npz"], "cannot write --html t.npz: it is a trajectory"),
         (["view", "pendubot", "t.npz", "--fps", "1e9", "--html", "v.html"], "at most 100,000"),
         (["run", "deep.toml"], "deep.toml: arrays or tables nested too deeply"),
         (["check", "pendubot", "--formula", "pendubot", "--params", "deep.json"], "nested too deeply"),
@@ -530,3 +530,183 @@ def test_a_real_overflowing_run_is_one_line(tmp_path: Path) -> None:
     lines = proc.stderr.splitlines()
     assert proc.returncode == EXIT_DIVERGED and len(lines) == 1, proc.stderr
     assert "the state is not finite" in lines[0] and "partial trajectory written to w.partial.npz" in lines[0]
+
+
+# --------------------------------------------------------------------------- check --params files
+
+PENDUBOT_PARAMS = {
+    "m1": 1.336,
+    "m2": 0.5,
+    "l1": 0.15,
+    "lc1": 0.1,
+    "lc2": 0.126,
+    "I1": 6.19e-3,
+    "I2": 2.65e-3,
+    "g": 9.81,
+}
+
+
+def params_file(folder: Path, name: str, content: str | bytes) -> Path:
+    path = folder / name
+    if isinstance(content, bytes):
+        path.write_bytes(content)
+    else:
+        path.write_text(content)
+    return path
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [
+        (
+            json.dumps(dict.fromkeys(PENDUBOT_PARAMS, 0)),
+            "with the given pendubot parameters m1 = 0, m2 = 0, l1 = 0, lc1 = 0, lc2 = 0, I1 = 0, I2 = 0, g = 0 "
+            "the formula's mass matrix M(q) is singular at sample 0",
+        ),
+        (
+            json.dumps(PENDUBOT_PARAMS | {"m2": 0, "I2": 0}),
+            "the formula's mass matrix M(q) is singular at sample 0",
+        ),
+        (json.dumps(PENDUBOT_PARAMS | {"I1": -1.0}), "given pendubot parameters I1 = -1 (expected masses and inertias"),
+        (
+            json.dumps(PENDUBOT_PARAMS | {"m1": 1e300, "l1": 1e300}),
+            "the formula's mass matrix M(q) is not finite at sample 0",
+        ),
+        (json.dumps(PENDUBOT_PARAMS | {"m1": "1.3"}), "parameter m1 must be a finite number, got '1.3'"),
+        ('{"m1": 1e999}', "pendubot parameters must be exactly"),
+        ("[" * 100_000 + "]" * 100_000, "arrays or objects nested too deeply to read"),
+        ('{"params": ' + "{" * 0 + '{"m1": ' + "[" * 5_000 + "]" * 5_000 + "}}", "nested too deeply to read"),
+        ('{"m1": 1' + "0" * 5_000 + "}", "a value cannot be read: Exceeds the limit (4300 digits)"),
+        (b'{"m1": "\xff"}', "not UTF-8 text: byte 0xff at offset 8"),
+        (" " * (2**20 + 1), "larger than 1 MiB"),
+    ],
+    ids=[
+        "all zero",
+        "second body massless",
+        "negative",
+        "overflow",
+        "string",
+        "1e999",
+        "deep",
+        "deep inside",
+        "long integer",
+        "latin-1",
+        "huge",
+    ],
+)
+def test_a_bad_params_file_is_one_line_naming_it(
+    content: str | bytes, message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = params_file(tmp_path, "p.json", content)
+    line = refused(
+        ["check", "pendubot", "--formula", "pendubot", "--params", str(path), "--samples", "3"], tmp_path, capsys
+    )
+    assert line.startswith(f"robodyn check: error: {path}: "), line
+    assert message in line, line
+
+
+def test_params_with_massless_bodies_but_inertia_are_a_real_mismatch(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # m1 = m2 = 0 with I1, I2 > 0 keeps M positive definite: the check runs, and disagrees (exit 1)
+    path = params_file(tmp_path, "p.json", json.dumps(PENDUBOT_PARAMS | {"m1": 0, "m2": 0}))
+    assert main(["check", "pendubot", "--formula", "pendubot", "--params", str(path), "--samples", "3"]) == 1
+    assert "FAIL" in capsys.readouterr().out
+
+
+def test_a_formula_file_with_a_singular_mass_matrix_is_a_mismatch_not_a_traceback(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    formula = tmp_path / "flat.py"
+    formula.write_text(
+        "import numpy as np\nKIND = 'pendubot'\n"
+        "def mass_matrix(q, p): return np.zeros((2, 2))\n"
+        "def coriolis_matrix(q, v, p): return np.zeros((2, 2))\n"
+        "def gravity(q, p): return np.zeros(2)\n"
+    )
+    assert main(["check", "pendubot", "--formula", str(formula), "--samples", "3"]) == 1
+    out = capsys.readouterr().out
+    assert "a (forward dynamics)" in out and "FAIL" in out
+
+
+# --------------------------------------------------------------------------- more writers, more links
+
+
+def test_charts_follow_no_planted_link(tmp_path: Path) -> None:
+    from robodyn import charts
+
+    victim = tmp_path / "victim.txt"
+    victim.write_text("precious")
+    stem = tmp_path / "bars"
+    written = [stem.with_suffix(".png"), stem.with_suffix(".svg")]
+    for path in written:
+        path.symlink_to(victim)
+    assert charts.speed_bars(["a", "b"], [1.0, 10.0], stem, unit="us", title="t") == tuple(written)
+    assert victim.read_text() == "precious"
+    for path in written:
+        assert path.is_file() and not path.is_symlink(), path
+    assert written[0].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and b"<svg" in written[1].read_bytes()[:1000]
+
+
+def test_params_write_follows_no_link_planted_at_the_srdf_temporary(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import tempfile
+    import types
+
+    from robodyn.kinds import edit
+
+    victim = tmp_path / "victim.txt"
+    victim.write_text("precious")
+
+    def mkstemp_and_plant(**options: object) -> tuple[int, str]:
+        fd, name = tempfile.mkstemp(**options)  # type: ignore[call-overload]
+        Path(name).with_suffix(".srdf").symlink_to(victim)  # the SRDF's temporary name is derived from it
+        return fd, name
+
+    monkeypatch.setattr(edit, "tempfile", types.SimpleNamespace(mkstemp=mkstemp_and_plant))
+    out = tmp_path / "arm.urdf"
+    assert main(["params", "geared_arm", "--set", "J_m=2e-5", "--write", str(out)]) == 0, capsys.readouterr().err
+    assert victim.read_text() == "precious"
+    srdf = out.with_suffix(".srdf")
+    assert srdf.is_file() and not srdf.is_symlink() and 'mass="2e-05"' in srdf.read_text()
+
+
+def test_info_and_check_read_the_urdf_only_through_robodyns_reader(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # ET.parse feeds expat in 64 KiB pieces (quadratic on a long token) and reads a DTD: never used
+    import xml.etree.ElementTree as ET
+
+    def forbidden(*args: object, **kwargs: object) -> None:
+        raise AssertionError("ET.parse used: read URDFs with robodyn.model.files.read_xml")
+
+    monkeypatch.setattr(ET, "parse", forbidden)
+    assert main(["info", "pendubot"]) == 0
+    assert main(["check", "pendubot", "--samples", "2"]) == 0
+    capsys.readouterr()
+
+
+def test_a_singular_mass_matrix_is_a_mismatch_in_the_table_not_a_traceback(capsys: pytest.CaptureFixture[str]) -> None:
+    # the cart-pole's thin pole carries no inertia about its own axis: on a free flyer, M(q) is singular
+    assert main(["check", "cart_pole", "--free-flyer", "--samples", "3"]) == 1
+    out = capsys.readouterr().out
+    assert "M(q) is not positive definite at sample 0" in out and "FAIL" in out
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["view", "a" * 300, "t.npz", "--html", "v.html"],
+        ["check", "pendubot", "--formula", "pendubot", "--params", "p" * 300 + ".json"],
+        ["params", "b" * 256 + ".urdf"],
+        ["check", "pendubot", "--srdf", "x/" + "s" * 256 + "/y.srdf"],
+    ],
+    ids=["view model", "check --params", "params model", "check --srdf"],
+)
+def test_a_path_part_longer_than_a_file_name_is_one_line(
+    argv: list[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    line = refused(argv, tmp_path, capsys)
+    assert "expected a path whose every part is at most 255 bytes (a file name)" in line, line

@@ -18,6 +18,7 @@ import contextlib
 import importlib
 import os
 import re
+import reprlib
 import sys
 import warnings
 from collections import Counter
@@ -115,6 +116,15 @@ def _run(args: argparse.Namespace) -> int:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         return 0
+    except OSError as exc:
+        # The net under a path the system refuses outright (a name too long, a file that is
+        # unreadable for permissions) that no reader caught itself: one line naming it.
+        name = reprlib.repr(exc.filename) if exc.filename is not None else "a path"
+        print(
+            f"robodyn {args.command}: error: {name}: {exc.strerror or exc} (expected a path the system can open)",
+            file=sys.stderr,
+        )
+        return EXIT_BAD_INPUT
 
 
 @contextlib.contextmanager

@@ -710,3 +710,19 @@ def test_a_path_part_longer_than_a_file_name_is_one_line(
     monkeypatch.chdir(tmp_path)
     line = refused(argv, tmp_path, capsys)
     assert "expected a path whose every part is at most 255 bytes (a file name)" in line, line
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["check", "pendubot", "--seed", "9" * 400], "argument --seed: expected a seed from 0 to 9223372036854775807"),
+        (["check", "pendubot", "--samples", "9" * 400], "argument --samples: expected a whole number from 1 to 100000"),
+        (["check", ""], "argument URDF_OR_NAME: expected a model name or a path to a .urdf file, got an empty string"),
+        (["check", "pendubot", "--params", ""], "argument --params: expected a path, got an empty string"),
+    ],
+    ids=["seed past a float", "samples past a float", "empty model", "empty path"],
+)
+def test_a_whole_number_past_any_float_or_an_empty_name_is_one_line(
+    argv: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert message in refused(argv, tmp_path, capsys)

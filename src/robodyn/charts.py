@@ -2,7 +2,8 @@
 
 matplotlib is imported inside each function with the non-interactive Agg backend, so
 ``import robodyn`` stays light and charts render without a display. Every function takes
-finished results (it never runs numerics), writes ``<stem>.png`` and ``<stem>.svg``, and
+finished results (it never runs numerics), writes ``<stem>.png`` and ``<stem>.svg`` (each through
+:func:`robodyn.fileio.write_atomically`: complete or not at all, never through a planted link), and
 returns both paths.
 """
 
@@ -16,6 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from robodyn.errors import MissingDependencyError
+from robodyn.fileio import write_atomically
 
 if TYPE_CHECKING:
     from robodyn.studies.bench import BenchResult, EnergySeries
@@ -55,9 +57,11 @@ def _save(fig: Any, stem: Path) -> tuple[Path, Path]:
     stem.parent.mkdir(parents=True, exist_ok=True)
     png, svg = stem.with_suffix(".png"), stem.with_suffix(".svg")
     fig.tight_layout()
-    fig.savefig(png, dpi=110)
-    fig.savefig(svg)
-    _pyplot().close(fig)
+    try:  # atomically: never a half-written chart, never through a planted link
+        write_atomically(png, lambda fh: fig.savefig(fh, format="png", dpi=110))
+        write_atomically(svg, lambda fh: fig.savefig(fh, format="svg"))
+    finally:
+        _pyplot().close(fig)
     return png, svg
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -54,7 +55,7 @@ def number_in(
         except ValueError:
             raise argparse.ArgumentTypeError(f"expected {expected}, got {shown(text)}") from None
         inside = (low < value if low_open else low <= value) and value <= high
-        if not (math.isfinite(value) and inside):
+        if not ((integer or math.isfinite(value)) and inside):  # a whole number is finite (and may not fit a float)
             raise argparse.ArgumentTypeError(f"expected {expected}, got {shown(text)}")
         return value
 
@@ -75,6 +76,29 @@ seed_number = number_in(integer=True, low=0, high=MAX_SEED, low_open=False, noun
 """Argparse type: a random seed, a whole number from 0 to 2**63 - 1."""
 
 
+NAME_MAX = 255
+"""The most bytes in one part of a path (Linux): a longer part names no file, and pathlib raises on it."""
+
+
+def file_path(text: str) -> Path:
+    """Argparse type: a non-empty path whose every part fits in a file name (at most NAME_MAX bytes)."""
+    if not text:
+        raise argparse.ArgumentTypeError("expected a path, got an empty string")
+    if any(len(os.fsencode(part)) > NAME_MAX for part in Path(text).parts):
+        raise argparse.ArgumentTypeError(
+            f"expected a path whose every part is at most {NAME_MAX} bytes (a file name), got {shown(text)}"
+        )
+    return Path(text)
+
+
+def model_argument(text: str) -> str:
+    """Argparse type: a model name, or a path as :func:`file_path` takes it."""
+    if not text:
+        raise argparse.ArgumentTypeError("expected a model name or a path to a .urdf file, got an empty string")
+    file_path(text)
+    return text
+
+
 def add_model_arguments(parser: argparse.ArgumentParser, *, many: bool = False) -> None:
     """The positional model (built-in name, example-robot-data name or URDF path) and its options.
 
@@ -82,12 +106,13 @@ def add_model_arguments(parser: argparse.ArgumentParser, *, many: bool = False) 
     """
     parser.add_argument(
         "models" if many else "model",
+        type=model_argument,
         metavar="URDF_OR_NAME",
         nargs="+" if many else None,
         help="built-in model (geared_arm, cart_pole, pendubot), an example-robot-data robot (panda, talos, ...) "
         "or a path to a .urdf file",
     )
-    parser.add_argument("--srdf", type=Path, default=None, help="SRDF file (default: same stem as the URDF)")
+    parser.add_argument("--srdf", type=file_path, default=None, help="SRDF file (default: same stem as the URDF)")
     parser.add_argument("--free-flyer", action="store_true", help="mount the root on a free-flyer joint")
 
 
@@ -103,13 +128,14 @@ def urdf_mimic_joints(urdf: Path | None) -> list[str]:
 
     A ``<mimic>`` on a fixed joint couples nothing and is not counted.
     """
-    import xml.etree.ElementTree as ET
+    from robodyn.errors import ModelError
+    from robodyn.model.files import read_xml
 
     if urdf is None:
         return []
     try:
-        root = ET.parse(urdf).getroot()
-    except (OSError, ET.ParseError):
+        root = read_xml(urdf, "URDF")
+    except ModelError:
         return []
     return [str(j.get("name")) for j in root.iter("joint") if j.find("mimic") is not None and j.get("type") != "fixed"]
 

@@ -9,6 +9,7 @@ from typing import Any
 
 from robodyn.cli._common import (
     add_model_arguments,
+    file_path,
     load_robot,
     positive_float,
     positive_int,
@@ -42,7 +43,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--rtol", type=positive_float, default=1e-9, help="relative tolerance (default 1e-9)")
     p.add_argument(
         "--params",
-        type=Path,
+        type=file_path,
         metavar="FILE.json",
         help="use these formula parameters (a JSON object, or the output of robodyn params) instead of "
         "reading them from the model: checks a URDF against numbers you trust",
@@ -90,9 +91,12 @@ def _check_all(args: argparse.Namespace, given: dict[str, Any] | None, process: 
         warn_ignored_mimic(robot, mimic=args.mimic, command="check")
     user = load_user_formula(args.formula, process=process) if process is not None else None
     reports = []
+    source = str(args.params) if args.params is not None else None
     for robot in robots:
         formula = user if user is not None else (detect_kind(robot) if args.formula == "auto" else args.formula)
-        report = check(robot, formula, samples=args.samples, seed=args.seed, rtol=args.rtol, params=given)
+        report = check(
+            robot, formula, samples=args.samples, seed=args.seed, rtol=args.rtol, params=given, params_source=source
+        )
         reports.append(report)
         if not args.json:
             if len(robots) > 1:
@@ -123,14 +127,36 @@ def _formula_timeout(text: str) -> float:
     return value
 
 
+# robodyn params writes ~300 bytes; a parameter file past 1 MiB is not one (and /dev/zero never ends).
+MAX_PARAMS_BYTES = 2**20
+
+
 def read_params(path: Path) -> dict[str, Any]:
-    """Read ``{"m1": ..}`` or robodyn params' ``{"params": {"m1": ..}}`` from a JSON file."""
+    """Read ``{"m1": ..}`` or robodyn params' ``{"params": {"m1": ..}}`` from a UTF-8 JSON file.
+
+    Raises:
+        InputError: the file cannot be read, is larger than :data:`MAX_PARAMS_BYTES`, is not UTF-8,
+            not JSON, nested too deeply for the parser, or not an object; the message names the file.
+    """
     try:
-        data = json.loads(path.read_text())
+        with path.open("rb") as stream:
+            raw = stream.read(MAX_PARAMS_BYTES + 1)
     except OSError as exc:
-        raise InputError(f"{path}: cannot read parameters: {exc.strerror}") from None
+        raise InputError(f"{path}: cannot read parameters: {exc.strerror or exc}") from None
+    if len(raw) > MAX_PARAMS_BYTES:
+        raise InputError(f"{path}: larger than {MAX_PARAMS_BYTES // 2**20} MiB (expected a short JSON object)")
+    try:
+        data = json.loads(raw.decode("utf-8"))
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not UTF-8 text: byte 0x{raw[exc.start]:02x} at offset {exc.start}") from None
     except json.JSONDecodeError as exc:
         raise InputError(f"{path}: not valid JSON ({exc.msg} at line {exc.lineno})") from None
+    except RecursionError:
+        raise InputError(
+            f"{path}: arrays or objects nested too deeply to read (expected a flat JSON object of names to numbers)"
+        ) from None
+    except ValueError as exc:  # e.g. an integer of more than 4,300 digits
+        raise InputError(f"{path}: a value cannot be read: {str(exc).split(';')[0]}") from None
     if isinstance(data, dict) and isinstance(data.get("params"), dict):
         data = data["params"]
     if not isinstance(data, dict):

@@ -21,14 +21,14 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robodyn import dynamics
-from robodyn.errors import InputError
+from robodyn.errors import AssumptionError, InputError
 from robodyn.kinds.evaluation import Points, Values, evaluate
 from robodyn.kinds.formula import Formula
 from robodyn.kinds.params import Params, extract, from_mapping
@@ -44,10 +44,11 @@ FD_STEP = 1e-6  # central finite differences: truncation ~ h^2 = 1e-12, round-of
 FD_TOL = 1e-6  # what the finite-difference rows are held to (above their error, far below a misprint)
 SPEED = 2.0  # |v|, |a| sampled up to this [rad/s, rad/s^2 | m/s, m/s^2]
 TORQUE = 1.0  # |tau| sampled up to this [N m | N]
+SINGULAR_RATIO = 1e-12  # lambda_min / lambda_max of M at or below this: singular to working precision (as simulate)
+NON_NEGATIVE = ("m1", "m2", "M", "m", "I1", "I2", "I", "J_l", "J_m")  # masses [kg], inertias [kg m^2]: given >= 0
+# The most random states one check takes: ~40 s for the Pendubot with a formula file (6 s of it the file's, inside
+# sandbox.DEFAULT_TIMEOUT). The worst error over 10^5 states is rarely beaten by more; another seed explores as well.
 MAX_SAMPLES = 100_000
-"""The most random states one check takes: ~40 s for the Pendubot with a formula file (6 s of which
-is the file's, well inside its time limit, sandbox.DEFAULT_TIMEOUT), longer on a big model. The
-worst error over 10^5 states is rarely beaten by more; a different seed explores as well."""
 
 
 @dataclass(frozen=True)
@@ -90,25 +91,10 @@ class CheckRow:
         return f"{symbol}[{','.join(str(i) for i in self.entry)}]" if self.entry else symbol
 
     def as_dict(self) -> dict[str, Any]:
-        """JSON-ready dict."""
-        return {
-            "quantity": self.quantity,
-            "group": self.group,
-            "unit": self.unit,
-            "max_abs_error": self.max_abs_error,
-            "max_rel_error": self.max_rel_error,
-            "tolerance": self.tolerance,
-            "status": self.status,
-            "counts": self.counts,
-            "worst_sample": self.worst_sample,
-            "worst_q": self.worst_q.tolist(),
-            "worst_v": self.worst_v.tolist(),
-            "entry": list(self.entry),
-            "expected": self.expected,
-            "got": self.got,
-            "note": self.note,
-            "applicable": self.applicable,
-        }
+        """JSON-ready dict: every field (arrays as lists) and the status."""
+        out = {f.name: getattr(self, f.name) for f in fields(self)}
+        out.update(worst_q=self.worst_q.tolist(), worst_v=self.worst_v.tolist(), entry=list(self.entry))
+        return {**out, "status": self.status}
 
 
 @dataclass(frozen=True)
@@ -151,22 +137,10 @@ class CheckReport:
         raise KeyError(quantity)
 
     def as_dict(self) -> dict[str, Any]:
-        """JSON-ready dict."""
-        return {
-            "model": self.model,
-            "urdf": self.urdf,
-            "formula": self.formula,
-            "kind": self.kind,
-            "params": self.params,
-            "params_given": self.params_given,
-            "samples": self.samples,
-            "seed": self.seed,
-            "rtol": self.rtol,
-            "passed": self.passed,
-            "wall_time_s": self.wall_time_s,
-            "notes": list(self.notes),
-            "rows": [r.as_dict() for r in self.rows],
-        }
+        """JSON-ready dict: every field (rows as dicts) and the verdict."""
+        out = {f.name: getattr(self, f.name) for f in fields(self)}
+        out.update(notes=list(self.notes), rows=[r.as_dict() for r in self.rows])
+        return {**out, "passed": self.passed}
 
 
 @dataclass(frozen=True)
@@ -261,7 +235,46 @@ def _formula_values(formula: Formula, p: Params, points: Points) -> Values:
     return evaluate(formula, p, points)
 
 
-def _formula_rows(robot: Robot, formula: Formula, p: Params, samples: list[_Sample], rtol: float) -> list[CheckRow]:
+def _given_params(kind: str, params: Mapping[str, float], where: str) -> Params:
+    """The user's ``params`` for ``kind``: the kind's names, finite, masses and inertias >= 0 (else ``where`` + why)."""
+    try:
+        p = from_mapping(kind, params)
+    except InputError as exc:
+        raise InputError(f"{where}{exc}") from None
+    negative = [f"{n} = {p[n]:g}" for n in p if n in NON_NEGATIVE and p[n] < 0]
+    if negative:
+        raise InputError(f"{where}given {kind} parameters {', '.join(negative)} (expected masses and inertias >= 0)")
+    return p
+
+
+def _refuse_singular(p: Params, mass: Array, samples: list[_Sample], where: str) -> None:
+    """Refuse given parameters whose formula M(q), ``mass`` (n, nv, nv) [kg m^2] at the samples, is not SPD."""
+    for k, M in enumerate(mass):
+        eig = np.linalg.eigvalsh(0.5 * (M + M.T)) if np.all(np.isfinite(M)) else np.full(1, np.nan)
+        if eig[0] > SINGULAR_RATIO * eig[-1]:
+            continue
+        what = "not finite" if np.isnan(eig[0]) else ("singular" if eig[0] >= 0 else "not positive definite")
+        listed = ", ".join(f"{n} = {v:g}" for n, v in p.items())
+        spread = "" if np.isnan(eig[0]) else f", eigenvalues {eig[0]:.3g} to {eig[-1]:.3g} kg m^2"
+        raise InputError(
+            f"{where}with the given {p.kind} parameters {listed} the formula's mass matrix M(q) is {what} at sample "
+            f"{k} (q = {np.array2string(samples[k].q, precision=4, separator=', ')}{spread}); "
+            "expected masses and inertias that give every joint some inertia"
+        )
+
+
+def _solve(M: Array, b: Array) -> Array:
+    """M^-1 b, or NaN (a mismatch in its row) where a formula's M is singular."""
+    try:
+        return np.asarray(np.linalg.solve(M, b), dtype=np.float64)
+    except np.linalg.LinAlgError:
+        return np.full_like(b, np.nan)
+
+
+def _formula_rows(
+    robot: Robot, formula: Formula, p: Params, samples: list[_Sample], rtol: float, given: str | None
+) -> list[CheckRow]:
+    """The rows; ``given``: None, or the parameters were given (their refusals start with it) and M must be SPD."""
     model, data = robot.model, robot.data
     fd_tol = max(rtol, FD_TOL)
     acc = {
@@ -281,6 +294,8 @@ def _formula_rows(robot: Robot, formula: Formula, p: Params, samples: list[_Samp
     n, nv = len(samples), robot.nv
     values = _formula_values(formula, p, _formula_points(formula, samples, q_anchor, nv))
     M_all, C_all, G_all, V_all = values.mass_matrix, values.coriolis_matrix, values.gravity, values.potential_energy
+    if given is not None:
+        _refuse_singular(p, M_all[:n], samples, given)
     skew_scale = 0.0  # dM/dt - 2C has no reference of its own: see _skew_scale
     for k, s in enumerate(samples):
         M_p = dynamics.mass_matrix(model, data, s.q)
@@ -290,7 +305,7 @@ def _formula_rows(robot: Robot, formula: Formula, p: Params, samples: list[_Samp
         acc["G"].add(dynamics.gravity(model, data, s.q), G_f)
         acc["nle"].add(dynamics.nonlinear_effects(model, data, s.q, s.v), C_f @ s.v + G_f)
         acc["id"].add(dynamics.rnea(model, data, s.q, s.v, s.a), M_f @ s.a + C_f @ s.v + G_f)
-        acc["fd"].add(dynamics.aba(model, data, s.q, s.v, s.tau), np.linalg.solve(M_f, s.tau - C_f @ s.v - G_f))
+        acc["fd"].add(dynamics.aba(model, data, s.q, s.v, s.tau), _solve(M_f, s.tau - C_f @ s.v - G_f))
         acc["T"].add(0.5 * float(s.v @ M_p @ s.v), 0.5 * float(s.v @ M_f @ s.v))
         Mdot = (M_all[n + k] - M_all[2 * n + k]) / (2 * FD_STEP)  # central difference along v
         N = Mdot - 2 * C_f
@@ -311,11 +326,7 @@ def _formula_rows(robot: Robot, formula: Formula, p: Params, samples: list[_Samp
 
 
 def _skew_scale(Mdot: Array, C: Array, M: Array, v: Array) -> float:
-    """Reference magnitude for N = dM/dt - 2C: the largest of |dM/dt|, |2C| and |M| |v|.
-
-    |M| |v| keeps the scale meaningful when M is (nearly) constant and C vanishes, where
-    |dM/dt| alone would be round-off and any round-off in N would look like a 100 % error.
-    """
+    """Reference magnitude for N = dM/dt - 2C: max(|dM/dt|, |2C|, |M| |v|); |M| |v| for M nearly constant, C ~ 0."""
     return max(float(np.abs(Mdot).max()), 2 * float(np.abs(C).max()), float(np.abs(M).max() * np.abs(v).max()))
 
 
@@ -325,11 +336,8 @@ def _rescale(row: CheckRow, scale: float) -> CheckRow:
     With ``scale`` zero (M constant and C zero: nothing moves the metric) only round-off
     can be left, so the error is measured against 1 in the row's unit.
     """
-    if row.max_abs_error == 0.0:
-        rel = 0.0
-    else:
-        rel = row.max_abs_error / scale if scale > 0 else row.max_abs_error
-    return replace(row, max_rel_error=rel)
+    error = row.max_abs_error
+    return replace(row, max_rel_error=0.0 if error == 0.0 else error / scale if scale > 0 else error)
 
 
 def _structure_rows(robot: Robot, samples: list[_Sample], rtol: float) -> list[CheckRow]:
@@ -356,7 +364,7 @@ def _structure_rows(robot: Robot, samples: list[_Sample], rtol: float) -> list[C
     for s in samples:
         M = mass(s.q)
         raw = np.array(M)
-        eig = np.linalg.eigvalsh(raw)
+        eig = np.linalg.eigvalsh(raw) if np.all(np.isfinite(raw)) else np.full(robot.nv, np.nan)
         min_eig_ratio = min(min_eig_ratio, eig[0] / eig[-1])
         # Positive definiteness: a non-positive eigenvalue shows as an error of its size.
         spd.add(np.zeros(1), np.array([max(0.0, -eig[0]) + (eig[-1] if eig[0] <= 0 else 0.0)]))
@@ -372,7 +380,13 @@ def _structure_rows(robot: Robot, samples: list[_Sample], rtol: float) -> list[C
         zero = np.zeros(robot.nv)
         cols = np.column_stack([dynamics.rnea(model, data, s.q, zero, e) - G for e in np.eye(robot.nv)])
         columns.add(M, cols)
-        a_crba = dynamics.crba_solve(model, data, s.q, s.v, s.tau)
+        try:
+            a_crba = dynamics.crba_solve(model, data, s.q, s.v, s.tau)
+        except np.linalg.LinAlgError:  # M not positive definite: the rows solving through it fail, saying so
+            a_crba = np.full(robot.nv, np.nan)
+            forward.note = inverse.note = (
+                forward.note or f"M(q) is not positive definite at sample {len(forward.pairs)}"
+            )
         try:
             a_aba = dynamics.aba(model, data, s.q, s.v, s.tau)
         except (RuntimeError, ValueError):
@@ -428,6 +442,7 @@ def check(
     rtol: float = DEFAULT_RTOL,
     params: Mapping[str, float] | None = None,
     formula_timeout: float = DEFAULT_TIMEOUT,
+    params_source: str | None = None,
 ) -> CheckReport:
     """Compare ``robot``'s Pinocchio dynamics with ``formula`` and with its own identities.
 
@@ -440,13 +455,18 @@ def check(
         rtol: relative tolerance for exact comparisons (finite-difference rows use
             ``max(rtol, FD_TOL)``).
         params: the formula's parameters as given by the user (e.g. from a datasheet)
-            instead of those read from the model; the model's kind is still checked.
+            instead of those read from the model; the model's kind is still checked. They
+            must be finite, masses and inertias >= 0, and give a positive-definite M at
+            every sampled state.
+        params_source: where ``params`` came from (a file name), named in their refusals.
         formula_timeout: when ``formula`` is a file's path, the seconds its code may run: its
             import, then the whole batch of evaluations (it runs in a process of its own, see
             :mod:`robodyn.kinds.sandbox`). A loaded :class:`UserFormula` keeps its own limit.
 
     Raises:
         AssumptionError: the model is not of the formula's kind.
+        InputError: bad ``samples`` or ``rtol``, or given ``params`` that are not the kind's, not
+            finite, negative masses or inertias, or whose M(q) is not positive definite.
         FormulaError: a user's formula file fails to import, returns wrong shapes, exits or
             runs past ``formula_timeout``.
     """
@@ -454,7 +474,7 @@ def check(
         raise InputError(f"samples must be >= 1 and <= {MAX_SAMPLES}, got {samples}")
     if robot.nv == 0:
         raise InputError(
-            f"{robot.name} has no moving joint, so it has no dynamics to check "
+            f"{robot.urdf_path or robot.name}: {robot.name} has no moving joint, so it has no dynamics to check "
             "(a lone body: load it with free_flyer=True, --free-flyer on the command line)"
         )
     if not (rtol > 0 and np.isfinite(rtol)):
@@ -468,12 +488,16 @@ def check(
     if formula is not None:
         resolved = resolve(formula, timeout=formula_timeout) if isinstance(formula, str) else formula
         try:
-            p = extract(robot, resolved.kind)
-            if params is not None:
-                p = from_mapping(resolved.kind, params)
+            try:
+                p = extract(robot, resolved.kind)
+            except AssumptionError as exc:  # say which model: the message names only the assumption it breaks
+                raise AssumptionError(str(exc), path=robot.urdf_path or robot.name) from None
+            given = None if params is None else (f"{params_source}: " if params_source else "")
+            if params is not None and given is not None:
+                p = _given_params(resolved.kind, params, given)
             used, kind = p.as_dict(), resolved.kind
             source = formula if isinstance(formula, str) else resolved.source
-            rows += _formula_rows(robot, resolved, p, states, rtol)
+            rows += _formula_rows(robot, resolved, p, states, rtol, given)
         finally:
             if isinstance(formula, str) and isinstance(resolved, UserFormula):
                 resolved.close()  # the file's process was this check's own

@@ -41,6 +41,7 @@ from numpy.typing import NDArray
 
 from robodyn import dynamics
 from robodyn.errors import AssumptionError, InputError, ModelError, UnknownNameError
+from robodyn.fileio import write_text_atomically
 from robodyn.kinds.params import EX, EXTRACTORS, EY, EZ, Params, extract
 from robodyn.model.files import find_srdf
 from robodyn.model.load import load
@@ -412,8 +413,8 @@ def write_params(
     try:
         write_document(document, tmp, comment=f"written by robodyn params from {robot.urdf_path} ({kind}: {summary})")
         _ordinary_mode(tmp)
-        if srdf_text is not None:
-            tmp_srdf.write_text(srdf_text)
+        if srdf_text is not None:  # beside tmp under its stem (load finds it there), never through a planted link
+            write_text_atomically(tmp_srdf, srdf_text)
         params = _verify(robot, kind, before, changes, document, tmp, path, free_flyer=free_flyer)
         os.replace(tmp, path)
         if srdf_text is not None:

@@ -26,6 +26,7 @@ import numpy as np
 
 from robodyn import inertia
 from robodyn.model.consistency import Finding, all_findings
+from robodyn.model.files import read_xml
 from robodyn.robot import Robot
 
 # A URDF inertia within 1 % of its primitive's (element by element, each on the scale
@@ -133,14 +134,8 @@ class ModelSummary:
         return out
 
 
-def _urdf_joints(robot: Robot) -> dict[str, ET.Element]:
-    if robot.urdf_path is None:
-        return {}
-    try:
-        root = ET.parse(robot.urdf_path).getroot()
-    except (ET.ParseError, OSError):
-        return {}
-    return {el.get("name", ""): el for el in root.findall("joint")}
+def _urdf_joints(root: ET.Element | None) -> dict[str, ET.Element]:
+    return {} if root is None else {el.get("name", ""): el for el in root.findall("joint")}
 
 
 def _axis(element: ET.Element | None) -> tuple[float, float, float] | None:
@@ -162,13 +157,9 @@ def _mimic(element: ET.Element | None) -> str:
     return f"{mimic.get('joint')} * {mimic.get('multiplier', '1')} + {mimic.get('offset', '0')}"
 
 
-def _links(robot: Robot) -> tuple[LinkSummary, ...]:
+def _links(root: ET.Element | None) -> tuple[LinkSummary, ...]:
     """Links of the URDF with their mass, and the URDF joint whose child each is."""
-    if robot.urdf_path is None:
-        return ()
-    try:
-        root = ET.parse(robot.urdf_path).getroot()
-    except (ET.ParseError, OSError):
+    if root is None:
         return ()
     parent_joint = {}
     for joint in root.findall("joint"):
@@ -301,12 +292,8 @@ def compare_primitive(link: ET.Element) -> PrimitiveComparison | None:
     )
 
 
-def _primitives(robot: Robot) -> tuple[PrimitiveComparison, ...]:
-    if robot.urdf_path is None:
-        return ()
-    try:
-        root = ET.parse(robot.urdf_path).getroot()
-    except (ET.ParseError, OSError):
+def _primitives(root: ET.Element | None) -> tuple[PrimitiveComparison, ...]:
+    if root is None:
         return ()
     found = (compare_primitive(link) for link in root.findall("link"))
     return tuple(c for c in found if c is not None)
@@ -346,7 +333,9 @@ def summarize(robot: Robot, *, geometry: bool = False, free_flyer_hint: bool = F
     from robodyn.model.load import unknown_passive_joints
 
     model = robot.model
-    xml = _urdf_joints(robot)
+    # One reading of the URDF (linear-time, within robodyn's limits) for what Pinocchio does not keep.
+    root = read_xml(robot.urdf_path, "URDF") if robot.urdf_path is not None else None
+    xml = _urdf_joints(root)
 
     def vq(values: Any, j: Any) -> tuple[float, ...]:
         return tuple(float(x) for x in np.asarray(values)[j.idx_q : j.idx_q + j.nq])
@@ -378,8 +367,8 @@ def summarize(robot: Robot, *, geometry: bool = False, free_flyer_hint: bool = F
                 mimic=_mimic(element),
             )
         )
-    links = _links(robot)
-    primitives = _primitives(robot)
+    links = _links(root)
+    primitives = _primitives(root)
     findings = all_findings(model, urdf=robot.urdf_path, geometry=geometry)
     findings += [primitive_finding(c) for c in primitives if c.differs]
     return ModelSummary(

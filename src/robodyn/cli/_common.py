@@ -84,6 +84,8 @@ def file_path(text: str) -> Path:
     """Argparse type: a non-empty path whose every part fits in a file name (at most NAME_MAX bytes)."""
     if not text:
         raise argparse.ArgumentTypeError("expected a path, got an empty string")
+    if not text.strip():
+        raise argparse.ArgumentTypeError(f"expected a path, got only white space {text!r}")
     if any(len(os.fsencode(part)) > NAME_MAX for part in Path(text).parts):
         raise argparse.ArgumentTypeError(
             f"expected a path whose every part is at most {NAME_MAX} bytes (a file name), got {shown(text)}"

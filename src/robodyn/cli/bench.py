@@ -19,7 +19,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from robodyn.cli._common import _json_default
+from robodyn.cli._common import _json_default, file_path
 from robodyn.fileio import write_text_atomically
 
 BUILTINS = ("pendubot", "cart_pole", "geared_arm")
@@ -46,7 +46,7 @@ def add_parser(sub: Any) -> None:
         metavar="MODEL",
         help=f"built-in name or URDF path (default: {', '.join(BUILTINS)})",
     )
-    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (created if needed)")
+    p.add_argument("--out", type=file_path, required=True, metavar="DIR", help="output folder (created if needed)")
     p.add_argument("--quick", action="store_true", help="a CI-sized subset (under a minute)")
     p.add_argument("--no-stability", action="store_true", help="skip the stability study (stability.json)")
     p.add_argument("--no-progress", action="store_true", help="do not draw the progress bar on stderr")

@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from robodyn.cli._common import print_json
+from robodyn.cli._common import file_path, print_json
 from robodyn.cli._parse import parse_keep, parse_lock
 from robodyn.errors import InputError
 
@@ -34,7 +33,7 @@ def add_parser(sub: Any) -> None:
         help="built-in model (geared_arm, cart_pole, pendubot), an example-robot-data robot (panda, talos, ...) "
         "or a path to a .urdf file",
     )
-    p.add_argument("--srdf", type=Path, default=None, help="SRDF file (default: same stem as the URDF)")
+    p.add_argument("--srdf", type=file_path, default=None, help="SRDF file (default: same stem as the URDF)")
     p.add_argument("--free-flyer", action="store_true", help="mount the root on a free-flyer joint")
     p.add_argument(
         "--list", action="store_true", help="list every model reachable by name (built-in, example-robot-data)"

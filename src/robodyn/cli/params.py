@@ -13,7 +13,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from robodyn.cli._common import add_model_arguments, load_robot, print_json
+from robodyn.cli._common import add_model_arguments, file_path, load_robot, print_json
 
 
 def assignments(text: str) -> list[tuple[str, float]]:
@@ -57,7 +57,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument(
         "--write",
         metavar="OUT.urdf",
-        type=Path,
+        type=file_path,
         help="write the modified URDF here (the SRDF goes along as OUT.srdf); not the model's own file",
     )
     p.set_defaults(handler=run)

@@ -13,6 +13,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from robodyn.cli._common import file_path
 from robodyn.cli._output import (
     check_output_file,
     check_output_folder,
@@ -36,8 +37,8 @@ def add_parser(sub: Any) -> None:
         "failed, 2 bad scene, 3 the simulation diverged, 130 interrupted (either way the trajectory so far is "
         "written first, as NAME.partial.npz).",
     )
-    p.add_argument("scene", type=Path, metavar="SCENE.toml", help="the scene file")
-    p.add_argument("--out", type=Path, default=None, help="output folder (overrides the scene's [output] dir)")
+    p.add_argument("scene", type=file_path, metavar="SCENE.toml", help="the scene file")
+    p.add_argument("--out", type=file_path, default=None, help="output folder (overrides the scene's [output] dir)")
     p.add_argument("--no-view", action="store_true", help="skip the [view] part")
     p.set_defaults(handler=run)
 

@@ -32,6 +32,7 @@ import numpy as np
 
 from robodyn.cli import _control
 from robodyn.cli._common import (
+    file_path,
     float_list,
     load_robot,
     number_in,
@@ -72,7 +73,7 @@ def add_parser(sub: Any) -> None:
         help="built-in model (geared_arm, cart_pole, pendubot), an example-robot-data robot (panda, ...) "
         "or a path to a .urdf file",
     )
-    p.add_argument("--srdf", type=Path, default=None, help="SRDF file (default: same stem as the URDF)")
+    p.add_argument("--srdf", type=file_path, default=None, help="SRDF file (default: same stem as the URDF)")
     p.add_argument("--free-flyer", action="store_true", help="mount the root on a free-flyer joint")
     p.add_argument(
         "--mimic",
@@ -152,7 +153,7 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument(
         "--constraints",
-        type=Path,
+        type=file_path,
         default=None,
         metavar="FILE.json",
         help="loops, couplings and springs as a JSON object: the keys of a scene's [constraints] table (limits, "
@@ -166,10 +167,13 @@ def add_parser(sub: Any) -> None:
         help="stop as diverged when |E - E0 - W| exceeds this times the energy scale (default 1)",
     )
     p.add_argument(
-        "--out", type=Path, metavar="FILE.npz", help="write the trajectory to this .npz file (its folder must exist)"
+        "--out",
+        type=file_path,
+        metavar="FILE.npz",
+        help="write the trajectory to this .npz file (its folder must exist)",
     )
     p.add_argument(
-        "--csv", type=Path, metavar="FILE.csv", help="also write the trajectory as CSV (its folder must exist)"
+        "--csv", type=file_path, metavar="FILE.csv", help="also write the trajectory as CSV (its folder must exist)"
     )
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.add_argument("--view", action="store_true", help="afterwards, play the motion in the browser (meshcat)")

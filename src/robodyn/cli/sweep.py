@@ -8,10 +8,9 @@ unwritable --out); 4 Dask or pyarrow missing; 5 no scheduler at --scheduler; 130
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 from typing import Any
 
-from robodyn.cli._common import positive_int
+from robodyn.cli._common import file_path, positive_int
 from robodyn.cli._output import check_output_folder
 
 
@@ -26,8 +25,10 @@ def add_parser(sub: Any) -> None:
         "chunks already written are skipped. Exit 0: done; 2: bad input; 4: Dask or pyarrow missing; 5: no "
         "scheduler there; 130: interrupted.",
     )
-    p.add_argument("sweep", type=Path, metavar="SWEEP.toml", help="the sweep file (see examples/sweeps/)")
-    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="results folder (created; reused to resume)")
+    p.add_argument("sweep", type=file_path, metavar="SWEEP.toml", help="the sweep file (see examples/sweeps/)")
+    p.add_argument(
+        "--out", type=file_path, required=True, metavar="DIR", help="results folder (created; reused to resume)"
+    )
     p.add_argument("--scheduler", metavar="ADDRESS", help="a running Dask scheduler, e.g. tcp://127.0.0.1:8786")
     p.add_argument("--workers", type=positive_int, help="local worker processes (default: one per CPU)")
     p.add_argument("--plots", action="store_true", help="also draw maps and sensitivity charts into DIR/plots/")

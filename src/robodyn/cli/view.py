@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from robodyn.cli._common import add_model_arguments, float_list, load_robot, number_in, positive_float
+from robodyn.cli._common import add_model_arguments, file_path, float_list, load_robot, number_in, positive_float
 from robodyn.cli._output import check_output_file, refuse_clobbering, writable_path
 from robodyn.errors import InputError, UnavailableError
 from robodyn.fileio import write_text_atomically
@@ -50,7 +50,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument(
         "trajectory",
         nargs="*",
-        type=Path,
+        type=file_path,
         default=[],
         metavar="TRAJ.npz",
         help="trajectory to play (from robodyn simulate --out); several (at most 8, same model) play together as "
@@ -77,7 +77,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--no-trace", action="store_true", help="draw no frame path")
     p.add_argument("--loop", action="store_true", help="repeat the animation forever instead of playing it once")
     p.add_argument(
-        "--html", type=Path, default=None, metavar="OUT.html", help="write a self-contained HTML replay; no server"
+        "--html", type=file_path, default=None, metavar="OUT.html", help="write a self-contained HTML replay; no server"
     )
     p.add_argument("--open", action="store_true", help="open the page (or the --html file) in the web browser")
     p.add_argument(

@@ -456,7 +456,10 @@ def test_closed_form_within_its_tolerance_passes(tmp_path: Path, capsys: pytest.
     ("body", "message"),
     [
         ("import sys\nsys.exit(0)\n", r"cf.py: the closed-form file called sys.exit\(0\) at import \(line 2\)"),
-        ("x = 1 / 0\n", r"cf.py: the closed-form file failed to import: ZeroDivisionError: division by zero \(line 1\)"),
+        (
+            "x = 1 / 0\n",
+            r"cf.py: the closed-form file failed to import: ZeroDivisionError: division by zero \(line 1\)",
+        ),
         ("def parameters(scene):\n    return {}\n", r"cf.py: defines no worst_deviation\(\)"),
         (
             "def parameters(scene):\n    return {}\n\ndef worst_deviation(t, q, v, p):\n    return q['nope']\n",

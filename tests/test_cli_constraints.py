@@ -395,6 +395,7 @@ def test_unknown_names_in_a_scene_name_the_table_and_key(
     text = (LINKAGE / "linkage.toml").read_text().replace(*edit, 1)
     text = text.replace('urdf = "linkage.urdf"', f'urdf = "{(LINKAGE / "linkage.urdf").as_posix()}"')
     text = text.replace('closed_form = "closed_form.py"', f'closed_form = "{(LINKAGE / "closed_form.py").as_posix()}"')
+    text = text.replace('formula = "reduced_formula.py"', f'formula = "{(LINKAGE / "reduced_formula.py").as_posix()}"')
     scene = tmp_path / "linkage.toml"
     scene.write_text(text)
     code = main(["run", str(scene), "--out", str(tmp_path / "out")])
@@ -406,6 +407,7 @@ def test_scene_loop_that_cannot_meet_names_the_table(tmp_path: Path, capsys: pyt
     (tmp_path / "far.urdf").write_text(FAR_GUIDE)
     text = (LINKAGE / "linkage.toml").read_text().replace('urdf = "linkage.urdf"', 'urdf = "far.urdf"')
     text = text.replace('closed_form = "closed_form.py"', f'closed_form = "{(LINKAGE / "closed_form.py").as_posix()}"')
+    text = text.replace('formula = "reduced_formula.py"', f'formula = "{(LINKAGE / "reduced_formula.py").as_posix()}"')
     scene = tmp_path / "linkage.toml"
     scene.write_text(text)
     code = main(["run", str(scene), "--out", str(tmp_path / "out")])
@@ -460,14 +462,21 @@ def test_closed_form_within_its_tolerance_passes(tmp_path: Path, capsys: pytest.
             "x = 1 / 0\n",
             r"cf.py: the closed-form file failed to import: ZeroDivisionError: division by zero \(line 1\)",
         ),
-        ("def parameters(scene):\n    return {}\n", r"cf.py: defines no worst_deviation\(\)"),
+        ("def parameters(scene):\n    return {}\n", r"cf.py: defines no closed_form\(\) or simulated\(\)"),
         (
-            "def parameters(scene):\n    return {}\n\ndef worst_deviation(t, q, v, p):\n    return q['nope']\n",
-            r"worst_deviation\(\) failed: KeyError: 'nope' \(line 5\)",
+            "def parameters(scene):\n    return {}\n\ndef closed_form(t, q, v, p):\n    return q['nope']\n\n"
+            "def simulated(t, q, v, p):\n    return {}\n",
+            r"closed_form\(\) failed: KeyError: 'nope' \(line 5\)",
         ),
         (
-            "def parameters(scene):\n    return {}\n\ndef worst_deviation(t, q, v, p):\n    return 0.0\n",
-            r"worst_deviation\(\) must return \{quantity: number\}, got float",
+            "def parameters(scene):\n    return {}\n\ndef closed_form(t, q, v, p):\n    return 0.0\n\n"
+            "def simulated(t, q, v, p):\n    return {}\n",
+            r"closed_form\(\) must return \{quantity: array\}, got float",
+        ),
+        (
+            "def parameters(scene):\n    return {}\n\ndef closed_form(t, q, v, p):\n    return {'speed': t}\n\n"
+            "def simulated(t, q, v, p):\n    return {'v': t}\n",
+            r"closed_form\(\) and simulated\(\) do not compare: the closed form gives \['speed'\], the simulated",
         ),
     ],
 )

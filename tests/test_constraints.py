@@ -122,6 +122,36 @@ def test_baumgarte_holds_the_loop_without_projection(linkage: robodyn.Robot, mon
     assert loose.meta["loop_drift"] > BAUMGARTE_GAIN * traj.meta["loop_drift"]  # the correction does the work
 
 
+def test_the_drift_of_every_sample_is_the_gap_between_the_frames(
+    linkage: robodyn.Robot, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    # Baumgarte alone, so that the gap is well above round-off and varies along the run.
+    monkeypatch.setattr(events, "PROJECT_ABOVE", np.inf)
+    traj = simulate(linkage, closed(0.3), [0, 0, 0], duration=0.5, dt=1e-3, loops=LOOP)
+    drift = traj.constraint_drift
+    assert drift is not None and drift.shape == traj.t.shape
+    # The oracle: |p_tip - p_collar| from Pinocchio's frame placements, sample by sample.
+    import pinocchio as pin
+
+    model = linkage.model
+    data = model.createData()
+    tip, collar = model.getFrameId("bc_tip"), model.getFrameId("collar")
+    gap = np.empty(len(traj.t))
+    for k, q in enumerate(traj.q):
+        pin.framesForwardKinematics(model, data, q)
+        gap[k] = np.linalg.norm(data.oMf[tip].translation - data.oMf[collar].translation)
+    assert np.max(np.abs(drift - gap)) < 1e-15  # [m]: the same distance, to round-off
+    assert drift[0] < 1e-15 < 1e-12 < np.ptp(drift)  # starts closed, then a series that moves, not a constant
+    assert traj.meta["loop_drift"] == np.max(drift) == traj.summary()["loop_drift"]
+    path = traj.save(tmp_path / "linkage.npz")
+    assert np.array_equal(robodyn.Trajectory.load(path).constraint_drift, drift)
+    free = simulate(linkage, closed(0.3), [0, 0, 0], duration=0.01, dt=1e-3)
+    assert (
+        free.constraint_drift is None
+        and robodyn.Trajectory.load(free.save(tmp_path / "f.npz")).constraint_drift is None
+    )
+
+
 def test_an_initial_state_off_the_loop_is_projected_onto_it(linkage: robodyn.Robot) -> None:
     q0 = closed(0.4)
     q0[0] += 0.05  # the collar 5 cm off

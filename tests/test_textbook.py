@@ -61,6 +61,16 @@ def _series(robot, trajectory) -> tuple[dict, dict]:
     return q, v
 
 
+def _deviation(cf: ModuleType, t, q: dict, v: dict, p: dict) -> dict[str, float]:
+    """max |closed form - simulated| / max |closed form| over the motion, per quantity: the tests' own reduction."""
+    expected, got = cf.closed_form(t, q, v, p), cf.simulated(t, q, v, p)
+    out = {}
+    for name, value in expected.items():
+        e, g = np.broadcast_arrays(np.asarray(value, dtype=np.float64), np.asarray(got[name], dtype=np.float64))
+        out[name] = float(np.max(np.abs(e - g))) / float(np.max(np.abs(e)))
+    return out
+
+
 def _with_mimic(urdf: Path, couplings: list[dict], out: Path) -> Path:
     """The URDF with a <mimic> tag per coupling (what robodyn loads today with mimic=True)."""
     text = urdf.read_text()
@@ -125,7 +135,7 @@ def test_rolling_disk_simulated_today_matches_v_of_b(scene, tmp_path):
         robot, np.zeros(robot.nq), np.zeros(robot.nv), duration=sim["duration"], dt=sim["dt"], integrator="rk4"
     )
     q, v = _series(robot, traj)
-    assert cf.worst_deviation(traj.t, q, v, p)["speed"] < EXACT_RK4
+    assert _deviation(cf, traj.t, q, v, p)["speed"] < EXACT_RK4
     assert q["slide"][-1] == pytest.approx(0.5 * cf.acceleration(p) * sim["duration"] ** 2, rel=EXACT_RK4)
     if not couplings:
         assert np.all(v["spin"] == 0.0)  # nothing turns a sliding disk
@@ -178,7 +188,7 @@ def test_motorcycle_simulated_today_reaches_25_m_s_after_128_68_m(tmp_path):
     # dt = 10 ms: RK4 integrates the constant acceleration exactly at any step.
     traj = robodyn.simulate(robot, [0.0], [0.0], duration=10.5, dt=1e-2, torque=[p["M"] * p["ratio_rear"]])
     q, v = _series(robot, traj)
-    assert cf.worst_deviation(traj.t, q, v, p)["speed"] < EXACT_RK4
+    assert _deviation(cf, traj.t, q, v, p)["speed"] < EXACT_RK4
     t25 = 25.0 / cf.acceleration(p)
     assert 0.5 * cf.acceleration(p) * t25**2 == pytest.approx(128.68, abs=0.005)
     assert np.interp(t25, traj.t, q["drive"]) == pytest.approx(128.68, abs=0.005)
@@ -321,7 +331,7 @@ def test_linkage_omega_squared_holds_along_pinocchios_motion(theta0):
         path.append(x)
     theta, omega = np.array(path).T
     assert np.ptp(theta) > 0.3  # it moved: a real swing, not a rest at equilibrium
-    deviation = cf.worst_deviation(None, {"joint_a": theta}, {"joint_a": omega}, p)["omega_squared"]
+    deviation = _deviation(cf, None, {"joint_a": theta}, {"joint_a": omega}, p)["omega_squared"]
     assert deviation < LINKAGE_OMEGA2
 
 
@@ -358,7 +368,7 @@ def test_torsional_spring_simulated_today_with_the_spring_as_a_torque():
         robot, [p["theta0"]], [p["omega0"]], duration=2.0, dt=1e-3, torque=lambda t, q, v: cf.spring_couple(q, p)
     )
     q, v = _series(robot, traj)
-    deviation = cf.worst_deviation(traj.t, q, v, p)
+    deviation = _deviation(cf, traj.t, q, v, p)
     assert deviation["theta"] < HARMONIC_RK4 and deviation["spring_energy"] < HARMONIC_RK4
 
 
@@ -392,7 +402,7 @@ def test_power_simulated_today_integrates_to_the_kinetic_energy_gained():
     assert [j.name for j in robot.joints] == ["rail", "flywheel"]
     traj = robodyn.simulate(robot, robot.neutral(), np.zeros(2), duration=2.0, dt=1e-3, torque=[p["F"], p["M"]])
     q, v = _series(robot, traj)
-    deviation = cf.worst_deviation(traj.t, q, v, p)
+    deviation = _deviation(cf, traj.t, q, v, p)
     assert deviation["power"] < EXACT_RK4 and deviation["work"] < EXACT_RK4
     gained = traj.kinetic - traj.kinetic[0]
     np.testing.assert_allclose(cf.work(traj.t, p), gained, rtol=0, atol=EXACT_RK4 * gained.max())
@@ -437,7 +447,7 @@ def test_box_corner_pinocchio_and_the_spin_about_a_corner_axis():
     np.testing.assert_allclose(cf.corner_tensor(p["m"], p["w"], p["l"], p["h"]), about_corner, rtol=RTOL_PINOCCHIO)
     assert cf.axis_inertia(p) == pytest.approx(0.075, rel=RTOL_SYMBOLIC)  # as box.urdf says
     traj = robodyn.simulate(robot, robot.neutral(), [0.0], duration=2.0, dt=1e-3, torque=[p["M"]])
-    deviation = cf.worst_deviation(traj.t, {}, {"spin": traj.v[:, 0]}, p)
+    deviation = _deviation(cf, traj.t, {}, {"spin": traj.v[:, 0]}, p)
     assert deviation["omega"] < EXACT_RK4
     np.testing.assert_allclose(traj.potential, traj.potential[0], rtol=0, atol=1e-12)  # the axis is vertical
 
@@ -452,7 +462,7 @@ def test_every_example_has_a_urdf_a_scene_and_a_closed_form():
     assert folders == ["box_corner", "linkage", "motorcycle", "power", "rolling_disk", "torsional_spring"]
     for folder in folders:
         cf = _module(folder)
-        assert all(callable(getattr(cf, f)) for f in ("parameters", "closed_form", "simulated", "worst_deviation"))
+        assert all(callable(getattr(cf, f)) for f in ("parameters", "closed_form", "simulated"))
         assert list((EXAMPLES / folder).glob("*.urdf")) and list((EXAMPLES / folder).glob("*.toml"))
 
 
@@ -461,7 +471,10 @@ def test_scene_reads_with_its_constraints_and_springs(scene):
     data = tomllib.loads(scene.read_text())
     parsed = read_scene(scene)
     assert parsed.check["closed_form"] == scene.parent / "closed_form.py"
-    assert not parsed.structural_check  # [check] asks for the closed form only
+    # [check] asks for the closed form only, but for the linkage's reduced Lagrangian (robodyn check on its loop)
+    assert parsed.structural_check == ("formula" in data["check"])
+    if "formula" in data["check"]:
+        assert parsed.check["formula"] == str(scene.parent / data["check"]["formula"])
     table = data.get("constraints", {})
     spec = parsed.constraints
     assert spec.limits == table.get("limits", True) and spec.restitution == table.get("restitution", 0.0)
@@ -502,12 +515,17 @@ def test_scene_passes_through_robodyn_run(scene, tmp_path, capsys):
     traj = robodyn.Trajectory.load(tmp_path / f"{scene.stem}.npz")
     q, v = _series_of_scene(scene, traj)
     cf = _module(scene.parent.name)
-    expected = cf.worst_deviation(traj.t, q, v, cf.parameters(scene))
+    expected = _deviation(cf, traj.t, q, v, cf.parameters(scene))
     assert record["worst_deviation"] == pytest.approx(expected, rel=0, abs=0)
     assert 0 <= record["worst"] <= record["tolerance"]
     assert traj.meta["joint_names"] and summary["simulate"]["trajectory"] == str(tmp_path / f"{scene.stem}.npz")
     if "loops" in data.get("constraints", {}):
         assert summary["simulate"]["loop_drift"] < LOOP_DRIFT
+        # The drift of every sample travels with the trajectory; the summary's is its worst.
+        assert traj.constraint_drift.shape == traj.t.shape
+        assert summary["simulate"]["loop_drift"] == float(np.max(traj.constraint_drift))
+    if "formula" in data["check"]:  # the reduced Lagrangian, checked on the loop: each term to round-off
+        assert summary["check"]["passed"] and max(summary["check"]["worst_relative_error"].values()) < 1e-9
 
 
 @pytest.mark.parametrize("theta0", [0.2, float(rng.uniform(-1.3, 1.3))])
@@ -521,7 +539,7 @@ def test_linkage_released_at_any_theta0_passes_through_robodyn_run(theta0, tmp_p
     text = (EXAMPLES / "linkage" / "linkage.toml").read_text()
     start = "q = { " + ", ".join(f"{name} = {float(value)!r}" for name, value in q.items()) + " }"
     text = re.sub(r"^q = \{.*$", start, text, count=1, flags=re.M)
-    for name in ("linkage.urdf", "closed_form.py"):
+    for name in ("linkage.urdf", "closed_form.py", "reduced_formula.py"):
         text = text.replace(f'"{name}"', f'"{(EXAMPLES / "linkage" / name).as_posix()}"')
     scene = tmp_path / "linkage.toml"
     scene.write_text(text)

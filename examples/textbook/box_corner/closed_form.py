@@ -94,13 +94,3 @@ def closed_form(t, q: Mapping, v: Mapping, params):
 def simulated(t, q: Mapping, v: Mapping, params):
     """The simulated spin rate [rad/s]."""
     return {"omega": np.asarray(v["spin"])}
-
-
-def worst_deviation(t, q: Mapping, v: Mapping, params):
-    """max |closed form - simulated| / max |closed form| over the motion, per quantity (absolute if that is 0)."""
-    expected, got = closed_form(t, q, v, params), simulated(t, q, v, params)
-    out = {}
-    for key, value in expected.items():
-        scale = float(np.max(np.abs(value)))
-        out[key] = float(np.max(np.abs(value - got[key]))) / (scale if scale > 0 else 1.0)
-    return out

@@ -147,13 +147,3 @@ def closed_form(t, q: Mapping, v: Mapping, params):
 def simulated(t, q: Mapping, v: Mapping, params):
     """The simulated omega^2 of joint_a."""
     return {"omega_squared": np.asarray(v["joint_a"]) ** 2}
-
-
-def worst_deviation(t, q: Mapping, v: Mapping, params):
-    """max |closed form - simulated| / max |closed form| over the motion, per quantity (absolute if that is 0)."""
-    expected, got = closed_form(t, q, v, params), simulated(t, q, v, params)
-    out = {}
-    for key, value in expected.items():
-        scale = float(np.max(np.abs(value)))
-        out[key] = float(np.max(np.abs(value - got[key]))) / (scale if scale > 0 else 1.0)
-    return out

@@ -5,18 +5,23 @@
     C(theta, omega) = 1/2 dM/dtheta omega = 2 (m_bc + 2 m_c) l^2 sin(theta) cos(theta) omega
     G(theta) = dV/dtheta = -g l (m_ab / 2 + 3 m_bc / 2 + 2 m_c) sin(theta) + k (theta - rest)
 
-so that M theta'' + C theta' + G = 0 on the loop. The formulas are closed_form.py's (written
-once); this file puts them in the format of ``robodyn check --formula``.
+so that M theta'' + C theta' + G = tau_A on the loop. The formulas are closed_form.py's (written
+once); this file puts them in the format of ``robodyn check --formula``:
 
-The format today takes only a built-in KIND and that kind's parameters, so this file cannot
-load yet. What it needs (issue 10, "The reduced Lagrangian, checked"):
+    robodyn check examples/textbook/linkage/linkage.toml --formula examples/textbook/linkage/reduced_formula.py
 
-* ``KIND = "constrained"``: the formula lives in the scene's independent coordinates, named
-  by ``INDEPENDENT`` (URDF joints; ``COORDINATES`` already means link or motor angles); the
-  checker samples them, maps each sample onto the loop with ``on_the_loop`` and compares
-  against Pinocchio's constrained dynamics there;
-* ``p`` comes from ``parameters(scene)`` (the URDF's masses and lengths, the scene's springs),
-  not from a built-in kind's parameter list.
+(linkage.toml names this file in [check] formula, so ``robodyn run`` checks it too.) The
+contract of a constrained formula (robodyn.kinds.reduced):
+
+* ``KIND = "constrained"``; ``INDEPENDENT`` names the URDF joints of the formula's coordinates;
+* ``parameters(scene)`` -> {name: number}: here the URDF's masses and lengths and the scene's spring;
+* ``mass_matrix(q, p)``, ``coriolis_matrix(q, v, p)``, ``gravity(q, p)`` (springs included) and
+  ``potential_energy(q, p)`` in the independent coordinates (q, v are (1,) arrays here);
+* ``on_the_loop(q, v, p)`` -> ({joint: q}, {joint: v}): every joint's state on the loop.
+
+The checker samples theta within joint_a's URDF limits, maps each sample onto the loop with
+``on_the_loop`` and compares against Pinocchio's constrained dynamics there (S^T M S, the
+reduced bias, S^T (G + spring), constraintDynamics' acceleration, V).
 """
 
 import importlib.util

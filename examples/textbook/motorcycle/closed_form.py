@@ -14,8 +14,7 @@ masses and inertias, and an initial speed v0:
                                                        + I_rear ratio_rear^2 + I_front ratio_front^2.
 
 The motion has constant acceleration a = M ratio_rear / m_eff. Interface: see
-``examples/textbook/rolling_disk/closed_form.py`` (parameters, closed_form, simulated,
-worst_deviation).
+``examples/textbook/rolling_disk/closed_form.py`` (parameters, closed_form, simulated).
 """
 
 from __future__ import annotations
@@ -121,13 +120,3 @@ def closed_form(t, q: Mapping, v: Mapping, params):
 def simulated(t, q: Mapping, v: Mapping, params):
     """The simulated speed [m/s]."""
     return {"speed": np.asarray(v["drive"])}
-
-
-def worst_deviation(t, q: Mapping, v: Mapping, params):
-    """max |closed form - simulated| / max |closed form| over the motion, per quantity (absolute if that is 0)."""
-    expected, got = closed_form(t, q, v, params), simulated(t, q, v, params)
-    out = {}
-    for key, value in expected.items():
-        scale = float(np.max(np.abs(value)))
-        out[key] = float(np.max(np.abs(value - got[key]))) / (scale if scale > 0 else 1.0)
-    return out

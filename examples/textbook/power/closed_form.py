@@ -100,13 +100,3 @@ def simulated(t, q: Mapping, v: Mapping, params):
     P = params["F"] * np.asarray(v["rail"]) + params["M"] * np.asarray(v["flywheel"])
     U = np.concatenate([[0.0], np.cumsum(0.5 * (P[1:] + P[:-1]) * np.diff(t))])
     return {"power": P, "work": U}
-
-
-def worst_deviation(t, q: Mapping, v: Mapping, params):
-    """max |closed form - simulated| / max |closed form| over the motion, per quantity (absolute if that is 0)."""
-    expected, got = closed_form(t, q, v, params), simulated(t, q, v, params)
-    out = {}
-    for key, value in expected.items():
-        scale = float(np.max(np.abs(value)))
-        out[key] = float(np.max(np.abs(value - got[key]))) / (scale if scale > 0 else 1.0)
-    return out

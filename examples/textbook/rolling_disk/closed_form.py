@@ -17,9 +17,10 @@ its axis [kg m^2]. Without the coupling ratio = 0. The interface shared by every
 * ``parameters(scene) -> dict``: every parameter, read from the scene file and its URDF;
 * ``closed_form(t, q, v, params) -> dict``: the book's prediction of named quantities along
   a motion (t (n,) [s]; q, v: joint name -> (n,) arrays);
-* ``simulated(t, q, v, params) -> dict``: the same quantities read off the motion;
-* ``worst_deviation(t, q, v, params) -> dict``: max |closed form - simulated| over the
-  motion, divided by the largest |closed form| value.
+* ``simulated(t, q, v, params) -> dict``: the same quantities read off the motion.
+
+``robodyn run`` compares the two (max |closed form - simulated| over the motion, divided by
+the largest |closed form|: ``robodyn.kinds.deviation.worst_deviation``).
 """
 
 from __future__ import annotations
@@ -110,13 +111,3 @@ def closed_form(t, q: Mapping, v: Mapping, params):
 def simulated(t, q: Mapping, v: Mapping, params):
     """The simulated speed of the slide [m/s]."""
     return {"speed": np.asarray(v["slide"])}
-
-
-def worst_deviation(t, q: Mapping, v: Mapping, params):
-    """max |closed form - simulated| / max |closed form| over the motion, per quantity (absolute if that is 0)."""
-    expected, got = closed_form(t, q, v, params), simulated(t, q, v, params)
-    out = {}
-    for key, value in expected.items():
-        scale = float(np.max(np.abs(value)))
-        out[key] = float(np.max(np.abs(value - got[key]))) / (scale if scale > 0 else 1.0)
-    return out

@@ -90,13 +90,3 @@ def simulated(t, q: Mapping, v: Mapping, params):
     p = params
     energy = 0.5 * p["I_A"] * p["omega0"] ** 2 + spring_energy(p["theta0"], p)
     return {"theta": np.asarray(q["pivot"]), "spring_energy": energy - 0.5 * p["I_A"] * np.asarray(v["pivot"]) ** 2}
-
-
-def worst_deviation(t, q: Mapping, v: Mapping, params):
-    """max |closed form - simulated| / max |closed form| over the motion, per quantity (absolute if that is 0)."""
-    expected, got = closed_form(t, q, v, params), simulated(t, q, v, params)
-    out = {}
-    for key, value in expected.items():
-        scale = float(np.max(np.abs(value)))
-        out[key] = float(np.max(np.abs(value - got[key]))) / (scale if scale > 0 else 1.0)
-    return out

@@ -1,17 +1,18 @@
 """A scene's ``[check] closed_form``: the simulated motion against the book's closed form, sample by sample.
 
 The file (a path relative to the scene) is a user's Python module with the interface of
-``examples/textbook/*/closed_form.py``: ``parameters(scene_path) -> dict`` and
-``worst_deviation(t, q, v, params) -> {quantity: max |closed form - simulated| / max |closed form|}``,
+``examples/textbook/*/closed_form.py``: ``parameters(scene_path) -> dict``,
+``closed_form(t, q, v, params) -> {quantity: (n,) array}`` (the book's prediction) and
+``simulated(t, q, v, params) -> {quantity: (n,) array}`` (the same quantities read off the motion),
 where ``t`` is (n,) [s] and ``q``, ``v`` map each one-coordinate joint's name to its (n,) series
-(a coupled joint's from its leader: ratio q_leader + offset). :func:`compare` prints the worst
-deviation of each quantity along the whole motion and fails (exit 1) above ``closed_form_rtol``.
+(a coupled joint's from its leader: ratio q_leader + offset). :func:`compare` computes the worst
+deviation of each quantity along the whole motion, max |closed form - simulated| / max |closed form|
+(:func:`robodyn.kinds.deviation.worst_deviation`), prints it and fails (exit 1) above ``closed_form_rtol``.
 A file that cannot be imported or breaks its interface is one line naming it (exit 2).
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from pathlib import Path
 from types import ModuleType
@@ -20,10 +21,11 @@ from typing import Any
 import numpy as np
 
 from robodyn.errors import EXIT_MISMATCH, EXIT_OK, InputError, SceneError
+from robodyn.kinds.deviation import worst_deviation
 from robodyn.scene import DEFAULT_CLOSED_FORM_RTOL, Scene
 from robodyn.userfile import at_line, import_user_file
 
-FUNCTIONS = ("parameters", "worst_deviation")
+FUNCTIONS = ("parameters", "closed_form", "simulated")
 
 
 def compare(scene: Scene, robot: Any, trajectory: Any, summary: dict[str, Any]) -> int:
@@ -39,8 +41,16 @@ def compare(scene: Scene, robot: Any, trajectory: Any, summary: dict[str, Any]) 
     module = load(scene, path)
     q, v = joint_series(robot, trajectory, scene.constraints)
     params = _call(scene, path, "parameters", module.parameters, scene.path)
-    deviation = _call(scene, path, "worst_deviation", module.worst_deviation, trajectory.t, q, v, params)
-    deviation = _deviations(scene, path, deviation)
+    expected = _quantities(
+        scene, path, "closed_form", _call(scene, path, "closed_form", module.closed_form, trajectory.t, q, v, params)
+    )
+    got = _quantities(
+        scene, path, "simulated", _call(scene, path, "simulated", module.simulated, trajectory.t, q, v, params)
+    )
+    try:
+        deviation = worst_deviation(expected, got)
+    except ValueError as exc:
+        raise _error(scene, path, f"closed_form() and simulated() do not compare: {exc}") from None
     worst = max(deviation.values(), default=0.0)
     passed = all(x <= rtol for x in deviation.values())  # a NaN fails
     duration = float(trajectory.t[-1] - trajectory.t[0])
@@ -104,19 +114,16 @@ def _call(scene: Scene, path: Path, name: str, function: Any, *args: Any) -> Any
         raise _error(scene, path, f"{name}() failed: {_what(exc, path)}") from None
 
 
-def _deviations(scene: Scene, path: Path, value: Any) -> dict[str, float]:
-    """``worst_deviation``'s answer as {name: float}, or one line saying what came instead."""
+def _quantities(scene: Scene, path: Path, name: str, value: Any) -> dict[str, Any]:
+    """``name()``'s answer as {quantity: float array}, or one line saying what came instead."""
     if not isinstance(value, Mapping) or not value:
-        raise _error(scene, path, f"worst_deviation() must return {{quantity: number}}, got {type(value).__name__}")
+        raise _error(scene, path, f"{name}() must return {{quantity: array}}, got {type(value).__name__}")
     out = {}
     for key, x in value.items():
         try:
-            number = float(np.asarray(x, dtype=np.float64).reshape(()))
+            out[str(key)] = np.asarray(x, dtype=np.float64)
         except (TypeError, ValueError):
-            raise _error(
-                scene, path, f"worst_deviation()[{str(key)!r}] must be a number, got {type(x).__name__}"
-            ) from None
-        out[str(key)] = number if not math.isnan(number) else math.nan
+            raise _error(scene, path, f"{name}()[{str(key)!r}] must be numbers, got {type(x).__name__}") from None
     return out
 
 

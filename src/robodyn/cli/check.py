@@ -31,6 +31,12 @@ def add_parser(sub: Any) -> None:
         "(M SPD, dM/dt - 2C skew, G = dV/dq). Exit 0: all agree; 1: a mismatch; 2: bad input.",
     )
     add_model_arguments(p, many=True)
+    p.epilog = (
+        "A scene file (SCENE.toml) in place of a model checks the scene's model; with a formula file whose KIND is "
+        "'constrained' (a closed chain's reduced Lagrangian, e.g. examples/textbook/linkage/reduced_formula.py) it "
+        "is compared with Pinocchio's constrained dynamics on the scene's loops and springs. Without --formula, a "
+        "scene's [check] formula is used."
+    )
     p.add_argument(
         "--formula",
         metavar="KIND_OR_FILE",
@@ -86,16 +92,29 @@ def _check_all(args: argparse.Namespace, given: dict[str, Any] | None, process: 
     from robodyn.kinds.params import detect_kind
     from robodyn.kinds.user import load_user_formula
 
-    robots = [load_robot(args, name, mimic=args.mimic) for name in args.models]  # bad input fails before any work
-    for robot in robots:
+    targets = [_target(args, name) for name in args.models]  # bad input fails before any work
+    for robot, _ in targets:
         warn_ignored_mimic(robot, mimic=args.mimic, command="check")
     user = load_user_formula(args.formula, process=process) if process is not None else None
     reports = []
+    robots = [robot for robot, _ in targets]
     source = str(args.params) if args.params is not None else None
-    for robot in robots:
+    for robot, scene in targets:
         formula = user if user is not None else (detect_kind(robot) if args.formula == "auto" else args.formula)
+        if formula is None and scene is not None and scene.check is not None:
+            formula = scene.check.get("formula")  # the scene's own, its path read from the scene's folder
+        where: dict[str, Any] = {}
+        if scene is not None:
+            where = {"loops": scene.constraints.loops, "springs": scene.constraints.springs, "scene": scene.path}
         report = check(
-            robot, formula, samples=args.samples, seed=args.seed, rtol=args.rtol, params=given, params_source=source
+            robot,
+            formula,
+            samples=args.samples,
+            seed=args.seed,
+            rtol=args.rtol,
+            params=given,
+            params_source=source,
+            **where,
         )
         reports.append(report)
         if not args.json:
@@ -107,6 +126,21 @@ def _check_all(args: argparse.Namespace, given: dict[str, Any] | None, process: 
     elif len(reports) > 1:
         print("\nsummary: " + ", ".join(f"{r.model} {'pass' if r.passed else 'FAIL'}" for r in reports))
     return EXIT_OK if all(r.passed for r in reports) else EXIT_MISMATCH
+
+
+def _target(args: argparse.Namespace, name: str) -> tuple[Any, Any]:
+    """(robot, scene): a model loaded as named, or a scene file's model (its reduction, loops and springs)."""
+    if not name.endswith(".toml"):
+        return load_robot(args, name, mimic=args.mimic), None
+    from robodyn.scene import read_scene
+
+    if args.srdf is not None or args.free_flyer or args.mimic:
+        raise InputError(
+            f"{name}: --srdf, --free-flyer and --mimic are a model's options; a scene sets them in [model]"
+        )
+    scene = read_scene(Path(name))
+    robot, _ = scene.build()
+    return robot, scene
 
 
 def _samples(text: str) -> int:
@@ -186,7 +220,7 @@ def format_report(report: Any, robot: Any) -> str:
             f"{k} = {v:.6g}{' ' + PARAM_UNITS.get(k, '') if PARAM_UNITS.get(k) else ''}"
             for k, v in report.params.items()
         )
-        origin = "given with --params" if report.params_given else "read from the model"
+        origin = "given with --params" if report.params_given else _origin(report)
         lines.append(f"parameters {origin}: {params}")
     if report.formula is None:
         from robodyn.kinds.params import detect_kind
@@ -207,6 +241,7 @@ def format_report(report: Any, robot: Any) -> str:
     for r in report.rows:
         if not r.applicable:
             lines.append(f"n/a: {r.quantity}: {r.note}")
+    lines.extend(f"note: {note}" for note in report.notes)
     for r in report.failures + report.gaps:
         label = "MISMATCH" if r.counts else "PINOCCHIO GAP"
         ref = "Pinocchio" if r.group == "formula" else "expected"
@@ -224,6 +259,11 @@ def format_report(report: Any, robot: Any) -> str:
     lines.append("")
     lines.append(f"{verdict}  ({report.wall_time_s:.2f} s)")
     return "\n".join(lines)
+
+
+def _origin(report: Any) -> str:
+    """Where the parameters of a report came from, when the user did not give them."""
+    return "from the formula file's parameters(scene)" if report.kind == "constrained" else "read from the model"
 
 
 _GROUP_TITLES = {

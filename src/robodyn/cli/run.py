@@ -171,11 +171,25 @@ def _jsonable(obj: Any) -> Any:
 
 
 def _check(scene: Any, robot: Any, reduction: Any, q0: Any, v0: Any, torque: Any, summary: dict[str, Any]) -> int:
+    from robodyn.errors import UnknownNameError
     from robodyn.kinds.check import check
     from robodyn.studies.exactness import prove_exact
 
     c = scene.check
-    report = check(robot, c.get("formula"), samples=int(c.get("samples", 20)), seed=int(c.get("seed", 0)))
+    loops, springs = scene.constraints.loops, scene.constraints.springs
+    try:
+        report = check(
+            robot,
+            c.get("formula"),
+            samples=int(c.get("samples", 20)),
+            seed=int(c.get("seed", 0)),
+            loops=loops,
+            springs=springs,
+            scene=scene.path,
+        )
+    except UnknownNameError as exc:  # a frame or joint of [constraints] or [springs], or the formula's INDEPENDENT
+        where = ("check", "formula") if "INDEPENDENT" in exc.what else _constraint_key(exc)
+        raise scene.error(*where, str(exc)) from None
     failures = [row.quantity for row in report.failures]
     print(
         f"check: {'passed' if report.passed else 'FAILED'} ({len(report.rows)} rows, {report.samples} samples"
@@ -183,7 +197,12 @@ def _check(scene: Any, robot: Any, reduction: Any, q0: Any, v0: Any, torque: Any
         + ")"
         + (f"; failed: {', '.join(failures)}" if failures else "")
     )
+    for row in report.failures:
+        worst = f"relative error {row.max_rel_error:.3g} > {row.tolerance:g}"
+        print(f"  MISMATCH {row.entry_name()} ({row.quantity}): {worst}")
     summary["check"] = {"passed": report.passed, "rows": len(report.rows), "failed": failures}
+    if report.kind == "constrained":  # the reduced Lagrangian: each term's worst relative error
+        summary["check"]["worst_relative_error"] = {r.quantity: r.max_rel_error for r in report.rows}
     status = EXIT_OK if report.passed else EXIT_MISMATCH
     if c.get("exactness"):
         duration, dt, integrator = _timing(scene)

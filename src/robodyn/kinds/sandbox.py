@@ -41,6 +41,7 @@ from typing import IO, Any
 import numpy as np
 
 from robodyn.errors import FormulaError, InputError
+from robodyn.kinds import reduced
 from robodyn.kinds.evaluation import FUNCTIONS, Points, Values, evaluate, value_shape
 from robodyn.kinds.formula import Array, Formula
 from robodyn.kinds.user_file import load_in_process
@@ -200,6 +201,7 @@ class _Child:
                         "dof": formula.dof,
                         "param_names": list(formula.param_names),
                         "potential": formula.potential_energy is not None,
+                        "independent": list(getattr(formula, "independent", ())),
                     }
                 )
             elif header["op"] == "evaluate" and self.formula is not None:
@@ -208,6 +210,9 @@ class _Child:
                 points = Points(*(arrays[k] for k in ("mass", "coriolis_q", "coriolis_v", "gravity", "potential")))
                 values = _limited(self.timeout, lambda: evaluate(formula, p, points, on_start=self.started))
                 self.send({"op": "values"}, {name: values.of(name) for name in FUNCTIONS})
+            elif header["op"] == "call" and self.formula is not None:  # a constrained file's parameters, on_the_loop
+                formula, self.running = self.formula, str(header.get("function"))
+                self.send(*_limited(self.timeout, lambda: reduced.serve(formula, header, arrays)))
             else:
                 self.send({"op": "error", "message": f"{self.source}: robodyn sent a request out of order"})
         except FormulaError as exc:
@@ -288,6 +293,12 @@ class FormulaProcess:
             values.append(got)
         return Values(*values)
 
+    def call(
+        self, header: dict[str, Any], arrays: Mapping[str, Array] | None = None
+    ) -> tuple[dict[str, Any], dict[str, Array]]:
+        """One of a constrained file's own functions (``header["function"]``): the reply (robodyn checks it)."""
+        return self._request({"op": "call", **header}, arrays)
+
     def close(self) -> None:
         """End the process (and anything it started)."""
         if self._child is not None:
@@ -307,7 +318,7 @@ class FormulaProcess:
     def _exchange(
         self, child: _Running, header: dict[str, Any], arrays: Mapping[str, Array] | None
     ) -> tuple[dict[str, Any], dict[str, Array]]:
-        running = "import" if header["op"] == "load" else FUNCTIONS[0]
+        running = {"load": "import", "call": str(header.get("function"))}.get(header["op"], FUNCTIONS[0])
         try:
             reply, values = child.exchange(header, arrays, self.timeout, running)
         except BaseException:  # a timeout, a process that ended, or Ctrl-C: the process goes too

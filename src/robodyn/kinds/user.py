@@ -2,7 +2,8 @@
 
 The file defines ``KIND`` (one of the built-in kinds) and the functions ``mass_matrix(q, p)``,
 ``coriolis_matrix(q, v, p)``, ``gravity(q, p)``, optionally ``potential_energy(q, p)``, where ``p``
-maps the kind's parameter names to floats (the contract: :mod:`robodyn.kinds.user_file`).
+maps the kind's parameter names to floats (the contract: :mod:`robodyn.kinds.user_file`); or
+``KIND = "constrained"``, a closed chain's reduced Lagrangian (:mod:`robodyn.kinds.reduced`).
 
 :func:`load_user_formula` imports the file in its own process (:mod:`robodyn.kinds.sandbox`),
 under a time limit, and returns a :class:`UserFormula`: each of its functions is a round trip
@@ -19,9 +20,13 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any
 
+import numpy as np
+
+from robodyn.errors import FormulaError
 from robodyn.kinds.evaluation import Points, Values
 from robodyn.kinds.formula import Array, Formula
 from robodyn.kinds.formulas import get
+from robodyn.kinds.reduced import LoopStates, checked_parameters
 from robodyn.kinds.sandbox import DEFAULT_TIMEOUT, FormulaProcess
 
 
@@ -45,10 +50,36 @@ class UserFormula(Formula):
 
     path: Path = field(default=Path(), kw_only=True)
     process: FormulaProcess | None = field(default=None, kw_only=True, compare=False, repr=False)
+    independent: tuple[str, ...] = field(default=(), kw_only=True)  # KIND = "constrained": its coordinates' joints
 
     def evaluate(self, p: Mapping[str, float], points: Points) -> Values:
         """The file's functions at every point of ``points``, in one round trip to its process."""
         return self._process().evaluate(p, points, self.dof)
+
+    def parameters(self, scene: str | None) -> dict[str, float]:
+        """A constrained file's ``parameters(scene)`` (``scene``: the scene file's path), run in its process."""
+        header, _ = self._process().call({"function": "parameters", "scene": scene})
+        return checked_parameters(header.get("params"), self.source)
+
+    def loop_states(self, q: Array, v: Array, p: Mapping[str, float]) -> LoopStates:
+        """A constrained file's ``on_the_loop`` at each row of q, v (k, n), in one round trip to its process."""
+        params = {str(k): float(x) for k, x in p.items()}
+        header, arrays = self._process().call(
+            {"function": "on_the_loop", "params": params}, {"q": np.asarray(q, float), "v": np.asarray(v, float)}
+        )
+        joints = header.get("joints")
+        got_q, got_v = arrays.get("q"), arrays.get("v")
+        if (
+            not isinstance(joints, list)
+            or not all(isinstance(j, str) for j in joints)
+            or got_q is None
+            or got_v is None
+            or got_q.shape != (len(q), len(joints))
+            or got_v.shape != got_q.shape
+        ):
+            self.close()
+            raise FormulaError(f"{self.source}: the formula's process sent on_the_loop states robodyn did not ask for")
+        return LoopStates(tuple(joints), got_q, got_v)
 
     def close(self) -> None:
         """End the formula's process (a later call starts a fresh one)."""
@@ -105,6 +136,7 @@ def load_user_formula(
         dof,
         path=Path(path),
         process=process,
+        independent=tuple(str(name) for name in info.get("independent", ())),
     )
 
 

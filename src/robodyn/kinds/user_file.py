@@ -2,7 +2,9 @@
 
 The file defines ``KIND`` (one of the built-in kinds) and the functions ``mass_matrix(q, p)``,
 ``coriolis_matrix(q, v, p)``, ``gravity(q, p)``, optionally ``potential_energy(q, p)``, where ``p``
-maps the kind's parameter names to floats. Every returned value is shape-checked and must be
+maps the kind's parameter names to floats. ``KIND = "constrained"`` is a closed chain's reduced
+Lagrangian, which also defines ``INDEPENDENT``, ``parameters(scene)`` and ``on_the_loop(q, v, p)``
+(:mod:`robodyn.kinds.reduced`). Every returned value is shape-checked and must be
 finite; an error, an exception or a ``sys.exit`` names the user's file and line.
 
 This module imports and runs the user's code in the current process, so robodyn calls it only
@@ -14,6 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 
@@ -21,9 +24,12 @@ from robodyn.errors import FormulaError
 from robodyn.kinds.formula import Array, Formula
 from robodyn.kinds.formulas import KINDS, get
 from robodyn.kinds.geared_arm import from_motor_coordinates
+from robodyn.kinds.reduced import KIND as CONSTRAINED
+from robodyn.kinds.reduced import ConstrainedFormula, independent_names
 from robodyn.userfile import at_line, exit_call, import_user_file
 
 REQUIRED_FUNCTIONS = ("mass_matrix", "coriolis_matrix", "gravity")
+CONSTRAINED_FUNCTIONS = ("parameters", "on_the_loop")
 
 
 EXPECTED_DEFINITIONS = "KIND, mass_matrix, coriolis_matrix, gravity"
@@ -41,16 +47,20 @@ def load_in_process(path: Path, source: str) -> Formula:
         path, what="formula", expected="KIND, mass_matrix, coriolis_matrix, gravity", source=source, error=FormulaError
     )
     kind = getattr(module, "KIND", None)
+    kinds = ", ".join(KINDS.names())
+    closed = f"; or {CONSTRAINED!r}: a closed chain's reduced Lagrangian"
     if not isinstance(kind, str):
-        raise FormulaError(f"{source}: define KIND as one of {', '.join(KINDS.names())} (found {kind!r})")
-    if kind not in KINDS:
-        raise FormulaError(f"{source}: KIND = {kind!r} is not a known kind; expected one of {', '.join(KINDS.names())}")
+        raise FormulaError(f"{source}: define KIND as one of {kinds} (found {kind!r}){closed}")
+    if kind not in KINDS and kind != CONSTRAINED:
+        raise FormulaError(f"{source}: KIND = {kind!r} is not a known kind; expected one of {kinds}{closed}")
     missing = [f for f in REQUIRED_FUNCTIONS if not callable(getattr(module, f, None))]
     if missing:
         raise FormulaError(
             f"{source}: missing function(s) {', '.join(missing)}; "
             "define mass_matrix(q, p), coriolis_matrix(q, v, p), gravity(q, p)"
         )
+    if kind == CONSTRAINED:
+        return _constrained(module, source, path)
     builtin = get(kind)
     n = builtin.dof
     M = _shape_checked(module.mass_matrix, "mass_matrix", (n, n), source, path)
@@ -64,6 +74,33 @@ def load_in_process(path: Path, source: str) -> Formula:
     if coordinates == "motor":
         M, C, G, V = from_motor_coordinates(M, C, G, V)
     return Formula(kind, source, builtin.param_names, M, C, G, V, n)
+
+
+def _constrained(module: ModuleType, source: str, path: Path) -> ConstrainedFormula:
+    """A ``KIND = "constrained"`` file (the contract: :mod:`robodyn.kinds.reduced`), its functions wrapped."""
+    independent = independent_names(getattr(module, "INDEPENDENT", None), source)
+    missing = [f for f in (*REQUIRED_FUNCTIONS, *CONSTRAINED_FUNCTIONS) if not callable(getattr(module, f, None))]
+    if missing:
+        raise FormulaError(
+            f"{source}: missing function(s) {', '.join(missing)}; a constrained formula defines parameters(scene), "
+            "mass_matrix(q, p), coriolis_matrix(q, v, p), gravity(q, p) and on_the_loop(q, v, p)"
+        )
+    n = len(independent)
+    V_raw = getattr(module, "potential_energy", None)
+    return ConstrainedFormula(
+        CONSTRAINED,
+        source,
+        (),
+        _shape_checked(module.mass_matrix, "mass_matrix", (n, n), source, path),
+        _shape_checked(module.coriolis_matrix, "coriolis_matrix", (n, n), source, path),
+        _shape_checked(module.gravity, "gravity", (n,), source, path),
+        _shape_checked(V_raw, "potential_energy", (), source, path) if callable(V_raw) else None,
+        n,
+        independent=independent,
+        path=path,
+        read_parameters=module.parameters,
+        to_the_loop=module.on_the_loop,
+    )
 
 
 def _shape_checked(

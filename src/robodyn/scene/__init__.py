@@ -41,6 +41,7 @@ then builds the model and runs the parts asked for. Example::
     joint_a = { stiffness = 5.0, rest = 0.0 }
 
     [check]                                 # structural identities (and a formula, if named)
+    formula = "reduced_formula.py"          # a kind or a file; KIND = "constrained": checked on the loops
     samples = 20
     exactness = true                        # reduced model == full model with locks held
     closed_form = "closed_form.py"          # only this: the motion against the book's closed form
@@ -52,8 +53,8 @@ then builds the model and runs the parts asked for. Example::
     [view]
     html = "panda_arm.html"                 # write a standalone player (or: open = true)
 
-Relative paths (``urdf``, ``srdf``, ``output``, ``view.html``, ``check.closed_form``, ``control.path``) are read from
-the scene file's folder.
+Relative paths (``urdf``, ``srdf``, ``output``, ``view.html``, ``check.formula``, ``check.closed_form``,
+``control.path``) are read from the scene file's folder.
 """
 
 from robodyn.scene.model import (

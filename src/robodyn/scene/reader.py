@@ -186,7 +186,11 @@ def read_scene(path: str | Path) -> Scene:
         if "seed" in check:
             _number(path, "check", "seed", check["seed"], integer=True, low=0, high=MAX_SEED)
         if "formula" in check:
-            _string(path, "check", "formula", check["formula"])
+            formula = _string(path, "check", "formula", check["formula"])
+            if formula.endswith(".py") or "/" in formula or "\\" in formula:  # a file, read from the scene's folder
+                check["formula"] = str(base / formula)
+                if not Path(check["formula"]).is_file():
+                    raise _fail(path, "[check] formula", f"no such file {check['formula']!r}")
         if "closed_form" in check:
             check["closed_form"] = base / _string(path, "check", "closed_form", check["closed_form"])
             if not check["closed_form"].is_file():

@@ -120,8 +120,15 @@ class Loops:
         return self.geometry.jacobian(q)
 
     def drift(self, Q: Array) -> float:
-        """The worst loop residual max |r| over a batch Q (n, nq) [m | rad]."""
-        return max((float(np.max(np.abs(self.residual(q)))) for q in Q), default=0.0)
+        """The worst loop residual norm over a batch Q (n, nq) [m | rad]: the maximum of :meth:`drift_series`."""
+        return float(np.max(self.drift_series(Q), initial=0.0))
+
+    def drift_series(self, Q: Array) -> Array:
+        """The worst loop residual norm of each configuration of Q (n, nq), max over loops |r_loop| [m | rad], (n,)."""
+        out = np.empty(len(Q))
+        for k, q in enumerate(Q):
+            out[k] = max((float(np.linalg.norm(r)) for r in _per_loop(self, q)), default=0.0)
+        return out
 
     def project(self, q: Array, v: Array, free: NDArray[np.intp]) -> tuple[Array, Array, float]:
         """(q, v) moved onto the loops along the velocity indices ``free``; and the residual left [m | rad].

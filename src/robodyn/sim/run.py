@@ -308,7 +308,8 @@ class Run:
             status, message = "ok", ""
         meta["evaluations_jacobian"] = jacobians
         meta["effort_clamped_samples"] = clamped
-        meta.update(self._constraint_meta(Q))
+        drift = system.loops.drift_series(Q) if system.loops is not None else None
+        meta.update(self._constraint_meta(drift))
         return Trajectory(
             t=t.copy(),
             q=Q.copy(),
@@ -325,6 +326,7 @@ class Run:
             status=status,
             message=message,
             meta=meta,
+            constraint_drift=drift,
         )
 
     def _torques(self, t: Array, Q: Array, V: Array) -> tuple[Array, int]:
@@ -340,10 +342,10 @@ class Run:
             command[k] = system.commanded_torque(float(t[k]), Q[k], V[k])
         return system.effort.clamp_batch(command), int(np.count_nonzero(system.effort.clamped(command)))
 
-    def _constraint_meta(self, Q: Array) -> dict[str, Any]:
-        """What the constraints did: impacts, releases, the worst excursion past a stop, the loop drift."""
+    def _constraint_meta(self, drift: Array | None) -> dict[str, Any]:
+        """What the constraints did: impacts, releases, the worst excursion past a stop, the loop drift (its max)."""
         stepper, system = self.stepper, self.system
-        worst, joint = system.stops.violation(Q)
+        worst, joint = system.stops.violation(self.Q[: self.n])
         meta: dict[str, Any] = {
             "work_limits": float(self.work_limits[self.n - 1]),
             "impacts": stepper.n_impacts,
@@ -353,7 +355,7 @@ class Run:
             "limit_violation": worst,
             "limit_violation_joint": joint,
         }
-        if system.loops is not None:
-            meta["loop_drift"] = system.loops.drift(Q)
+        if drift is not None:
+            meta["loop_drift"] = float(np.max(drift, initial=0.0))
             meta["loop_projections"] = stepper.projections
         return meta

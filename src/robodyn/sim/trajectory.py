@@ -17,7 +17,8 @@ from robodyn.fileio import write_atomically
 Array = NDArray[np.float64]
 
 # 2: adds ``work_limits`` (the energy the stops took) and ``power``; a version-1 file loads
-# with work_limits = 0 (it was written by a run without stops).
+# with work_limits = 0 (it was written by a run without stops). ``constraint_drift`` is an
+# optional array of version 2: written by runs with loops only, None when absent.
 FORMAT_VERSION = 2
 
 # Every .npz starts with a zip local-file header.
@@ -47,6 +48,10 @@ class Trajectory:
     is ``"ok"``, ``"diverged"`` or ``"interrupted"`` (Ctrl-C; then ``message`` says where
     and why). ``meta["q_units"]`` and ``meta["v_units"]`` give the unit of every entry of
     q and v ("rad", "m", "rad/s", "m/s", or "" for a cos/sin pair or a quaternion).
+
+    ``constraint_drift`` (n,) [m] is, with closed loops, the worst loop residual norm
+    ``max over loops |r_loop(q)|`` at each sample (rad enter a 6d loop's norm with its metres);
+    None for a run without loops. Its maximum is ``meta["loop_drift"]``.
     """
 
     t: Array
@@ -64,6 +69,7 @@ class Trajectory:
     status: str = "ok"
     message: str = ""
     meta: dict[str, Any] = field(default_factory=dict)
+    constraint_drift: Array | None = None
 
     def __post_init__(self) -> None:
         if self.work_limits is None:  # a run without stops (or a file from before them)
@@ -162,7 +168,7 @@ class Trajectory:
 
     # ------------------------------------------------------------------ persistence
     _ARRAYS = ("t", "q", "v", "a", "tau", "kinetic", "potential", "work_input", "work_damping")
-    _OPTIONAL = ("work_limits",)  # absent from version-1 files
+    _OPTIONAL = ("work_limits", "constraint_drift")  # absent from version-1 files; the drift from runs without loops
 
     def save(self, path: str | Path) -> Path:
         """Write to ``.npz`` (arrays plus ``energy`` and JSON metadata); return the path.
@@ -177,6 +183,7 @@ class Trajectory:
         if path.suffix != ".npz":
             raise InputError(f"{path}: expected a .npz path for a trajectory (got suffix {path.suffix!r})")
         arrays = {name: getattr(self, name) for name in (*self._ARRAYS, *self._OPTIONAL)}
+        arrays = {name: value for name, value in arrays.items() if value is not None}
         info = {
             "format_version": FORMAT_VERSION,
             "wall_time_s": self.wall_time_s,

@@ -1,0 +1,199 @@
+"""The pieces every ``robodyn check`` is made of: its rows, its report, and the points a formula is evaluated at.
+
+A :class:`CheckRow` is one compared quantity reduced to its worst error over the samples;
+a :class:`CheckReport` is everything one check found. :class:`Accumulator` collects
+(reference, value) pairs sample by sample and reduces them to a row; :func:`formula_points`
+and :func:`formula_values` evaluate a formula (a user's file in one round trip to its
+process) at every state a check needs, finite-difference neighbours included. Both the
+open-chain check (:mod:`robodyn.kinds.check`) and the reduced-Lagrangian check of a closed
+chain (:mod:`robodyn.kinds.loop_check`) are built from them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields, replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from robodyn.kinds.evaluation import Points, Values, evaluate
+from robodyn.kinds.formula import Formula
+from robodyn.kinds.user import UserFormula
+
+Array = NDArray[np.float64]
+
+GROUP_ORDER = ("formula", "structure", "identity", "pinocchio")
+DEFAULT_RTOL = 1e-9  # formula vs Pinocchio, and Pinocchio vs itself: round-off only
+FD_STEP = 1e-6  # central finite differences: truncation ~ h^2 = 1e-12, round-off ~ eps/h = 2e-10
+FD_TOL = 1e-6  # what the finite-difference rows are held to (above their error, far below a misprint)
+
+
+@dataclass(frozen=True)
+class CheckRow:
+    """One compared quantity: the worst error over the samples, and where it happened."""
+
+    quantity: str
+    group: str  # "formula", "structure", "identity" or "pinocchio"
+    unit: str
+    max_abs_error: float
+    max_rel_error: float
+    tolerance: float
+    worst_sample: int
+    worst_q: Array
+    worst_v: Array
+    entry: tuple[int, ...]  # index of the worst entry; () for a scalar
+    expected: float  # reference value at the worst entry (Pinocchio, or exact property)
+    got: float  # compared value at the worst entry
+    counts: bool = True  # False: reported, but does not fail the check (Pinocchio's own gaps)
+    note: str = ""
+    applicable: bool = True  # False: Pinocchio refuses the routine on this model (mimic joints)
+
+    @property
+    def passed(self) -> bool:
+        """True when the worst relative error is within tolerance."""
+        return bool(self.max_rel_error <= self.tolerance)
+
+    @property
+    def status(self) -> str:
+        """``pass``, ``FAIL``, ``n/a`` (not comparable on this model) or, for a row that does not count, ``gap``."""
+        if not self.applicable:
+            return "n/a"
+        if self.passed:
+            return "pass"
+        return "FAIL" if self.counts else "gap"
+
+    def entry_name(self) -> str:
+        """E.g. ``M[0,1]`` or ``G[1]`` or ``T``."""
+        symbol = self.quantity.split(" ")[0]
+        return f"{symbol}[{','.join(str(i) for i in self.entry)}]" if self.entry else symbol
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready dict: every field (arrays as lists) and the status."""
+        out = {f.name: getattr(self, f.name) for f in fields(self)}
+        out.update(worst_q=self.worst_q.tolist(), worst_v=self.worst_v.tolist(), entry=list(self.entry))
+        return {**out, "status": self.status}
+
+
+@dataclass(frozen=True)
+class CheckReport:
+    """Everything ``robodyn check`` found."""
+
+    model: str
+    urdf: str
+    formula: str | None  # kind name or formula file, None for identities only
+    kind: str | None
+    params: dict[str, float]
+    samples: int
+    seed: int
+    rtol: float
+    rows: tuple[CheckRow, ...]
+    wall_time_s: float
+    notes: tuple[str, ...] = field(default_factory=tuple)
+    params_given: bool = False  # True: the parameters were given by the user, not read from the model
+
+    @property
+    def passed(self) -> bool:
+        """True when every row that counts is within tolerance."""
+        return all(r.passed for r in self.rows if r.counts)
+
+    @property
+    def failures(self) -> tuple[CheckRow, ...]:
+        """Rows that fail the check."""
+        return tuple(r for r in self.rows if r.counts and not r.passed)
+
+    @property
+    def gaps(self) -> tuple[CheckRow, ...]:
+        """Rows where Pinocchio disagrees with itself (reported, not failing)."""
+        return tuple(r for r in self.rows if not r.counts and not r.passed)
+
+    def row(self, quantity: str) -> CheckRow:
+        """The row called ``quantity``."""
+        for r in self.rows:
+            if r.quantity == quantity:
+                return r
+        raise KeyError(quantity)
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready dict: every field (rows as dicts) and the verdict."""
+        out = {f.name: getattr(self, f.name) for f in fields(self)}
+        out.update(notes=list(self.notes), rows=[r.as_dict() for r in self.rows])
+        return {**out, "passed": self.passed}
+
+
+class Accumulator:
+    """Collect (reference, value) pairs per sample and reduce them to a CheckRow."""
+
+    def __init__(self, quantity: str, group: str, unit: str, tolerance: float, *, counts: bool = True, note: str = ""):
+        self.quantity, self.group, self.unit, self.tolerance = quantity, group, unit, tolerance
+        self.counts, self.note = counts, note
+        self.pairs: list[tuple[Array, Array]] = []
+
+    def add(self, reference: ArrayLike, value: ArrayLike) -> None:
+        """One sample's reference (Pinocchio, or the exact property) and compared value."""
+        self.pairs.append(
+            (np.atleast_1d(np.asarray(reference, dtype=np.float64)), np.atleast_1d(np.asarray(value, dtype=np.float64)))
+        )
+
+    def row(self, samples: list[Any], scalar: bool = False) -> CheckRow:
+        """The worst error over the pairs, relative to the largest reference; ``samples[k]`` has q and v."""
+        scale = max(float(np.max(np.abs(ref))) for ref, _ in self.pairs)
+        errors = [np.abs(val - ref) for ref, val in self.pairs]
+        worst = int(np.argmax([e.max() for e in errors]))
+        abs_err = float(errors[worst].max())
+        # A reference that is zero at every sample (C of a constant M) leaves only round-off:
+        # then the error is measured against 1 in the row's unit.
+        rel_err = 0.0 if abs_err == 0.0 else (abs_err / scale if scale > 0 else abs_err)
+        ref, val = self.pairs[worst]
+        entry = np.unravel_index(int(np.argmax(errors[worst])), errors[worst].shape)
+        return CheckRow(
+            self.quantity, self.group, self.unit, abs_err, rel_err, self.tolerance, worst,
+            samples[worst].q.copy(), samples[worst].v.copy(),
+            () if scalar else tuple(int(i) for i in entry),
+            float(ref[entry]), float(val[entry]), self.counts, self.note,
+        )  # fmt: skip
+
+
+def formula_points(formula: Formula, samples: list[Any], q_anchor: Array, nv: int) -> Points:
+    """Every state at which the check evaluates the formula, so that it is evaluated in one batch.
+
+    M at q, q + h v and q - h v (h = FD_STEP, for dM/dt); C at (q, v); G at q; with a potential,
+    V at q, at ``q_anchor`` and at q +- h e_i for each of the ``nv`` coordinates (for dV/dq).
+    The formulas' coordinates are plain numbers, so q + dq is plain addition.
+    """
+    q = np.array([s.q for s in samples])
+    v = np.array([s.v for s in samples])
+    step = FD_STEP * v
+    potential = np.empty((0, q.shape[1]))
+    if formula.potential_energy is not None:
+        shifted = []
+        for sign in (1.0, -1.0):
+            for i in range(nv):
+                e = np.zeros(q.shape[1])
+                e[i] = sign * FD_STEP
+                shifted.append(q + e)
+        potential = np.concatenate([q, q_anchor[None, :], *shifted])
+    return Points(np.concatenate([q, q + step, q + (-step)]), q, v, q, potential)
+
+
+def formula_values(formula: Formula, p: Mapping[str, float], points: Points) -> Values:
+    """A user's file in one round trip to its own process; a built-in kind here."""
+    if isinstance(formula, UserFormula):
+        return formula.evaluate(p, points)
+    return evaluate(formula, p, points)
+
+
+def skew_scale(Mdot: Array, C: Array, M: Array, v: Array) -> float:
+    """Reference magnitude for N = dM/dt - 2C: max(|dM/dt|, |2C|, |M| |v|); |M| |v| for M nearly constant, C ~ 0."""
+    return max(float(np.abs(Mdot).max()), 2 * float(np.abs(C).max()), float(np.abs(M).max() * np.abs(v).max()))
+
+
+def rescale(row: CheckRow, scale: float) -> CheckRow:
+    """Express a row whose reference is zero relative to ``scale`` instead.
+
+    With ``scale`` zero (M constant and C zero: nothing moves the metric) only round-off
+    can be left, so the error is measured against 1 in the row's unit.
+    """
+    error = row.max_abs_error
+    return replace(row, max_rel_error=0.0 if error == 0.0 else error / scale if scale > 0 else error)

@@ -100,3 +100,167 @@ def travel_trajectory(robot, *, distance: float = 100.0, duration: float = 2.0, 
         work_damping=np.zeros_like(t),
         meta={"model": robot.name, "joint_names": list(robot.joint_names), "integrator": "exact"},
     )
+
+
+class DevTools:
+    """A headless Chromium driven over the DevTools protocol: load a page, evaluate JavaScript, click, photograph.
+
+    Only the standard library and tornado (a dependency of meshcat) are used. Chromium is
+    started on a blank page with ``--remote-debugging-port=0`` and prints the port it took;
+    the page's websocket comes from ``/json/list``. :meth:`open` sets the viewport to exactly
+    ``width`` x ``height`` CSS pixels (scale 1) and then loads the page, so that its layout is
+    computed for that size. Use as a context manager: the browser is killed on exit.
+    """
+
+    def __init__(self, chromium: str, *, width: int, height: int, profile: Path) -> None:
+        self.process = subprocess.Popen(
+            [
+                chromium,
+                "--headless",
+                "--no-sandbox",
+                "--disable-gpu",
+                "--disable-quic",
+                "--no-first-run",
+                "--disable-background-networking",
+                "--disable-component-update",
+                "--disable-sync",
+                "--enable-unsafe-swiftshader",
+                "--use-angle=swiftshader",
+                "--hide-scrollbars",
+                f"--user-data-dir={profile}",
+                f"--window-size={width},{height}",
+                "--remote-debugging-port=0",
+                "about:blank",
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        self._id = 0
+        self._socket = None
+        self.width, self.height = width, height
+        from tornado.ioloop import IOLoop
+
+        self._loop = IOLoop(make_current=False)
+        try:
+            self._socket = self._loop.run_sync(self._connect, timeout=SERVER_WAIT_S)
+        except BaseException:
+            self.close()
+            raise
+
+    async def _connect(self):  # type: ignore[no-untyped-def]
+        import asyncio
+        import json
+        import urllib.request
+
+        from tornado.websocket import websocket_connect
+
+        assert self.process.stderr is not None
+        port = None
+        while port is None:
+            line = await asyncio.get_running_loop().run_in_executor(None, self.process.stderr.readline)
+            if line == "":
+                raise AssertionError("chromium ended before it printed its DevTools port")
+            match = re.search(r"DevTools listening on ws://127\.0\.0\.1:(\d+)/", line)
+            if match:
+                port = int(match.group(1))
+        for _ in range(200):
+            with urllib.request.urlopen(f"http://127.0.0.1:{port}/json/list", timeout=10) as reply:
+                pages = [p for p in json.loads(reply.read()) if p.get("type") == "page"]
+            if pages:
+                return await websocket_connect(pages[0]["webSocketDebuggerUrl"], max_message_size=1 << 28)
+            await asyncio.sleep(0.1)
+        raise AssertionError("chromium opened no page")
+
+    def open(self, url: str) -> None:
+        """Load ``url`` in a viewport of the size given and wait until the replay page says it is ready."""
+        self.call(
+            "Emulation.setDeviceMetricsOverride",
+            width=self.width,
+            height=self.height,
+            deviceScaleFactor=1,
+            mobile=False,
+        )
+        self.call("Page.navigate", url=url)
+        self.wait_for("document.readyState === 'complete' && document.body.getAttribute('data-robodyn') === 'ready'")
+
+    def call(self, method: str, **params: object) -> dict:  # type: ignore[type-arg]
+        """Send one DevTools command and return its result (events in between are dropped)."""
+        import json
+
+        self._id += 1
+        ident = self._id
+
+        async def exchange() -> dict:  # type: ignore[type-arg]
+            assert self._socket is not None
+            await self._socket.write_message(json.dumps({"id": ident, "method": method, "params": params}))
+            while True:
+                message = await self._socket.read_message()
+                if message is None:
+                    raise AssertionError(f"the DevTools connection closed during {method}")
+                reply = json.loads(message)
+                if reply.get("id") == ident:
+                    if "error" in reply:
+                        raise AssertionError(f"{method}: {reply['error']}")
+                    return reply["result"]
+
+        return self._loop.run_sync(exchange, timeout=SERVER_WAIT_S)
+
+    def evaluate(self, expression: str) -> object:
+        """The value of a JavaScript expression in the page (JSON-serialisable values only)."""
+        result = self.call("Runtime.evaluate", expression=expression, returnByValue=True, awaitPromise=True)
+        if "exceptionDetails" in result:
+            raise AssertionError(f"{expression}: {result['exceptionDetails']}")
+        return result["result"].get("value")
+
+    def wait_for(self, expression: str) -> object:
+        """Poll ``expression`` until it is truthy (SERVER_WAIT_S at most); return its value.
+
+        An evaluation that fails (e.g. while a page loads, its context not there yet) counts as not yet.
+        """
+        deadline = time.monotonic() + SERVER_WAIT_S
+        last = ""
+        while time.monotonic() < deadline:
+            try:
+                value = self.evaluate(expression)
+            except AssertionError as exc:
+                value, last = None, str(exc)
+            if value:
+                return value
+            time.sleep(0.1)
+        raise AssertionError(f"the page never satisfied {expression} {last}")
+
+    def click(self, x: float, y: float) -> None:
+        """A left click (press and release) at viewport pixel (x, y)."""
+        for kind in ("mousePressed", "mouseReleased"):
+            self.call("Input.dispatchMouseEvent", type=kind, x=x, y=y, button="left", clickCount=1)
+
+    def screenshot(self, out: Path):  # type: ignore[no-untyped-def]
+        """Save a PNG of the viewport to ``out`` and return it as an RGB array (H, W, 3)."""
+        import base64
+        import io
+
+        import numpy as np
+        from PIL import Image
+
+        data = base64.b64decode(self.call("Page.captureScreenshot", format="png")["data"])
+        out.write_bytes(data)
+        return np.asarray(Image.open(io.BytesIO(data)).convert("RGB"))
+
+    def close(self) -> None:
+        """Close the connection and kill the browser."""
+        if self._socket is not None:
+            self._socket.close()
+            self._socket = None
+        if self.process.poll() is None:
+            self.process.kill()
+            self.process.wait()
+        if self.process.stderr is not None:
+            self.process.stderr.close()
+        self._loop.close(all_fds=True)
+
+    def __enter__(self) -> DevTools:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

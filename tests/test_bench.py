@@ -143,3 +143,59 @@ def test_bad_plans_are_refused():
         bench.SweepPlan(1.0, 2.0, 0.02, (0.003,), (), ("rk4",), (), ("aba",), ())
     with pytest.raises(InputError, match="adaptive"):
         bench.SweepPlan(1.0, 2.0, 0.02, (0.01,), (), ("dopri5",), (), ("aba",), ())
+
+
+# --------------------------------------------------------------------------- the replay's pair
+def test_the_pair_is_the_fastest_hit_and_the_cheapest_miss():
+    from robodyn.studies.replay_pair import pick_pair
+
+    slow_exact = _run("slow_exact", 1e-9, 5.0)
+    fast_good = _run("fast_good", 1e-7, 2.0)
+    cheap_rough = _run("cheap_rough", 1e-3, 1.0)
+    dear_rough = _run("dear_rough", 1e-2, 3.0)
+    broken = _run("broken", 1e-12, 0.1, diverged=True)  # cheapest and "exact" before it blew up: a miss
+    pair = pick_pair("toy", [slow_exact, dear_rough, broken, fast_good, cheap_rough], 1e-6)
+    assert (pair.met, pair.missed) == (fast_good, broken)
+    assert pair.runs == (fast_good, broken)
+    pair = pick_pair("toy", [slow_exact, dear_rough, fast_good, cheap_rough], 1e-6)
+    assert (pair.met, pair.missed) == (fast_good, cheap_rough)
+    assert pair.name(fast_good).startswith("meets 1e-06: fast_good/aba dt 0.01 s, error 1e-07, 2 s per simulated s")
+    assert pair.name(cheap_rough).startswith("misses 1e-06: cheap_rough/aba")
+    line = pair.describe()
+    assert "accuracy 1e-06" in line and "fast_good/aba" in line and "cheap_rough/aba" in line
+    assert "saves nothing" not in line  # the miss is cheaper (1 s against 2 s per simulated s)
+    # the error equal to the accuracy meets it; ties in wall time go to fewer evaluations
+    edge = _run("edge", 1e-6, 2.0)
+    fewer = dataclasses.replace(_run("fewer", 1e-8, 2.0), evaluations=5)
+    assert pick_pair("toy", [edge, fewer], 1e-6).met == fewer
+
+
+def test_a_missing_side_is_said_and_nothing_is_made_up():
+    from robodyn.studies.replay_pair import pick_pair
+
+    good = [_run("a", 1e-9, 2.0), _run("b", 1e-8, 1.0)]
+    every = pick_pair("toy", good, 1e-6)
+    assert every.missed is None and every.runs == (good[1],)
+    assert "every run meets it; replaying the fastest alone" in every.describe()
+    none = pick_pair("toy", good, 1e-10)
+    assert none.met is None and none.runs == (good[1],)  # b is the cheaper miss
+    assert "no run meets it; replaying the cheapest alone" in none.describe()
+    dear_miss = pick_pair("toy", [_run("fast", 1e-9, 1.0), _run("slow", 1e-3, 4.0)], 1e-6)
+    assert "it costs 4 times as much: missing the accuracy saves nothing here" in dear_miss.describe()
+    for bad in (0.0, -1e-6, float("nan"), float("inf")):
+        with pytest.raises(InputError, match="accuracy"):
+            pick_pair("toy", good, bad)
+
+
+@pytest.mark.parametrize("label", ["rk4/aba", "rk4/fast", "euler/aba", "dopri5/aba"])
+def test_a_run_replayed_has_the_error_the_sweep_recorded(sweep, label):
+    """The replay runs the same arithmetic again: the same error, to the last bit."""
+    from robodyn.studies.replay_pair import rerun
+
+    robot = robodyn.load("geared_arm")
+    result = next(r for r in sweep.results if r.label == label)
+    again = rerun(robot, sweep, result)
+    assert again.error == result.error
+    assert again.trajectory.t[-1] == pytest.approx(PLAN.energy_horizon) or result.diverged
+    with pytest.raises(InputError, match="model"):
+        rerun(robodyn.load("pendubot"), sweep, result)

@@ -20,6 +20,7 @@ Chromium comes from Debian's ``chromium`` package (found on PATH). Without it th
 from __future__ import annotations
 
 import colorsys
+import dataclasses
 import os
 import shutil
 import subprocess
@@ -33,7 +34,7 @@ from robodyn import viewer
 from robodyn.cli import main
 from robodyn.viewer import camera as _camera  # noqa: F401  (loads viewer.camera for box_corners)
 
-from ._viewer_helpers import SLIDER_URDF, interrupt, travel_trajectory, view_process
+from ._viewer_helpers import SLIDER_URDF, DevTools, interrupt, travel_trajectory, view_process
 
 pytestmark = pytest.mark.browser
 
@@ -389,3 +390,88 @@ def test_two_runs_play_as_ghosts_at_their_own_poses(artifacts: Path, tmp_path: P
                     centre = (obj.placements[frame] @ np.append(obj.corners.mean(axis=0), 1.0))[:3]
                     pixel = project(playback, centre, frame)
                     assert near(mask, pixel), f"t = {t}: no {run.name} ghost at {obj.path[-1]} {pixel}; see {artifacts}"
+
+
+SEEK_FRACTIONS = (0.3, 0.8)  # where along the time axis the chart is clicked: two times far apart
+
+
+def test_clicking_a_chart_seeks_the_animation_and_moves_the_cursor(
+    artifacts: Path, swing: Path, tmp_path: Path
+) -> None:
+    """A real click (DevTools Input.dispatchMouseEvent) on the energy chart at the x of a known time."""
+    chromium = find_chromium()
+    page = tmp_path / "seek.html"
+    assert main(["view", "pendubot", str(swing), "--html", str(page)]) == 0
+    playback = viewer.build(robodyn.load("pendubot"), robodyn.Trajectory.load(swing))
+    one_sample = 1.0 / playback.fps  # playback time between two rendered frames [s]
+    margins = viewer.PLOT_MARGINS_PX
+    with DevTools(chromium, width=WIDTH, height=HEIGHT, profile=tmp_path / "profile") as browser:
+        browser.open(page.resolve().as_uri())
+        rect = browser.evaluate(
+            "(function () { var r = document.querySelector('[data-chart=energy] canvas:last-child')"
+            ".getBoundingClientRect(); return [r.left, r.top, r.width, r.height]; })()"
+        )
+        left, top, width, height = rect  # type: ignore[misc]
+        clicked: list[float] = []
+        for f in SEEK_FRACTIONS:
+            x = left + margins["left"] + f * (width - margins["left"] - margins["right"])
+            wanted = f * playback.duration  # the playback time under the click [s]
+            browser.click(x, top + height / 2)
+            browser.wait_for("Math.abs(document.body.getAttribute('data-cursor-tau') - viewer.animator.time) < 1e-9")
+            shown = float(browser.evaluate("viewer.animator.time"))  # type: ignore[arg-type]
+            assert abs(shown - wanted) <= one_sample, (f, shown, wanted)
+            cursor = float(browser.evaluate("document.body.getAttribute('data-cursor-tau')"))  # type: ignore[arg-type]
+            assert abs(cursor - wanted) <= one_sample, (f, cursor, wanted)
+            hud = str(browser.evaluate("document.getElementById('robodyn-overlay').textContent"))
+            t_hud = float(hud.split("t = ")[1].split(" s")[0])
+            assert abs(t_hud - (playback.times[0] + wanted * playback.speed)) <= one_sample * playback.speed, hud
+            image = browser.screenshot(artifacts / f"seek_{f:.1f}.png")
+            column = hue_mask(image, viewer.CURSOR_COLOR)
+            here = round(x)
+            assert column[:, here - CURSOR_WINDOW_PX : here + CURSOR_WINDOW_PX + 1].sum() >= CURSOR_MIN_PIXELS, f
+            for before in clicked:  # the cursor left the x of the earlier click
+                old = round(before)
+                assert column[:, old - CURSOR_WINDOW_PX : old + CURSOR_WINDOW_PX + 1].sum() <= CURSOR_STRAY_PIXELS
+            clicked.append(x)
+            # the animation holds still after the seek: a later look finds the same time
+            assert float(browser.evaluate("viewer.animator.time")) == shown  # type: ignore[arg-type]
+
+
+DRIFT_DECADES = (-12, -9)  # a solver-held loop: drift from 1e-12 m to 1e-9 m
+DRIFT_PIXEL_TOLERANCE = 4  # the curve is 1.6 px wide and antialiased; the axis maps exactly
+
+
+def test_constraint_drift_is_charted_in_metres_on_a_log_axis(artifacts: Path, tmp_path: Path) -> None:
+    """Drift growing log-linearly from 1e-12 m to 1e-9 m: decade ticks in m, the mid time at mid height."""
+    chromium = find_chromium()
+    robot = robodyn.load("pendubot")
+    motion = robodyn.simulate(robot, [0.5, 0.0], [0.0, 0.0], duration=2.0, dt=0.01)
+    low, high = DRIFT_DECADES
+    drift = 10.0 ** (low + (high - low) * motion.t / motion.t[-1])
+    drift[0] = 0.0  # the loop closes exactly at the start: a zero sits on the axis floor
+    playback = viewer.build(robot, dataclasses.replace(motion, constraint_drift=drift))
+    page = tmp_path / "drift.html"
+    page.write_text(viewer.to_html(playback), encoding="utf-8")
+    with DevTools(chromium, width=WIDTH, height=HEIGHT, profile=tmp_path / "profile") as browser:
+        browser.open(f"{page.resolve().as_uri()}#t=0")
+        box = "document.querySelector('[data-chart=drift]')"
+        assert browser.evaluate(f"{box}.getAttribute('data-scale')") == "log"
+        ticks = str(browser.evaluate(f"{box}.getAttribute('data-ticks')")).split("|")
+        assert ticks == [f"1e{e} m" for e in range(low, high + 1)]
+        assert "Constraint drift [m], log scale" == str(
+            browser.evaluate(f"{box}.querySelector('.robodyn-title').textContent")
+        )
+        rect = browser.evaluate(
+            f"(function () {{ var r = {box}.querySelector('canvas').getBoundingClientRect();"
+            " return [r.left, r.top, r.width, r.height]; })()"
+        )
+        image = browser.screenshot(artifacts / "drift_log_axis.png")
+    left, top, width, height = (round(v) for v in rect)  # type: ignore[union-attr]
+    margins = viewer.PLOT_MARGINS_PX
+    plot_top, plot_bottom = top + margins["top"], top + height - margins["bottom"]
+    x = round(left + margins["left"] + 0.5 * (width - margins["left"] - margins["right"]))  # t = 1 s: 10^-10.5 m
+    curve = hue_mask(image, viewer.panel.DRIFT_COLOR)[plot_top : plot_bottom + 1, x - 1 : x + 2]
+    ys = np.nonzero(curve)[0] + plot_top
+    assert len(ys), f"no drift curve at the mid time; see {artifacts}"
+    middle = (plot_top + plot_bottom) / 2  # log10 of 10^-10.5 is halfway between -12 and -9
+    assert abs(ys.mean() - middle) <= DRIFT_PIXEL_TOLERANCE, (ys.mean(), middle)

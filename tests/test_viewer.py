@@ -8,6 +8,7 @@ servers are started for real on localhost, and bad input is checked for its exit
 from __future__ import annotations
 
 import base64
+import dataclasses
 import json
 import os
 import re
@@ -167,15 +168,27 @@ def test_the_panel_charts_energy_ledger_power_and_torques_with_units(
 
 def test_a_constraint_drift_is_charted_when_the_trajectory_has_one(pendubot: robodyn.Robot, motion: Trajectory) -> None:
     drift = 1e-9 * np.arange(len(motion.t), dtype=np.float64)
-
-    class WithDrift:  # a trajectory as the constraint work will carry it (a per-sample array)
-        def __getattr__(self, name: str) -> object:
-            return drift if name == "constraint_drift" else getattr(motion, name)
-
-    playback = viewer.build(pendubot, WithDrift())  # type: ignore[arg-type]
+    playback = viewer.build(pendubot, dataclasses.replace(motion, constraint_drift=drift))
     chart = {c.key: c for c in playback.charts}["drift"]
-    assert chart.unit == "m"
+    assert (chart.unit, chart.scale) == ("m", "log")  # metres, decades: 1e-12 m is not a flat line at zero
     np.testing.assert_array_equal(chart.series[0].values, drift[playback.sample_index])
+    info = json.loads(re.search(r'id="robodyn-info">(.*?)</script>', viewer.to_html(playback), re.S).group(1))
+    scales = {c["key"]: c["scale"] for c in info["panel"]["charts"]}
+    assert scales == {"energy": "linear", "ledger": "linear", "power": "linear", "torque": "linear", "drift": "log"}
+    still = viewer.build(pendubot, dataclasses.replace(motion, constraint_drift=np.zeros(len(motion.t))))
+    assert {c.key: c.scale for c in still.charts}["drift"] == "linear"  # no decade to show: zeros on a plain axis
+
+
+def test_the_linkage_run_carries_its_loop_drift_into_the_panel(tmp_path: Path) -> None:
+    """robodyn run on the textbook's four-bar linkage: a real closed loop, its drift charted in metres."""
+    example = Path(__file__).resolve().parents[1] / "examples" / "textbook" / "linkage"
+    assert main(["run", str(example / "linkage.toml"), "--out", str(tmp_path)]) == 0
+    run = Trajectory.load(tmp_path / "linkage.npz")
+    assert run.constraint_drift is not None and np.max(run.constraint_drift) < 1e-9  # a solver-held loop
+    playback = viewer.build(robodyn.load(str(example / "linkage.urdf")), run)
+    chart = {c.key: c for c in playback.charts}["drift"]
+    assert (chart.title, chart.unit, chart.scale) == ("Constraint drift", "m", "log")
+    np.testing.assert_array_equal(chart.series[0].values, run.constraint_drift[playback.sample_index])
 
 
 def test_the_animation_is_sent_once_and_nothing_else_moves(pendubot: robodyn.Robot, motion: Trajectory) -> None:
@@ -380,6 +393,27 @@ def test_show_renders_inline_without_a_server(pendubot: robodyn.Robot, motion: T
     html_cell = replay._repr_html_()
     assert html_cell.startswith("<div") and 'srcdoc="&lt;!DOCTYPE html&gt;' in html_cell
     assert replay.playback.n_frames == len(viewer.render_samples(motion.t))
+
+
+def test_a_replay_prints_as_one_short_line_not_as_its_page(
+    pendubot: robodyn.Robot, motion: Trajectory, tmp_path: Path
+) -> None:
+    """In a plain shell, robot.view(...) used to print the whole 1 MB page."""
+    replay = viewer.show(pendubot, motion)
+    text = repr(replay)
+    assert "\n" not in text and len(text) < 300 and "<!DOCTYPE" not in text and "base64" not in text
+    mb = len(replay.html.encode("utf-8")) / 1e6
+    assert text == (
+        f"<Replay pendubot: 1 run (run 1), {replay.playback.duration:.2f} s, {replay.playback.n_frames} frames; "
+        f"HTML page {mb:.1f} MB in memory: .save(PATH) writes it, a notebook shows it inline>"
+    )
+    assert str(replay) == text
+    two = viewer.show(pendubot, [motion, motion], names=["a", "b"])
+    assert repr(two).startswith("<Replay pendubot: 2 runs (a, b), ")
+    assert repr(viewer.show(pendubot)).startswith("<Replay pendubot: still pose, 0.00 s, 1 frame;")
+    saved = replay.save(tmp_path / "r.html")
+    assert saved.read_text(encoding="utf-8") == replay.html
+    assert replay._repr_html_().startswith("<div")  # the notebook still gets the page inline
 
 
 # --------------------------------------------------------------------------- live servers

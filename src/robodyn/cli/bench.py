@@ -4,22 +4,36 @@ Everything is written into a fresh private folder inside ``--out`` (``bench.part
 made by ``tempfile.mkdtemp``) and moved into ``--out`` only once the report is written: the
 old ``report.md`` goes first and the new one comes last, so the folder never holds a report
 beside results it does not describe. Ctrl-C keeps the results so far in that partial folder
-and leaves ``--out`` as it was.
+and leaves ``--out`` as it was; a Ctrl-C during the moves themselves is held until they are
+done (the folder then holds the new run whole) and honoured after.
+
+``--view`` then replays, as ``robodyn view`` does (a meshcat server until Ctrl-C, or one
+``--html`` file), the fastest run that meets ``--accuracy`` beside the cheapest one that does
+not, as two ghosts named by integrator, step, error and cost
+(:mod:`robodyn.studies.replay_pair`). The accuracy and the two runs are printed; when no run
+meets it, or every run does, one line says so and the one run that exists is replayed.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import math
 import os
 import shutil
+import signal
 import sys
 import tempfile
+import threading
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from robodyn.cli._common import _json_default, file_path
+from robodyn.cli._common import _json_default, file_path, number_in
+from robodyn.cli.view import port_number
+from robodyn.errors import InputError
 from robodyn.fileio import write_text_atomically
 
 BUILTINS = ("pendubot", "cart_pole", "geared_arm")
@@ -38,7 +52,10 @@ def add_parser(sub: Any) -> None:
         help="work-precision charts, stability limits and a report for one or more models",
         description="Run every integrator over a ladder of steps (and tolerances) on every dynamics backend, "
         "measure error against a DOP853 reference, cost and energy drift; find where each method "
-        "becomes unstable; write bench.json, stability.json, charts (PNG + SVG) and report.md.",
+        "becomes unstable; write bench.json, stability.json, charts (PNG + SVG) and report.md. With --view, then "
+        "replay the fastest run that meets --accuracy beside the cheapest run that does not. Exit codes: 0 ok, "
+        "2 bad input, 130 interrupted (the folder is left as it was; the results so far are in a "
+        "bench.partial.* folder inside it).",
     )
     p.add_argument(
         "models",
@@ -50,7 +67,37 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--quick", action="store_true", help="a CI-sized subset (under a minute)")
     p.add_argument("--no-stability", action="store_true", help="skip the stability study (stability.json)")
     p.add_argument("--no-progress", action="store_true", help="do not draw the progress bar on stderr")
+    view = p.add_argument_group("replay of two runs (one model)")
+    view.add_argument(
+        "--view",
+        action="store_true",
+        help="after the bench, replay the fastest run that meets --accuracy beside the cheapest one that does not, "
+        "as two ghosts in a meshcat server until Ctrl-C (or in the --html file); one MODEL only",
+    )
+    view.add_argument(
+        "--accuracy",
+        type=accuracy_value,
+        default=None,
+        metavar="RTOL",
+        help="the accuracy of --view: largest relative state error against the DOP853 reference over the error "
+        "horizon (default 1e-6)",
+    )
+    view.add_argument(
+        "--html",
+        type=file_path,
+        default=None,
+        metavar="OUT.html",
+        help="write the replay to this file (implies --view)",
+    )
+    view.add_argument("--open", action="store_true", help="open the replay (page or file) in the web browser")
+    view.add_argument(
+        "--port", type=port_number, default=None, help="web port of the replay's meshcat server (default: free)"
+    )
     p.set_defaults(handler=run)
+
+
+accuracy_value = number_in(low=0.0, high=1.0, noun="relative error")
+"""Argparse type: an accuracy, a relative error > 0 and <= 1."""
 
 
 class ProgressBar:
@@ -107,21 +154,28 @@ def _none_for_text_numbers(obj: Any) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the sweeps, then the stability study; write everything under ``--out``."""
+    """Run the sweeps, then the stability study; write everything under ``--out``; replay if asked."""
     from robodyn.cli._output import refuse_clobbering, writable_path
     from robodyn.model.load import load
 
     out: Path = args.out
+    _check_view_options(args)
     writable_path(out / "bench.json")
     names = args.models or list(BUILTINS)
+    if args.view and len(names) != 1:
+        raise InputError(
+            f"--view replays the runs of one model; {len(names)} given ({', '.join(names)}): name one MODEL"
+        )
     robots = [load(name) for name in names]  # bad names fail here, before any work
     written = [("the output", out / name) for name in (*FIXED_OUTPUTS, REPORT)]
+    written += [("the output", out / f"{stem}_{r.name}.{ext}") for r in robots for stem, ext in _CHART_FILES]
+    written.append(("--html", args.html))
     for robot in robots:
         inputs = [(f"the URDF of {robot.name}", robot.urdf_path), (f"the SRDF of {robot.name}", robot.srdf_path)]
         refuse_clobbering(written, inputs)
     stage = Path(tempfile.mkdtemp(prefix="bench.partial.", dir=out))
     try:
-        runs = _bench(args, robots, stage)
+        sweeps = _bench(args, robots, stage)
     except KeyboardInterrupt:
         if any(stage.iterdir()):
             raise KeyboardInterrupt(
@@ -132,13 +186,93 @@ def run(args: argparse.Namespace) -> int:
     except BaseException:
         shutil.rmtree(stage, ignore_errors=True)
         raise
-    _publish(stage, out)
+    with _interrupt_held() as held:
+        _publish(stage, out)
+    runs = sum(len(s.results) for s in sweeps)
     print(f"wrote {out / 'bench.json'} ({runs} runs), charts and {out / REPORT}")
+    if held:
+        raise KeyboardInterrupt(f"interrupted while the results were being moved; {out} holds them all")
+    if args.view:
+        return _replay(args, robots[0], sweeps[0])
     return 0
 
 
-def _bench(args: argparse.Namespace, robots: list[Any], out: Path) -> int:
-    """Write the results of the sweeps, the stability study and the report into ``out``; the number of runs."""
+_CHART_FILES = (
+    *((stem, ext) for stem in ("work_precision", "error_vs_dt", "energy") for ext in ("png", "svg")),
+    ("energy", "json"),
+)
+"""The per-model files of a sweep, ``STEM_MODEL.EXT`` (the energy chart's data beside it)."""
+
+
+def _check_view_options(args: argparse.Namespace) -> None:
+    """``--html`` implies ``--view``; the other replay options need it. Checks the --html path before the work."""
+    from robodyn.cli._output import check_output_file
+
+    if args.html is not None:
+        args.view = True
+        if args.port is not None:
+            raise InputError("--html writes a file and starts no server; leave out --port")
+        check_output_file(args.html)
+    if not args.view:
+        for flag, given in (("--accuracy", args.accuracy), ("--open", args.open or None), ("--port", args.port)):
+            if given is not None:
+                raise InputError(f"{flag} is an option of the replay; add --view (or --html OUT.html)")
+
+
+@contextlib.contextmanager
+def _interrupt_held() -> Iterator[list[int]]:
+    """Hold Ctrl-C (SIGINT) for the block: the list it yields is non-empty when one came meanwhile."""
+    held: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield held
+        return
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: held.append(signum))
+    try:
+        yield held
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _replay(args: argparse.Namespace, robot: Any, sweep: Any) -> int:
+    """Replay the fastest run that meets the accuracy beside the cheapest that does not; the exit code."""
+    from robodyn import viewer
+    from robodyn.cli.view import check_frame_count, serve_playback, write_html
+    from robodyn.studies.replay_pair import DEFAULT_ACCURACY, pick_pair, rerun
+
+    accuracy = DEFAULT_ACCURACY if args.accuracy is None else args.accuracy
+    pair = pick_pair(sweep.model, sweep.results, accuracy, horizon=sweep.plan.error_horizon)
+    print(f"replay of {pair.describe()}", flush=True)
+    if not pair.runs:
+        return 0
+    replayed = [rerun(robot, sweep, result) for result in pair.runs]
+    for run in replayed:
+        recorded, again = run.result.error, run.error
+        if not (recorded == again or (math.isinf(recorded) and math.isinf(again))):
+            print(
+                f"robodyn bench: note: {run.result.label} measured again gives error {again:.3g}, "
+                f"the sweep {recorded:.3g}",
+                file=sys.stderr,
+            )
+    span = max(float(r.trajectory.t[-1]) for r in replayed) - min(float(r.trajectory.t[0]) for r in replayed)
+    check_frame_count(span, speed=1.0, fps=None, what="the replay", hint="a shorter energy horizon")
+    playback = viewer.build(
+        robot,
+        [r.trajectory for r in replayed],
+        names=[pair.name(r.result) for r in replayed],
+    )
+    print(
+        f"{playback.robot_name}: {playback.n_frames} frames, {playback.duration:.2f} s of playback, "
+        f"{len(playback.runs)} run{'s' if len(playback.runs) > 1 else ''}, camera {playback.camera_mode}",
+        flush=True,
+    )
+    if args.html is not None:
+        write_html(playback, args.html, open_browser=args.open)
+        return 0
+    return serve_playback(playback, open_browser=args.open, zmq_url=None, port=args.port)
+
+
+def _bench(args: argparse.Namespace, robots: list[Any], out: Path) -> list[Any]:
+    """Write the results of the sweeps, the stability study and the report into ``out``; return the sweeps."""
     from robodyn import charts
     from robodyn.studies import bench, report
 
@@ -159,7 +293,7 @@ def _bench(args: argparse.Namespace, robots: list[Any], out: Path) -> int:
         findings = _stability(robots, out, quick=args.quick, progress=progress)
     text = report.bench_report(sweeps, figures, findings, quick=args.quick, seconds=time.perf_counter() - started)
     write_text_atomically(out / REPORT, text)
-    return sum(len(s.results) for s in sweeps)
+    return sweeps
 
 
 def _publish(stage: Path, out: Path) -> None:

@@ -42,7 +42,8 @@ def add_parser(sub: Any) -> None:
         "view",
         help="show a robot, or play a simulated trajectory back, in the browser (meshcat)",
         description="Show a robot in meshcat, or play a trajectory written by 'robodyn simulate --out' back as one "
-        "meshcat animation (time slider, play/pause) with the path of a frame and a small energy chart. "
+        "meshcat animation (time slider, play/pause) with the path of a frame and a panel of charts (energy, works, "
+        "power, torques, constraint drift; click one to seek). Several trajectories of one model play as ghosts. "
         "--html writes one self-contained HTML file that replays offline; otherwise a meshcat server runs on "
         "127.0.0.1 until Ctrl-C. Exit codes: 0 ok, 2 bad input, 4 meshcat missing, 5 port in use or no server.",
     )

@@ -275,7 +275,7 @@ def _relative_error(q: Array, v: Array, q_ref: Array, v_ref: Array) -> float:
     return float(np.max(np.abs(x - x_ref)) / max(float(np.max(np.abs(x_ref))), 1e-300))
 
 
-def _error_against(traj: Trajectory, ref: Reference, step: float) -> float:
+def error_against(traj: Trajectory, ref: Reference, step: float) -> float:
     """Error of ``traj`` (sampled every ``step``) on the reference grid, inf if it ended early."""
     stride = round((ref.t[1] - ref.t[0]) / step)
     idx = stride * np.arange(ref.t.size)
@@ -288,7 +288,7 @@ def _energy_error(traj: Trajectory, scale: float) -> Array:
     return traj.ledger_residual / scale
 
 
-def _run_one(
+def run_one(
     robot: Robot,
     fast: Any,
     name: str,
@@ -388,7 +388,7 @@ def sweep(
     for done, (name, backend, dt, rtol) in enumerate(jobs, start=1):
         method = integrators.get(name)
         step = dt if dt is not None else plan.sample_interval
-        traj, diverged = _run_one(
+        traj, diverged = run_one(
             robot, fast, name, backend, q0, v0, dt=step, rtol=rtol, duration=plan.energy_horizon, scale=scale
         )
         simulated = float(traj.t[-1]) if traj.t.size > 1 else step
@@ -400,7 +400,7 @@ def sweep(
                 backend=backend,
                 dt=dt,
                 rtol=rtol,
-                error=float("inf") if diverged and traj.t[-1] < plan.error_horizon else _error_against(traj, ref, step),
+                error=float("inf") if diverged and traj.t[-1] < plan.error_horizon else error_against(traj, ref, step),
                 wall_time_s=float(traj.wall_time_s) / simulated,
                 evaluations=int(traj.evaluations),
                 energy_drift=float("inf") if diverged else float(np.max(np.abs(residual))),

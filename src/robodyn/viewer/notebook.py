@@ -3,6 +3,8 @@
 Nothing is started and nothing blocks: the replay is the self-contained HTML page in an
 iframe (meshcat's static inline display), so it works offline and in exported notebooks.
 Given a running server's ``zmq_url``, the scene is also sent there and the iframe shows it.
+Outside a notebook the replay prints as one line (model, runs, duration, frames, where the
+page is), not as the page itself; :meth:`Replay.save` writes the page to a file.
 """
 
 from __future__ import annotations
@@ -10,8 +12,10 @@ from __future__ import annotations
 import html
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from robodyn.fileio import write_text_atomically
 from robodyn.viewer.html_export import to_html
 from robodyn.viewer.playback import Playback, build
 from robodyn.viewer.sampling import DEFAULT_FPS
@@ -30,6 +34,30 @@ class Replay:
     html: str
     height: int = 560
     url: str | None = None
+
+    def __repr__(self) -> str:
+        """One line: model, runs, duration, frames and where the page is (never the page itself)."""
+        playback = self.playback
+        runs = playback.runs
+        if not runs:
+            what = "still pose"
+        elif len(runs) == 1:
+            what = f"1 run ({runs[0].name})"
+        else:
+            what = f"{len(runs)} runs ({', '.join(run.name for run in runs)})"
+        size = len(self.html.encode("utf-8")) / 1e6
+        where = f"served at {self.url}" if self.url is not None else "in memory"
+        frames = f"{playback.n_frames} frame{'s' if playback.n_frames != 1 else ''}"
+        return (
+            f"<Replay {playback.robot_name}: {what}, {playback.duration:.2f} s, {frames}; "
+            f"HTML page {size:.1f} MB {where}: .save(PATH) writes it, a notebook shows it inline>"
+        )
+
+    def save(self, path: str | Path) -> Path:
+        """Write the self-contained page to ``path`` (replaced atomically); return the path."""
+        target = Path(path)
+        write_text_atomically(target, self.html)
+        return target
 
     def _repr_html_(self) -> str:
         if self.url is not None:

@@ -10,7 +10,9 @@ This module computes what they plot, from each run's trajectory at its rendered 
   E - E(0) - W [J];
 * power: tau . v, the rate of the input work [W] (the trajectory's ``power`` when it has one);
 * joint torques [N m, or N on a prismatic joint], with the model's effort limits dashed;
-* constraint drift [m], when the trajectory carries one sample by sample.
+* constraint drift [m], when the trajectory carries one sample by sample, on a log scale:
+  a closed loop held by a solver drifts by 1e-12 m to 1e-9 m, decades a linear axis would
+  flatten (a zero sits on the axis floor).
 
 One run: one colour per curve. Several runs: the run's colour, one dash pattern per curve.
 """
@@ -59,13 +61,22 @@ class Series:
 
 @dataclass(frozen=True)
 class Chart:
-    """One chart of the panel: key, title, unit of its values, its curves and its dashed limit lines."""
+    """One chart of the panel: key, title, unit of its values, its curves, its dashed limit lines, its scale.
+
+    ``scale`` is "linear", or "log" (decades of the positive values; the page falls back to
+    linear when none is positive).
+    """
 
     key: str
     title: str
     unit: str
     series: tuple[Series, ...]
     limits: tuple[tuple[str, float, int], ...] = ()  # (label, value, colour)
+    scale: str = "linear"
+
+
+LOG_SCALE = frozenset({"drift"})
+"""Charts drawn on a log scale: constraint drift spans decades near zero."""
 
 
 def _rows(values: Any, n: int, index: NDArray[np.int64]) -> Array | None:
@@ -179,7 +190,8 @@ def panel_charts(robot: Robot, runs: Sequence[Run]) -> list[Chart]:
                 if np.isfinite(value) and 0 < value < 1e6:
                     color = LINK_COLORS[j % len(LINK_COLORS)]
                     limits += [(f"{names[j]} limit", float(value), color), ("", -float(value), color)]
-        charts.append(Chart(key, title, unit, tuple(series), tuple(limits)))
+        scale = "log" if key in LOG_SCALE and any(np.any(s.values > 0) for s in series) else "linear"
+        charts.append(Chart(key, title, unit, tuple(series), tuple(limits), scale))
     return charts
 
 
@@ -195,6 +207,7 @@ def panel_info(charts: Sequence[Chart], runs: Sequence[Run]) -> dict[str, Any]:
                 "key": chart.key,
                 "title": chart.title,
                 "unit": chart.unit,
+                "scale": chart.scale,
                 "series": [
                     {
                         "label": s.label,

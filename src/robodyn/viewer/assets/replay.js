@@ -109,7 +109,7 @@
       box.setAttribute("data-chart", chart.key);
       var title = document.createElement("div");
       title.className = "robodyn-title";
-      title.textContent = chart.title + " [" + chart.unit + "]";
+      title.textContent = chart.title + " [" + chart.unit + "]" + (chart.scale === "log" ? ", log scale" : "");
       box.appendChild(title);
       var legend = document.createElement("div");
       legend.className = "robodyn-legend";
@@ -137,7 +137,7 @@
         holder.appendChild(c);
       });
       box.appendChild(holder);
-      var entry = { chart: chart, plot: plot, cursor: cursor, width: plot.width, height: height };
+      var entry = { chart: chart, box: box, plot: plot, cursor: cursor, width: plot.width, height: height };
       drawChart(entry);
       cursor.addEventListener("click", function (event) {
         var rect = cursor.getBoundingClientRect();
@@ -162,17 +162,51 @@
     return duration * (x - b.left) / (b.right - b.left);
   }
 
-  function drawChart(entry) {
-    var chart = entry.chart, ctx = entry.plot.getContext("2d"), b = plotBox(entry);
+  // The value axis of a chart: frac(v) in [0, 1] from the bottom of the plot, and the ticks.
+  // "log" (constraint drift, 1e-12 m and up): decades from the smallest positive value to the
+  // largest, a zero drawn on the floor; "linear": the values' range, padded by 5 % each side.
+  function logAxis(chart) {
+    var lo = Infinity, hi = -Infinity;
+    chart.series.forEach(function (s) {
+      s.values.forEach(function (v) { if (v > 0) { lo = Math.min(lo, v); hi = Math.max(hi, v); } });
+    });
+    if (!(hi > 0)) { return null; }
+    var a = Math.floor(Math.log10(lo)), b = Math.ceil(Math.log10(hi));
+    if (b === a) { b = a + 1; }
+    var step = Math.max(1, Math.ceil((b - a) / 3)), ticks = [];  // at most 4 labels
+    for (var e = a; e <= b; e += step) { ticks.push({ value: Math.pow(10, e), label: "1e" + e }); }
+    return {
+      scale: "log",
+      frac: function (v) { return (Math.log10(Math.max(v, Math.pow(10, a))) - a) / (b - a); },
+      ticks: ticks
+    };
+  }
+
+  function linearAxis(chart) {
     var lo = Infinity, hi = -Infinity;
     chart.series.forEach(function (s) {
       s.values.forEach(function (v) { lo = Math.min(lo, v); hi = Math.max(hi, v); });
     });
     chart.limits.forEach(function (l) { lo = Math.min(lo, l.value); hi = Math.max(hi, l.value); });
     if (!(hi > lo)) { var c = isFinite(lo) ? lo : 0; lo = c - 1; hi = c + 1; }
-    var pad = 0.05 * (hi - lo);
+    var pad = 0.05 * (hi - lo), ends = [lo, hi];
     lo -= pad; hi += pad;
-    function y(v) { return b.bottom - (v - lo) / (hi - lo) * (b.bottom - b.top); }
+    function frac(v) { return (v - lo) / (hi - lo); }
+    var values = ends.slice();
+    if (lo < 0 && hi > 0 && Math.min(Math.abs(frac(0) - frac(ends[0])), Math.abs(frac(0) - frac(ends[1]))) > 0.12) {
+      values.push(0);
+    }
+    return {
+      scale: "linear",
+      frac: frac,
+      ticks: values.map(function (v) { return { value: v, label: fmt(v) }; })
+    };
+  }
+
+  function drawChart(entry) {
+    var chart = entry.chart, ctx = entry.plot.getContext("2d"), b = plotBox(entry);
+    var axis = (chart.scale === "log" && logAxis(chart)) || linearAxis(chart);
+    function y(v) { return b.bottom - axis.frac(v) * (b.bottom - b.top); }
     ctx.fillStyle = "#fff";
     ctx.fillRect(0, 0, entry.width, entry.height);
     ctx.strokeStyle = "#333"; ctx.lineWidth = 1; ctx.setLineDash([]);
@@ -180,16 +214,17 @@
     ctx.moveTo(b.left, b.top); ctx.lineTo(b.left, b.bottom); ctx.lineTo(b.right, b.bottom);
     ctx.stroke();
     ctx.fillStyle = "#222"; ctx.font = "11px sans-serif";
-    // value ticks, with the unit
+    // value ticks, with the unit (listed on the chart's box for tests and screen readers)
     ctx.textAlign = "right"; ctx.textBaseline = "middle";
-    var ticks = [lo + pad, hi - pad];
-    if (lo < 0 && hi > 0 && Math.min(Math.abs(y(0) - y(ticks[0])), Math.abs(y(0) - y(ticks[1]))) > 14) {
-      ticks.push(0);
-    }
-    ticks.forEach(function (v) {
-      ctx.fillText(fmt(v) + " " + chart.unit, b.left - 4, y(v));
-      ctx.strokeStyle = "#e3e3e3"; ctx.beginPath(); ctx.moveTo(b.left + 1, y(v)); ctx.lineTo(b.right, y(v)); ctx.stroke();
+    var labels = [];
+    axis.ticks.forEach(function (tick) {
+      var text = tick.label + " " + chart.unit;
+      labels.push(text);
+      ctx.fillText(text, b.left - 4, y(tick.value));
+      ctx.strokeStyle = "#e3e3e3"; ctx.beginPath(); ctx.moveTo(b.left + 1, y(tick.value)); ctx.lineTo(b.right, y(tick.value)); ctx.stroke();
     });
+    entry.box.setAttribute("data-scale", axis.scale);
+    entry.box.setAttribute("data-ticks", labels.join("|"));
     // time ticks, in simulation time
     ctx.textAlign = "center"; ctx.textBaseline = "top";
     [0, 0.5, 1].forEach(function (f) {

@@ -1,27 +1,39 @@
-"""robodyn against MuJoCo on the Pendubot: one trajectory, and a batch of 1000.
+"""robodyn against MuJoCo: single trajectories and batches, seed kinds, the Panda and Talos (fixed base).
 
 Run from the repository root (MuJoCo is a benchmark-only dependency: pip install mujoco):
 
-    python benchmarks/bench_mujoco.py --out docs/figures
+    python benchmarks/bench_mujoco.py                   # writes into bench-out/
+    python benchmarks/bench_mujoco.py --busy            # with a CPU-bound process competing
+    python benchmarks/bench_mujoco.py --systems pendubot,panda --out /tmp/b
 
-1. MuJoCo loads the same URDF (models/pendubot.urdf) with <compiler discardvisual fusestatic=false
-   balanceinertia=false>, contacts disabled, armature and damping copied from the robodyn model; its
-   mass matrix (mj_fullM) and bias forces (qfrc_bias) are confirmed equal to Pinocchio's first.
-2. One trajectory: torque-free, RK4, dt = 1 ms, 10 s, from robodyn's bench start state. MuJoCo's
-   RK4 steps in its own C loop (mj_step with nstep); robodyn runs its compiled fast path, and its
-   Python loop over Pinocchio ABA for scale. Errors at t = 2 s against a DOP853 reference.
-3. A batch of 1000 seeded initial states, 1 s of RK4 at 1 ms: robodyn's Pinocchio path
-   (abaInParallel inside the integrators' RK4) against mujoco.rollout, both on every CPU.
+1. Every system is loaded by robodyn and by MuJoCo from the same URDF (geometry stripped,
+   <compiler fusestatic=false balanceinertia=false>, contacts and joint limits disabled,
+   armature and damping copied; Coulomb friction off in both, as MuJoCo's frictionloss is a
+   constraint, not robodyn's regularised torque). MuJoCo's mass matrix and bias forces are
+   compared with Pinocchio's on seeded states first.
+2. Single trajectory: torque-free RK4 at dt = 1 ms from robodyn's bench start state (joint limits
+   off in both). MuJoCo steps in its own C loop (mj_step with nstep); robodyn runs
+   robodyn.simulate (the compiled loop, ledger and energies included) and, for the seed kinds,
+   the closed-form fast path. Errors at t = 2 s (or the end) against robodyn's compiled RK4 at dt / 20
+   (RK4's error then 20^4 = 1.6e5 times smaller): equal method, equal step, errors printed side
+   by side. Also: robodyn.simulate's whole call against its own compiled loop's wall time.
+3. Batches of 1000 seeded states (lossless: damping set to 0 in both), RK4 at 1 ms: robodyn's
+   batch.rollout against mujoco.rollout, on 1 and on 2 threads; the final states compared.
 
-Prints ratios; writes bench_mujoco.json and bench_mujoco.png/.svg into --out.
+--busy runs one CPU-bound process (a spinning loop) for the whole measurement. Prints every
+figure and the ratios, and writes bench_mujoco.json and bench_mujoco.png/.svg into --out
+(default bench-out/; an existing JSON there is only replaced with --overwrite).
 """
 
 from __future__ import annotations
 
 import argparse
+import datetime
 import json
+import multiprocessing
 import os
 import platform
+import re
 import sys
 import time
 from pathlib import Path
@@ -33,39 +45,63 @@ from robodyn import charts
 from robodyn.sim import batch
 from robodyn.sim.fast import FastDynamics
 from robodyn.studies import bench
-from robodyn.studies.report import speed_phrase
 
-# MuJoCo's M and bias against Pinocchio's: the same rigid-body algorithms in float64.
-MODEL_MATCH_RTOL = 1e-12
-N_CHECK_STATES = 20
+MODEL_MATCH_RTOL = 1e-9  # MuJoCo's M and bias against Pinocchio's (relative to the largest entry)
+N_CHECK_STATES = 10
 DT = 1e-3
-DURATION = 10.0
-ERROR_AT = 2.0
+REF_DIVISOR = 20
+ERROR_AT = 2.0  # [s]: errors are taken here (the Pendubot's chaos would swamp them by 10 s)
+REPEATS = 3
 BATCH = 1000
-BATCH_STEPS = 1000
-REPEATS = 5
+SYSTEMS = ("pendubot", "cart_pole", "geared_arm", "panda", "talos")
+SEED_KINDS = ("pendubot", "cart_pole", "geared_arm")
+# Simulated time [s] of a single trajectory and steps of a batch, per system (kept short on the big ones).
+DURATION = {"pendubot": 10.0, "cart_pole": 10.0, "geared_arm": 10.0, "panda": 2.0, "talos": 1.0}
+BATCH_STEPS = {"pendubot": 1000, "cart_pole": 1000, "geared_arm": 1000, "panda": 200, "talos": 50}
+
+
+def _spin(stop: multiprocessing.synchronize.Event) -> None:  # type: ignore[name-defined]
+    x = 0
+    while not stop.is_set():
+        for _ in range(100_000):
+            x += 1
+
+
+def prepare(name: str) -> robodyn.Robot:
+    robot = robodyn.load(name)
+    robot.model.friction[:] = 0.0  # MuJoCo's frictionloss is another model
+    return robot
 
 
 def mujoco_model(robot: robodyn.Robot):
     import mujoco
 
     text = Path(robot.urdf_path).read_text()
-    tag = f'<robot name="{robot.name}">'
+    text = re.sub(r"<(visual|collision)\b.*?</\1>", "", text, flags=re.S)
+    start = re.search(r"<robot\b[^>]*>", text)
+    if start is None:
+        sys.exit(f"no <robot> tag in {robot.urdf_path}")
     compiler = (
         '<mujoco><compiler discardvisual="true" fusestatic="false" balanceinertia="false" angle="radian"/></mujoco>'
     )
-    if tag not in text:
-        sys.exit(f"cannot find {tag} in {robot.urdf_path}")
-    m = mujoco.MjModel.from_xml_string(text.replace(tag, tag + compiler, 1))
+    text = text[: start.end()] + compiler + text[start.end() :]
+    m = mujoco.MjModel.from_xml_string(text)
     m.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
     m.opt.timestep = DT
-    m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
-    m.dof_armature[:] = robot.armature
-    m.dof_damping[:] = robot.damping
-    return m
+    off = mujoco.mjtDisableBit
+    m.opt.disableflags |= off.mjDSBL_CONTACT | off.mjDSBL_LIMIT | off.mjDSBL_EQUALITY  # a <mimic> is an equality
+    if m.nv != robot.nv or m.nq != robot.nq:
+        sys.exit(f"{robot.name}: MuJoCo has {m.nv} degrees of freedom, robodyn {robot.nv}")
+    # MuJoCo orders the joints its own way (Talos: torso first); idx[i] = MuJoCo's index of robodyn's joint i
+    names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(m.njnt)]
+    idx = np.array([int(m.jnt_dofadr[names.index(n)]) for n in robot.joint_names])
+    m.dof_armature[idx] = robot.armature
+    m.dof_damping[idx] = robot.damping
+    m.dof_frictionloss[:] = 0.0
+    return m, idx
 
 
-def confirm_same_model(robot: robodyn.Robot, m) -> dict:
+def confirm_same_model(robot: robodyn.Robot, m, idx) -> dict:
     import mujoco
 
     d = mujoco.MjData(m)
@@ -73,171 +109,215 @@ def confirm_same_model(robot: robodyn.Robot, m) -> dict:
     worst_M = worst_bias = 0.0
     for _ in range(N_CHECK_STATES):
         q, v = robot.random_state(rng)
-        d.qpos[:], d.qvel[:] = q, v
+        d.qpos[idx], d.qvel[idx] = q, v
         mujoco.mj_forward(m, d)
         M = np.zeros((m.nv, m.nv))
         mujoco.mj_fullM(m, d, M)
+        M, bias = M[np.ix_(idx, idx)], d.qfrc_bias[idx]
         M_pin, b_pin = robot.M(q), robot.nle(q, v)
         worst_M = max(worst_M, float(np.max(np.abs(M - M_pin)) / np.max(np.abs(M_pin))))
-        worst_bias = max(worst_bias, float(np.max(np.abs(d.qfrc_bias - b_pin)) / max(np.max(np.abs(b_pin)), 1.0)))
-    gravity_ok = np.allclose(m.opt.gravity, np.array(robot.model.gravity.linear), rtol=0, atol=0)
-    if worst_M > MODEL_MATCH_RTOL or worst_bias > MODEL_MATCH_RTOL or not gravity_ok:
-        sys.exit(f"MuJoCo and Pinocchio disagree: M {worst_M:.3g}, bias {worst_bias:.3g}, gravity equal {gravity_ok}")
+        worst_bias = max(worst_bias, float(np.max(np.abs(bias - b_pin)) / max(np.max(np.abs(b_pin)), 1.0)))
+    if worst_M > MODEL_MATCH_RTOL or worst_bias > MODEL_MATCH_RTOL:
+        sys.exit(f"{robot.name}: MuJoCo and Pinocchio disagree: M {worst_M:.3g}, bias {worst_bias:.3g}")
     return {"mass_matrix_rel_diff": worst_M, "bias_rel_diff": worst_bias, "states": N_CHECK_STATES}
 
 
-def state_error(q, v, ref: bench.Reference, t: float) -> float:
-    k = round(t / (ref.t[1] - ref.t[0]))
-    x, x_ref = np.concatenate([q, v]), np.concatenate([ref.q[k], ref.v[k]])
-    return float(np.max(np.abs(x - x_ref)) / np.max(np.abs(x_ref)))
+def _error(q, v, q_ref, v_ref) -> float:
+    x, x_ref = np.concatenate([q, v]), np.concatenate([q_ref, v_ref])
+    return float(np.max(np.abs(x - x_ref)) / max(np.max(np.abs(x_ref)), 1.0))
 
 
-def single(robot: robodyn.Robot, m) -> dict:
+def single(robot: robodyn.Robot, m, idx) -> dict:
     import mujoco
 
+    duration = DURATION[robot.name]
+    steps = round(duration / DT)
     q0, v0 = bench.start_state(robot)
-    ref = bench.reference(robot, q0, v0, duration=ERROR_AT, sample_interval=0.02)
-    steps = round(DURATION / DT)
+    opts = {"limits": False, "max_energy_growth": None}
+    t_err = min(ERROR_AT, duration)
+    k = round(t_err / DT)
+    ref = robodyn.simulate(robot, q0, v0, duration=t_err, dt=DT / REF_DIVISOR, **opts)
+    q_ref, v_ref = ref.q[-1], ref.v[-1]
     d = mujoco.MjData(m)
     times = []
     for _ in range(REPEATS):
         mujoco.mj_resetData(m, d)
-        d.qpos[:], d.qvel[:] = q0, v0
+        d.qpos[idx], d.qvel[idx] = q0, v0
         start = time.perf_counter()
         mujoco.mj_step(m, d, nstep=steps)
         times.append(time.perf_counter() - start)
     mujoco.mj_resetData(m, d)
-    d.qpos[:], d.qvel[:] = q0, v0
-    mujoco.mj_step(m, d, nstep=round(ERROR_AT / DT))
-    mj = {"us_per_step": 1e6 * min(times) / steps, "error_at_2s": state_error(d.qpos, d.qvel, ref, ERROR_AT)}
-
-    fast = FastDynamics.from_robot(robot)
-    fast_runs = [fast.simulate(q0, v0, duration=DURATION, dt=DT) for _ in range(REPEATS)]
-    k = round(ERROR_AT / DT)
-    tr = fast_runs[0]
-    fast_res = {
-        "us_per_step": 1e6 * min(r.wall_time_s for r in fast_runs) / steps,
-        "error_at_2s": state_error(tr.q[k], tr.v[k], ref, ERROR_AT),
+    d.qpos[idx], d.qvel[idx] = q0, v0
+    mujoco.mj_step(m, d, nstep=k)
+    mj_err = _error(d.qpos[idx], d.qvel[idx], q_ref, v_ref)
+    paths = {"mujoco_rk4_c_loop": {"us_per_step": 1e6 * min(times) / steps, "error": mj_err}}
+    runs, calls = [], []
+    for _ in range(REPEATS):
+        start = time.perf_counter()
+        runs.append(robodyn.simulate(robot, q0, v0, duration=duration, dt=DT, **opts))
+        calls.append(time.perf_counter() - start)
+    tr = runs[0]
+    loop_wall = min(r.wall_time_s for r in runs)
+    paths["robodyn_simulate_compiled"] = {
+        "us_per_step": 1e6 * loop_wall / steps,
+        "error": _error(tr.q[k], tr.v[k], q_ref, v_ref),
+        "backend": tr.meta["backend"],
+        "loop": tr.meta["loop"],
     }
-    paths = {"mujoco_rk4_c_loop": mj, "robodyn_fast_rk4": fast_res}
-    for backend in ("aba", "formula"):
-        tr = robodyn.simulate(robot, q0, v0, duration=DURATION, dt=DT, integrator="rk4", backend=backend)
-        paths[f"robodyn_simulate_rk4_{backend}"] = {
-            "us_per_step": 1e6 * tr.wall_time_s / steps,
-            "error_at_2s": state_error(tr.q[k], tr.v[k], ref, ERROR_AT),
+    if robot.name in SEED_KINDS:
+        fast = FastDynamics.from_robot(robot)
+        fr = [fast.simulate(q0, v0, duration=duration, dt=DT) for _ in range(REPEATS)]
+        paths["robodyn_fast_closed_form"] = {
+            "us_per_step": 1e6 * min(r.wall_time_s for r in fr) / steps,
+            "error": _error(fr[0].q[k], fr[0].v[k], q_ref, v_ref),
         }
+    python = robodyn.simulate(robot, q0, v0, duration=min(duration, 1.0), dt=DT, backend="aba", **opts)
+    paths["robodyn_simulate_python_aba"] = {"us_per_step": 1e6 * python.wall_time_s / (python.t.size - 1)}
+    best = min(p["us_per_step"] for k, p in paths.items() if k.startswith("robodyn") and "error" in p)
     return {
-        "q0": q0.tolist(),
-        "v0": v0.tolist(),
+        "duration": duration,
         "dt": DT,
-        "duration": DURATION,
-        "reference_self_error": ref.self_error,
+        "steps": steps,
+        "error_at_s": t_err,
+        "reference": f"robodyn compiled RK4 at dt / {REF_DIVISOR}",
         "paths": paths,
-        "speedup_fast_vs_mujoco": mj["us_per_step"] / fast_res["us_per_step"],
+        "speedup_vs_mujoco_rk4": paths["mujoco_rk4_c_loop"]["us_per_step"] / best,
+        "simulate_call_over_compiled_loop": min(calls) / loop_wall,
     }
 
 
-def batched(robot: robodyn.Robot, m) -> dict:
+def batched(robot: robodyn.Robot, m, idx) -> dict:
     import mujoco
     from mujoco import rollout
 
+    steps = BATCH_STEPS[robot.name]
+    robot.model.damping[:] = 0.0  # the batch path is lossless
+    m.dof_damping[:] = 0.0
     rng = np.random.default_rng(42)
-    Q = rng.uniform(-np.pi, np.pi, (BATCH, robot.nq))
+    Q = (
+        rng.uniform(-np.pi, np.pi, (BATCH, robot.nq))
+        if robot.nv <= 2
+        else robot.neutral() + rng.uniform(-1, 1, (BATCH, robot.nq))
+    )
     V = rng.uniform(-1.0, 1.0, (BATCH, robot.nv))
-    threads = os.cpu_count() or 1
-    ours = [batch.rollout(robot, Q, V, duration=BATCH_STEPS * DT, dt=DT, threads=threads) for _ in range(3)]
-    best = min(ours, key=lambda r: r.wall_time_s)
     size = mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS)
     state0 = np.zeros((BATCH, size))
-    state0[:, 1 : 1 + m.nq] = Q
-    state0[:, 1 + m.nq : 1 + m.nq + m.nv] = V
-    datas = [mujoco.MjData(m) for _ in range(threads)]
-    mj_times = []
-    for _ in range(3):
-        start = time.perf_counter()
-        states, _ = rollout.rollout(m, datas, state0, nstep=BATCH_STEPS)
-        mj_times.append(time.perf_counter() - start)
-    final = states[:, -1, :]
-    q_mj, v_mj = final[:, 1 : 1 + m.nq], final[:, 1 + m.nq : 1 + m.nq + m.nv]
-    agree = float(max(np.max(np.abs(q_mj - best.q)), np.max(np.abs(v_mj - best.v))))
-    fast = FastDynamics.from_robot(robot)
-    start = time.perf_counter()
-    for i in range(BATCH):
-        fast.simulate(Q[i], V[i], duration=BATCH_STEPS * DT, dt=DT)
-    fast_wall = time.perf_counter() - start
-    work = BATCH * BATCH_STEPS
-    return {
-        "states": BATCH,
-        "steps": BATCH_STEPS,
-        "threads": threads,
-        "robodyn_pinocchio_abaInParallel_rk4_us_per_state_step": 1e6 * best.wall_time_s / work,
-        "mujoco_rollout_us_per_state_step": 1e6 * min(mj_times) / work,
-        "robodyn_fast_loop_us_per_state_step": 1e6 * fast_wall / work,
-        "throughput_ratio_pinocchio_vs_mujoco": min(mj_times) / best.wall_time_s,
-        "max_final_state_difference_vs_mujoco": agree,
-    }
+    state0[:, 1 + idx] = Q
+    state0[:, 1 + m.nq + idx] = V
+    out: dict = {"states": BATCH, "steps": steps, "threads": {}}
+    for threads in (1, 2):
+        ours = [batch.rollout(robot, Q, V, duration=steps * DT, dt=DT, threads=threads) for _ in range(REPEATS)]
+        best = min(ours, key=lambda r: r.wall_time_s)
+        datas = [mujoco.MjData(m) for _ in range(threads)]
+        mj_times = []
+        for _ in range(REPEATS):
+            start = time.perf_counter()
+            states, _ = rollout.rollout(m, datas, state0, nstep=steps)
+            mj_times.append(time.perf_counter() - start)
+        final = states[:, -1, :]
+        q_mj, v_mj = final[:, 1 + idx], final[:, 1 + m.nq + idx]
+        work = BATCH * steps
+        out["threads"][str(threads)] = {
+            "robodyn_us_per_state_step": 1e6 * best.wall_time_s / work,
+            "robodyn_path": best.path,
+            "mujoco_rollout_us_per_state_step": 1e6 * min(mj_times) / work,
+            "ratio_mujoco_over_robodyn": min(mj_times) / best.wall_time_s,
+            "max_final_state_difference": float(max(np.max(np.abs(q_mj - best.q)), np.max(np.abs(v_mj - best.v)))),
+        }
+    out["default_threads_now"] = batch.default_threads()
+    return out
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("docs/figures"), help="folder for the JSON and chart")
+    parser.add_argument("--out", type=Path, default=Path("bench-out"), help="folder for the JSON and chart")
+    parser.add_argument("--busy", action="store_true", help="run a CPU-bound process during the measurement")
+    parser.add_argument("--systems", default=",".join(SYSTEMS), help=f"comma-separated, from {', '.join(SYSTEMS)}")
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing bench_mujoco.json in --out")
     args = parser.parse_args()
     import mujoco
 
-    robot = robodyn.load("pendubot")
-    m = mujoco_model(robot)
-    check = confirm_same_model(robot, m)
-    print(
-        f"MuJoCo vs Pinocchio on {N_CHECK_STATES} states: M rel diff {check['mass_matrix_rel_diff']:.2g}, "
-        f"bias rel diff {check['bias_rel_diff']:.2g}"
-    )
-    one = single(robot, m)
-    for name, p in one["paths"].items():
-        print(f"  {name:32s} {p['us_per_step']:9.3f} us/step   error at t = 2 s {p['error_at_2s']:.3g}")
-    print(f"fast path vs MuJoCo RK4 (mj_step C loop): {speed_phrase(one['speedup_fast_vs_mujoco'])}")
-    many = batched(robot, m)
-    print(f"batch of {BATCH}, {BATCH_STEPS} RK4 steps, {many['threads']} threads:")
-    ours = many["robodyn_pinocchio_abaInParallel_rk4_us_per_state_step"]
-    print(f"  robodyn Pinocchio (abaInParallel + RK4) {ours:.3f} us/state-step")
-    print(f"  mujoco.rollout                          {many['mujoco_rollout_us_per_state_step']:.3f} us/state-step")
-    print(f"  robodyn fast path, one state at a time  {many['robodyn_fast_loop_us_per_state_step']:.3f} us/state-step")
-    print(
-        f"  throughput ratio Pinocchio / MuJoCo: {many['throughput_ratio_pinocchio_vs_mujoco']:.2f}x; "
-        f"max final state difference {many['max_final_state_difference_vs_mujoco']:.2g}"
-    )
-    result = {
+    names = [s for s in args.systems.split(",") if s]
+    unknown = [s for s in names if s not in SYSTEMS]
+    if unknown:
+        parser.error(f"unknown system(s) {', '.join(unknown)}; expected some of {', '.join(SYSTEMS)}")
+    target = args.out / "bench_mujoco.json"
+    if target.exists() and not args.overwrite:
+        parser.error(f"{target} exists; pass --overwrite to replace it, or another --out")
+    load_before = os.getloadavg()
+    stop = multiprocessing.Event()
+    spinner = multiprocessing.Process(target=_spin, args=(stop,), daemon=True) if args.busy else None
+    if spinner is not None:
+        spinner.start()
+        time.sleep(1.0)
+    results: dict = {}
+    try:
+        for name in names:
+            robot = prepare(name)
+            m, idx = mujoco_model(robot)
+            check = confirm_same_model(robot, m, idx)
+            one = single(robot, m, idx)
+            print(
+                f"{name} (nv = {robot.nv}): MuJoCo vs Pinocchio M {check['mass_matrix_rel_diff']:.1e}, "
+                f"bias {check['bias_rel_diff']:.1e}; single RK4 trajectory, dt = 1 ms, {one['duration']:g} s"
+            )
+            for path, p in one["paths"].items():
+                err = f"error at t = {one['error_at_s']:g} s {p['error']:.2e}" if "error" in p else ""
+                print(f"  {path:30s} {p['us_per_step']:9.3f} us/step   {err}")
+            print(
+                f"  robodyn's best vs MuJoCo RK4: {one['speedup_vs_mujoco_rk4']:.2f}x; robodyn.simulate's whole call "
+                f"over its compiled loop: {one['simulate_call_over_compiled_loop']:.2f}x"
+            )
+            many = batched(robot, m, idx)
+            for threads, b in many["threads"].items():
+                print(
+                    f"  batch of {BATCH}, {many['steps']} RK4 steps, {threads} thread(s): "
+                    f"robodyn ({b['robodyn_path']}) "
+                    f"{b['robodyn_us_per_state_step']:.3f}, mujoco.rollout {b['mujoco_rollout_us_per_state_step']:.3f} "
+                    f"us/state-step: {b['ratio_mujoco_over_robodyn']:.2f}x; final states differ by "
+                    f"{b['max_final_state_difference']:.1e}"
+                )
+            results[name] = {"nv": robot.nv, "model_check": check, "single": one, "batch": many}
+    finally:
+        if spinner is not None:
+            stop.set()
+            spinner.join(5)
+    load_after = os.getloadavg()
+    print(f"load average (1, 5, 15 min) before {load_before}, after {load_after}; busy mode {args.busy}")
+    record = {
+        "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
         "machine": {
             "cpus": os.cpu_count(),
             "platform": platform.platform(),
+            "processor": platform.processor(),
             "python": platform.python_version(),
             "mujoco": mujoco.__version__,
             "robodyn": robodyn.__version__,
         },
-        "model_check": check,
-        "single": one,
-        "batch": many,
-        "command": "python benchmarks/bench_mujoco.py --out docs/figures",
+        "load_average_before": load_before,
+        "load_average_after": load_after,
+        "busy": args.busy,
+        "command": " ".join(["python", "benchmarks/bench_mujoco.py", *sys.argv[1:]]),
+        "systems": results,
     }
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "bench_mujoco.json").write_text(json.dumps(result, indent=1) + "\n")
-    labels = [f"single: {k}" for k in one["paths"]] + [
-        "batch: robodyn Pinocchio abaInParallel",
-        "batch: mujoco.rollout",
-        "batch: robodyn fast, per state",
-    ]
-    values = [p["us_per_step"] for p in one["paths"].values()] + [
-        many["robodyn_pinocchio_abaInParallel_rk4_us_per_state_step"],
-        many["mujoco_rollout_us_per_state_step"],
-        many["robodyn_fast_loop_us_per_state_step"],
-    ]
+    target.write_text(json.dumps(record, indent=1) + "\n")
+    labels, values = [], []
+    for name, r in results.items():
+        for path, p in r["single"]["paths"].items():
+            labels.append(f"{name} single: {path}")
+            values.append(p["us_per_step"])
+        for threads, b in r["batch"]["threads"].items():
+            labels += [f"{name} batch {threads} thr: robodyn", f"{name} batch {threads} thr: mujoco.rollout"]
+            values += [b["robodyn_us_per_state_step"], b["mujoco_rollout_us_per_state_step"]]
     charts.speed_bars(
         labels,
         values,
         args.out / "bench_mujoco",
         unit="microseconds per (state-)step, log scale",
-        title="Pendubot, RK4, dt = 1 ms: robodyn against MuJoCo",
+        title=f"RK4, dt = 1 ms: robodyn against MuJoCo{' (busy)' if args.busy else ''}",
     )
-    print(f"wrote {args.out / 'bench_mujoco.json'} and bench_mujoco.png/.svg")
+    print(f"wrote {target} and bench_mujoco.png/.svg")
     return 0
 
 

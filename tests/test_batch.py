@@ -50,3 +50,29 @@ def test_bad_input_is_refused():
             duration=0.01,
             dt=1e-3,
         )
+
+
+def test_tree_path_equals_single_runs_whatever_the_threads():
+    robot = robodyn.load("double_pendulum")  # no seed kind: the compiled tree algorithms
+    robot.model.damping[:] = 0.0  # the batch path is lossless
+    rng = np.random.default_rng(11)
+    Q = rng.uniform(-np.pi, np.pi, (37, 2))  # not a multiple of the block size
+    V = rng.uniform(-1, 1, (37, 2))
+    one = batch.rollout(robot, Q, V, duration=0.2, dt=1e-3, integrator="heun", threads=1)
+    two = batch.rollout(robot, Q, V, duration=0.2, dt=1e-3, integrator="heun", threads=2)
+    assert one.path == two.path == "tree" and one.evaluations == 2 * 200
+    np.testing.assert_array_equal(one.q, two.q)  # each state's arithmetic is its own: exact
+    np.testing.assert_array_equal(one.v, two.v)
+    for i in (0, 17, 36):
+        ref = robodyn.simulate(robot, Q[i], V[i], duration=0.2, dt=1e-3, integrator="heun", limits=False)
+        assert ref.meta["loop"] == "compiled"
+        np.testing.assert_array_equal(one.q[i], ref.q[-1])  # the same compiled step: exact
+        np.testing.assert_array_equal(one.v[i], ref.v[-1])
+
+
+def test_closed_form_path_for_seed_kinds_and_bad_threads():
+    robot = robodyn.load("pendubot")
+    res = batch.rollout(robot, np.full((5, 2), 0.3), np.zeros((5, 2)), duration=0.01, dt=1e-3, threads=2)
+    assert res.path == "closed_form" and res.threads == 2
+    with pytest.raises(InputError, match="threads"):
+        batch.rollout(robot, np.zeros((3, 2)), np.zeros((3, 2)), duration=0.01, dt=1e-3, threads=0)

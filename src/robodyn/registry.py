@@ -55,3 +55,8 @@ BACKENDS: Registry[str] = Registry("forward-dynamics backend")
 BACKENDS.register("aba", "Pinocchio's articulated-body algorithm, O(n)")
 BACKENDS.register("crba", "Pinocchio's CRBA + Cholesky solve, O(n^3); serves mimic joints")
 BACKENDS.register("formula", "the hand-derived closed form of a seed kind (NumPy)")
+BACKENDS.register(
+    "numba",
+    "ABA, RNEA and CRBA compiled by numba over the model's arrays (checked against Pinocchio); "
+    "whole runs in one compiled loop where they apply",
+)

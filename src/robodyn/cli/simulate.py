@@ -119,7 +119,8 @@ def add_parser(sub: Any) -> None:
         "--backend",
         choices=BACKENDS.names(),
         default=None,
-        help="forward dynamics (default: aba; crba on a model loaded with --mimic, which aba refuses)",
+        help="forward dynamics (default: the whole run in numba's compiled loop where it applies, else aba; "
+        "crba on a model loaded with --mimic, which aba refuses); the summary says which ran",
     )
     p.add_argument(
         "--rtol",
@@ -411,6 +412,14 @@ def _unit_of(meta: dict[str, Any], joint: str) -> str:
     return "rad | m"
 
 
+def _loop_phrase(meta: dict[str, Any]) -> str:
+    """'compiled loop', or 'Python loop: <why the compiled loop was not used>' (from the run's metadata)."""
+    if meta.get("loop") == "compiled":
+        return "compiled loop"
+    why = str(meta.get("compiled_loop") or "").removeprefix("not used: ")
+    return f"Python loop: {why}" if why else "Python loop"
+
+
 def _report(trajectory: Any, out: Path | None, csv: Path | None, *, as_json: bool) -> None:
     s = trajectory.summary()
     if out is not None:
@@ -421,13 +430,16 @@ def _report(trajectory: Any, out: Path | None, csv: Path | None, *, as_json: boo
     controller = meta.get("controller")
     if controller is not None:
         s["controller"] = controller
+    s["backend"] = meta.get("backend")
+    s["loop"] = meta.get("loop")
+    s["compiled_loop"] = meta.get("compiled_loop")
     if as_json:
         print_json(s)
         return
     print(
         f"{s['model']}: {s['integrator']} (order {meta.get('order')}), dt = {s['dt']:g} s, "
         f"{s['steps']} steps to t = {s['t_final']:g} s in {s['wall_time_s']:.3f} s wall "
-        f"({s['evaluations']} dynamics evaluations, backend {meta.get('backend')})"
+        f"({s['evaluations']} dynamics evaluations, backend {meta.get('backend')}, {_loop_phrase(meta)})"
     )
     if controller is not None:
         print(f"controller: {_control.describe(controller['name'], controller['gains'])}")

@@ -1,11 +1,18 @@
-"""Many initial states at once: Pinocchio's threaded ABA inside the integrators' own step.
+"""Many initial states at once: one parallel region per rollout, each thread stepping a block through all of time.
 
-A batch of n states of a robot with nq == nv is presented to an integrator from
-:mod:`robodyn.integrators` as one flat problem of size n * nv (states laid out one after the
-other), whose acceleration is one call of :func:`robodyn.dynamics.aba_batch` (Pinocchio's
-``abaInParallel``: C++ threads, no Python per state). The method is the same code that
-:func:`robodyn.simulate` uses, so a batch run equals n single runs up to round-off.
-Torque-free and lossless-joint models only (the batch has no ledger).
+A batch of n states of a torque-free, lossless robot with nq == nv is split into blocks; one
+numba ``prange`` hands the blocks to the threads, and each thread steps its states one after
+the other through every step (no thread team per evaluation, no barrier per step). Blocks are
+handed out dynamically (chunk size 1), so a thread that shares its core with another process
+takes fewer blocks instead of holding the others back.
+
+The step is the compiled one of :func:`robodyn.simulate`: the seed kinds' closed form
+(:mod:`robodyn.sim.fast`, classic RK4) or the compiled tree algorithms
+(:mod:`robodyn.sim.tree`, any fixed-step explicit method: rk4, heun, euler), both checked
+against Pinocchio before use, so a batch run equals n single runs up to round-off.
+
+Threads: :func:`default_threads` uses the cores that are idle by the 1-minute load average
+(at least 1): on a busy machine one thread, which measured never slower than two there.
 """
 
 from __future__ import annotations
@@ -18,18 +25,33 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robodyn import dynamics, integrators
-from robodyn.errors import InputError
+from robodyn import integrators
+from robodyn.errors import InputError, RobodynError
+from robodyn.kinds import params as params_module
+from robodyn.sim import tree
+from robodyn.sim.fast import KINDS, FastDynamics, batch_rk4
 
 if TYPE_CHECKING:
     from robodyn.robot import Robot
 
 Array = NDArray[np.float64]
 
+# Blocks per thread: enough for a thread on a shared core to hand work to the others, few
+# enough that a block's start-up (a workspace) stays negligible.
+BLOCKS_PER_THREAD = 8
+# Blocks hold at least this many states.
+MIN_BLOCK = 4
+
+_BATCH_METHODS = ("rk4", "heun", "euler")
+
 
 @dataclass(frozen=True, eq=False)
 class BatchResult:
-    """Final states q (n, nq), v (n, nv) after ``steps`` steps of ``dt`` [s]; cost of the run."""
+    """Final states q (n, nq), v (n, nv) after ``steps`` steps of ``dt`` [s]; cost of the run.
+
+    ``path`` is ``"closed_form"`` (a seed kind's compiled closed form) or ``"tree"`` (the
+    compiled tree algorithms); ``evaluations`` counts batch evaluations (stages times steps).
+    """
 
     q: Array
     v: Array
@@ -39,11 +61,40 @@ class BatchResult:
     threads: int
     wall_time_s: float
     evaluations: int
+    path: str = "tree"
 
     @property
     def state_steps_per_second(self) -> float:
         """Throughput: states times steps advanced per wall-clock second."""
         return self.q.shape[0] * self.steps / self.wall_time_s
+
+
+def default_threads() -> int:
+    """Threads for a batch: the CPUs left idle by the 1-minute load average, at least 1."""
+    cpus = os.cpu_count() or 1
+    try:
+        load = os.getloadavg()[0]
+    except OSError:  # pragma: no cover - platforms without a load average
+        return 1
+    return max(1, min(cpus, int(cpus - load + 0.5)))
+
+
+def blocks_for(n: int, threads: int) -> NDArray[np.int64]:
+    """Block boundaries (nb + 1,) over n states: about ``BLOCKS_PER_THREAD`` blocks a thread."""
+    nb = max(1, min(threads * BLOCKS_PER_THREAD, n // MIN_BLOCK))
+    return np.linspace(0, n, nb + 1).round().astype(np.int64)
+
+
+def _closed_form(robot: Robot, integrator: str) -> FastDynamics | None:
+    if integrator != "rk4":
+        return None
+    kind = params_module.detect_kind(robot)
+    if kind not in KINDS:
+        return None
+    try:
+        return FastDynamics.from_robot(robot, kind)
+    except RobodynError:
+        return None
 
 
 def rollout(
@@ -56,38 +107,70 @@ def rollout(
     integrator: str = "rk4",
     threads: int | None = None,
 ) -> BatchResult:
-    """Advance every state of the batch (q0 (n, nq), v0 (n, nv)) by ``duration`` [s] in steps of ``dt``.
+    """Advance every state of the batch (q0 (n, nq), v0 (n, nv)) by ``duration`` [s] in steps of ``dt`` [s].
 
-    ``threads`` defaults to the number of CPUs. Only fixed-step explicit integrators apply.
+    ``threads`` defaults to :func:`default_threads`. Only fixed-step explicit integrators
+    (rk4, heun, euler) apply; the robot must be torque-free here, lossless and have nq == nv.
+
+    Raises:
+        InputError: shapes, an integrator or a robot the batch path does not take.
     """
-    import pinocchio as pin  # the pool type only; every algorithm call goes through robodyn.dynamics
-
     if not robot.nq_equals_nv:
         raise InputError(f"{robot.name}: the batch path needs nq == nv, got nq={robot.nq}, nv={robot.nv}")
     if np.any(robot.damping) or np.any(robot.friction):
         raise InputError(f"{robot.name}: the batch path has no joint losses; damping or friction is set")
-    Q = np.atleast_2d(np.asarray(q0, dtype=np.float64))
-    V = np.atleast_2d(np.asarray(v0, dtype=np.float64))
+    Q = np.array(np.atleast_2d(np.asarray(q0, dtype=np.float64)))
+    V = np.array(np.atleast_2d(np.asarray(v0, dtype=np.float64)))
     if Q.shape[1] != robot.nq or V.shape != Q.shape:
         raise InputError(f"q0 and v0 must both have shape (n, {robot.nq}), got {Q.shape} and {V.shape}")
     method = integrators.get(integrator)
-    if not isinstance(method, integrators.FixedStepIntegrator) or method.implicit or method.symplectic:
+    if method.name not in _BATCH_METHODS:
         raise InputError(
-            f"integrator {integrator!r}: the batch path takes explicit fixed-step methods (rk4, heun, euler)"
+            f"integrator {integrator!r}: the batch path takes explicit fixed-step methods ({', '.join(_BATCH_METHODS)})"
         )
+    if threads is not None and (not isinstance(threads, int) or threads < 1):
+        raise InputError(f"threads must be a whole number >= 1, got {threads!r}")
     steps = integrators.step_count(duration, dt)
     n, nv = Q.shape
-    threads = threads or os.cpu_count() or 1
-    pool = pin.ModelPool(robot.model, threads)
-    tau = np.zeros((n, nv))
+    threads = threads or default_threads()
+    blocks = blocks_for(n, threads)
+    fast = _closed_form(robot, method.name)
+    if fast is None:
+        from robodyn.sim.whole_run import method_code
 
-    def accel(t: float, q: Array, v: Array) -> Array:
-        return dynamics.aba_batch(pool, q.reshape(n, nv), v.reshape(n, nv), tau, threads=threads).reshape(-1)
+        try:
+            compiled = tree.compiled_of(robot)
+        except RobodynError as exc:
+            raise InputError(f"{robot.name}: the batch path cannot take this robot: {exc}") from None
+        code = method_code(method)
+        if code is None:  # pragma: no cover - rk4, heun and euler are the kernels' own
+            raise InputError(f"integrator {integrator!r}: its step is not the one the batch kernels mirror")
+        mcode, tab = code
+        kernels = tree.kernels()
+        t = compiled.tree
+        forces, springs = np.zeros((4, nv)), np.zeros((4, 0))
+        forces[3, 0] = 1.0
+    import numba
 
-    problem = integrators.ArrayProblem(accel, n * nv)
-    q, u = Q.reshape(-1).copy(), V.reshape(-1).copy()
-    start = time.perf_counter()
-    for k in range(steps):
-        q, u, _ = method.step(problem, k * dt, q, u, dt)
-    wall = time.perf_counter() - start
-    return BatchResult(q.reshape(n, nv), u.reshape(n, nv), dt, steps, method.name, threads, wall, problem.evaluations)
+    numba.set_num_threads(min(threads, int(numba.config.NUMBA_NUM_THREADS)))  # type: ignore[attr-defined]
+    with numba.parallel_chunksize(1):
+        if fast is not None:
+            Qp, Vp = np.zeros((n, 2)), np.zeros((n, 2))
+            Qp[:, :nv], Vp[:, :nv] = Q, V
+            one = np.array([0, 1], dtype=np.int64)  # load (or compile) the kernel outside the timing
+            batch_rk4(fast, Qp[:1].copy(), Vp[:1].copy(), dt=dt, steps=0, blocks=one)
+            start = time.perf_counter()
+            batch_rk4(fast, Qp, Vp, dt=dt, steps=steps, blocks=blocks)
+            wall = time.perf_counter() - start
+            Q, V = Qp[:, :nv].copy(), Vp[:, :nv].copy()
+        else:
+            one = np.array([0, 1], dtype=np.int64)
+            kernels.batch_rollout(
+                t.itree, t.ftree, t.grav, mcode, tab, dt, 0, Q[:1].copy(), V[:1].copy(), forces, springs, one
+            )
+            start = time.perf_counter()
+            kernels.batch_rollout(t.itree, t.ftree, t.grav, mcode, tab, dt, steps, Q, V, forces, springs, blocks)
+            wall = time.perf_counter() - start
+    stages = {"rk4": 4, "heun": 2, "euler": 1}[method.name]
+    path = "closed_form" if fast is not None else "tree"
+    return BatchResult(Q, V, dt, steps, method.name, threads, wall, stages * steps, path)

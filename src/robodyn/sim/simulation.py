@@ -32,7 +32,7 @@ from numpy.typing import ArrayLike, NDArray
 from robodyn import dynamics, integrators
 from robodyn.errors import DivergenceError, InputError, ModelError, SimulationInterrupted
 from robodyn.integrators import Integrator
-from robodyn.sim import energy
+from robodyn.sim import energy, whole_run
 from robodyn.sim.constraints import Constraints, Coupling, Loop, Spring
 from robodyn.sim.loops import close_initial_state
 from robodyn.sim.run import Run
@@ -102,8 +102,14 @@ def simulate(
         integrator: a name from :func:`robodyn.integrators.names` or an integrator object.
         torque: None, a constant vector (nv entries, or one per actuated joint) [N m | N],
             or a callable tau(t, q, v) -- the controller hook. Passive joints get none.
-        backend: forward dynamics: ``"aba"``, ``"crba"`` or ``"formula"``; None picks
-            ``"aba"``, or ``"crba"`` on a model with mimic joints (which ABA refuses).
+        backend: forward dynamics: ``"aba"``, ``"crba"``, ``"formula"`` or ``"numba"``. None
+            (the default) runs the whole run in the compiled loop of :mod:`robodyn.sim.whole_run`
+            (backend ``"numba"``: ABA compiled, checked against Pinocchio) wherever it applies,
+            and otherwise ``"aba"`` (``"crba"`` on a model with mimic joints, which ABA refuses)
+            in the Python pipeline. ``"numba"`` asks for the compiled loop, and for the compiled
+            ABA as the smooth stage of the Python pipeline where the loop does not apply. The
+            metadata say which ran: ``backend``, ``loop`` ("compiled" | "python") and
+            ``compiled_loop`` (why not, when it did not).
         losses: apply the URDF joint damping and friction (their work is booked).
         limits: enforce the URDF joint limits as stops (False: joints pass through them).
         restitution: e in [0, 1] at every stop: 0 (the default) perfectly inelastic, 1 elastic.
@@ -168,10 +174,23 @@ def simulate(
     _refuse_singular_mass(robot, system, q)
     check = energy.cross_check(robot, q, v)
     t_grid = _time_grid(duration, dt)
-    run = Run(robot, system, method, t_grid, q, v, rtol=rtol, atol=atol, max_energy_growth=max_energy_growth)
+
+    def new_run() -> Run:
+        return Run(robot, system, method, t_grid, q, v, rtol=rtol, atol=atol, max_energy_growth=max_energy_growth)
+
+    run = new_run()
+    plan = whole_run.prepare(system, method) if backend in (None, "numba") else None
     start = time.perf_counter()
-    run.integrate()
-    meta = _meta(robot, system, method, run, dt, duration, check) | notes
+    outcome = None
+    if isinstance(plan, str):
+        outcome = whole_run.Outcome(False, plan)
+    elif plan is not None:  # the whole run in the compiled loop
+        outcome = whole_run.attempt(plan, system, run)
+        if not outcome.ran:
+            run = new_run()
+    if outcome is None or not outcome.ran:
+        run.integrate()
+    meta = _meta(robot, system, method, run, dt, duration, check) | notes | _loop_meta(system, outcome)
     trajectory = run.trajectory(time.perf_counter() - start, meta)
     if run.failure is not None:
         step, t_fail, message = run.failure
@@ -179,6 +198,18 @@ def simulate(
     if run.interrupted:
         raise SimulationInterrupted(trajectory.message, trajectory=trajectory)
     return trajectory
+
+
+def _loop_meta(system: RobotSystem, outcome: whole_run.Outcome | None) -> dict[str, Any]:
+    """Which loop ran (``loop``: "compiled" or "python"), the backend it used, and why not the compiled one."""
+    if outcome is not None and outcome.ran:
+        return {"backend": "numba", "loop": "compiled", "compiled_loop": "ran"}
+    why = "backend " + system.backend + " asked" if outcome is None else outcome.note
+    out: dict[str, Any] = {"backend": system.backend, "loop": "python", "compiled_loop": f"not used: {why}"}
+    if outcome is not None and outcome.steps:
+        out["compiled_loop_steps"] = outcome.steps  # steps taken compiled before handing back
+        out["compiled_loop_wall_time_s"] = outcome.wall_time_s
+    return out
 
 
 def configuration(robot: Robot, q0: ArrayLike) -> Array:

@@ -1,7 +1,11 @@
 """The smooth-acceleration stage: which backend computes a = M(q)^-1 (tau - C(q, v) v - G(q)).
 
 ``"aba"`` is Pinocchio's articulated-body algorithm, ``"crba"`` CRBA + Cholesky (it serves
-mimic joints, which ABA refuses), ``"formula"`` the hand-derived closed form of a seed kind.
+mimic joints, which ABA refuses), ``"formula"`` the hand-derived closed form of a seed kind,
+``"numba"`` the articulated-body algorithm compiled by numba (:mod:`robodyn.sim.tree`, checked
+against Pinocchio before use). Called from Python once per evaluation, the compiled ABA costs
+about what Pinocchio's does (the call dominates on small models); its gain is the whole run in
+one compiled loop (:mod:`robodyn.sim.whole_run`), which :func:`robodyn.simulate` takes by default.
 """
 
 from __future__ import annotations
@@ -13,9 +17,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodyn import dynamics
-from robodyn.errors import InputError
+from robodyn.errors import InputError, RobodynError
 from robodyn.kinds import formulas, params
 from robodyn.registry import BACKENDS
+from robodyn.sim import tree
 
 if TYPE_CHECKING:
     from robodyn.robot import Robot
@@ -43,11 +48,36 @@ def backend_function(
         return lambda q, v, tau: dynamics.aba(model, data, q, v, tau)
     if name == "crba":
         return lambda q, v, tau: dynamics.crba_solve(model, data, q, v, tau)
+    if name == "numba":
+        return compiled_function(robot)
     if name == "formula" and formula is not None:
         f, p = formula
         return lambda q, v, tau: f.forward_dynamics(q, v, tau, p)
     BACKENDS.get(name)  # an unknown name lists the backends
     raise InputError(f"backend {name!r} needs a seed kind's formula, which {robot.name} has not")
+
+
+def compiled_function(robot: Robot) -> Callable[[Array, Array, Array], Array]:
+    """a(q, v, tau) by the compiled ABA of :mod:`robodyn.sim.tree` (one workspace, a fresh result per call).
+
+    Raises:
+        InputError: the compiled path cannot serve ``robot`` (the reason), or its check against Pinocchio failed.
+    """
+    try:
+        compiled = tree.compiled_of(robot)
+    except RobodynError as exc:
+        raise InputError(f"backend 'numba' cannot serve {robot.name}: {exc}; use backend 'aba'") from None
+    t = compiled.tree
+    kernel = tree.kernels().aba
+    itree, ftree, grav = t.itree, t.ftree, t.grav
+    ws = np.zeros((itree.shape[0], tree.kernels().WCOLS))
+
+    def forward(q: Array, v: Array, tau: Array) -> Array:
+        out = np.empty(t.nv)
+        kernel(itree, ftree, grav, q, v, tau, ws, out)
+        return out
+
+    return forward
 
 
 def resolve_backend(robot: Robot, backend: str | None) -> str:

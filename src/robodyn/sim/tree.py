@@ -1,0 +1,290 @@
+"""A compiled path for any tree robot: the recursive algorithms in numba, over arrays read from the model.
+
+:func:`extract` reads a Pinocchio model's data (``robot.model``: parents, joint types and
+axes, joint placements, inertias, armature, gravity) into a :class:`TreeModel` of three
+arrays; it calls no Pinocchio algorithm. The kernels of :mod:`robodyn.sim.tree_kernels`
+(articulated-body algorithm, RNEA, CRBA, energies) and of
+:mod:`robodyn.sim.tree_steps` (steps and whole runs) then run on those arrays.
+
+It serves fixed-base trees of revolute, prismatic and continuous joints (one degree of
+freedom each). A free flyer, a spherical or planar joint, or a mimic joint is not served:
+:func:`unsupported` says why, and :func:`robodyn.simulate` then uses Pinocchio.
+
+It is a second implementation, so it is checked before it is trusted: :func:`compiled_of`
+compares ABA, RNEA and CRBA with Pinocchio's (:mod:`robodyn.dynamics`) on seeded random states
+(``VERIFY_STATES`` of them) and refuses the model if any differs by more than ``VERIFY_RTOL``
+relative to the largest entry. The check runs once per model and is cached while the arrays
+read from the model stay the same.
+
+numba is imported on first use (the kernels' module), never at ``import robodyn``.
+"""
+
+from __future__ import annotations
+
+import weakref
+from dataclasses import dataclass
+from functools import lru_cache
+from types import ModuleType
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from robodyn import dynamics
+from robodyn.errors import AssumptionError, InputError, MissingDependencyError
+
+if TYPE_CHECKING:
+    from robodyn.robot import Robot
+
+Array = NDArray[np.float64]
+
+# Compiled ABA / RNEA / CRBA against Pinocchio's, relative to the largest entry: two float64
+# implementations of the same recursions (world frame here, local frames there) differ by
+# round-off amplified by M's conditioning; Talos (32 joints, armature 0.1) stays below 1e-13.
+VERIFY_RTOL = 1e-12
+VERIFY_STATES = 8
+
+# Joint types of the kernels (tree_kernels.REVOLUTE, PRISMATIC, CONTINUOUS), by Pinocchio's shortname.
+_AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
+_TYPES: dict[str, tuple[int, tuple[float, float, float] | None]] = {
+    **{f"JointModelR{a}": (0, _AXES[a]) for a in "XYZ"},
+    **{f"JointModelP{a}": (1, _AXES[a]) for a in "XYZ"},
+    **{f"JointModelRUB{a}": (2, _AXES[a]) for a in "XYZ"},
+    "JointModelRevoluteUnaligned": (0, None),
+    "JointModelPrismaticUnaligned": (1, None),
+    "JointModelRevoluteUnboundedUnaligned": (2, None),
+}
+FCOLS = 29  # tree_kernels.FCOLS, kept here so that extraction does not import numba
+
+
+@dataclass(frozen=True, eq=False)
+class TreeModel:
+    """A kinematic tree as arrays: ``itree`` (n, 4) int64, ``ftree`` (n, 29) float64, ``grav`` (3,) [m/s^2].
+
+    Row i of ``itree``: parent row (-1 for the world), type (0 revolute, 1 prismatic, 2
+    continuous), index in q, index in v. Row i of ``ftree``: unit joint axis (3), the joint
+    placement in its parent's frame (rotation row-major (9), translation [m] (3)), mass [kg],
+    lever (centre of mass in the joint frame) [m] (3), rotational inertia about the centre of
+    mass [kg m^2] (9), armature [kg m^2 | kg].
+    """
+
+    name: str
+    nq: int
+    nv: int
+    itree: NDArray[np.int64]
+    ftree: Array
+    grav: Array
+
+    def same_as(self, other: TreeModel) -> bool:
+        """True when both hold the same numbers (a model edited since extraction is not)."""
+        return (
+            self.nq == other.nq
+            and np.array_equal(self.itree, other.itree)
+            and np.array_equal(self.ftree, other.ftree)
+            and np.array_equal(self.grav, other.grav)
+        )
+
+
+def unsupported(robot: Robot) -> str | None:
+    """Why the compiled tree path cannot serve ``robot``, or None when it can."""
+    for j in robot.joints:
+        if j.kind not in _TYPES:
+            return f"joint {j.name!r} is a {j.kind}; the compiled path takes revolute, prismatic and continuous joints"
+    if robot.nv == 0:
+        return "the model has no degree of freedom"
+    return None
+
+
+def _unaligned_axis(joint: Any) -> NDArray[np.float64]:
+    """The unit axis of an unaligned joint, read from its motion subspace S at the neutral q.
+
+    Pinocchio's binding of ``JointModelRevoluteUnboundedUnaligned`` has no ``axis`` (the
+    aligned-free revolute and prismatic ones do), while S holds the axis for all three: the
+    angular rows of a revolute joint, the linear rows of a prismatic one.
+    """
+    inner = joint.extract()
+    if hasattr(inner, "axis"):
+        return np.asarray(inner.axis, dtype=np.float64)
+    data = joint.createData()
+    q = np.zeros(joint.nq)
+    q[0] = 1.0  # cos = 1, sin = 0: the neutral configuration of a continuous joint
+    joint.calc(data, q)
+    S = np.asarray(data.S, dtype=np.float64).reshape(6)
+    return S[3:6] if np.linalg.norm(S[3:6]) > 0 else S[0:3]
+
+
+def extract(robot: Robot) -> TreeModel:
+    """Read ``robot.model``'s tree into arrays (no Pinocchio algorithm is called).
+
+    Raises:
+        AssumptionError: a joint the compiled path does not take (see :func:`unsupported`).
+    """
+    reason = unsupported(robot)
+    if reason is not None:
+        raise AssumptionError(f"{robot.name}: {reason}")
+    model = robot.model
+    n = model.njoints - 1
+    itree = np.zeros((n, 4), dtype=np.int64)
+    ftree = np.zeros((n, FCOLS))
+    armature = np.asarray(model.armature, dtype=np.float64)
+    for i in range(n):
+        j = i + 1
+        joint = model.joints[j]
+        code, aligned = _TYPES[joint.shortname()]
+        axis = np.asarray(aligned if aligned is not None else _unaligned_axis(joint), dtype=np.float64)
+        placement = model.jointPlacements[j]
+        inertia = model.inertias[j]
+        itree[i] = (int(model.parents[j]) - 1, code, int(joint.idx_q), int(joint.idx_v))
+        ftree[i, 0:3] = axis
+        ftree[i, 3:12] = np.asarray(placement.rotation, dtype=np.float64).reshape(9)
+        ftree[i, 12:15] = np.asarray(placement.translation, dtype=np.float64)
+        ftree[i, 15] = float(inertia.mass)
+        ftree[i, 16:19] = np.asarray(inertia.lever, dtype=np.float64)
+        ftree[i, 19:28] = np.asarray(inertia.inertia, dtype=np.float64).reshape(9)
+        ftree[i, 28] = armature[int(joint.idx_v)]
+    grav = np.asarray(model.gravity.linear, dtype=np.float64).copy()
+    return TreeModel(robot.name, int(model.nq), int(model.nv), itree, ftree, grav)
+
+
+@lru_cache(maxsize=1)
+def kernels() -> ModuleType:
+    """The numba kernels (:mod:`robodyn.sim.tree_steps`, which re-exports the algorithms), loaded or compiled.
+
+    A one-joint tree runs each kernel once here, so that no timed run pays for loading it.
+    """
+    try:
+        from robodyn.sim import tree_steps as k
+    except ImportError as exc:  # pragma: no cover - numba is a declared dependency
+        raise MissingDependencyError(f"the compiled path needs numba: pip install numba ({exc})") from None
+    itree = np.array([[-1, 0, 0, 0]], dtype=np.int64)
+    ftree = np.zeros((1, FCOLS))
+    ftree[0, [2, 3, 7, 11, 15, 19, 23, 27]] = 1.0
+    grav = np.array([0.0, 0.0, -9.81])
+    one, ws = np.zeros(1), np.zeros((1, k.WCOLS))
+    k.aba(itree, ftree, grav, one, one, one, ws, np.zeros(1))
+    k.rnea(itree, ftree, grav, one, one, one, ws, np.zeros(1))
+    k.crba(itree, ftree, grav, one, ws, np.zeros((1, 1)))
+    k.kinematics(itree, ftree, grav, one, one, ws)
+    forces, springs, stops = np.zeros((4, 1)), np.zeros((4, 0)), np.zeros((3, 0))
+    forces[3, 0] = 1e-3
+    n = 3
+    ts, hs = 1e-3 * np.arange(n), np.full(n - 1, 1e-3)
+    for code, tab in ((0, np.array([[0.0], [1.0], [0.0]])), (1, np.zeros((6, 4))), (2, np.zeros((3, 1)))):
+        Q, U, A, kin, pot = np.zeros((n, 1)), np.zeros((n, 3)), np.zeros((n, 1)), np.zeros(n), np.zeros(n)
+        k.run_block(itree, ftree, grav, code, tab, ts, hs, 0, n - 1, Q, U, A, kin, pot, forces, springs, -1, stops)
+    k.sample(itree, ftree, grav, 0.0, one, np.zeros(3), forces, springs, -1, np.zeros(3))
+    return k
+
+
+@dataclass(frozen=True, eq=False)
+class CompiledDynamics:
+    """ABA, RNEA, CRBA and the energies of one tree, compiled; units as :class:`robodyn.Robot`'s.
+
+    ``check`` holds the largest relative differences from Pinocchio found by :meth:`verify`.
+    """
+
+    tree: TreeModel
+    check: dict[str, float]
+
+    def _ws(self) -> Array:
+        return np.zeros((self.tree.itree.shape[0], kernels().WCOLS))
+
+    def _state(self, q: ArrayLike, v: ArrayLike, name: str = "v") -> tuple[Array, Array]:
+        q_ = np.ascontiguousarray(q, dtype=np.float64).reshape(-1)
+        v_ = np.ascontiguousarray(v, dtype=np.float64).reshape(-1)
+        if q_.shape != (self.tree.nq,) or v_.shape != (self.tree.nv,):
+            raise InputError(
+                f"q and {name} must have {self.tree.nq} and {self.tree.nv} entries, got {q_.size} and {v_.size}"
+            )
+        return q_, v_
+
+    def acceleration(self, q: ArrayLike, v: ArrayLike, tau: ArrayLike) -> Array:
+        """A = M(q)^-1 (tau - C(q, v) v - G(q)) [rad/s^2 | m/s^2], shape (nv,), by the compiled ABA."""
+        q_, v_ = self._state(q, v)
+        t_ = np.ascontiguousarray(tau, dtype=np.float64).reshape(-1)
+        out = np.empty(self.tree.nv)
+        t = self.tree
+        kernels().aba(t.itree, t.ftree, t.grav, q_, v_, t_, self._ws(), out)
+        return out
+
+    def inverse_dynamics(self, q: ArrayLike, v: ArrayLike, a: ArrayLike) -> Array:
+        """Tau = M a + C v + G [N m | N], shape (nv,), by the compiled RNEA."""
+        q_, v_ = self._state(q, v)
+        a_ = np.ascontiguousarray(a, dtype=np.float64).reshape(-1)
+        out = np.empty(self.tree.nv)
+        t = self.tree
+        kernels().rnea(t.itree, t.ftree, t.grav, q_, v_, a_, self._ws(), out)
+        return out
+
+    def mass_matrix(self, q: ArrayLike) -> Array:
+        """M(q) [kg m^2 | kg], shape (nv, nv), armature included, by the compiled CRBA."""
+        q_, _ = self._state(q, np.zeros(self.tree.nv))
+        M = np.zeros((self.tree.nv, self.tree.nv))
+        t = self.tree
+        kernels().crba(t.itree, t.ftree, t.grav, q_, self._ws(), M)
+        return M
+
+    def energies(self, q: ArrayLike, v: ArrayLike) -> tuple[float, float]:
+        """(kinetic 1/2 v^T M v, gravitational potential, zero at world height 0) [J]."""
+        q_, v_ = self._state(q, v)
+        t = self.tree
+        kin, pot = kernels().kinematics(t.itree, t.ftree, t.grav, q_, v_, self._ws())
+        return float(kin), float(pot)
+
+    def verify(self, robot: Robot, *, seed: int = 0, states: int = VERIFY_STATES) -> dict[str, float]:
+        """Largest relative differences of ABA, RNEA, CRBA and the energies from Pinocchio on seeded states.
+
+        Raises:
+            AssumptionError: one exceeds ``VERIFY_RTOL`` (the message names which and by how much).
+        """
+        rng = np.random.default_rng(seed)
+        model, data = robot.model, robot.data
+        worst = {"aba": 0.0, "rnea": 0.0, "crba": 0.0, "energy": 0.0}
+        for _ in range(states):
+            q, v = robot.random_state(rng)
+            tau = rng.uniform(-1.0, 1.0, robot.nv)
+            a = rng.uniform(-1.0, 1.0, robot.nv)
+            pairs = (
+                ("aba", self.acceleration(q, v, tau), dynamics.aba(model, data, q, v, tau)),
+                ("rnea", self.inverse_dynamics(q, v, a), dynamics.rnea(model, data, q, v, a)),
+                ("crba", self.mass_matrix(q), dynamics.mass_matrix(model, data, q)),
+            )
+            for name, got, ref in pairs:
+                worst[name] = max(worst[name], _relative(got, ref))
+            kin, pot = self.energies(q, v)
+            ref_e = np.array([dynamics.kinetic_energy(model, data, q, v), dynamics.potential_energy(model, data, q)])
+            worst["energy"] = max(worst["energy"], _relative(np.array([kin, pot]), ref_e))
+        bad = {k: x for k, x in worst.items() if not x <= VERIFY_RTOL}
+        if bad:
+            what = ", ".join(f"{k} by {x:.3g}" for k, x in bad.items())
+            raise AssumptionError(
+                f"{robot.name}: the compiled tree algorithms differ from Pinocchio's ({what}, relative to the "
+                f"largest entry), expected <= {VERIFY_RTOL:g}; use backend 'aba'"
+            )
+        return worst
+
+
+def _relative(got: Array, ref: Array) -> float:
+    scale = max(float(np.max(np.abs(ref))), 1.0)
+    return float(np.max(np.abs(got - ref))) / scale if np.all(np.isfinite(got)) else float("inf")
+
+
+_CACHE: weakref.WeakKeyDictionary[Any, CompiledDynamics] = weakref.WeakKeyDictionary()
+
+
+def compiled_of(robot: Robot) -> CompiledDynamics:
+    """The compiled dynamics of ``robot``, checked against Pinocchio (once while its model stays the same).
+
+    Raises:
+        AssumptionError: the model has a joint the compiled path does not take, or the check fails.
+        MissingDependencyError: numba is not installed.
+    """
+    tree = extract(robot)
+    cached = _CACHE.get(robot)
+    if cached is not None and cached.tree.same_as(tree):
+        return cached
+    compiled = CompiledDynamics(tree, {})
+    check = compiled.verify(robot)
+    compiled = CompiledDynamics(tree, check)
+    _CACHE[robot] = compiled
+    return compiled

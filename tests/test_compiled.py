@@ -1,0 +1,152 @@
+"""The compiled tree path (sim/tree.py, sim/tree_kernels.py, sim/whole_run.py) against Pinocchio and the ABA run."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import robodyn
+from robodyn.errors import AssumptionError, InputError
+from robodyn.sim import tree
+from robodyn.studies.stability import variant_path
+
+# Compiled ABA / RNEA / CRBA against Pinocchio on one state, relative to the largest entry:
+# two float64 implementations of the same recursions (world frame vs local frames).
+ALGORITHM_RTOL = 1e-12
+# Whole trajectories, compiled loop vs the Python pipeline with ABA: the same method, steps and
+# stages, accelerations differing by round-off, amplified over the run (0.3 s: < 1e3 x).
+TRAJECTORY_RTOL = 1e-11
+# Talos's Coulomb friction, regularised as F tanh(v / 1e-3 rad/s), is stiff far beyond explicit
+# methods' stability on its light joints (round-off grew by 1e10 within 150 Euler steps at dt =
+# 10 us, measured): its runs are compared without losses, and friction on the Pendubot below.
+
+MODELS = (
+    "pendubot",
+    "cart_pole",
+    "geared_arm",
+    "panda",
+    "talos",
+    "double_pendulum_continuous",
+    *(
+        str(variant_path(v))
+        for v in ("cart_pole_point_bob", "geared_arm_rotor", "geared_arm_stiff", "pendubot_light_tip")
+    ),
+)
+
+
+def _relative(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.max(np.abs(a - b)) / max(np.max(np.abs(b)), 1.0))
+
+
+@pytest.fixture(scope="module", params=MODELS)
+def robot(request: pytest.FixtureRequest) -> robodyn.Robot:
+    return robodyn.load(request.param)
+
+
+def test_algorithms_match_pinocchio(robot: robodyn.Robot) -> None:
+    compiled = tree.compiled_of(robot)
+    assert max(compiled.check.values()) <= tree.VERIFY_RTOL
+    rng = np.random.default_rng(1234)  # other states than the built-in check's
+    for _ in range(5):
+        q, v = robot.random_state(rng)
+        tau, a = rng.normal(size=robot.nv), rng.normal(size=robot.nv)
+        assert _relative(compiled.acceleration(q, v, tau), robot.forward_dynamics(q, v, tau)) < ALGORITHM_RTOL
+        assert _relative(compiled.inverse_dynamics(q, v, a), robot.inverse_dynamics(q, v, a)) < ALGORITHM_RTOL
+        assert _relative(compiled.mass_matrix(q), robot.M(q)) < ALGORITHM_RTOL
+        kin, pot = compiled.energies(q, v)
+        assert kin == pytest.approx(robot.kinetic_energy(q, v), rel=ALGORITHM_RTOL, abs=1e-12)
+        assert pot == pytest.approx(robot.potential_energy(q), rel=ALGORITHM_RTOL, abs=1e-12)
+
+
+def test_a_wrong_tree_is_refused_by_the_check() -> None:
+    robot = robodyn.load("panda")
+    good = tree.compiled_of(robot)
+    for column in (15, 17, 28):  # a mass, a lever, an armature
+        ftree = good.tree.ftree.copy()
+        ftree[3, column] += 0.05
+        bad = tree.CompiledDynamics(dataclasses.replace(good.tree, ftree=ftree), {})
+        with pytest.raises(AssumptionError, match="differ from Pinocchio"):
+            bad.verify(robot)
+
+
+@pytest.mark.parametrize("integrator", ["rk4", "heun", "euler", "semi_implicit_euler"])
+def test_whole_run_equals_the_aba_run(robot: robodyn.Robot, integrator: str) -> None:
+    rng = np.random.default_rng(7)
+    q0, v0 = robot.random_state(rng, speed=0.5)
+    rtol = TRAJECTORY_RTOL
+    options = {"duration": 0.3, "dt": 1e-3, "integrator": integrator, "limits": False}
+    options["losses"] = not np.any(robot.friction)
+    if robot.nv <= 2 and robot.nq == robot.nv:  # a spring needs a one-coordinate joint
+        options["springs"] = {robot.joint_names[0]: (3.0, 0.1)}
+    if np.any(robot.actuated):
+        options["torque"] = 0.5 * robot.actuated
+    got = robodyn.simulate(robot, q0, v0, **options)
+    ref = robodyn.simulate(robot, q0, v0, backend="aba", **options)
+    assert (got.meta["backend"], got.meta["loop"]) == ("numba", "compiled")
+    assert (ref.meta["backend"], ref.meta["loop"]) == ("aba", "python")
+    assert got.t.shape == ref.t.shape and got.evaluations == ref.evaluations
+    scale = max(abs(ref.energy[0]), 1.0)
+    for name in ("q", "v", "a"):
+        assert _relative(getattr(got, name), getattr(ref, name)) < rtol, name
+    for name in ("kinetic", "potential", "work_input", "work_damping"):
+        assert np.max(np.abs(getattr(got, name) - getattr(ref, name))) < rtol * scale, name
+    assert got.max_ledger_residual == pytest.approx(ref.max_ledger_residual, rel=1e-3, abs=rtol * scale)
+
+
+def test_friction_and_damping_are_the_pipelines() -> None:
+    robot = robodyn.load("pendubot")
+    robot.model.friction[:] = [0.02, 0.01]  # [N m], regularised over 1e-3 rad/s as in sim/system.py
+    robot.model.damping[:] = [0.01, 0.005]  # [N m s/rad]
+    got = robodyn.simulate(robot, [0.3, 0.2], [0.0, 0.0], duration=1.0, dt=1e-3)
+    ref = robodyn.simulate(robot, [0.3, 0.2], [0.0, 0.0], duration=1.0, dt=1e-3, backend="aba")
+    assert got.meta["loop"] == "compiled" and got.meta["friction"] == [0.02, 0.01]
+    assert _relative(got.q, ref.q) < TRAJECTORY_RTOL
+    assert got.work_damping[-1] < -1e-3  # friction and damping took energy, booked alike
+    assert np.max(np.abs(got.work_damping - ref.work_damping)) < TRAJECTORY_RTOL
+
+
+def test_torque_callable_runs_compiled_and_agrees() -> None:
+    robot = robodyn.load("cart_pole")
+
+    def push(t: float, q: np.ndarray, v: np.ndarray) -> list[float]:
+        return [30.0 * np.sin(5.0 * t) - 2.0 * v[0]]  # above the 20 N effort at times: clamped
+
+    got = robodyn.simulate(robot, [0.0, 0.1], [0.0, 0.0], duration=0.5, dt=1e-3, torque=push)
+    ref = robodyn.simulate(robot, [0.0, 0.1], [0.0, 0.0], duration=0.5, dt=1e-3, torque=push, backend="aba")
+    assert got.meta["loop"] == "compiled"
+    assert got.meta["effort_clamped_samples"] == ref.meta["effort_clamped_samples"] > 0
+    assert _relative(got.q, ref.q) < TRAJECTORY_RTOL
+    assert np.max(np.abs(got.work_input - ref.work_input)) < TRAJECTORY_RTOL
+
+
+def test_a_run_that_reaches_a_stop_is_taken_by_the_python_pipeline() -> None:
+    robot = robodyn.load("cart_pole")  # rail +-2.4 m
+    got = robodyn.simulate(robot, [2.3, 0.0], [1.0, 0.0], duration=0.5, dt=1e-3)
+    ref = robodyn.simulate(robot, [2.3, 0.0], [1.0, 0.0], duration=0.5, dt=1e-3, backend="aba")
+    assert got.meta["loop"] == "python" and "'slider' at its upper stop at step" in got.meta["compiled_loop"]
+    assert got.meta["impacts"] == ref.meta["impacts"] > 0
+    np.testing.assert_array_equal(got.q, ref.q)  # the same pipeline from the start: identical arithmetic
+
+
+def test_where_the_compiled_path_does_not_apply() -> None:
+    flyer = robodyn.load("panda", free_flyer=True)
+    run = robodyn.simulate(flyer, flyer.neutral(), np.zeros(flyer.nv), duration=0.01, dt=1e-3)
+    assert run.meta["loop"] == "python" and "JointModelFreeFlyer" in run.meta["compiled_loop"]
+    with pytest.raises(InputError, match="backend 'numba' cannot serve"):
+        robodyn.simulate(flyer, flyer.neutral(), np.zeros(flyer.nv), duration=0.01, dt=1e-3, backend="numba")
+    robot = robodyn.load("pendubot")
+    adaptive = robodyn.simulate(robot, [0.3, 0.2], [0, 0], duration=0.01, dt=1e-3, integrator="dopri5")
+    assert adaptive.meta["loop"] == "python" and "dopri5" in adaptive.meta["compiled_loop"]
+    asked = robodyn.simulate(robot, [0.3, 0.2], [0, 0], duration=0.01, dt=1e-3, backend="crba")
+    assert asked.meta["compiled_loop"] == "not used: backend crba asked"
+
+
+def test_numba_backend_in_the_python_pipeline_agrees() -> None:
+    robot = robodyn.load("pendubot")
+    # an adaptive method: the compiled ABA serves as the smooth stage of the Python pipeline
+    got = robodyn.simulate(robot, [0.3, 0.2], [0, 0], duration=0.2, dt=1e-2, integrator="dopri5", backend="numba")
+    ref = robodyn.simulate(robot, [0.3, 0.2], [0, 0], duration=0.2, dt=1e-2, integrator="dopri5", backend="aba")
+    assert (got.meta["backend"], got.meta["loop"]) == ("numba", "python")
+    assert _relative(got.q, ref.q) < 1e-9  # adaptive step choices see round-off, then converge to rtol

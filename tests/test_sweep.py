@@ -28,6 +28,8 @@ FAST_VS_ABA_ATOL = 1e-9
 NOT_NUMBERS = {"wall_time"}
 
 PENDUBOT_UP = np.pi / 2
+# A scene (examples/pendubot.toml): the Pendubot's shoulder locked, 2 s at 1 ms.
+SCENE = Path(__file__).resolve().parents[1] / "examples" / "pendubot.toml"
 
 LQR_SWEEP = {
     "model": "pendubot",
@@ -37,6 +39,16 @@ LQR_SWEEP = {
     "measure": ["final_state", "time_to_balance", "energy_drift", "wall_time"],
     "chunk": 7,
     "q0": {"joint1": {"from": PENDUBOT_UP - 0.1, "to": PENDUBOT_UP + 0.1, "n": 5}, "joint2": [-0.05, 0.0, 0.05]},
+}
+# The Pendubot's swing-up handing over to LQR: outside the region (hanging-ish) and inside it (near upright).
+SWING_UP_SWEEP = {
+    "model": "pendubot",
+    "duration": 0.4,
+    "dt": 1e-3,
+    "controller": "swing_up",
+    "measure": ["final_state", "time_to_balance", "energy_drift"],
+    "chunk": 4,
+    "q0": {"joint1": [-PENDUBOT_UP, -1.0, PENDUBOT_UP - 0.02, PENDUBOT_UP], "joint2": [0.0, 0.01, 0.3]},
 }
 CHAOS_SWEEP = {
     "model": "pendubot",
@@ -60,9 +72,9 @@ def client():
         yield c
 
 
-def one_by_one(spec, out: Path) -> dict[str, list]:
+def one_by_one(spec, out: Path, **options) -> dict[str, list]:
     """The oracle: every run of the plan alone (a chunk of one), in this process, in run order."""
-    prepared = sweep.prepare(spec, out)
+    prepared = sweep.prepare(spec, out, **options)
     rows: dict[str, list] = {}
     for c in prepared.plan.chunks:
         for k in range(c.runs.size):
@@ -85,10 +97,14 @@ def assert_same(table, rows: dict[str, list]) -> None:
             np.testing.assert_array_equal(np.asarray(a), np.asarray(b), err_msg=name)
 
 
-@pytest.mark.parametrize("spec", [LQR_SWEEP, CHAOS_SWEEP], ids=["lqr-closed-loop", "fast-lyapunov"])
+@pytest.mark.parametrize(
+    "spec", [LQR_SWEEP, SWING_UP_SWEEP, CHAOS_SWEEP], ids=["lqr-closed-loop", "swing-up-closed-loop", "fast-lyapunov"]
+)
 def test_sweep_is_bit_identical_to_one_by_one(spec, client, tmp_path):
     result = sweep.run(spec, out=tmp_path / "dask", client=client)
     table = result.table()
+    expected = "fast" if spec is CHAOS_SWEEP else "closed_loop"
+    assert set(table.column("path").to_pylist()) == {expected}
     assert table.num_rows == result.plan.n_runs
     assert table.column("run").to_pylist() == list(range(result.plan.n_runs))
     assert result.computed == len(result.plan.chunks) > 2
@@ -272,6 +288,18 @@ def test_existing_cluster_recipe_scheduler_and_two_workers(tmp_path):
         )
         assert run.returncode == 0, run.stderr
         assert "8 runs in 3 chunks (3 computed, 0 already written)" in run.stdout
+        # A sweep over a scene: the scene travels to the separate workers inside each chunk.
+        scene_sweep = tmp_path / "scene_sweep.toml"
+        scene_sweep.write_text(f"scene = {json.dumps(str(SCENE))}\nchunk = 2\n[v0]\njoint2 = [0.0, 0.5, 1.0]\n")
+        command = [str(bin_dir / "robodyn"), "sweep", str(scene_sweep), "--out", str(tmp_path / "scene")]
+        run = subprocess.run(
+            [*command, "--scheduler", address, "--quiet"],
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+        assert run.returncode == 0, run.stderr
+        assert "3 runs in 2 chunks (2 computed, 0 already written)" in run.stdout
     finally:
         for p in reversed(procs):
             p.terminate()
@@ -281,6 +309,12 @@ def test_existing_cluster_recipe_scheduler_and_two_workers(tmp_path):
 
     table = pq.read_table(tmp_path / "out" / "results").sort_by("run")
     assert_same(table, one_by_one(CHAOS_SWEEP, tmp_path / "serial"))
+    from robodyn.scene import read_scene
+
+    scene_table = pq.read_table(tmp_path / "scene" / "results").sort_by("run")
+    expected = one_by_one(scene_sweep, tmp_path / "scene-serial", read_scene=read_scene)
+    assert_same(scene_table, expected)
+    assert expected["q0.joint2"] == [1.0, 1.0, 1.0]  # the scene's initial state, its shoulder locked
 
 
 def _toml(spec: dict) -> str:

@@ -1,5 +1,8 @@
 """``robodyn sweep``: many independent runs from one sweep file, in chunks on Dask, into a Parquet dataset.
 
+A sweep file that names a scene is read with :func:`robodyn.scene.read_scene`, handed down to
+:func:`robodyn.sweep.run` (the scene package sits above the sweep in robodyn's layers).
+
 Exit codes: 0 every chunk is written; 2 bad input (a bad sweep file, an unknown name, an
 unwritable --out); 4 Dask or pyarrow missing; 5 no scheduler at --scheduler; 130 interrupted
 (the chunks written so far stay, and the same command resumes from them).
@@ -19,13 +22,19 @@ def add_parser(sub: Any) -> None:
     p = sub.add_parser(
         "sweep",
         help="run many independent runs described by a sweep file, on Dask, into Parquet",
-        description="Cross the axes of a sweep file (initial states, parameters, integrators, dt, controllers) into "
-        "runs, group them into chunks, run each chunk as one Dask task (a local cluster, or --scheduler), and "
+        description="Cross the axes of a sweep file (initial states, parameters, integrators, dt, controllers) over "
+        "its model or scene file (which supplies what the sweep leaves out) into runs, group them into chunks, "
+        "run each chunk as one Dask task (a local cluster, or --scheduler), and "
         "write each finished chunk to DIR/results/ as Parquet with DIR/manifest.json. Run again to resume: "
         "chunks already written are skipped. Exit 0: done; 2: bad input; 4: Dask or pyarrow missing; 5: no "
         "scheduler there; 130: interrupted.",
     )
-    p.add_argument("sweep", type=file_path, metavar="SWEEP.toml", help="the sweep file (see examples/sweeps/)")
+    p.add_argument(
+        "sweep",
+        type=file_path,
+        metavar="SWEEP.toml",
+        help="the sweep file: a model or a scene file, the axes and the measures (see examples/sweeps/)",
+    )
     p.add_argument(
         "--out", type=file_path, required=True, metavar="DIR", help="results folder (created; reused to resume)"
     )
@@ -39,6 +48,7 @@ def add_parser(sub: Any) -> None:
 def run(args: Any) -> int:
     """Run the sweep and print one summary line."""
     import robodyn.sweep as sweep
+    from robodyn.scene import read_scene
 
     check_output_folder(args.out)
     result = sweep.run(
@@ -47,6 +57,7 @@ def run(args: Any) -> int:
         scheduler=args.scheduler,
         workers=args.workers,
         progress=None if args.quiet else sys.stderr,
+        read_scene=read_scene,
     )
     table = result.table()
     print(

@@ -6,10 +6,16 @@
     result = robodyn.sweep.run("examples/sweeps/pendubot_basin.toml", out="basin")
     table = result.table()              # a pyarrow Table, one row a run, in run order
 
+    robodyn.sweep.run("examples/sweeps/cart_pole_swing_up.toml", out="swing")   # a sweep over a scene
+
 Modules, one concept each: :mod:`~robodyn.sweep.spec` (the sweep file), :mod:`~robodyn.sweep.plan`
 (axes -> runs -> chunks), :mod:`~robodyn.sweep.measures`, :mod:`~robodyn.sweep.chunk` (one task's
 work), :mod:`~robodyn.sweep.engine` (Dask), :mod:`~robodyn.sweep.store` (Parquet + manifest),
-:mod:`~robodyn.sweep.progress`, :mod:`~robodyn.sweep.plots` (matplotlib, imported only to draw).
+:mod:`~robodyn.sweep.progress`, :mod:`~robodyn.sweep.plots` (matplotlib, imported only to draw),
+:mod:`~robodyn.sweep.source` (a model or a scene), :mod:`~robodyn.sweep.policy` (controllers over a batch).
+
+A sweep that names a scene reads it with :func:`robodyn.scene.read_scene` (the sweep sits above
+the scene package in robodyn's layers); ``read_scene`` replaces that reader.
 """
 
 from __future__ import annotations
@@ -21,6 +27,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
+import numpy as np
+
 from robodyn import integrators
 from robodyn.errors import InputError
 from robodyn.kinds.edit import check_changes, write_params
@@ -30,7 +38,16 @@ from robodyn.sweep import measures
 from robodyn.sweep.chunk import Job, controller_of, upright_of
 from robodyn.sweep.engine import run_chunks
 from robodyn.sweep.plan import Chunk, Plan, Setting, make_plan, settings
-from robodyn.sweep.spec import NO_CONTROLLER, SweepSpec, check_against, load, resolve, with_digest
+from robodyn.sweep.source import Model, SceneReader, SceneSource, has_control, scene_source, simulate_defaults
+from robodyn.sweep.spec import (
+    NO_CONTROLLER,
+    SCENE_CONTROLLER,
+    SweepSpec,
+    check_against,
+    load,
+    resolve,
+    with_digest,
+)
 from robodyn.sweep.store import Store
 
 __all__ = ["Prepared", "SweepResult", "SweepSpec", "load", "prepare", "run"]
@@ -63,19 +80,33 @@ class SweepResult:
         return self.store.table()
 
 
-def prepare(source: str | Path | Mapping[str, Any] | SweepSpec, out: str | Path) -> Prepared:
+def prepare(
+    source: str | Path | Mapping[str, Any] | SweepSpec, out: str | Path, *, read_scene: SceneReader | None = None
+) -> Prepared:
     """Read and check the sweep against its model, write each parameter setting's URDF once, plan the chunks.
+
+    ``read_scene`` reads the scene file a sweep may name (default :func:`robodyn.scene.read_scene`).
 
     Raises:
         InputError, UnknownNameError: a bad value or an unknown name (with close matches).
+        SceneError: a scene file that is missing or wrong (an InputError).
         ModelError: a model that cannot be loaded or modified.
     """
     spec = source if isinstance(source, SweepSpec) else load(source)
     out = Path(out)
-    model = resolve(spec, spec.model)
-    robot = load_model(model)
+    scene = _scene(spec, read_scene)
+    if scene is not None:
+        spec = _with_scene_defaults(spec, scene)
+        robot, reduction = scene.build()
+        model: Model = scene
+        q_default, v_default = scene.scene.initial_state(robot, reduction)
+    else:
+        model = resolve(spec, spec.model)
+        robot = load_model(model)
     if not robot.nq_equals_nv:
-        raise InputError(f"{spec.source}: model {spec.model} has nq={robot.nq} != nv={robot.nv}; sweeps need nq == nv")
+        raise InputError(f"{spec.source}: model {robot.name} has nq={robot.nq} != nv={robot.nv}; sweeps need nq == nv")
+    if scene is None:
+        q_default, v_default = np.zeros(robot.nq), np.zeros(robot.nv)
     resolved_measures = tuple(
         f"{resolve(spec, m.rpartition(':')[0])}:{m.rpartition(':')[2]}" if measures.is_user(m) else m
         for m in spec.measures
@@ -83,20 +114,35 @@ def prepare(source: str | Path | Mapping[str, Any] | SweepSpec, out: str | Path)
     controllers = tuple(resolve(spec, c) for c in spec.controllers)
     gains = {resolve(spec, c): dict(g) for c, g in spec.gains.items()}
     spec = SweepSpec(
-        **{**spec.__dict__, "model": model, "measures": resolved_measures, "controllers": controllers, "gains": gains}
+        **{
+            **spec.__dict__,
+            "model": model.scene.path.as_posix() if isinstance(model, SceneSource) else model,
+            "measures": resolved_measures,
+            "controllers": controllers,
+            "gains": gains,
+        }
     )
     check_against(spec, robot.joint_names, measures.MEASURES)
     for name in spec.integrators:
         integrators.get(name)
+    if SCENE_CONTROLLER in controllers and scene is None:
+        raise InputError(f"{spec.source}: controller 'scene' is the scene's [control]; this sweep names no scene")
+    if SCENE_CONTROLLER in gains:
+        raise InputError(
+            f"{spec.source}: [gains.scene]: the scene's controller takes its gains from its [control] table"
+        )
     if "time_to_balance" in spec.measures and upright_of(robot) is None:
         raise InputError(f"{spec.source}: time_to_balance needs a cart_pole or pendubot; {robot.name} has no upright")
-    kind = _check_params(spec, robot)
+    kind = _check_params(spec, scene.full() if scene is not None and spec.params else robot)
     files = measures.user_files(spec.measures)
-    if Path(model).is_file():
+    if isinstance(model, SceneSource):
+        files["scene"] = model.key.encode()
+    elif Path(model).is_file():
         files["model"] = Path(model).read_bytes()
     for c in controllers:
-        if c != NO_CONTROLLER and Path(c).is_file():
+        if c not in (NO_CONTROLLER, SCENE_CONTROLLER) and Path(c).is_file():
             files[f"controller:{c}"] = Path(c).read_bytes()
+    files["initial"] = np.concatenate([q_default, v_default]).astype("<f8").tobytes()
     spec = with_digest(spec, files)
     gains_json = json.dumps(gains, sort_keys=True)
     for c in controllers:  # build each once here: unknown names and gains are refused before any task
@@ -104,9 +150,9 @@ def prepare(source: str | Path | Mapping[str, Any] | SweepSpec, out: str | Path)
     for m in spec.measures:
         if measures.is_user(m):
             measures.load_user_measure(m)
-    models = _models(spec, robot, kind, out)
+    models = _models(spec, model, robot, kind, out)
     job = Job(spec.duration, spec.measures, gains_json, spec.seed, robot.joint_names)
-    return Prepared(spec, make_plan(spec, robot.joint_names, models), job, out)
+    return Prepared(spec, make_plan(spec, robot.joint_names, models, defaults=(q_default, v_default)), job, out)
 
 
 def run(
@@ -118,14 +164,16 @@ def run(
     client: Any = None,
     progress: TextIO | None = None,
     on_chunk: Callable[[Chunk], None] | None = None,
+    read_scene: SceneReader | None = None,
 ) -> SweepResult:
     """Run the sweep into ``out`` (resuming: chunks already written are skipped) and return what it did.
 
     ``scheduler`` is a Dask scheduler's address (``tcp://host:8786``); without it a LocalCluster
     of ``workers`` processes (default: one per CPU) is started and stopped. ``client`` is an
     existing ``distributed.Client`` to use instead. ``progress`` is a stream for the progress bar.
+    ``read_scene`` reads the scene file a sweep may name (default :func:`robodyn.scene.read_scene`).
     """
-    prepared = prepare(source, out)
+    prepared = prepare(source, out, read_scene=read_scene)
     store = Store(prepared.out, prepared.spec.digest, prepared.spec.source)
     computed = run_chunks(
         prepared.plan,
@@ -140,6 +188,34 @@ def run(
     return SweepResult(prepared.out, computed, len(prepared.plan.chunks) - computed, prepared.plan, store)
 
 
+def _scene(spec: SweepSpec, read_scene: SceneReader | None) -> SceneSource | None:
+    """The scene the sweep names, read by ``read_scene``; None without one."""
+    if not spec.scene:
+        return None
+    reader: SceneReader
+    if read_scene is None:
+        from robodyn.scene import read_scene as reader
+    else:
+        reader = read_scene
+    path = Path(resolve(spec, spec.scene))
+    return scene_source(reader(path))
+
+
+def _with_scene_defaults(spec: SweepSpec, scene: SceneSource) -> SweepSpec:
+    """``spec`` with what it leaves out taken from the scene: duration, dt, integrator, controller."""
+    table = simulate_defaults(scene.scene)
+    changes: dict[str, Any] = {}
+    if "duration" not in spec.given and "duration" in table:
+        changes["duration"] = float(table["duration"])
+    if "dt" not in spec.given and "dt" in table:
+        changes["dts"] = (float(table["dt"]),)
+    if "integrator" not in spec.given and "integrator" in table:
+        changes["integrators"] = (str(table["integrator"]),)
+    if "controller" not in spec.given and has_control(scene.scene):
+        changes["controllers"] = (SCENE_CONTROLLER,)
+    return SweepSpec(**{**spec.__dict__, **changes})
+
+
 def _check_params(spec: SweepSpec, robot: Any) -> str | None:
     if not spec.params:
         return None
@@ -152,20 +228,26 @@ def _check_params(spec: SweepSpec, robot: Any) -> str | None:
     return kind
 
 
-def _models(spec: SweepSpec, robot: Any, kind: str | None, out: Path) -> dict[Setting, str]:
-    """Each setting's model: the sweep's own, or a URDF with its parameters written once per value set."""
-    written: dict[tuple[tuple[str, float], ...], str] = {}
-    models = {}
+def _models(spec: SweepSpec, model: Model, robot: Any, kind: str | None, out: Path) -> dict[Setting, Model]:
+    """Each setting's model: the sweep's own, or a URDF with its parameters written once per value set.
+
+    With a scene, the written URDF replaces the scene's model file (its joints kept or locked as before).
+    """
+    written: dict[tuple[tuple[str, float], ...], Model] = {}
+    models: dict[Setting, Model] = {}
+    full = model.full() if isinstance(model, SceneSource) and spec.params else robot
+    tag_of = model.key if isinstance(model, SceneSource) else str(model)
     for setting in settings(spec):
         if not setting.params or kind is None:
-            models[setting] = spec.model
+            models[setting] = model
             continue
         if setting.params not in written:
-            tag = hashlib.sha256((spec.model + repr(setting.params)).encode()).hexdigest()[:16]
-            path = out / MODELS / f"{robot.name}-{tag}.urdf"
+            tag = hashlib.sha256((tag_of + repr(setting.params)).encode()).hexdigest()[:16]
+            path = out / MODELS / f"{full.name}-{tag}.urdf"
             if not path.is_file():
                 path.parent.mkdir(parents=True, exist_ok=True)
-                write_params(robot, kind, dict(setting.params), path)
-            written[setting.params] = str(path.resolve())
+                write_params(full, kind, dict(setting.params), path)
+            resolved = path.resolve()
+            written[setting.params] = model.with_urdf(resolved) if isinstance(model, SceneSource) else str(resolved)
         models[setting] = written[setting.params]
     return models

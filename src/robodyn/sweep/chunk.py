@@ -3,13 +3,20 @@
 The path is chosen per chunk (all its runs share a setting):
 
 * ``fast``: a seed kind without controller, integrator ``rk4`` or ``semi_implicit_euler``: the
-  compiled closed-form loop of :class:`robodyn.sim.fast.FastDynamics`, run by run;
-* ``closed_loop``: an LQR controller with ``rk4`` and only final state, energy drift, time to
-  balance or wall time asked: one vectorised RK4 over the chunk (as :mod:`robodyn.control.rollout`),
-  accelerations from the compiled closed form (seed kinds) or ABA, balance tracked every step;
-* ``batch``: any other torque-free lossless robot with an explicit fixed-step method and only final
-  state, energy drift or wall time asked: :func:`robodyn.sim.batch.rollout` (one thread);
-* ``simulate``: anything else, :func:`robodyn.simulate` run by run.
+  compiled closed-form loop of :class:`robodyn.sim.fast.FastDynamics`, run by run (a run that
+  reaches a URDF position limit is computed again by ``simulate``, which stops it there);
+* ``closed_loop``: an LQR, or a swing-up handing over to one (:mod:`robodyn.sweep.policy`), with
+  ``rk4`` and only final state, energy drift, time to balance or wall time asked: one vectorised
+  RK4 over the chunk (as :mod:`robodyn.control.rollout`), accelerations from the compiled closed
+  form (seed kinds) or ABA, balance tracked every step. A run that reaches a URDF position limit
+  (where :func:`robodyn.simulate` would stop it) is computed again by ``simulate``;
+* ``batch``: any other torque-free lossless robot without position limits, with an explicit
+  fixed-step method and only final state, energy drift or wall time asked:
+  :func:`robodyn.sim.batch.rollout` (one thread). It has no stops and returns final states only,
+  so it cannot see a run pass a limit on the way: a robot with finite limits goes to ``simulate``;
+* ``simulate``: anything else, :func:`robodyn.simulate` run by run: a user's controller file, a
+  scene's constant torque or PD law, a scene with constraints or springs beyond the URDF's stops
+  and efforts, or a scene that picks its dynamics backend.
 
 Every operation in the vectorised paths acts on each run's row alone (no matrix product across
 runs), so a run's numbers do not depend on its chunk: a chunk of one gives the same bits.
@@ -29,7 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodyn import dynamics
-from robodyn.control import LQR, make, plant
+from robodyn.control import make, plant
 from robodyn.errors import DivergenceError, StepError
 from robodyn.integrators import FixedStepIntegrator, get, step_count
 from robodyn.integrators.stability import lyapunov
@@ -41,7 +48,9 @@ from robodyn.sim.simulation import simulate
 from robodyn.sim.trajectory import Trajectory
 from robodyn.sweep import measures as ms
 from robodyn.sweep.plan import Chunk
-from robodyn.sweep.spec import NO_CONTROLLER
+from robodyn.sweep.policy import Policy, batch_policy
+from robodyn.sweep.source import Model, SceneSource
+from robodyn.sweep.spec import NO_CONTROLLER, SCENE_CONTROLLER
 
 Array = NDArray[np.float64]
 
@@ -58,13 +67,20 @@ class Job:
 
 
 @lru_cache(maxsize=8)
-def robot_of(model: str) -> Robot:
+def built_of(model: Model) -> tuple[Robot, Any]:
+    """(robot, reduction or None): the loaded model, or the scene's (cached per worker process)."""
+    if isinstance(model, SceneSource):
+        return model.build()
+    return load(model), None
+
+
+def robot_of(model: Model) -> Robot:
     """The loaded model (cached per worker process)."""
-    return load(model)
+    return built_of(model)[0]
 
 
 @lru_cache(maxsize=8)
-def fast_of(model: str) -> FastDynamics | None:
+def fast_of(model: Model) -> FastDynamics | None:
     """The compiled closed form of a seed-kind model (checked against ABA), or None."""
     robot = robot_of(model)
     from robodyn.kinds.params import detect_kind
@@ -76,11 +92,28 @@ def fast_of(model: str) -> FastDynamics | None:
 
 
 @lru_cache(maxsize=8)
-def controller_of(model: str, name: str, gains: str) -> Any:
-    """The controller ``name`` for the model, with its gains from the JSON text (cached)."""
+def controller_of(model: Model, name: str, gains: str) -> Any:
+    """The controller ``name`` for the model, with its gains from the JSON text (cached).
+
+    ``"scene"`` is the scene's own [control]: None, a constant torque or a controller.
+    """
     if name == NO_CONTROLLER:
         return None
+    if name == SCENE_CONTROLLER and isinstance(model, SceneSource):
+        robot, reduction = built_of(model)
+        return model.scene.torque(robot, reduction)
     return make(name, robot_of(model), **json.loads(gains).get(name, {}))
+
+
+@lru_cache(maxsize=8)
+def policy_of(model: Model, name: str, gains: str) -> Policy | None:
+    """The batch form of the controller (:func:`robodyn.sweep.policy.batch_policy`), or None (cached)."""
+    return batch_policy(controller_of(model, name, gains), fast_of(model))
+
+
+def plain(model: Model) -> bool:
+    """True unless a scene asks for more than the URDF's stops and efforts, or picks its backend."""
+    return not isinstance(model, SceneSource) or (model.constraints.is_default and model.backend is None)
 
 
 def upright_of(robot: Robot) -> tuple[Array, NDArray[np.bool_]] | None:
@@ -98,16 +131,23 @@ def path_of(chunk: Chunk, job: Job) -> str:
     s = chunk.setting
     wanted = set(job.measures)
     controller = controller_of(chunk.model, s.controller, job.gains)
+    if not plain(chunk.model):
+        return "simulate"
     if controller is None:
         if s.integrator in METHODS and fast_of(chunk.model) is not None:
             return "fast"
         method = get(s.integrator)
         explicit = isinstance(method, FixedStepIntegrator) and not method.implicit and not method.symplectic
         lossless = not np.any(robot.damping) and not np.any(robot.friction)
-        if wanted <= ms.BATCH_MEASURES and explicit and lossless and robot.nq_equals_nv:
+        free = (
+            not np.isfinite(robot.model.lowerPositionLimit).any()
+            and not np.isfinite(robot.model.upperPositionLimit).any()
+        )
+        if wanted <= ms.BATCH_MEASURES and explicit and lossless and free and robot.nq_equals_nv:
             return "batch"
         return "simulate"
-    if isinstance(controller, LQR) and s.integrator == "rk4" and wanted <= ms.CLOSED_LOOP_MEASURES:
+    closed = s.integrator == "rk4" and wanted <= ms.CLOSED_LOOP_MEASURES
+    if closed and policy_of(chunk.model, s.controller, job.gains) is not None:
         return "closed_loop"
     return "simulate"
 
@@ -121,7 +161,8 @@ def execute(chunk: Chunk, job: Job) -> dict[str, Any]:
         rows = _batch(chunk, job)
     else:
         rows = [_one(chunk, job, k, path) for k in range(chunk.runs.size)]
-    columns: dict[str, Any] = {"run": chunk.runs.copy(), "path": [path] * chunk.runs.size}
+    paths = [row.pop("path", path) for row in rows]
+    columns: dict[str, Any] = {"run": chunk.runs.copy(), "path": paths}
     for name, value in chunk.setting.params:
         columns[f"params.{name}"] = np.full(chunk.runs.size, value)
     columns["integrator"] = [chunk.setting.integrator] * chunk.runs.size
@@ -146,6 +187,19 @@ def _single(chunk: Chunk, job: Job, path: str) -> Any:
         assert fast is not None  # path_of chose "fast" because there is one
         return lambda q, v, T: fast.simulate(q, v, duration=T, dt=s.dt, method=s.integrator)
     controller = controller_of(chunk.model, s.controller, job.gains)
+    if isinstance(chunk.model, SceneSource):
+        constraints, backend = chunk.model.constraints, chunk.model.backend
+        return lambda q, v, T: simulate(
+            robot,
+            q,
+            v,
+            duration=T,
+            dt=s.dt,
+            integrator=s.integrator,
+            torque=controller,
+            constraints=constraints,
+            backend=backend,
+        )
     return lambda q, v, T: simulate(robot, q, v, duration=T, dt=s.dt, integrator=s.integrator, torque=controller)
 
 
@@ -160,6 +214,10 @@ def _one(chunk: Chunk, job: Job, k: int, path: str) -> dict[str, Any]:
     except (DivergenceError, StepError):
         trajectory = None  # type: ignore[assignment]
     wall = time.perf_counter() - start
+    if path == "fast" and trajectory is not None:  # the compiled loop has no stops: simulate applies them
+        finite = trajectory.q[np.isfinite(trajectory.q).all(axis=1)]
+        if finite.size and stopped(robot, finite.min(axis=0)[None, :], finite.max(axis=0)[None, :]).size:
+            return {**_one(chunk, job, k, "simulate"), "path": "simulate"}
     user = {m: ms.load_user_measure(m) for m in job.measures if ms.is_user(m)}
     row: dict[str, Any] = {"status": "diverged" if trajectory is None else trajectory.status}
     if trajectory is not None:
@@ -172,6 +230,13 @@ def _one(chunk: Chunk, job: Job, k: int, path: str) -> dict[str, Any]:
     if "wall_time" in job.measures:
         row["wall_time"] = wall
     return row
+
+
+def stopped(robot: Robot, q_min: Array, q_max: Array) -> NDArray[np.intp]:
+    """The rows whose coordinate range [q_min, q_max] (m, nq) leaves the URDF position limits, where simulate stops."""
+    lower = np.asarray(robot.model.lowerPositionLimit, dtype=np.float64)
+    upper = np.asarray(robot.model.upperPositionLimit, dtype=np.float64)
+    return np.flatnonzero(np.any((q_min < lower) | (q_max > upper), axis=1))
 
 
 def _nan_row(job: Job, robot: Robot) -> dict[str, float]:
@@ -245,10 +310,14 @@ def _batch(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
 
 
 def _closed_loop(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
-    """The chunk under its LQR: classical RK4 over the batch, torque at every stage, balance tracked."""
+    """The chunk under its controller's batch form: classical RK4, torque at every stage, balance tracked.
+
+    Runs that reach a URDF position limit are computed again one by one by ``simulate`` (which stops them there).
+    """
     s = chunk.setting
     robot = robot_of(chunk.model)
-    lqr: LQR = controller_of(chunk.model, s.controller, job.gains)
+    policy = policy_of(chunk.model, s.controller, job.gains)
+    assert policy is not None  # path_of chose "closed_loop" because there is one
     fast = fast_of(chunk.model)
     upright = upright_of(robot)
     actuated = np.flatnonzero(robot.actuated)
@@ -264,16 +333,13 @@ def _closed_loop(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
         return out
 
     def rates(q: Array, v: Array) -> Array:
-        e = lqr.plant.error(q, v, lqr.q_eq)
-        u = np.repeat(lqr.u_eq[None, :], q.shape[0], axis=0)
-        for j in range(e.shape[1]):  # u_eq - K e, column by column: each row's sum in the same order
-            u = u - e[:, j : j + 1] * lqr.K[:, j]
         tau = np.zeros_like(v)
-        tau[:, actuated] = lqr.plant.saturate(u)
+        tau[:, actuated] = policy(q, v)
         return accel(q, v, tau)
 
     Q, V = chunk.q0.copy(), chunk.v0.copy()
     last_out = np.full(Q.shape[0], -1, dtype=np.int64)
+    q_min, q_max = Q.copy(), Q.copy()
     start = time.perf_counter()
     with np.errstate(all="ignore"):  # a state that blows up is kept as NaN, not raised on
         for step in range(steps + 1):
@@ -289,6 +355,11 @@ def _closed_loop(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
             V = V + dt / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v)
             bad = ~np.isfinite(Q).all(axis=1) | ~np.isfinite(V).all(axis=1)
             Q[bad], V[bad] = np.nan, np.nan
+            np.fmin(q_min, Q, out=q_min)
+            np.fmax(q_max, Q, out=q_max)
     wall = time.perf_counter() - start
     balance = np.where(last_out == steps, np.nan, (last_out + 1) * dt) if upright is not None else None
-    return _rows(chunk, job, Q, V, balance, wall)
+    rows = _rows(chunk, job, Q, V, balance, wall)
+    for k in stopped(robot, q_min, q_max):  # the stop changes the motion: simulate applies it
+        rows[k] = {**_one(chunk, job, int(k), "simulate"), "path": "simulate"}
+    return rows

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from robodyn.sweep.source import Model
 from robodyn.sweep.spec import SweepSpec
 
 Array = NDArray[np.float64]
@@ -39,7 +40,7 @@ class Chunk:
     id: str
     index: int
     setting: Setting
-    model: str
+    model: Model
     runs: NDArray[np.int64]
     q0: Array
     v0: Array
@@ -66,19 +67,35 @@ def settings(spec: SweepSpec) -> tuple[Setting, ...]:
     return tuple(out)
 
 
-def states(spec: SweepSpec, joint_names: tuple[str, ...]) -> tuple[Array, Array]:
-    """The initial states q0 (n, nq), v0 (n, nv): the grid of every q0 and v0 axis (last fastest)."""
+def states(
+    spec: SweepSpec, joint_names: tuple[str, ...], defaults: tuple[Array, Array] | None = None
+) -> tuple[Array, Array]:
+    """The initial states q0 (n, nq), v0 (n, nv): the grid of every q0 and v0 axis (last fastest).
+
+    A joint without an axis starts at ``defaults`` (q (nq,), v (nv,): a scene's initial state), else at 0.
+    """
     nq = len(joint_names)
-    axes = [spec.q0.get(j, (0.0,)) for j in joint_names] + [spec.v0.get(j, (0.0,)) for j in joint_names]
+    q_default, v_default = defaults if defaults is not None else (np.zeros(nq), np.zeros(nq))
+    axes = [spec.q0.get(j, (float(q_default[i]),)) for i, j in enumerate(joint_names)]
+    axes += [spec.v0.get(j, (float(v_default[i]),)) for i, j in enumerate(joint_names)]
     mesh = np.meshgrid(*[np.asarray(a, dtype=np.float64) for a in axes], indexing="ij")
     flat = np.stack([m.reshape(-1) for m in mesh], axis=1)
     return np.ascontiguousarray(flat[:, :nq]), np.ascontiguousarray(flat[:, nq:])
 
 
-def make_plan(spec: SweepSpec, joint_names: tuple[str, ...], models: dict[Setting, str]) -> Plan:
-    """Cut the sweep into chunks of at most ``spec.chunk`` runs; ``models`` gives each setting's model to load."""
+def make_plan(
+    spec: SweepSpec,
+    joint_names: tuple[str, ...],
+    models: dict[Setting, Model],
+    *,
+    defaults: tuple[Array, Array] | None = None,
+) -> Plan:
+    """Cut the sweep into chunks of at most ``spec.chunk`` runs; ``models`` gives each setting's model to load.
+
+    ``defaults`` (q (nq,), v (nv,)) is where joints without an axis start (0 without).
+    """
     all_settings = settings(spec)
-    q0, v0 = states(spec, joint_names)
+    q0, v0 = states(spec, joint_names, defaults)
     n_states = q0.shape[0]
     chunks: list[Chunk] = []
     for s_index, setting in enumerate(all_settings):

@@ -58,7 +58,7 @@ def _maps(data: dict[str, Any], x: str, y: str, measure: str, axes: dict[str, An
         tag = "-".join(f"{a.split('.')[-1]}={v}" for a, v in zip(others, key, strict=True))
         stem = f"map-{measure}" + (f"-{tag}" if tag else "")
         fig, ax = plt.subplots(figsize=(6, 5))
-        extent = (xs[0], xs[-1], ys[0], ys[-1])
+        extent = (*_edges(xs), *_edges(ys))  # each cell centred on its grid value
         cmap = "viridis_r" if measure == "time_to_balance" else ("magma" if measure == "lyapunov" else "viridis")
         image = ax.imshow(grid, origin="lower", extent=extent, aspect="auto", cmap=cmap, interpolation="nearest")
         label = {"time_to_balance": "time to balance [s] (blank: never)", "lyapunov": "largest Lyapunov exponent [1/s]"}
@@ -74,6 +74,12 @@ def _maps(data: dict[str, Any], x: str, y: str, measure: str, axes: dict[str, An
         write_text_atomically(folder / f"{stem}.csv", "\n".join(lines) + "\n")
         out += [png, folder / f"{stem}.csv"]
     return out
+
+
+def _edges(values: Any) -> tuple[float, float]:
+    """The outer edges of cells centred on sorted grid ``values`` (half a spacing beyond each end; +-0.5 for one)."""
+    half = 0.5 * (values[-1] - values[0]) / (values.size - 1) if values.size > 1 else 0.5
+    return float(values[0] - half), float(values[-1] + half)
 
 
 def _sensitivity(data: dict[str, Any], params: list[str], measure: str, folder: Path) -> list[Path]:

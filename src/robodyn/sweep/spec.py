@@ -1,9 +1,10 @@
 """The sweep file: a TOML description of many independent runs, read and checked into a :class:`SweepSpec`.
 
-A sweep file names a model and the axes of the runs; every axis with more than one value is
-crossed with every other (a full grid)::
+A sweep file names a model (or a scene) and the axes of the runs; every axis with more than one
+value is crossed with every other (a full grid)::
 
     model = "pendubot"            # a built-in name, an example-robot-data name or a URDF path
+    # or: scene = "../cart_pole_swing_up.toml"   (a scene file: see below)
     duration = 5.0                # [s] of every run
     dt = 1e-3                     # [s]; a list makes it an axis
     integrator = "rk4"            # or a list: an axis
@@ -25,6 +26,15 @@ crossed with every other (a full grid)::
 Joints left out start at 0. Names (keys, joints, parameters, measures, integrators,
 controllers) are checked against what exists, and a miss names the close matches; the checks
 that need the model happen in :func:`check_against`.
+
+**A scene** (``scene = "path.toml"``, a ``robodyn run`` scene file) instead of ``model`` supplies
+what the sweep file leaves out: the model (its ``[model]``, reduced to the joints it keeps), the
+initial state (joints without a ``[q0]``/``[v0]`` axis start at the scene's ``[initial]``), the
+duration, dt and integrator (``[simulate]``, when the sweep gives none), the constraints and
+springs, and the controller (``[control]``, the controller named ``"scene"``, the default when
+the sweep gives no ``controller``). Every key the sweep file gives overrides the scene's.
+Relative paths (``scene``, ``model``, controller and measure files) are read from the sweep
+file's folder.
 """
 
 from __future__ import annotations
@@ -52,6 +62,7 @@ TOP_KEYS = (
     "model",
     "params",
     "q0",
+    "scene",
     "seed",
     "v0",
 )
@@ -60,15 +71,23 @@ MAX_AXIS_POINTS = 10_000_000
 MAX_CHUNK = 1_000_000
 DEFAULT_CHUNK = 1000
 NO_CONTROLLER = "none"
+# The controller name that means the scene's own [control].
+SCENE_CONTROLLER = "scene"
+# Defaults of the keys a sweep file may leave to its scene's [simulate] (or to these, without a scene).
+DEFAULT_DURATION = 5.0
+DEFAULT_DT = 1e-3
+DEFAULT_INTEGRATOR = "rk4"
 
 
 @dataclass(frozen=True)
 class SweepSpec:
-    """A checked sweep: the model, each axis's values (tuples of floats or names) and what to measure.
+    """A checked sweep: the model or scene, each axis's values (tuples of floats or names) and what to measure.
 
     ``q0`` and ``v0`` map joint names to their values [rad | m] and [rad/s | m/s]; ``params`` a
     seed-kind parameter name to its values (SI units); ``base`` is the folder that relative paths
     in the file are read from; ``digest`` identifies everything that decides a run's numbers.
+    ``scene`` is the scene file's path ("" without one; ``model`` is then "" until the scene is
+    read); ``given`` the top-level keys the file gave (the rest may come from the scene).
     """
 
     source: str
@@ -86,6 +105,8 @@ class SweepSpec:
     seed: int = 0
     base: Path = field(default_factory=Path.cwd)
     digest: str = ""
+    scene: str = ""
+    given: frozenset[str] = frozenset()
 
 
 def load(source: str | Path | Mapping[str, Any]) -> SweepSpec:
@@ -119,12 +140,18 @@ def parse(data: Mapping[str, Any], *, name: str, base: Path) -> SweepSpec:
     for key in data:
         if key not in TOP_KEYS:
             raise _unknown("key", str(key), TOP_KEYS, name)
-    if "model" not in data:
-        raise InputError(f"{name}: missing key 'model' (a built-in name, an example-robot-data name or a URDF path)")
-    model = _text(data["model"], f"{name}: model")
-    duration = _positive(data.get("duration", 5.0), f"{name}: duration [s]")
-    dts = tuple(_positive(x, f"{name}: dt [s]") for x in _listed(data.get("dt", 1e-3)))
-    integrators = tuple(_text(x, f"{name}: integrator") for x in _listed(data.get("integrator", "rk4")))
+    if ("model" in data) == ("scene" in data):
+        raise InputError(
+            f"{name}: give exactly one of 'model' (a built-in name, an example-robot-data name or a URDF path) "
+            "and 'scene' (a scene file)"
+        )
+    model = _text(data["model"], f"{name}: model") if "model" in data else ""
+    scene = _text(data["scene"], f"{name}: scene") if "scene" in data else ""
+    if scene and not scene.endswith(".toml"):
+        raise InputError(f"{name}: scene must be a scene file NAME.toml, got {scene!r}")
+    duration = _positive(data.get("duration", DEFAULT_DURATION), f"{name}: duration [s]")
+    dts = tuple(_positive(x, f"{name}: dt [s]") for x in _listed(data.get("dt", DEFAULT_DT)))
+    integrators = tuple(_text(x, f"{name}: integrator") for x in _listed(data.get("integrator", DEFAULT_INTEGRATOR)))
     controllers = tuple(_text(x, f"{name}: controller") for x in _listed(data.get("controller", NO_CONTROLLER)))
     measures = tuple(_text(x, f"{name}: measure") for x in _listed(data.get("measure", "final_state")))
     gains = _table(data.get("gains", {}), f"{name}: gains")
@@ -155,6 +182,8 @@ def parse(data: Mapping[str, Any], *, name: str, base: Path) -> SweepSpec:
         chunk=chunk,
         seed=seed,
         base=base,
+        scene=scene,
+        given=frozenset(str(k) for k in data),
     )
     return spec
 
@@ -168,6 +197,7 @@ def with_digest(spec: SweepSpec, files: Mapping[str, bytes]) -> SweepSpec:
     h = hashlib.sha256()
     parts = (
         spec.model,
+        spec.scene,
         repr(spec.duration),
         repr(spec.measures),
         repr(sorted((k, sorted(v.items())) for k, v in spec.gains.items())),

@@ -1,6 +1,6 @@
 """Swing up and balance: the evidence for robodyn.control on the cart-pole and the Pendubot.
 
-For both seed systems, measured in one run:
+For both systems, measured in one run:
 
 * the linearisation at the upright: Robot.linearize (Pinocchio's analytic ABA derivatives)
   against the closed form differentiated by sympy and against central finite differences of
@@ -17,10 +17,11 @@ For both seed systems, measured in one run:
   off by -20 %, 0 and +20 % (a density error: mass and rotational inertia scaled together),
   written by robodyn.kinds.edit.write_params into a temporary folder; the success rate.
 
-    python benchmarks/bench_control.py --out /tmp/control
+    python benchmarks/bench_control.py --out bench-out
 
-prints everything and writes control.json and control_<system>.png / _basin.png (+ .svg) to --out
-(default: a new temporary folder, named on the last line).
+prints everything and writes control.json (with the date, machine and load of the run) and
+control_<system>.png / _basin.png (+ .svg) to --out (default bench-out/). ``--quick`` runs a
+5 x 5 basin grid and the nominal masses only, to show the script works.
 """
 
 from __future__ import annotations
@@ -39,7 +40,7 @@ from robodyn.control import rollout, symbolic
 from robodyn.control.plant import wrap
 from robodyn.kinds import edit, params
 
-from _common import argument_parser, pyplot, save_figure, write_json
+from _common import argument_parser, output_folder, pyplot, run_facts, save_figure, write_json
 
 DT = 2e-3  # [s] RK4 step of every run
 SETTLE_TOL = 0.05  # [rad] "upright": every angle within this of upright, and staying there
@@ -271,12 +272,19 @@ def draw_basin(name: str, ctl: control.Switched, result: dict[str, Any], out: Pa
 
 
 def main() -> None:
+    global GRID, MASS_FACTORS
     parser = argument_parser(__doc__)
-    parser.set_defaults(out=None)
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="a small run that shows the script works (5 x 5 basin grid, nominal masses only): not figures to quote",
+    )
     args = parser.parse_args()
-    out = Path(tempfile.mkdtemp(prefix="bench_control-")) if args.out is None else args.out
-    out.mkdir(parents=True, exist_ok=True)
-    report: dict[str, Any] = {"dt_s": DT, "settle_tol_rad": SETTLE_TOL}
+    if args.quick:
+        GRID, MASS_FACTORS = 5, (1.0,)
+    out = output_folder(args.out, overwrite_committed=args.overwrite_committed)
+    facts = run_facts()
+    report: dict[str, Any] = {"dt_s": DT, "settle_tol_rad": SETTLE_TOL, "quick": args.quick}
     with tempfile.TemporaryDirectory(prefix="bench_control_models-") as models:
         for name in SYSTEMS:
             robot = robodyn.load(name)
@@ -325,7 +333,7 @@ def main() -> None:
             robust = robustness(robot, ctl, Path(models))
             print(f"  success {robust['successes']} ({100 * robust['success_rate']:.0f} %)")
             report[name] = {"linearisation": lin, "lqr": lqr, "swing_up": swing, "basin": area, "robustness": robust}
-    path = write_json(out, "control", report)
+    path = write_json(out, "control", report, facts)
     print(f"wrote {path} and the charts to {out}")
 
 

@@ -1,9 +1,9 @@
-"""Fidelity against cost for the simplifications the seed systems make.
+"""Fidelity against cost for the simplifications the textbook's systems make.
 
 1. Geared arm: the rotor as armature (the minimal model, 1 body, ABA) against the rotor as
    its own body coupled by a mimic joint (2 bodies; ABA refuses mimic joints, so CRBA +
    Cholesky). Released from 1 rad, 5 s, RK4 at dt = 1 ms.
-2. Cart-pole: the seed's point bob against the distributed (uniform rod) pole, same mass
+2. Cart-pole: the textbook's point bob against the distributed (uniform rod) pole, same mass
    and centre of mass. Pole released 0.1 rad off upright, cart free, 2 s, RK4 at dt = 1 ms.
 
 Both models of a pair run through the same RK4 loop (robodyn.integrators.solve), without
@@ -14,12 +14,12 @@ makes) and the wall time per simulated second of each (the time it saves).
 
     python benchmarks/bench_fidelity.py --out bench-out
 
-prints a table and writes bench-out/fidelity.json, fidelity.png and fidelity.svg.
+prints a table and writes bench-out/fidelity.json (with the date, machine and load of the run),
+fidelity.png and fidelity.svg.
 """
 
 from __future__ import annotations
 
-import platform
 from pathlib import Path
 
 import numpy as np
@@ -28,7 +28,7 @@ import robodyn
 from robodyn import integrators
 from robodyn.model.load import load
 
-from _common import argument_parser, best_of, pyplot, save_figure, write_json
+from _common import argument_parser, best_of, output_folder, pyplot, run_facts, save_figure, write_json
 
 DT = 1e-3
 
@@ -123,7 +123,8 @@ def main() -> None:
     parser = argument_parser(__doc__)
     parser.add_argument("--repeat", type=int, default=3, help="runs per model (best kept)")
     args = parser.parse_args()
-    args.out.mkdir(parents=True, exist_ok=True)
+    output_folder(args.out, overwrite_committed=args.overwrite_committed)
+    facts = run_facts()
     results = [
         pair(
             "geared arm",
@@ -157,8 +158,7 @@ def main() -> None:
             f"{r['simple']['per_simulated_second_s']:11.4f} {r['rich']['per_simulated_second_s']:9.4f} "
             f"{100 * r['time_saved_fraction']:5.0f}%"
         )
-    result = {"robodyn": robodyn.__version__, "machine": platform.platform(), "dt": DT, "pairs": results}
-    path = write_json(args.out, "fidelity", result)
+    path = write_json(args.out, "fidelity", {"dt": DT, "pairs": results}, facts)
     chart(results, args.out)
     print(f"wrote {path}, fidelity.png, fidelity.svg")
 

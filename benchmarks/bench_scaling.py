@@ -9,7 +9,9 @@ Measured side by side in one run, for every model:
 
     python benchmarks/bench_scaling.py --out bench-out
 
-prints a table and writes bench-out/scaling.json, scaling.png and scaling.svg.
+prints a table and writes bench-out/scaling.json (with the date, machine and load of the run),
+scaling.png and scaling.svg. The documentation's figure is refreshed with
+``--out docs/benchmarks --overwrite-committed``.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ from robodyn.model.load import load, load_geometry
 from robodyn.sim.simulation import simulate
 from robodyn.studies.exactness import time_calls
 
-from _common import argument_parser, best_of, pyplot, save_figure, write_json
+from _common import argument_parser, best_of, output_folder, pyplot, run_facts, save_figure, write_json
 
 # (label, model, load options). Reduced entries keep the joints a scene would move.
 CASES = [
@@ -117,15 +119,30 @@ def main() -> None:
     parser.add_argument("--calls", type=int, default=2000, help="random states per dynamics call timing")
     parser.add_argument("--sim-seconds", type=float, default=1.0, help="simulated time per model [s]")
     parser.add_argument("--load-repeat", type=int, default=3, help="loads per model (best kept)")
+    parser.add_argument(
+        "--only",
+        default=None,
+        help="comma-separated labels of the rows to measure (default: all: "
+        + ", ".join(label for label, _, _ in CASES)
+        + ")",
+    )
     args = parser.parse_args()
-    args.out.mkdir(parents=True, exist_ok=True)
+    cases = CASES
+    if args.only is not None:
+        wanted = [label.strip() for label in args.only.split(",")]
+        unknown = sorted(set(wanted) - {label for label, _, _ in CASES})
+        if unknown:
+            parser.error(f"--only: unknown rows {unknown}; expected labels among {[label for label, _, _ in CASES]}")
+        cases = [case for case in CASES if case[0] in wanted]
+    output_folder(args.out, overwrite_committed=args.overwrite_committed)
+    facts = run_facts()
     rows = []
     header = (
         f"{'model':26s} {'nv':>4s} {'M us':>8s} {'C us':>8s} {'G us':>8s} {'ABA us':>8s} "
         f"{'sim s/s':>8s} {'load ms':>8s} {'+mesh ms':>9s}"
     )
     print(header)
-    for label, name, options in CASES:
+    for label, name, options in cases:
         row = measure(
             label, name, options, calls=args.calls, sim_seconds=args.sim_seconds, load_repeat=args.load_repeat
         )
@@ -137,13 +154,11 @@ def main() -> None:
             f"{row['load_with_geometry_s'] * 1e3:9.2f}"
         )
     result = {
-        "robodyn": robodyn.__version__,
-        "machine": platform.platform(),
         "calls": args.calls,
         "sim_seconds": args.sim_seconds,
         "rows": rows,
     }
-    path = write_json(args.out, "scaling", result)
+    path = write_json(args.out, "scaling", result, facts)
     chart(rows, args.out)
     print(f"wrote {path}, scaling.png, scaling.svg")
 

@@ -1,6 +1,6 @@
 """Fuzz robodyn with hostile input: mutated URDFs, command lines and scene files, each in a child process.
 
-    python benchmarks/fuzz.py [--cases 10000] [--seed 0] [--jobs 2] [--out DIR]
+    python benchmarks/fuzz.py [--cases 10000] [--seed 0] [--jobs 2] [--out DIR (default bench-out)]
                               [--time-limit 60] [--memory-gib 4] [--only INDEX]
 
 Each case is drawn from ``(seed, index)`` alone (``--only INDEX`` replays one), written into a
@@ -1275,12 +1275,23 @@ def save_failure(run: Running, outcome: dict[str, Any], out: Path) -> None:
     (target / "case.json").write_text(json.dumps({**outcome, "argv": run.case.argv}, indent=2))
 
 
+def _shared() -> Any:
+    """``benchmarks/_common.py``: the --out folder, its guard and the run facts (found beside this file)."""
+    here = str(Path(__file__).resolve().parent)
+    if here not in sys.path:
+        sys.path.insert(0, here)
+    import _common
+
+    return _common
+
+
 def campaign(args: argparse.Namespace) -> dict[str, Any]:
     """Run the cases with ``args.jobs`` children at a time; print progress and the table; save fuzz.json."""
     from robodyn.cli import main
 
-    out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="robodyn-fuzz-"))
-    out.mkdir(parents=True, exist_ok=True)
+    common = _shared()
+    out = common.output_folder(Path(args.out), overwrite_committed=args.overwrite_committed).resolve()
+    facts = common.run_facts()
     cases_dir = Path(tempfile.mkdtemp(prefix="cases-", dir=out))
     warm = cases_dir / "warm"
     warm.mkdir()
@@ -1340,9 +1351,8 @@ def campaign(args: argparse.Namespace) -> dict[str, Any]:
                   f"{bad} with problems", flush=True)  # fmt: skip
     signal.setitimer(signal.ITIMER_REAL, 0)
     summary = table(outcomes, time.monotonic() - begin)
-    summary["command"] = " ".join(sys.argv)
     summary["findings"] = [o for o in outcomes if o["problems"]]
-    (out / "fuzz.json").write_text(json.dumps(summary, indent=2) + "\n")
+    common.write_json(out, "fuzz", summary, facts)
     shutil.rmtree(cases_dir, ignore_errors=True)
     print_table(summary)
     print(f"saved {out / 'fuzz.json'}" + (f" and {len(summary['findings'])} failing cases in {out / 'failures'}"
@@ -1356,7 +1366,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--cases", type=int, default=10_000, help="number of cases (default 10,000)")
     parser.add_argument("--seed", type=int, default=0, help="campaign seed: case i is drawn from (seed, i)")
     parser.add_argument("--jobs", type=int, default=2, help="children at a time (default 2)")
-    parser.add_argument("--out", default=None, help="folder for fuzz.json and failures/ (default: a new temp folder)")
+    _shared().add_out_arguments(parser)
     parser.add_argument("--time-limit", type=int, default=60, help="seconds per case before it counts as a hang")
     parser.add_argument("--memory-gib", type=int, default=4, help="address-space cap per case [GiB]")
     parser.add_argument("--only", type=int, default=None, help="run only case INDEX (to reproduce it)")

@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Set up and run robodyn's whole test suite on a fresh machine with Python 3.11:
 # headless Chromium for the browser tests (Debian's package, when run as root), a virtual
-# environment in .venv with robodyn and its test extra, then the house checks (ruff lint and
-# format, mypy, import-linter's layer contracts) and pytest. Any finding fails the run.
+# environment in .venv with robodyn and its test extra, then the static checks (ruff lint and
+# format, mypy, import-linter's layer contracts), the documentation built in strict mode (into a
+# temporary folder, outside the checkout), and pytest, whose tests/test_docs.py runs every command
+# and snippet of README.md and docs/. Any finding fails the run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -19,9 +21,13 @@ fi
 python3 -m venv .venv
 .venv/bin/python -m pip install --quiet --upgrade pip
 .venv/bin/python -m pip install --quiet ".[test]"
-echo "house checks: ruff, ruff format, mypy, import-linter"
-.venv/bin/ruff check src tests benchmarks examples
-.venv/bin/ruff format --check src tests benchmarks examples
+echo "static checks: ruff, ruff format, mypy, import-linter"
+.venv/bin/ruff check src tests benchmarks examples docs/hooks
+.venv/bin/ruff format --check src tests benchmarks examples docs/hooks
 .venv/bin/mypy src/robodyn
 .venv/bin/lint-imports
+echo "documentation: mkdocs build --strict"
+site="$(mktemp -d)"
+NO_MKDOCS_2_WARNING=1 .venv/bin/mkdocs build --strict --quiet --site-dir "$site"
+rm -rf "$site"
 .venv/bin/python -m pytest -q "$@"

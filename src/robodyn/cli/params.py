@@ -1,4 +1,4 @@
-"""``robodyn params``: the seed-kind parameters read from a URDF (+ SRDF), as JSON; ``--set`` changes them.
+"""``robodyn params``: the parameters of a built-in kind read from a URDF (+ SRDF), as JSON; ``--set`` changes them.
 
 ``--set m2=0.6`` prints the parameters of the modified model; with ``--write out.urdf`` the
 modified URDF (and the SRDF, as ``out.srdf``, when the model has one or a rotor parameter is

@@ -223,8 +223,8 @@ def not_loadable() -> dict[str, str]:
 
 
 _DESCRIPTIONS = {
-    "geared_arm": "single link driven by a DC motor through an n:1 gear train (seed Example 6.1.1)",
-    "cart_pole": "cart on a rail with a passive pole (seed Example 2)",
+    "geared_arm": "single link driven by a DC motor through an n:1 gear train (the textbook excerpt's Example 6.1.1)",
+    "cart_pole": "cart on a rail with a passive pole (the textbook excerpt's Example 2)",
     "pendubot": "two-link planar arm, joint 1 actuated, joint 2 passive (Spong and Block)",
     "geared_arm_rotor": "geared_arm with the rotor as its own body, coupled to the link by a mimic joint",
     "cart_pole_point_bob": "cart_pole with the pole's mass as a point bob at its centre of mass",

@@ -1,11 +1,11 @@
-"""The cart-pole (point bob) exactly as the seed notes print its equations of motion.
+"""The cart-pole (point bob) exactly as the textbook excerpt prints its equations of motion (Example 2).
 
     (M + m) y'' + m l cos th th'' - m l th'^2 sin th = f
     m l cos th y'' - m l sin th y' th' + m l^2 th'' - m g l sin th = 0
 
 Read as M q'' + C q' + G = tau, the second equation's "- m l sin th y' th'" term puts
 -m l sin th th' in C21. It is a misprint: that term cancels between d/dt dL/dth' and
-dL/dth. The seed's bob is a point (I = 0), so check this against a point-bob cart-pole:
+dL/dth. The excerpt's bob is a point (I = 0), so check this against a point-bob cart-pole:
 
     robodyn check examples/urdf/cart_pole_point_bob.urdf --formula examples/formulas/cart_pole_seed.py
 """

@@ -1,8 +1,8 @@
-"""The single-link arm exactly as the seed notes print Eq. (6.1.33), in the motor angle.
+"""The single-link arm exactly as the textbook excerpt prints Eq. (6.1.33) of Example 6.1.1, in the motor angle.
 
     (J_m + J_l / n) theta_m'' + (M g l / n) sin(theta_m / n) = tau
 
-The inertia should be J_m + J_l / n^2 (the seed's own Eq. 6.1.32 has n^2). Check it with:
+The inertia should be J_m + J_l / n^2 (the excerpt's own Eq. 6.1.32 has n^2). Check it with:
 
     robodyn check geared_arm --formula examples/formulas/geared_arm_seed.py
 """

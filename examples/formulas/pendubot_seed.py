@@ -1,4 +1,4 @@
-"""The Pendubot exactly as the seed notes print its matrix form, misprints included.
+"""The Pendubot exactly as the textbook excerpt prints its matrix form, misprints included.
 
 Check it with:  robodyn check pendubot --formula examples/formulas/pendubot_seed.py
 It fails on purpose: docs/errata.md lists the two misprints the check exposes here

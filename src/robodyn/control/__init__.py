@@ -1,4 +1,4 @@
-"""Control of the seed systems: LQR balance, energy swing-up, and the hand-over between them.
+"""Control of the built-in kinds: LQR balance, energy swing-up, and the hand-over between them.
 
 Controllers are torque callables tau(t, q, v) -> u (one entry per actuated joint) that
 :func:`robodyn.simulate` takes as ``torque=``; :func:`make` builds one by name for a robot::

@@ -85,7 +85,7 @@ def design(
     R: ArrayLike | None = None,
     K: ArrayLike | None = None,
 ) -> LQR:
-    """The LQR balance controller of ``robot`` at the equilibrium ``q_eq`` (default: the seed kind's upright).
+    """The LQR balance controller of ``robot`` at the equilibrium ``q_eq`` (default: the built-in kind's upright).
 
     Args:
         robot: the robot (nq == nv).

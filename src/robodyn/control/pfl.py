@@ -41,7 +41,7 @@ class Collocated:
         a, p = self.act, self.pas
         if p.size == 0:
             return M, h, M
-        if a.size == 1 and p.size == 1:  # the seed systems: scalar arithmetic, 5x faster than the solve
+        if a.size == 1 and p.size == 1:  # the built-in kinds: scalar arithmetic, 5x faster than the solve
             i, j = a[0], p[0]
             ratio = M[i, j] / M[j, j]
             return np.array([[M[i, i] - ratio * M[j, i]]]), np.array([h[i] - ratio * h[j]]), M

@@ -1,6 +1,6 @@
 """What a controller knows about its robot: the upright and hanging states, wrapped errors, the limits.
 
-The seed systems' conventions (see :mod:`robodyn.kinds.cart_pole` and :mod:`robodyn.kinds.pendubot`):
+The built-in kinds' conventions (see :mod:`robodyn.kinds.cart_pole` and :mod:`robodyn.kinds.pendubot`):
 
 * cart-pole, q = (y [m], theta [rad]) with theta from the upward vertical: upright q = (0, 0),
   hanging q = (0, pi);
@@ -31,7 +31,7 @@ Array = NDArray[np.float64]
 # room to brake from the speeds the swing-up reaches, before the simulator's rail stop.
 RAIL_MARGIN = 0.1
 
-# The seed kinds a controller knows the upright and hanging states of.
+# The built-in kinds a controller knows the upright and hanging states of.
 CONTROLLED_KINDS = ("cart_pole", "pendubot")
 
 _UPRIGHT = {"cart_pole": (0.0, 0.0), "pendubot": (np.pi / 2, 0.0)}
@@ -42,7 +42,7 @@ _HANGING = {"cart_pole": (0.0, np.pi), "pendubot": (-np.pi / 2, 0.0)}
 class Plant:
     """A robot as a controller sees it.
 
-    ``kind`` is the seed kind or None; ``angular`` (nq,) marks the revolute coordinates whose
+    ``kind`` is the built-in kind or None; ``angular`` (nq,) marks the revolute coordinates whose
     errors wrap; ``effort`` (n_act,) the effort limits [N m | N] (inf: none); ``rail`` the usable
     interval [m] of the actuated prismatic joint ``rail_index`` (into q), margin taken off, or None.
     """
@@ -65,11 +65,11 @@ class Plant:
         return int(self.effort.size)
 
     def upright(self) -> Array:
-        """The upright configuration (nq,) of a seed kind; InputError for other robots."""
+        """The upright configuration (nq,) of a built-in kind; InputError for other robots."""
         return self._seed_state(_UPRIGHT, "upright")
 
     def hanging(self) -> Array:
-        """The hanging configuration (nq,) of a seed kind (its stable rest); InputError for other robots."""
+        """The hanging configuration (nq,) of a built-in kind (its stable rest); InputError for other robots."""
         return self._seed_state(_HANGING, "hanging")
 
     def _seed_state(self, table: dict[str, tuple[float, float]], what: str) -> Array:

@@ -4,7 +4,7 @@
 thousands. Here the controller takes a batch, policy(q (m, nq), v (m, nv)) -> u (m, n_act), and
 the accelerations of the whole batch come from one call per RK4 stage:
 
-* ``"fast"``: the seed kinds' compiled closed form (:class:`robodyn.sim.fast.FastDynamics`,
+* ``"fast"``: the built-in kinds' compiled closed form (:class:`robodyn.sim.fast.FastDynamics`,
   checked against Pinocchio's ABA when built), joint damping included;
 * ``"aba"``: Pinocchio's ABA state by state (any robot with nq == nv), the slow, obviously
   correct oracle.
@@ -62,7 +62,7 @@ def closed_loop(
     """Advance every state of the batch (q0 (m, nq), v0 (m, nv)) for ``duration`` [s] by RK4 steps of ``dt`` [s].
 
     ``policy`` maps a batch of states to the actuated torques (m, n_act) [N m | N]; ``backend`` is
-    ``"fast"`` (seed kinds) or ``"aba"``. A state that blows up stays non-finite (NaN) from then on.
+    ``"fast"`` (built-in kinds) or ``"aba"``. A state that blows up stays non-finite (NaN) from then on.
     """
     if backend not in BACKENDS:
         raise UnknownNameError("rollout backend", backend, BACKENDS)

@@ -172,8 +172,8 @@ def pendubot(
 ) -> PendubotEnergy:
     """The Pendubot's swing-up; ``k_d`` defaults to ``K_D_FACTOR`` times the smallest value that keeps the law defined.
 
-    Only the ratios of the gains matter (W scales with them). The defaults were picked on the seed
-    model with its 2 N m effort limit: k_d close to its bound lets the energy term dominate, and
+    Only the ratios of the gains matter (W scales with them). The defaults were picked on the built-in
+    pendubot model with its 2 N m effort limit: k_d close to its bound lets the energy term dominate, and
     k_p = 30 holds link 1 near upright while k_v = 2 dissipates W.
 
     ``energy_offset`` [J] shifts the target E_up (for experiments; the upright needs 0).

@@ -1,6 +1,6 @@
 """The hand-derived closed forms linearised by sympy: the reference that Robot.linearize is checked against.
 
-A seed kind writes its Lagrangian closed form once (:mod:`robodyn.kinds.formula`), generic in its
+A built-in kind writes its Lagrangian closed form once (:mod:`robodyn.kinds.formula`), generic in its
 scalar type. Here it is evaluated on sympy symbols (through :class:`_Symbolic`, a scalar that
 answers ``np.cos`` and ``np.sin``), so M(q), C(q, v), G(q) come out as expressions, and
 

@@ -49,7 +49,7 @@ SCAN_START = 1e-2
 #   inaccurate method (semi-implicit Euler's bounded energy wobble, 1 / (1 - (h w / 2)^2)) gets
 #   there only within 0.5 % of its limit, while an unstable mode growing by rho > 1 a step does
 #   within the run's steps, and still within the physical range of a pendulum's energy;
-# * it is useless when the energy error exceeds ENERGY_ERROR_FRACTION (the "100 %").
+# * it is useless when the energy error exceeds ENERGY_ERROR_FRACTION (100 %).
 BLOWUP_FACTOR = 1e2
 ENERGY_ERROR_FRACTION = 1.0
 CRITERIA = {"blowup": BLOWUP_FACTOR, "energy": ENERGY_ERROR_FRACTION}

@@ -1,4 +1,4 @@
-"""The seed systems: closed forms written once, parameter extractors, user formula files, the check.
+"""The built-in kinds: closed forms written once, parameter extractors, user formula files, the check.
 
 ``robodyn.formulas`` is this package: :func:`get` a built-in kind's :class:`Formula`,
 :func:`load_user_formula` a user's derivation, :func:`resolve` either from a ``--formula`` value.

@@ -1,4 +1,4 @@
-"""Setting a seed kind's parameters in its URDF (+ SRDF): the file edits that realise each parameter.
+"""Setting a built-in kind's parameters in its URDF (+ SRDF): the file edits that realise each parameter.
 
 Each parameter is what :mod:`robodyn.kinds.params` reads, so an edit is the inverse of an
 extraction (world directions at q = 0, as there):

@@ -1,6 +1,6 @@
 """The closed-form dynamics of a kind: written once as scalar functions, served three ways.
 
-A seed kind writes its Lagrangian closed form once, as four scalar functions of a parameter
+A built-in kind writes its Lagrangian closed form once, as four scalar functions of a parameter
 sequence ``p`` (in the kind's ``PARAMS`` order) and the coordinates:
 
 * ``mass(p, q...) -> (m11, m12, m22)``, or ``(m11,)`` for one degree of freedom;

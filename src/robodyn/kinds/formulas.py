@@ -1,4 +1,4 @@
-"""The registry of built-in kinds: each seed system's closed form, by name.
+"""The registry of built-in kinds: each one's closed form, by name.
 
 Every kind resolves through :data:`KINDS`; a miss names the kinds that exist. The kinds are
 ``cart_pole``, ``geared_arm`` and ``pendubot`` (one module each, closed form written once).

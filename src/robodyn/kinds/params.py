@@ -1,4 +1,4 @@
-"""Parameters of the seed kinds, read from a loaded model so one formula serves every URDF.
+"""Parameters of the built-in kinds, read from a loaded model so one formula serves every URDF.
 
 ``extract(robot, kind)`` checks the kind's assumptions (joint types and axes, the link
 line, the centre of mass on it, no extra moving joints, no armature where the formula has
@@ -273,7 +273,7 @@ def from_mapping(kind: str, values: Mapping[str, object]) -> Params:
 
 
 def detect_kind(robot: Robot) -> str | None:
-    """The first seed kind whose assumptions ``robot`` meets, or None."""
+    """The first built-in kind whose assumptions ``robot`` meets, or None."""
     for kind in EXTRACTORS.names():
         try:
             EXTRACTORS.get(kind)(robot)

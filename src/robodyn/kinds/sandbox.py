@@ -2,7 +2,7 @@
 
 A formula file is code: it could call ``sys.exit(0)`` or ``os._exit(0)`` (robodyn would end with
 exit 0 and no output, a faked pass), loop for ever (a hung check), or print (a faked report).
-So :class:`FormulaProcess` starts a fresh Python (``subprocess``, its own session), which imports
+So :class:`FormulaProcess` starts a fresh Python (``subprocess``, in its own process group), which imports
 the file and evaluates it (:func:`serve`); robodyn's process never runs a line of it.
 
 * The child's stdout and stderr are pipes robodyn reads and keeps to itself: what the formula

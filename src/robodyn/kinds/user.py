@@ -106,7 +106,7 @@ def load_user_formula(
     ``mass_matrix(q, p)``, ``coriolis_matrix(q, v, p)``, ``gravity(q, p)``, optionally
     ``potential_energy(q, p)``, where ``p`` maps the kind's parameter names to floats.
     For ``KIND = "geared_arm"`` the file may set ``COORDINATES = "motor"`` to write its
-    formulas in the motor angle theta_m = n theta_l, as the seed does; robodyn maps them
+    formulas in the motor angle theta_m = n theta_l, as the textbook's Example 6.1.1 does; robodyn maps them
     to the link coordinate (M_l = n^2 M_m, C_l = n^2 C_m, G_l = n G_m).
 
     Args:

@@ -39,7 +39,7 @@ def load_in_process(path: Path, source: str) -> Formula:
     """Import the formula file at ``path`` here and wrap its functions; errors name ``source`` (the path as given).
 
     For ``KIND = "geared_arm"`` the file may set ``COORDINATES = "motor"`` to write its
-    formulas in the motor angle theta_m = n theta_l, as the seed does; they are mapped to the
+    formulas in the motor angle theta_m = n theta_l, as the textbook's Example 6.1.1 does; they are mapped to the
     link coordinate (M_l = n^2 M_m, C_l = n^2 C_m, G_l = n G_m).
     """
     path = path.resolve()

@@ -5,7 +5,7 @@ For one robot and one start state, :func:`sweep` runs
 * every fixed-step integrator over a ladder of steps dt, and every adaptive one over a ladder
   of tolerances rtol, through :func:`robodyn.simulate`;
 * the integrators of ``SweepPlan.all_backends_for`` on every dynamics backend (Pinocchio ABA,
-  CRBA + Cholesky, the NumPy hand formula) and, for the seed kinds, on the compiled fast path
+  CRBA + Cholesky, the NumPy hand formula) and, for the built-in kinds, on the compiled fast path
   (:mod:`robodyn.sim.fast`);
 
 and measures for each run:
@@ -97,7 +97,7 @@ class SweepPlan:
 # new integrator joins the bench without an edit here.
 NOT_SWEPT = {
     "scipy_bdf": "an implicit stiff solver like scipy_radau, which stands for them; BDF runs in the stiff study",
-    "scipy_lsoda": "switches between Adams and BDF by itself; the non-stiff seed systems would show only Adams",
+    "scipy_lsoda": "switches between Adams and BDF by itself; the non-stiff built-in kinds would show only Adams",
 }
 # Backends compared method for method (every other method runs on ABA only).
 BACKENDS = ("aba", "crba", "formula", "fast")
@@ -350,7 +350,7 @@ def sweep(
     """Run the work--precision sweep of ``plan`` on ``robot`` (see the module docstring).
 
     Backends that do not apply are skipped and named in ``Sweep.skipped``: ``formula`` and
-    ``fast`` need a seed kind (Pendubot, cart-pole, geared arm), ``fast`` also no Coulomb
+    ``fast`` need a built-in kind (Pendubot, cart-pole, geared arm), ``fast`` also no Coulomb
     friction. ``progress(done, total, label)`` is called after every run.
     """
     from robodyn.kinds.params import detect_kind
@@ -366,7 +366,7 @@ def sweep(
     fast = None
     for backend in plan.backends:
         if backend in ("formula", "fast") and kind is None:
-            skipped.append(f"{backend}: {robot.name} is not a seed kind (pendubot, cart_pole, geared_arm)")
+            skipped.append(f"{backend}: {robot.name} is not a built-in kind (pendubot, cart_pole, geared_arm)")
             continue
         if backend == "fast":
             from robodyn.sim.fast import FastDynamics

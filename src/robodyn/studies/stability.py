@@ -357,7 +357,7 @@ class Limit:
     """Predicted and measured largest stable dt [s] of one integrator on one model.
 
     ``measured_dt_max`` bisects on blow-up (energy error x 100, what the linear theory
-    predicts); ``energy_dt_max`` on the issue's "energy error over 100 %". ``ratio`` is
+    predicts); ``energy_dt_max`` on an energy error over 100 %. ``ratio`` is
     measured / predicted (1 when theory and measurement agree).
     """
 

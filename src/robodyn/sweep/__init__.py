@@ -221,7 +221,7 @@ def _check_params(spec: SweepSpec, robot: Any) -> str | None:
         return None
     kind = detect_kind(robot)
     if kind is None:
-        raise InputError(f"{spec.source}: [params] needs a seed-kind model (pendubot, cart_pole, geared_arm)")
+        raise InputError(f"{spec.source}: [params] needs a model of a built-in kind (pendubot, cart_pole, geared_arm)")
     for name, values in spec.params.items():
         for value in values:
             check_changes(kind, [(name, value)])

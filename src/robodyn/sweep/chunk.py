@@ -2,13 +2,13 @@
 
 The path is chosen per chunk (all its runs share a setting):
 
-* ``fast``: a seed kind without controller, integrator ``rk4`` or ``semi_implicit_euler``: the
+* ``fast``: a built-in kind without controller, integrator ``rk4`` or ``semi_implicit_euler``: the
   compiled closed-form loop of :class:`robodyn.sim.fast.FastDynamics`, run by run (a run that
   reaches a URDF position limit is computed again by ``simulate``, which stops it there);
 * ``closed_loop``: an LQR, or a swing-up handing over to one (:mod:`robodyn.sweep.policy`), with
   ``rk4`` and only final state, energy drift, time to balance or wall time asked: one vectorised
   RK4 over the chunk (as :mod:`robodyn.control.rollout`), accelerations from the compiled closed
-  form (seed kinds) or ABA, balance tracked every step. A run that reaches a URDF position limit
+  form (built-in kinds) or ABA, balance tracked every step. A run that reaches a URDF position limit
   (where :func:`robodyn.simulate` would stop it) is computed again by ``simulate``;
 * ``batch``: any other torque-free lossless robot without position limits, with an explicit
   fixed-step method and only final state, energy drift or wall time asked:
@@ -81,7 +81,7 @@ def robot_of(model: Model) -> Robot:
 
 @lru_cache(maxsize=8)
 def fast_of(model: Model) -> FastDynamics | None:
-    """The compiled closed form of a seed-kind model (checked against ABA), or None."""
+    """The compiled closed form of a built-in kind's model (checked against ABA), or None."""
     robot = robot_of(model)
     from robodyn.kinds.params import detect_kind
 

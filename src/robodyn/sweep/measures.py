@@ -33,9 +33,9 @@ from robodyn.userfile import at_line, exit_call, import_user_file
 Array = NDArray[np.float64]
 
 MEASURES = ("energy_drift", "final_state", "lyapunov", "time_to_balance", "wall_time")
-# |angle error| below this [rad] counts as balanced (the issue's threshold: a few degrees).
+# |angle error| below this [rad] counts as balanced (0.05 rad, about 3 degrees).
 BALANCE_TOL = 0.05
-# Benettin's renormalisation interval [s]: short against the seed kinds' divergence time (~0.3 s).
+# Benettin's renormalisation interval [s]: short against the built-in kinds' divergence time (~0.3 s).
 LYAPUNOV_INTERVAL = 0.1
 # Measures a vectorised chunk computes without a trajectory.
 BATCH_MEASURES = frozenset({"final_state", "energy_drift", "wall_time"})

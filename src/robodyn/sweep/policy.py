@@ -43,7 +43,7 @@ CLOSED_FORMS = {"pendubot": pendubot, "cart_pole": cart_pole}
 def batch_policy(controller: Any, fast: FastDynamics | None) -> Policy | None:
     """The batch form of ``controller`` (see the module docstring), or None when it has none.
 
-    ``fast`` is the robot's compiled closed form (None for a robot of no seed kind); the swing-up
+    ``fast`` is the robot's compiled closed form (None for a robot of no built-in kind); the swing-up
     needs it for M, C v and G.
     """
     if isinstance(controller, LQR):

@@ -18,7 +18,7 @@ value is crossed with every other (a full grid)::
     joint2 = 0.0
     [v0]
     joint1 = [0.0, 1.0]
-    [params]                      # seed-kind parameters (robodyn params --set), each value an axis
+    [params]                      # built-in kind parameters (robodyn params --set), each value an axis
     m2 = [0.8, 1.0, 1.2]
     [gains.lqr]                   # a controller's gains
     R = 1.0
@@ -84,7 +84,7 @@ class SweepSpec:
     """A checked sweep: the model or scene, each axis's values (tuples of floats or names) and what to measure.
 
     ``q0`` and ``v0`` map joint names to their values [rad | m] and [rad/s | m/s]; ``params`` a
-    seed-kind parameter name to its values (SI units); ``base`` is the folder that relative paths
+    built-in kind's parameter name to its values (SI units); ``base`` is the folder that relative paths
     in the file are read from; ``digest`` identifies everything that decides a run's numbers.
     ``scene`` is the scene file's path ("" without one; ``model`` is then "" until the scene is
     read); ``given`` the top-level keys the file gave (the rest may come from the scene).

@@ -99,6 +99,18 @@ class EventStepper(Stepper):
         if self.stops.empty and system.loops is None:
             self.advance = self.inner.advance  # type: ignore[method-assign]
 
+    def mark(self) -> tuple[int, int, int, int, float, dict[int, int]]:
+        """What the events have done so far: counts, impacts kept, the held stops (for :meth:`rewind`)."""
+        held = dict(self.system.held)
+        return self.n_impacts, self.n_releases, len(self.impacts), self.projections, self.work_limits, held
+
+    def rewind(self, mark: tuple[int, int, int, int, float, dict[int, int]], q: Array) -> None:
+        """Forget the events after ``mark`` (steps taken past a failure); q is the configuration kept last."""
+        self.n_impacts, self.n_releases, kept, self.projections, self.work_limits, held = mark
+        del self.impacts[kept:]
+        if held != self.system.held:
+            self.system.hold(held, q)
+
     @property
     def steps(self) -> int | None:
         """Accepted steps of an adaptive method, over every restart."""

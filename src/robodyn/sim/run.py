@@ -134,6 +134,9 @@ class Run:
         # Evaluations (rates, jacobian) after each step of the current block, step lo + i at index i.
         self._block_lo = 0
         self._block_work: list[tuple[int, int]] = []
+        # The events' marks (EventStepper.mark) at the block's start and after each of its steps,
+        # to forget the impacts of steps taken past a failure in the same block.
+        self._block_marks: list[tuple[int, int, int, int, float, dict[int, int]]] = []
         self.work: tuple[int, int] | None = None  # evaluations spent on the kept samples, once known
         self._energies(0, 1)
         self.scale = energy.energy_scale(robot, float(self.kinetic[0]), float(self.potential[0]))
@@ -174,6 +177,8 @@ class Run:
         system = self.system
         q, u = self.Q[0].copy(), self.U[0].copy()
         n_steps = len(steps)
+        eventful = not (system.stops.empty and system.loops is None)
+        mark = stepper.mark
         with np.errstate(all="ignore"):
             for lo in range(0, n_steps, CHECK_EVERY):
                 hi = min(lo + CHECK_EVERY, n_steps)
@@ -182,7 +187,8 @@ class Run:
                 ks: list[Array | None] = []
                 wl: list[float] = []
                 work: list[tuple[int, int]] = []
-                self._block_lo, self._block_work = lo, work
+                marks = [mark()] if eventful else []
+                self._block_lo, self._block_work, self._block_marks = lo, work, marks
                 failed: BaseException | None = None
                 interrupted = False
                 try:
@@ -193,6 +199,8 @@ class Run:
                         ks.append(k_start)
                         wl.append(stepper.work_limits)
                         work.append((system.evaluations, system.jacobian_evaluations))
+                        if eventful:
+                            marks.append(mark())
                 except (StepError, np.linalg.LinAlgError) as exc:
                     failed = exc
                 except KeyboardInterrupt:
@@ -276,6 +284,9 @@ class Run:
         work = self._block_work
         index = step - 1 - self._block_lo  # the step that produced (or failed to produce) sample ``step``
         self.work = work[min(max(index, 0), len(work) - 1)] if work else self._counters()
+        marks = self._block_marks
+        if marks:  # the events of the kept steps only: sample keep - 1 is the last kept
+            self.stepper.rewind(marks[min(max(keep - 1 - self._block_lo, 0), len(marks) - 1)], self.Q[keep - 1])
 
     def _interrupt(self, keep: int) -> None:
         """Ctrl-C: keep samples [0, keep); the work is what was done until then."""

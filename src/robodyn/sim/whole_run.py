@@ -195,6 +195,10 @@ def attempt(plan: Plan, system: RobotSystem, run: Run) -> Outcome:
             if status != kernels.DONE and cb in kernels.INTERRUPTED:  # Ctrl-C inside the torque callable
                 done = last - 1  # the step from there was begun, not finished
                 raise KeyboardInterrupt
+            # samples done .. last - 1 have their energies: the first one over the bound ends the attempt
+            over = _first_over_bound(run, kin, pot, U, done, last)
+            if over is not None:
+                return Outcome(False, over, last, time.perf_counter() - start)
             if status != kernels.DONE:
                 wall = time.perf_counter() - start
                 what = "a state that is not finite" if status == kernels.NOT_FINITE else _near_stop(system, Q[last])
@@ -242,6 +246,31 @@ def attempt(plan: Plan, system: RobotSystem, run: Run) -> Outcome:
         t_stop = float(t[keep - 1])
         run.interrupted = (keep - 1, t_stop, f"interrupted after step {keep - 1} (t = {t_stop:.6g} s)")
     return Outcome(True, "compiled loop", done, wall)
+
+
+def _first_over_bound(run: Run, kin: Array, pot: Array, U: Array, lo: int, hi: int) -> str | None:
+    """'an energy error of X J above the bound B J at step k (t = ...)': the first of samples lo .. hi-1 over it.
+
+    ``pot`` is gravity's potential (the kernels'); the springs' is added here, as Run books it.
+    """
+    bound, system = run.bound, run.system
+    if hi <= lo or not np.isfinite(bound):
+        return None
+    nv = system.nv
+    e = kin[lo:hi] + pot[lo:hi]
+    e0 = kin[0] + pot[0]
+    if not system.springs.empty:
+        e = e + system.springs.energy(run.Q[lo:hi])
+        e0 = e0 + float(system.springs.energy(run.Q[:1])[0])
+    residual = np.abs(e - e0 - U[lo:hi, nv] - U[lo:hi, nv + 1])
+    over = ~(residual <= bound)
+    if not over.any():
+        return None
+    k = lo + int(np.argmax(over))
+    return (
+        f"an energy error of {float(residual[k - lo]):.3g} J above the bound {bound:.3g} J "
+        f"at step {k} (t = {float(run.t[k]):.6g} s)"
+    )
 
 
 def _energies_at(

@@ -1,4 +1,4 @@
-"""Write URDF variants of the seed kinds with chosen parameters, for tests.
+"""Write URDF variants of the built-in kinds with chosen parameters, for tests.
 
 Independent of robodyn's parameter extraction: the tests compute what the parameters
 should be from the numbers written here.

@@ -53,7 +53,7 @@ def test_bad_input_is_refused():
 
 
 def test_tree_path_equals_single_runs_whatever_the_threads():
-    robot = robodyn.load("double_pendulum")  # no seed kind: the compiled tree algorithms
+    robot = robodyn.load("double_pendulum")  # no built-in kind: the compiled tree algorithms
     robot.model.damping[:] = 0.0  # the batch path is lossless
     rng = np.random.default_rng(11)
     Q = rng.uniform(-np.pi, np.pi, (37, 2))  # not a multiple of the block size

@@ -1,4 +1,4 @@
-"""robodyn params --set / --write: every parameter of every seed kind written, reloaded and checked."""
+"""robodyn params --set / --write: every parameter of every built-in kind written, reloaded and checked."""
 
 from __future__ import annotations
 

@@ -54,7 +54,7 @@ class Registry(Generic[T]):
 BACKENDS: Registry[str] = Registry("forward-dynamics backend")
 BACKENDS.register("aba", "Pinocchio's articulated-body algorithm, O(n)")
 BACKENDS.register("crba", "Pinocchio's CRBA + Cholesky solve, O(n^3); serves mimic joints")
-BACKENDS.register("formula", "the hand-derived closed form of a seed kind (NumPy)")
+BACKENDS.register("formula", "the hand-derived closed form of a built-in kind (NumPy)")
 BACKENDS.register(
     "numba",
     "ABA, RNEA and CRBA compiled by numba over the model's arrays (checked against Pinocchio); "

@@ -215,7 +215,7 @@ class Robot:
             return dynamics.crba_solve(self.model, self.data, q_, v_, tau_)
         BACKENDS.get(backend)  # an unknown name lists the backends
         raise InputError(
-            f"backend {backend!r} is not a method of Robot: it needs a seed kind's formula; use "
+            f"backend {backend!r} is not a method of Robot: it needs a built-in kind's formula; use "
             f"robodyn.simulate(..., backend={backend!r}) or robodyn.formulas.get(kind).forward_dynamics"
         )
 

@@ -6,7 +6,7 @@ the other through every step (no thread team per evaluation, no barrier per step
 handed out dynamically (chunk size 1), so a thread that shares its core with another process
 takes fewer blocks instead of holding the others back.
 
-The step is the compiled one of :func:`robodyn.simulate`: the seed kinds' closed form
+The step is the compiled one of :func:`robodyn.simulate`: the built-in kinds' closed form
 (:mod:`robodyn.sim.fast`, classic RK4) or the compiled tree algorithms
 (:mod:`robodyn.sim.tree`, any fixed-step explicit method: rk4, heun, euler), both checked
 against Pinocchio before use, so a batch run equals n single runs up to round-off.
@@ -49,7 +49,7 @@ _BATCH_METHODS = ("rk4", "heun", "euler")
 class BatchResult:
     """Final states q (n, nq), v (n, nv) after ``steps`` steps of ``dt`` [s]; cost of the run.
 
-    ``path`` is ``"closed_form"`` (a seed kind's compiled closed form) or ``"tree"`` (the
+    ``path`` is ``"closed_form"`` (a built-in kind's compiled closed form) or ``"tree"`` (the
     compiled tree algorithms); ``evaluations`` counts batch evaluations (stages times steps).
     """
 

@@ -1,4 +1,4 @@
-"""A compiled fast path for the seed kinds: closed-form forward dynamics and the step loop in numba.
+"""A compiled fast path for the built-in kinds: closed-form forward dynamics and the step loop in numba.
 
 For a Pendubot, a cart-pole or a geared arm, the forward dynamics a = M^-1 (tau - C v - G - B v)
 have a closed form (M is 2 x 2 or 1 x 1), so a whole fixed-step run compiles to one machine-code
@@ -208,7 +208,7 @@ def _pad(x: Array) -> Array:
 
 @dataclass(frozen=True, eq=False)
 class FastDynamics:
-    """Compiled closed-form dynamics of one seed-kind robot.
+    """Compiled closed-form dynamics of one robot of a built-in kind.
 
     ``params`` is the kind's parameter mapping (:func:`robodyn.kinds.params.extract`), ``damping``
     the viscous joint damping [N m s/rad | N s/m] (nv,), ``potential_offset`` [J] the constant
@@ -242,14 +242,14 @@ class FastDynamics:
         """Read the kind's parameters from ``robot`` and check the closed form against Pinocchio.
 
         Raises:
-            AssumptionError: the robot is not of a seed kind, has Coulomb friction, or its
+            AssumptionError: the robot is not of a built-in kind, has Coulomb friction, or its
                 closed-form accelerations disagree with ABA by more than ``VERIFY_RTOL``.
         """
         if kind is None:
             kind = params_module.detect_kind(robot)
             if kind is None:
                 raise AssumptionError(
-                    f"{robot.name}: the fast path serves only the seed kinds ({', '.join(KINDS)}); "
+                    f"{robot.name}: the fast path serves only the built-in kinds ({', '.join(KINDS)}); "
                     "this model matches none of them"
                 )
         if kind not in KINDS:

@@ -1,7 +1,7 @@
 """The smooth-acceleration stage: which backend computes a = M(q)^-1 (tau - C(q, v) v - G(q)).
 
 ``"aba"`` is Pinocchio's articulated-body algorithm, ``"crba"`` CRBA + Cholesky (it serves
-mimic joints, which ABA refuses), ``"formula"`` the hand-derived closed form of a seed kind,
+mimic joints, which ABA refuses), ``"formula"`` the hand-derived closed form of a built-in kind,
 ``"numba"`` the articulated-body algorithm compiled by numba (:mod:`robodyn.sim.tree`, checked
 against Pinocchio before use). Called from Python once per evaluation, the compiled ABA costs
 about what Pinocchio's does (the call dominates on small models); its gain is the whole run in
@@ -29,11 +29,11 @@ Array = NDArray[np.float64]
 
 
 def formula_of(robot: Robot) -> tuple[Any, Any]:
-    """The seed kind's closed-form dynamics and parameters, or an InputError."""
+    """The built-in kind's closed-form dynamics and parameters, or an InputError."""
     kind = params.detect_kind(robot)
     if kind is None:
         raise InputError(
-            f"backend 'formula' needs one of the seed kinds ({', '.join(formulas.KINDS.names())}); "
+            f"backend 'formula' needs one of the built-in kinds ({', '.join(formulas.KINDS.names())}); "
             f"{robot.name} is none of them: use backend 'aba' or 'crba'"
         )
     return formulas.get(kind), params.extract(robot, kind)
@@ -54,7 +54,7 @@ def backend_function(
         f, p = formula
         return lambda q, v, tau: f.forward_dynamics(q, v, tau, p)
     BACKENDS.get(name)  # an unknown name lists the backends
-    raise InputError(f"backend {name!r} needs a seed kind's formula, which {robot.name} has not")
+    raise InputError(f"backend {name!r} needs a built-in kind's formula, which {robot.name} has not")
 
 
 def compiled_function(robot: Robot) -> Callable[[Array, Array, Array], Array]:

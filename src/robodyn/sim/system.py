@@ -437,7 +437,7 @@ def robot_system(
         robot: the robot.
         backend: ``"aba"`` (Pinocchio's articulated-body algorithm), ``"crba"`` (CRBA +
             Cholesky; serves mimic joints) or ``"formula"`` (the hand-derived closed form
-            of a seed kind); None (the default) picks ``"aba"``, or ``"crba"`` on a model
+            of a built-in kind); None (the default) picks ``"aba"``, or ``"crba"`` on a model
             with mimic joints (couplings included).
         torque: None, a constant vector [N m | N] or a callable tau(t, q, v); with
             couplings it may also have one entry per velocity of the uncoupled robot.
@@ -447,7 +447,7 @@ def robot_system(
 
     Raises:
         InputError: a bad torque or a backend that cannot serve this robot (``"aba"`` on
-            mimic joints, ``"formula"`` on a model that is no seed kind or with loops).
+            mimic joints, ``"formula"`` on a model that is of no built-in kind or with loops).
         UnknownNameError: an unknown backend, joint or frame.
     """
     spec = constraints if constraints is not None else Constraints()

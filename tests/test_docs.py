@@ -53,7 +53,12 @@ KNOWN = RUNNABLE | {"text", "toml", "json"}
 # The only blocks shown and not run, each with the reason its page gives.
 NOT_RUN = {
     ("README.md", "bash scripts/test.sh"),  # the test run itself
-    ("docs/guides/bench.md", "python benchmarks/bench_mujoco.py --out bench-out"),  # needs the mujoco extra
+    (  # needs the mujoco extra
+        "docs/guides/bench.md",
+        "python benchmarks/bench_mujoco.py --out bench-out/normal\n"
+        "python benchmarks/bench_mujoco.py --busy --out bench-out/busy\n"
+        "python benchmarks/bench_mujoco.py --systems pendubot,panda --out bench-out/two",
+    ),
 }
 COPIED = ("examples", "models", "benchmarks", "tests/fixtures")
 TIMEOUT = 600  # [s] per command
@@ -408,3 +413,45 @@ def test_the_output_matcher_can_fail() -> None:
         assert_output(block, "c", "a\nd\n", "a\nb\nd\n")
     with pytest.raises(pytest.fail.Exception):
         assert_output(block, "c", "x = 1\n", "x = 2\n")
+
+
+def _hook():  # the documentation build's hook module, loaded as MkDocs loads it
+    sys.path.insert(0, str(ROOT / "docs" / "hooks"))
+    try:
+        import robodyn_docs
+    finally:
+        sys.path.pop(0)
+    return robodyn_docs
+
+
+def test_every_saved_benchmark_json_is_shown_and_renders() -> None:
+    """Each JSON under docs/benchmarks/ is asked for by the benchmarks page, and renders with its run's facts."""
+    hook = _hook()
+    page = (ROOT / "docs" / "benchmarks" / "index.md").read_text(encoding="utf-8")
+    for path in sorted((ROOT / "docs" / "benchmarks").glob("*.json")):
+        marker = f"<!-- generated: bench benchmarks/{path.name} -->"
+        assert marker in page, f"{path.name} is saved but the benchmarks page does not show it"
+        rendered = hook.render_page(marker + "\n", "benchmarks")
+        assert rendered.startswith("*Measured"), path.name
+
+
+def test_mujoco_goals_are_judged_from_the_numbers() -> None:
+    """A ratio below its goal reads "not met", one above it "met", computed from the JSON's timings."""
+    import json
+
+    hook = _hook()
+    data = json.loads((ROOT / "docs" / "benchmarks" / "bench_mujoco.json").read_text(encoding="utf-8"))
+    paths = data["systems"]["panda"]["single"]["paths"]
+    mine = paths["robodyn_simulate_compiled"]["us_per_step"]
+    row = "| Panda single trajectory vs MuJoCo RK4, equal error | ≥ 2× | {} | {} |"
+    paths["mujoco_rk4_c_loop"]["us_per_step"] = 1.5 * mine
+    assert row.format("1.5×", "**not met**") in hook._mujoco(data)
+    paths["mujoco_rk4_c_loop"]["us_per_step"] = 2.5 * mine
+    assert row.format("2.5×", "met") in hook._mujoco(data)
+    overhead = data["systems"]["talos"]["single"]
+    overhead["simulate_call_over_compiled_loop"] = 1.4
+    text = hook._mujoco(data)
+    assert (
+        "| talos: `robodyn.simulate` with the ledger vs its own compiled loop | ≤ 1.3× | 1.4× | **not met** |" in text
+    )
+    assert "not met: " in text.splitlines()[-1]

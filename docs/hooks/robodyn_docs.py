@@ -115,23 +115,66 @@ def _num(x: float | None, digits: int = 3) -> str:
     return f"{x:.{digits}g}"
 
 
-def _facts(data: dict[str, Any], name: str) -> str:
+def _run_record(data: dict[str, Any]) -> dict[str, Any] | None:
+    """The run's facts (date, machine, load, command) wherever a benchmark put them, or None."""
     run = data.get("run")
-    if not isinstance(run, dict):
+    if isinstance(run, dict):
+        return run
+    if "date" not in data and "load_average_before" not in data and "load_average" not in data:
+        return None
+    machine = data.get("machine")
+    record: dict[str, Any] = {
+        "date": data.get("date"),
+        "load_before": data.get("load_average_before"),
+        "load_after": data.get("load_average_after"),
+        "load_end": data.get("load_average"),
+        "command": data.get("command"),
+    }
+    if isinstance(machine, dict):
+        record.update(machine=machine.get("platform", "?"), cpus=machine.get("cpus"))
+        record.update({k: machine[k] for k in ("robodyn", "mujoco", "python") if k in machine})
+    else:
+        record["machine"] = machine or "?"
+    return record
+
+
+def _facts(data: dict[str, Any], name: str) -> str:
+    """One sentence: when, where, under what load and by what command the file was measured."""
+    run = _run_record(data)
+    if run is None:
         machine = data.get("machine")
         shown = json.dumps(machine) if machine else "not recorded"
         return f"*`{name}` records no date or load (machine: {shown}); the git history of the file dates it.*\n"
 
-    def load(key: str) -> str:
-        value = run.get(key)
-        return "not recorded" if not value else f"{value[0]:g} (1 min), {value[1]:g} (5 min)"
+    def load(value: list[float]) -> str:
+        return f"{value[0]:.2f} (1 min), {value[1]:.2f} (5 min)"
 
-    versions = ", ".join(f"{k} {run[k]}" for k in ("robodyn", "pinocchio", "numpy", "python") if k in run)
-    return (
-        f"*Measured {run['date']} on {run['machine']} ({run.get('processor', '?')}, {run.get('cpus', '?')} CPUs); "
-        f"load average before {load('load_before')}, after {load('load_after')}; {run.get('wall_time_s', '?')} s "
-        f"of wall time; {versions}. Command: `{run.get('command', '?')}`.*\n"
+    when = (
+        f"Measured {run['date']}" if run.get("date") else "Measured on a date the file does not record (git dates it)"
     )
+    details = [x for x in (run.get("processor"), f"{run['cpus']} CPUs" if run.get("cpus") else None) if x]
+    parts = [f"{when} on {run.get('machine', '?')}" + (f" ({', '.join(details)})" if details else "")]
+    loads = [
+        f"{label} {load(run[key])}"
+        for key, label in (("load_before", "before"), ("load_after", "after"), ("load_end", "at the end of the run"))
+        if run.get(key)
+    ]
+    parts.append("load average " + (", ".join(loads) if loads else "not recorded"))
+    if run.get("wall_time_s") is not None:
+        parts.append(f"{run['wall_time_s']} s of wall time")
+    versions = ", ".join(f"{k} {run[k]}" for k in ("robodyn", "pinocchio", "mujoco", "numpy", "python") if k in run)
+    if versions:
+        parts.append(versions)
+    if run.get("command"):
+        parts.append(f"command: `{run['command']}`")
+    text = "; ".join(parts) + "."
+    cpus, before = run.get("cpus"), run.get("load_before")
+    if cpus and before and before[0] > cpus:
+        text += (
+            f" The 1-minute load before the run ({before[0]:.2f}) already exceeded the {cpus} CPUs: other work "
+            "shared the cores, so its speed figures are those of a busy machine."
+        )
+    return f"*{text}*\n"
 
 
 def _scaling(data: dict[str, Any]) -> str:
@@ -229,37 +272,278 @@ def _control(data: dict[str, Any]) -> str:
     return "\n".join(out) + "\n\n" + reading + "\n"
 
 
+# The goals of the comparison with MuJoCo, as ratios measured in one run: (label, system, kind, threads, bound,
+# at_least). kind "single": MuJoCo's RK4 time over robodyn's (closed form for the built-in kinds, else
+# robodyn.simulate), "batch": mujoco.rollout over robodyn's batch.rollout, "overhead": robodyn.simulate's
+# whole call over its own compiled loop (at most the bound).
+SEED_KINDS = ("pendubot", "cart_pole", "geared_arm")
+MUJOCO_GOALS: tuple[tuple[str, str, str, str | None, float, bool], ...] = (
+    ("Pendubot batch of 1000 vs `mujoco.rollout`, 1 thread each", "pendubot", "batch", "1", 5.0, True),
+    ("Pendubot batch of 1000 vs `mujoco.rollout`, 2 threads each", "pendubot", "batch", "2", 5.0, True),
+    ("Panda single trajectory vs MuJoCo RK4, equal error", "panda", "single", None, 2.0, True),
+    ("Talos, fixed base, single trajectory vs MuJoCo RK4, equal error", "talos", "single", None, 1.5, True),
+    ("Panda batch of 1000 vs `mujoco.rollout`, 1 thread each", "panda", "batch", "1", 2.0, True),
+    ("Panda batch of 1000 vs `mujoco.rollout`, 2 threads each", "panda", "batch", "2", 2.0, True),
+    *(
+        (f"{name} single trajectory vs MuJoCo RK4 (compiled closed form)", name, "single", None, 10.0, True)
+        for name in SEED_KINDS
+    ),
+    *(
+        (f"{name}: `robodyn.simulate` with the ledger vs its own compiled loop", name, "overhead", None, 1.3, False)
+        for name in ("pendubot", "cart_pole", "geared_arm", "panda", "talos")
+    ),
+)
+MUJOCO_PATHS = {
+    "mujoco_rk4_c_loop": "MuJoCo RK4",
+    "robodyn_simulate_compiled": "`robodyn.simulate`",
+    "robodyn_fast_closed_form": "closed form",
+    "robodyn_simulate_python_aba": "Python loop over ABA",
+}
+
+
+def _us(x: float | None) -> str:
+    return "–" if x is None else f"{x:.3g}"
+
+
+def _mujoco_single_ratio(system: dict[str, Any]) -> tuple[float, str]:
+    """MuJoCo's RK4 µs per step over robodyn's best: the closed form where there is one, else simulate."""
+    paths = system["single"]["paths"]
+    fast = paths.get("robodyn_fast_closed_form")
+    mine = fast if fast is not None else paths["robodyn_simulate_compiled"]
+    return paths["mujoco_rk4_c_loop"]["us_per_step"] / mine["us_per_step"], (
+        "closed form" if fast is not None else "`robodyn.simulate`"
+    )
+
+
 def _mujoco(data: dict[str, Any]) -> str:
-    single, batch = data["single"], data["batch"]
-    names = {
-        "mujoco_rk4_c_loop": "MuJoCo RK4, `mj_step` in its own C loop",
-        "robodyn_fast_rk4": "robodyn fast path (compiled closed form + loop)",
-        "robodyn_simulate_rk4_aba": "robodyn `simulate`, Python loop over Pinocchio ABA",
-        "robodyn_simulate_rk4_formula": "robodyn `simulate`, NumPy formula backend",
-    }
+    systems = data["systems"]
     out = [
-        f"| Pendubot, torque-free, RK4, dt = {single['dt'] * 1e3:g} ms | per step [µs] | error at t = 2 s |",
-        "|---|---:|---:|",
+        "| system | nv | MuJoCo RK4 [µs/step] | `robodyn.simulate`, compiled loop with the ledger [µs/step] "
+        "| compiled closed form [µs/step] | Python loop over ABA [µs/step] | error at t, MuJoCo / robodyn [rad, m] "
+        "| MuJoCo over robodyn |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|",
     ]
-    for key, path in single["paths"].items():
-        out.append(f"| {names.get(key, key)} | {path['us_per_step']:.3g} | {path['error_at_2s']:.2g} |")
+    worst_error_gap = (0.0, "")
+    for name, r in systems.items():
+        single = r["single"]
+        paths = single["paths"]
+        mj, sim = paths["mujoco_rk4_c_loop"], paths["robodyn_simulate_compiled"]
+        fast = paths.get("robodyn_fast_closed_form")
+        python = paths.get("robodyn_simulate_python_aba")
+        ratio, which = _mujoco_single_ratio(r)
+        gap = abs(mj["error"] - sim["error"]) / max(abs(mj["error"]), abs(sim["error"]), 1e-300)
+        if gap >= worst_error_gap[0]:
+            worst_error_gap = (gap, name)
+        out.append(
+            f"| {name} | {r['nv']} | {_us(mj['us_per_step'])} | {_us(sim['us_per_step'])} "
+            f"({sim.get('backend', '?')}, {sim.get('loop', '?')}) | {_us(fast['us_per_step'] if fast else None)} | "
+            f"{_us(python['us_per_step'] if python else None)} | t = {single['error_at_s']:g} s: "
+            f"{mj['error']:.2g} / {sim['error']:.2g} | {ratio:.3g}× ({which}) |"
+        )
+    dt = next(iter(systems.values()))["single"]["dt"]
     out += [
         "",
-        f"| batch of {batch['states']} seeded states, {batch['steps']} RK4 steps, {batch['threads']} threads "
-        "| per state-step [µs] |",
-        "|---|---:|",
-        f"| robodyn, Pinocchio `abaInParallel` inside RK4 | "
-        f"{batch['robodyn_pinocchio_abaInParallel_rk4_us_per_state_step']:.3g} |",
-        f"| `mujoco.rollout` | {batch['mujoco_rollout_us_per_state_step']:.3g} |",
-        f"| robodyn fast path, one state after another | {batch['robodyn_fast_loop_us_per_state_step']:.3g} |",
+        f"Single torque-free trajectories, RK4 at dt = {dt * 1e3:g} ms; errors against robodyn's compiled RK4 at "
+        f"dt / 20. At equal method and step the errors are equal: MuJoCo's and robodyn's differ by at most "
+        f"{100 * worst_error_gap[0]:.2g} % of the larger ({worst_error_gap[1]}).",
         "",
-        f"The model check before timing: mass matrices equal to {data['model_check']['mass_matrix_rel_diff']:.1g} and "
-        f"bias forces to {data['model_check']['bias_rel_diff']:.1g} (relative) on {data['model_check']['states']} "
-        f"states. The fast path is {single['speedup_fast_vs_mujoco']:.0f}× faster per step than MuJoCo's RK4 at "
-        f"equal error; Pinocchio's batch path has {batch['throughput_ratio_pinocchio_vs_mujoco']:.1f}× the throughput "
-        f"of `mujoco.rollout` (final states agree to {batch['max_final_state_difference_vs_mujoco']:.0e}). Both "
-        "thread pools suffer when other processes share the cores.",
+        "| system | batch | threads | robodyn `batch.rollout` [µs per state-step] | `mujoco.rollout` "
+        "[µs per state-step] | `mujoco.rollout` over robodyn | final states differ by |",
+        "|---|---|---:|---:|---:|---:|---:|",
     ]
+    for name, r in systems.items():
+        b = r["batch"]
+        for threads, t in b["threads"].items():
+            ratio = t["mujoco_rollout_us_per_state_step"] / t["robodyn_us_per_state_step"]
+            out.append(
+                f"| {name} | {b['states']} states × {b['steps']} steps | {threads} | "
+                f"{t['robodyn_us_per_state_step']:.3g} ({t['robodyn_path']}) | "
+                f"{t['mujoco_rollout_us_per_state_step']:.3g} | {ratio:.3g}× | {t['max_final_state_difference']:.1g} |"
+            )
+    slower = [
+        f"{name} ({b['threads']['2']['robodyn_us_per_state_step']:.3g} against "
+        f"{b['threads']['1']['robodyn_us_per_state_step']:.3g} µs)"
+        for name, r in systems.items()
+        if {"1", "2"} <= set((b := r["batch"])["threads"])
+        and b["threads"]["2"]["robodyn_us_per_state_step"] > b["threads"]["1"]["robodyn_us_per_state_step"]
+    ]
+    defaults = sorted({r["batch"].get("default_threads_now") for r in systems.values()} - {None})
+    sentence = (
+        "robodyn's batch on 2 threads was slower than on 1 for " + ", ".join(slower) + "; "
+        if slower
+        else "robodyn's batch on 2 threads was never slower than on 1; "
+    )
+    out += [
+        "",
+        sentence + f"the default thread count (the cores idle by the load average) was "
+        f"{' or '.join(str(d) for d in defaults) or 'not recorded'} during this run.",
+        "",
+        "| goal | target | measured | |",
+        "|---|---:|---:|---|",
+    ]
+    met, missed = 0, []
+    for label, name, kind, threads, bound, at_least in MUJOCO_GOALS:
+        r = systems.get(name)
+        if r is None:
+            continue
+        if kind == "single":
+            if at_least and name in SEED_KINDS and "robodyn_fast_closed_form" not in r["single"]["paths"]:
+                continue
+            value, _ = _mujoco_single_ratio(r)
+        elif kind == "batch":
+            t = r["batch"]["threads"].get(threads)
+            if t is None:
+                continue
+            value = t["mujoco_rollout_us_per_state_step"] / t["robodyn_us_per_state_step"]
+        else:
+            value = r["single"]["simulate_call_over_compiled_loop"]
+        ok = value >= bound if at_least else value <= bound
+        met += ok
+        if not ok:
+            missed.append(f"{label} ({value:.3g}×, target {'≥' if at_least else '≤'} {bound:g}×)")
+        out.append(
+            f"| {label} | {'≥' if at_least else '≤'} {bound:g}× | {value:.3g}× | {'met' if ok else '**not met**'} |"
+        )
+    total = met + len(missed)
+    reading = f"{met} of the {total} goals above were met in this run"
+    reading += "; not met: " + "; ".join(missed) + "." if missed else "."
+    out += ["", reading]
+    return "\n".join(out) + "\n"
+
+
+def _sweep(data: dict[str, Any]) -> str:
+    phases = (
+        ("batch_alone", "batch path alone (the same chunks in one process, no Dask)"),
+        ("dask_1_worker", "Dask, 1 worker"),
+        ("dask_2_workers", "Dask, 2 workers"),
+    )
+    out = [
+        "| phase | runs | wall [s] | runs per s | CPU [s] | load, 1-min mean (max) | contended |",
+        "|---|---:|---:|---:|---:|---:|---|",
+    ]
+    for key, label in phases:
+        p = data[key]
+        wall = p.get("wall_s", p.get("sweep_s"))
+        cpu = p.get("cpu_s")
+        if cpu is None and "workers_cpu_s" in p:
+            cpu = p["workers_cpu_s"] + p.get("scheduler_and_client_cpu_s", 0.0)
+        start = f" (+ {p['cluster_start_s']:.1f} s cluster start)" if "cluster_start_s" in p else ""
+        load = p["load"]
+        out.append(
+            f"| {label} | {p['runs']:,} in {p['chunks']} chunks | {wall:.1f}{start} | {p['runs'] / wall:.0f} | "
+            f"{_num(cpu)} | {load['load_1min_mean']:.2f} ({load['load_1min_max']:.2f}) | "
+            f"{'**yes**' if load['contended'] else 'no'} |"
+        )
+    chaos, swing = data["chaos_run"], data["swing_up"]
+    out.append(
+        f"| chaos run, `{chaos['path']}` path: {chaos['samples']} runs timed | {chaos['samples']} | "
+        f"{chaos['seconds_per_run'] * chaos['samples']:.2f} | {1 / chaos['seconds_per_run']:.1f} | "
+        f"{chaos['cpu_seconds_per_run'] * chaos['samples']:.2f} | {chaos['load']['load_1min_mean']:.2f} "
+        f"({chaos['load']['load_1min_max']:.2f}) | {'**yes**' if chaos['load']['contended'] else 'no'} |"
+    )
+    batch, one, two = data["batch_alone"], data["dask_1_worker"], data["dask_2_workers"]
+    rate1, rate2 = one["runs"] / one["sweep_s"], two["runs"] / two["sweep_s"]
+    efficiency = rate2 / (2 * rate1)
+    overhead = one["sweep_s"] / batch["wall_s"] - 1
+    cpu_overhead = (one["workers_cpu_s"] + one["scheduler_and_client_cpu_s"]) / batch["cpu_s"] - 1
+    proj = data["projection"]
+    per_run = chaos["cpu_seconds_per_run"]
+    used = proj.get("efficiency", efficiency)
+    seconds = proj["states"] * per_run / (proj["cores"] * used)
+    if abs(used - efficiency) > 1e-6:
+        basis = (
+            f"an assumed efficiency of {used:.3g}, since the measured {efficiency:.3g} came from phases whose load "
+            "exceeded the CPUs (not representative)"
+        )
+    else:
+        basis = "the measured efficiency"
+    speedup = swing["simulate_seconds_per_run"] / swing["chunk_seconds_per_run"]
+    contended = [label for key, label in phases if data[key]["load"]["contended"]]
+    out += [
+        "",
+        f"The basin run: {data['basin_run']}. Going from 1 to 2 workers, the scaling efficiency is "
+        f"{rate2:.0f} / (2 × {rate1:.0f}) = {100 * efficiency:.0f} %. Against the batch path alone on the same "
+        f"runs, Dask on 1 worker costs {100 * overhead:+.1f} % of wall time and {100 * cpu_overhead:+.1f} % of CPU "
+        f"time (workers, scheduler and client). The cart-pole swing-up, one `{'/'.join(swing['path'])}` chunk of "
+        f"{swing['runs']} runs, took {1e3 * swing['chunk_seconds_per_run']:.3g} ms a run against "
+        f"{1e3 * swing['simulate_seconds_per_run']:.3g} ms for `robodyn.simulate` run by run "
+        f"({swing['simulate_runs']} runs): {speedup:.0f}× faster.",
+        "",
+        f"A chaos map of {proj['states']:,} states on {proj['cores']} cores, projected from the measured CPU time "
+        f"per chaos run and {basis}: {proj['states']:,} × {per_run:.4g} s / ({proj['cores']} × "
+        f"{used:.3g}) = {seconds:.0f} s ≈ {seconds / 3600:.2g} h, for cores as fast as these, plus the "
+        "cluster's start.",
+        "",
+        (
+            "Phases whose mean 1-minute load exceeded the CPUs + 0.5 (contended, not figures to quote): "
+            + "; ".join(contended)
+            + "."
+        )
+        if contended
+        else "No phase's mean 1-minute load exceeded the CPUs + 0.5: none was contended.",
+    ]
+    return "\n".join(out) + "\n"
+
+
+TEXTBOOK_ORDER = ("rolling", "sliding", "motorcycle", "linkage", "spring_bar", "power", "box")
+LOOP_DRIFT_BOUND = 1e-9  # [m]: the linkage's loop must stay closed to this along the whole motion
+
+
+def _textbook(data: dict[str, Any]) -> str:
+    rank = {name: i for i, name in enumerate(TEXTBOOK_ORDER)}
+    scenes = sorted(data["scenes"], key=lambda r: rank.get(r["scene"], len(rank)))
+    out = [
+        "| example | quantity | worst deviation from the closed form (relative to its largest value) | tolerance | |",
+        "|---|---|---:|---:|---|",
+    ]
+    worst = (0.0, "")
+    failed = []
+    for r in scenes:
+        for quantity, deviation in r["worst_deviation"].items():
+            ok = deviation <= r["tolerance"]
+            if not ok:
+                failed.append(f"{r['example']} ({quantity})")
+            share = deviation / r["tolerance"]
+            if share >= worst[0]:
+                worst = (share, f"{r['example']}, {quantity}")
+            out.append(
+                f"| {r['example']} | `{quantity}` | {deviation:.2g} | {r['tolerance']:.0e} | "
+                f"{'within' if ok else '**over**'} |"
+            )
+        if r.get("loop_drift_m") is not None:
+            ok = r["loop_drift_m"] <= LOOP_DRIFT_BOUND
+            if not ok:
+                failed.append(f"{r['example']} (loop drift)")
+            out.append(
+                f"| {r['example']} | loop drift [m] | {r['loop_drift_m']:.2g} m | {LOOP_DRIFT_BOUND:.0e} m | "
+                f"{'within' if ok else '**over**'} |"
+            )
+    if data.get("errors"):
+        failed += [f"{name} (the run raised: {error})" for name, error in data["errors"].items()]
+    out += [
+        "",
+        (
+            f"Every example stayed within its tolerance; the closest to it is {worst[1]}, at "
+            f"{100 * worst[0]:.2g} % of its tolerance."
+        )
+        if not failed
+        else "**Over their tolerance:** " + "; ".join(failed) + ".",
+    ]
+    for r in scenes:
+        reduced = r.get("reduced_lagrangian")
+        if reduced is None:
+            continue
+        errors = reduced["worst_relative_error"]
+        top = max(errors, key=lambda k: errors[k])
+        out += [
+            "",
+            f"The reduced-Lagrangian check of {r['example']}, {data.get('samples', '?')} random states on the loop "
+            f"({'passed' if reduced['passed'] else '**failed**'}; the largest error is {errors[top]:.2g}, {top}):",
+            "",
+            "| term | worst relative error |",
+            "|---|---:|",
+        ]
+        out += [f"| {term.replace('|', chr(92) + '|')} | {error:.2g} |" for term, error in errors.items()]
     return "\n".join(out) + "\n"
 
 
@@ -284,6 +568,9 @@ RENDERERS: dict[str, Callable[[dict[str, Any]], str]] = {
     "overhead": _overhead,
     "control": _control,
     "bench_mujoco": _mujoco,
+    "bench_mujoco_busy": _mujoco,
+    "sweep": _sweep,
+    "textbook": _textbook,
     "fuzz": _fuzz,
 }
 

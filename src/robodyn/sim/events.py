@@ -10,7 +10,9 @@ the step -- and there:
   (:func:`robodyn.sim.limits.impact`); the kinetic energy it removes is booked as
   ``work_limits``. A joint whose rebound would land again within one step (or any joint at
   e = 0) is held at its stop from then on;
-* **release**: a held joint whose stop force crosses zero is let go.
+* **release**: a held joint whose stop force crosses zero is let go. The force is a
+  difference of terms of size sum_i |M_ji a_i|, so its zero is located only to that size's
+  round-off (``FORCE_NOISE_RTOL``): a release is taken where the stop pulls by less than it.
 
 Then the rest of the step is taken with the new set of held joints (the integrator restarts
 there, so an adaptive method never reuses rates from before a velocity jump). After the step
@@ -51,6 +53,12 @@ MAX_EVENTS_PER_STEP = 64
 
 # A held stop lets go when its force pulls by more than this [N m | N].
 RELEASE_TOL = 1e-12
+# A stop force lambda_j = (M a - (tau - C v - G))_j is a difference of terms of size
+# sum_i |M_ji a_i|; it is known to no better than this fraction of that size (~5e3 ulps, for
+# the sums of a 40-dof ABA/RNEA). A release is located once lambda is past zero by less than
+# that: the joint then lets go where its stop pulls by less than round-off (no work: a held
+# joint does not move), and the locator does not chase zero below the noise of lambda.
+FORCE_NOISE_RTOL = 1e-12
 
 # Impacts kept in the metadata (the count is always exact).
 IMPACTS_KEPT = 200
@@ -234,10 +242,15 @@ class EventStepper(Stepper):
         f_start = float(np.min(np.array(self._values(t, q, u, rows)) / scale))
         if f_start <= 0:  # already there at the start: take it now
             return 0.0, q, u
+        # Past zero by less than this (per row, in units of its scale) is past it: a relative
+        # 1e-13 of the value at the step's end, or, for a held row, the round-off of its force.
+        close = np.maximum(LOCATE_FTOL, self._force_noise(t, q, u, rows) / scale)
 
-        def F(s: float) -> tuple[float, Array, Array]:
+        def F(s: float) -> tuple[float, bool, Array, Array]:
             qs, us = self._trial(t, q, u, s)
-            return float(np.min(np.array(self._values(t + s, qs, us, rows)) / scale)), qs, us
+            f = np.array(self._values(t + s, qs, us, rows)) / scale
+            i = int(np.argmin(f))
+            return float(f[i]), bool(-close[i] <= f[i] < 0), qs, us
 
         lo, f_lo = 0.0, f_start
         hi, f_hi, q_hi, u_hi = h, -1.0, q1, u1
@@ -248,8 +261,8 @@ class EventStepper(Stepper):
             s = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
             if not lo < s < hi:
                 s = 0.5 * (lo + hi)
-            f_s, qs, us = F(s)
-            if -LOCATE_FTOL <= f_s < 0:  # just past the event: close enough
+            f_s, past, qs, us = F(s)
+            if past:  # just past the event, by less than its function is known: close enough
                 return s, qs, us
             if f_s < 0:
                 hi, f_hi, q_hi, u_hi = s, f_s, qs, us
@@ -260,6 +273,21 @@ class EventStepper(Stepper):
                 f_hi = f_hi * 0.5 if side == 1 else f_hi
                 side = 1
         return hi, q_hi, u_hi
+
+    def _force_noise(self, t: float, q: Array, u: Array, rows: list[tuple[int, int]]) -> Array:
+        """Per row, how well its event function is known [N m | N for a held row, 0 for a gap row].
+
+        A held row's stop force is sum_i M_ji a_i - force_j with a the held acceleration:
+        FORCE_NOISE_RTOL x sum_i |M_ji a_i| at the step's start.
+        """
+        held = self.system.held
+        if not any(k in held for k, _ in rows):
+            return np.zeros(len(rows))
+        nv = self.system.nv
+        M = self.system.mass_matrix_free(q)
+        a = self.system.rates(t, q, u)[:nv]
+        size = np.abs(M) @ np.abs(a)
+        return np.array([FORCE_NOISE_RTOL * float(size[self.stops.iv[k]]) if k in held else 0.0 for k, _ in rows])
 
     def _take(self, t: float, q: Array, u: Array, h: float) -> tuple[Array, Array]:
         """At time t: the impact of the stops reached, then the held set made consistent (:meth:`_settle`)."""

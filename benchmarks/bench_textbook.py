@@ -3,9 +3,9 @@
     python benchmarks/bench_textbook.py [--out DIR] [--samples N]
 
 Runs every scene under ``examples/textbook/`` exactly as a user would (``robodyn run SCENE
---out DIR/scenes/NAME --no-view``: the library's own run path, nothing re-implemented here),
+--out <temporary folder> --no-view``: the library's own run path, nothing re-implemented here),
 reads what each run wrote to its ``summary.json`` and prints, then saves as
-``DIR/textbook.json`` (DIR defaults to ``bench-out/``; nothing under ``docs/`` is written):
+``DIR/textbook.json`` (DIR defaults to ``bench-out/``; committed files only with ``--overwrite-committed``):
 
 * for each scene, the worst deviation of the simulated motion from the closed form over the
   whole run, relative to the largest value of the quantity (19.1 rolling and sliding: v(b);
@@ -21,17 +21,19 @@ The machine's load (``os.getloadavg``) is recorded beside the wall times.
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import io
 import json
 import os
-import platform
+import shutil
+import tempfile
 import time
 from pathlib import Path
 from typing import Any
 
 from robodyn.cli import main as robodyn_main
+
+from _common import argument_parser, output_folder, run_facts, write_json
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples" / "textbook"
@@ -90,19 +92,17 @@ def figures(name: str, run: dict[str, Any]) -> dict[str, Any]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("bench-out"), help="folder for textbook.json (bench-out/)")
+    parser = argument_parser(__doc__)
     parser.add_argument("--samples", type=int, default=1000, help="random states of the reduced-Lagrangian check")
     args = parser.parse_args()
-    docs, out = (ROOT / "docs").resolve(), args.out.resolve()
-    if out == docs or docs in out.parents:
-        parser.error("--out: benchmarks never write under docs/")
-    args.out.mkdir(parents=True, exist_ok=True)
+    output_folder(args.out, overwrite_committed=args.overwrite_committed)
+    facts = run_facts()
     rows = []
     errors = {}
+    runs = Path(tempfile.mkdtemp(prefix="bench-textbook-"))  # each run's own files: read, then removed
     for scene in sorted(EXAMPLES.glob("*/*.toml")):
         try:
-            run = run_scene(scene, args.out / "scenes" / scene.stem, args.samples)
+            run = run_scene(scene, runs / scene.stem, args.samples)
         except Exception as exc:  # a crash is a finding: report it, and measure the other scenes
             errors[scene.stem] = f"{type(exc).__name__}: {exc}"
             print(f"ERROR: robodyn run {scene.relative_to(ROOT)} raised {errors[scene.stem]}")
@@ -128,15 +128,12 @@ def main() -> None:
         for term, error in reduced["worst_relative_error"].items():
             print(f"  {term:<56}{error:>11.3e}")
     result = {
-        "machine": platform.platform(),
-        "load_average": list(load),
         "samples": args.samples,
         "scenes": rows,
         "errors": errors,
     }
-    path = args.out / "textbook.json"
-    path.write_text(json.dumps(result, indent=2) + "\n", encoding="utf-8")
-    print(f"wrote {path}")
+    shutil.rmtree(runs, ignore_errors=True)
+    print(f"wrote {write_json(args.out, 'textbook', result, facts)}")
 
 
 if __name__ == "__main__":

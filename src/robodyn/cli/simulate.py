@@ -433,6 +433,8 @@ def _report(trajectory: Any, out: Path | None, csv: Path | None, *, as_json: boo
     s["backend"] = meta.get("backend")
     s["loop"] = meta.get("loop")
     s["compiled_loop"] = meta.get("compiled_loop")
+    if meta.get("stiff_friction"):
+        s["stiff_friction"] = meta["stiff_friction"]
     if as_json:
         print_json(s)
         return
@@ -453,6 +455,10 @@ def _report(trajectory: Any, out: Path | None, csv: Path | None, *, as_json: boo
         f"W_limits = {s['work_limits']:.9g} J, "
         f"residual max|E - E0 - W_input - W_damping - W_limits| = {s['max_ledger_residual']:.3e} J"
     )
+    if meta.get("stiff_friction"):  # one line, however many joints
+        from robodyn.sim.stiffness import warning_line
+
+        print(warning_line(meta["stiff_friction"]))
     print(f"power: average {s['average_power']:.6g} W (W_input over {s['t_final'] - float(trajectory.t[0]):g} s)")
     for line in constraint_lines(trajectory):
         print(line)

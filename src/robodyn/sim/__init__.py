@@ -6,5 +6,8 @@
 * what the user asks for: ``constraints`` (the frozen spec), ``couplings`` (mimic joints);
 * a run: ``events`` (impacts and releases located inside a step), ``run`` (the stepping loop),
   ``simulation`` (:func:`robodyn.simulate`), ``energy`` and ``trajectory`` (the books);
-* many states at once (``batch``) and the compiled closed forms (``fast``).
+* what a run is warned of before it starts: ``stiffness`` (Coulomb friction too stiff for the
+  method's step);
+* many states at once (``batch``), the compiled closed forms (``fast``) and the compiled path for
+  any tree (``tree``, ``tree_kernels``, ``tree_steps``, ``whole_run``).
 """

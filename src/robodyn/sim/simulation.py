@@ -18,6 +18,8 @@ have norm 1 within ``UNIT_NORM_TOL``) and so is M(q0): a singular mass matrix is
 rather than integrated into a blow-up that would look like the integrator's fault. A q0
 outside a joint's stops is moved onto the stop, and a q0 (v0) that violates a loop is
 projected onto it; both are recorded in the metadata (``q0_clamped``, ``loop_projection``).
+A fixed-step explicit method too coarse for the regularised Coulomb friction of a light joint
+(:mod:`robodyn.sim.stiffness`) still runs, with the finding in the metadata (``stiff_friction``).
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ from robodyn.sim import energy, whole_run
 from robodyn.sim.constraints import Constraints, Coupling, Loop, Spring
 from robodyn.sim.loops import close_initial_state
 from robodyn.sim.run import Run
+from robodyn.sim.stiffness import friction_stiffness
 from robodyn.sim.system import SINGULAR_MASS_RTOL, RobotSystem, TorqueFn, coordinate_units, robot_system
 from robodyn.sim.trajectory import Trajectory
 
@@ -172,6 +175,9 @@ def simulate(
     v = robot.v_(v0, "v0")
     q, v = _respect_constraints(system, q, v, notes)
     _refuse_singular_mass(robot, system, q)
+    stiff = friction_stiffness(system, method, q, dt)
+    if stiff is not None:  # the run still happens; the finding is said, in the metadata and by the CLI
+        notes["stiff_friction"] = stiff.describe()
     check = energy.cross_check(robot, q, v)
     t_grid = _time_grid(duration, dt)
 

@@ -102,6 +102,22 @@ def travel_trajectory(robot, *, distance: float = 100.0, duration: float = 2.0, 
     )
 
 
+# Headless Chromium with no network of its own and WebGL in software (SwiftShader): the flags
+# every browser test starts it with.
+HEADLESS_FLAGS = (
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--enable-unsafe-swiftshader",
+    "--use-angle=swiftshader",
+)
+
+
 class DevTools:
     """A headless Chromium driven over the DevTools protocol: load a page, evaluate JavaScript, click, photograph.
 
@@ -116,16 +132,7 @@ class DevTools:
         self.process = subprocess.Popen(
             [
                 chromium,
-                "--headless",
-                "--no-sandbox",
-                "--disable-gpu",
-                "--disable-quic",
-                "--no-first-run",
-                "--disable-background-networking",
-                "--disable-component-update",
-                "--disable-sync",
-                "--enable-unsafe-swiftshader",
-                "--use-angle=swiftshader",
+                *HEADLESS_FLAGS,
                 "--hide-scrollbars",
                 f"--user-data-dir={profile}",
                 f"--window-size={width},{height}",

@@ -34,7 +34,7 @@ from robodyn import viewer
 from robodyn.cli import main
 from robodyn.viewer import camera as _camera  # noqa: F401  (loads viewer.camera for box_corners)
 
-from ._viewer_helpers import SLIDER_URDF, DevTools, interrupt, travel_trajectory, view_process
+from ._viewer_helpers import HEADLESS_FLAGS, SLIDER_URDF, DevTools, interrupt, travel_trajectory, view_process
 
 pytestmark = pytest.mark.browser
 
@@ -101,17 +101,8 @@ def screenshot(chromium: str, url: str, out: Path, *, budget_ms: int, profile: P
 
     command = [
         chromium,
-        "--headless",
-        "--no-sandbox",
-        "--disable-gpu",
-        "--disable-quic",
-        "--no-first-run",
-        "--disable-background-networking",
-        "--disable-component-update",
-        "--disable-sync",
+        *HEADLESS_FLAGS,
         f"--user-data-dir={profile}",
-        "--enable-unsafe-swiftshader",
-        "--use-angle=swiftshader",
         f"--window-size={WIDTH},{HEIGHT}",
         f"--virtual-time-budget={budget_ms}",
         f"--screenshot={out}",

@@ -14,6 +14,8 @@ import pytest
 import robodyn
 from robodyn.cli import main
 
+from ._ctrl_c import press_ctrl_c_during_step
+
 
 def test_simulate_prints_summary_and_writes_files(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out, csv = tmp_path / "traj.npz", tmp_path / "traj.csv"
@@ -113,18 +115,7 @@ def test_bad_input_leaves_no_empty_files(tmp_path: Path, capsys: pytest.CaptureF
 def test_ctrl_c_writes_the_partial_trajectory_and_exits_130(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from robodyn import integrators
-
-    original = integrators.ClassicRK4.step
-    calls = {"n": 0}
-
-    def step_then_ctrl_c(self: object, *args: object) -> object:
-        calls["n"] += 1
-        if calls["n"] > 700:  # the user presses Ctrl-C during step 701, in the second check block
-            raise KeyboardInterrupt
-        return original(self, *args)  # type: ignore[arg-type]
-
-    monkeypatch.setattr(integrators.ClassicRK4, "step", step_then_ctrl_c)
+    press_ctrl_c_during_step(monkeypatch, 701)  # the user presses Ctrl-C during step 701, in the second check block
     out, partial = tmp_path / "int.npz", tmp_path / "int.partial.npz"
     assert main(["simulate", "pendubot", "--q0", "0.3,-0.2", "--duration", "100", "--out", str(out)]) == 130
     captured = capsys.readouterr()

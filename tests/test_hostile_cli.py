@@ -22,6 +22,8 @@ import pytest
 from robodyn.cli import main
 from robodyn.errors import EXIT_BAD_INPUT, EXIT_DIVERGED, InputError
 
+from ._ctrl_c import press_ctrl_c_during_step
+
 ROBODYN = Path(sys.executable).parent / "robodyn"
 INTERRUPTED = 130
 
@@ -207,20 +209,9 @@ def test_divergence_keeps_the_good_file_and_writes_the_partial_beside_it(
 def test_ctrl_c_keeps_the_good_file_and_writes_the_partial_beside_it(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from robodyn import integrators
-
     out = tmp_path / "x.npz"
     out.write_bytes(b"a good run")
-    original = integrators.ClassicRK4.step
-    calls = {"n": 0}
-
-    def step_then_ctrl_c(self: object, *args: object) -> object:
-        calls["n"] += 1
-        if calls["n"] > 300:
-            raise KeyboardInterrupt
-        return original(self, *args)  # type: ignore[arg-type]
-
-    monkeypatch.setattr(integrators.ClassicRK4, "step", step_then_ctrl_c)
+    press_ctrl_c_during_step(monkeypatch, 301)
     assert main(["simulate", "pendubot", "--duration", "10", "--out", str(out)]) == INTERRUPTED
     line = one_line(capsys)
     assert f"partial trajectory written to {tmp_path / 'x.partial.npz'} ({out} left as it was)" in line
@@ -369,18 +360,7 @@ def test_run_divergence_keeps_the_good_trajectory(tmp_path: Path, capsys: pytest
 def test_run_ctrl_c_keeps_the_partial_trajectory(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from robodyn import integrators
-
-    original = integrators.ClassicRK4.step
-    calls = {"n": 0}
-
-    def step_then_ctrl_c(self: object, *args: object) -> object:
-        calls["n"] += 1
-        if calls["n"] > 300:
-            raise KeyboardInterrupt
-        return original(self, *args)  # type: ignore[arg-type]
-
-    monkeypatch.setattr(integrators.ClassicRK4, "step", step_then_ctrl_c)
+    press_ctrl_c_during_step(monkeypatch, 301)
     scene = write_scene(tmp_path, BASE + "[simulate]\nduration = 10.0\n")
     out = tmp_path / "out"
     assert main(["run", str(scene), "--out", str(out)]) == INTERRUPTED

@@ -20,6 +20,8 @@ from robodyn.cli import main
 from robodyn.sweep import chunk as chunk_module
 from robodyn.sweep.plan import Chunk
 
+from ._dask_helpers import two_workers
+
 # The chunk path and the one-by-one path do the same arithmetic on each run's row: exact.
 EXACT = 0.0
 # The compiled closed form against Pinocchio's ABA, same RK4 steps: round-off over 2,000 steps.
@@ -63,12 +65,7 @@ CHAOS_SWEEP = {
 
 @pytest.fixture(scope="module")
 def client():
-    with (
-        distributed.LocalCluster(
-            n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address="127.0.0.1:0"
-        ) as cluster,
-        distributed.Client(cluster) as c,
-    ):
+    with two_workers() as c:
         yield c
 
 
@@ -132,12 +129,7 @@ def test_lqr_sweep_balances_near_upright_and_fast_path_matches_aba(client, tmp_p
 def test_killing_a_worker_mid_sweep_loses_nothing(tmp_path):
     spec = {**CHAOS_SWEEP, "duration": 1.0, "chunk": 1}
     killed: list[int] = []
-    with (
-        distributed.LocalCluster(
-            n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address="127.0.0.1:0"
-        ) as cluster,
-        distributed.Client(cluster) as c,
-    ):
+    with two_workers() as c:
         before = c.run(os.getpid)
 
         def kill_one(_chunk) -> None:

@@ -6,7 +6,6 @@ import re
 import shutil
 from pathlib import Path
 
-import distributed
 import numpy as np
 import pytest
 
@@ -15,6 +14,8 @@ import robodyn.sweep as sweep
 from robodyn.cli import main
 from robodyn.errors import InputError
 from robodyn.scene import read_scene
+
+from ._dask_helpers import two_workers
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
@@ -32,12 +33,7 @@ LOCKED_SCENE = EXAMPLES / "pendubot.toml"
 
 @pytest.fixture(scope="module")
 def client():
-    with (
-        distributed.LocalCluster(
-            n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address="127.0.0.1:0"
-        ) as cluster,
-        distributed.Client(cluster) as c,
-    ):
+    with two_workers() as c:
         yield c
 
 

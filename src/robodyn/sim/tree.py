@@ -54,18 +54,20 @@ _TYPES: dict[str, tuple[int, tuple[float, float, float] | None]] = {
     "JointModelPrismaticUnaligned": (1, None),
     "JointModelRevoluteUnboundedUnaligned": (2, None),
 }
-FCOLS = 29  # tree_kernels.FCOLS, kept here so that extraction does not import numba
+FCOLS = 50  # tree_kernels.FCOLS, kept here so that extraction does not import numba
 
 
 @dataclass(frozen=True, eq=False)
 class TreeModel:
-    """A kinematic tree as arrays: ``itree`` (n, 4) int64, ``ftree`` (n, 29) float64, ``grav`` (3,) [m/s^2].
+    """A kinematic tree as arrays: ``itree`` (n, 4) int64, ``ftree`` (n, 50) float64, ``grav`` (3,) [m/s^2].
 
     Row i of ``itree``: parent row (-1 for the world), type (0 revolute, 1 prismatic, 2
     continuous), index in q, index in v. Row i of ``ftree``: unit joint axis (3), the joint
     placement in its parent's frame (rotation row-major (9), translation [m] (3)), mass [kg],
     lever (centre of mass in the joint frame) [m] (3), rotational inertia about the centre of
-    mass [kg m^2] (9), armature [kg m^2 | kg].
+    mass [kg m^2] (9), armature [kg m^2 | kg], and from the placement R_p and the axis a:
+    R_p [a]x (9), (R_p a) a^T (9) and R_p a (3), the terms of Rodrigues' formula the kernels
+    turn the joint with.
     """
 
     name: str
@@ -142,6 +144,12 @@ def extract(robot: Robot) -> TreeModel:
         ftree[i, 16:19] = np.asarray(inertia.lever, dtype=np.float64)
         ftree[i, 19:28] = np.asarray(inertia.inertia, dtype=np.float64).reshape(9)
         ftree[i, 28] = armature[int(joint.idx_v)]
+        # products of the placement with the axis (Rodrigues' formula of the joint's rotation)
+        rot = ftree[i, 3:12].reshape(3, 3)
+        cross = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+        ftree[i, 29:38] = (rot @ cross).reshape(9)
+        ftree[i, 38:47] = np.outer(rot @ axis, axis).reshape(9)
+        ftree[i, 47:50] = rot @ axis
     grav = np.asarray(model.gravity.linear, dtype=np.float64).copy()
     return TreeModel(robot.name, int(model.nq), int(model.nv), itree, ftree, grav)
 

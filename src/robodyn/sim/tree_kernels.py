@@ -1,24 +1,34 @@
-"""numba kernels of the recursive rigid-body algorithms on a kinematic tree, and whole runs over them.
+"""numba kernels of the recursive rigid-body algorithms on a kinematic tree.
 
 Imported only by :mod:`robodyn.sim.tree` when a compiled path is asked for (numba is heavy).
 The model arrives as three arrays (:class:`robodyn.sim.tree.TreeModel`): ``itree`` (n, 4) int64
 rows (parent, joint type, index in q, index in v), ``ftree`` (n, FCOLS) float64 rows (joint
-axis, joint placement R and p in the parent joint's frame, mass, lever, rotational inertia about
-the centre of mass, armature), and ``grav`` (3,) [m/s^2]. Joint types: ``REVOLUTE`` (one angle),
-``PRISMATIC`` (one slide), ``CONTINUOUS`` (a revolute joint stored as (cos, sin), nq = 2).
+axis, joint placement R_p and p in the parent joint's frame, mass, lever, rotational inertia
+about the centre of mass, armature, and three products of the placement with the axis that
+turn the joint's rotation into a sum: K = R_p [a]x, N = (R_p a) a^T, R_p a), and ``grav`` (3,)
+[m/s^2]. Joint types: ``REVOLUTE`` (one angle), ``PRISMATIC`` (one slide), ``CONTINUOUS`` (a
+revolute joint stored as (cos, sin), nq = 2).
 
 Every quantity is expressed in the world frame, at the world origin (spatial vectors as
 [linear; angular], as Pinocchio writes them): a body's inertia is turned into world axes once
 per evaluation, after which the articulated inertias add up without a change of frame (the
 world-frame formulation of the articulated-body algorithm, Featherstone 2008, sec. 7.3).
 
-* pass 1 (root to leaves): placements, motion axes S_i, velocities v_i, velocity-product
-  accelerations c_i = v_i x S_i qd_i, world inertias I_i, bias forces p_i = v_i x* I_i v_i,
-  and the energies T = sum 1/2 v_i . I_i v_i + 1/2 sum armature qd^2, V = -sum m_i g . c_i;
+* pass 1 (root to leaves): placements (Rodrigues: R_p R_J(q) = R_p + sin q K + (1 - cos q)
+  (N - R_p)), motion axes S_i, velocities v_i, velocity-product accelerations
+  c_i = v_i x S_i qd_i, world inertias I_i, bias forces p_i = v_i x* I_i v_i, and the energies
+  T = sum 1/2 v_i . I_i v_i + 1/2 sum armature qd^2, V = -sum m_i g . c_i;
 * ABA pass 2 (leaves to root): U = IA S, D = S . U + armature, u = tau - S . pA, and the
-  parent collects IA - U U^T / D and pA + Ia c + U u / D;
+  parent collects IA - U U^T / D (its upper triangle, mirrored) and
+  pA + IA c + U (u - U . c) / D;
 * ABA pass 3 (root to leaves): qdd = (u - U . (a_parent + c)) / D, a = a_parent + c + S qdd,
   starting from a_0 = (-g, 0).
+
+A joint held at its stop is locked: ``ws[i, W_LOCK]`` = 1 (the caller sets it; a fresh zero
+workspace locks nothing). Its articulated inertia passes to the parent whole, its qdd is 0,
+and pass 3 leaves the stop's generalised force lambda = S . (IA a + pA) - tau (the force
+M a - (tau - C v - G) of :meth:`robodyn.sim.system.RobotSystem.stop_forces`) in
+``ws[i, W_LAMBDA]``.
 
 RNEA and CRBA reuse pass 1. The steps and whole runs over these are in
 :mod:`robodyn.sim.tree_steps`.
@@ -37,11 +47,13 @@ REVOLUTE, PRISMATIC, CONTINUOUS = 0, 1, 2
 
 # ftree columns
 F_AXIS, F_ROT, F_POS, F_MASS, F_LEVER, F_INERTIA, F_ARMATURE = 0, 3, 12, 15, 16, 19, 28
-FCOLS = 29
+F_K, F_N, F_RA = 29, 38, 47
+FCOLS = 50
 
 # workspace columns, one row per joint
 W_ROT, W_POS, W_S, W_V, W_C, W_IA, W_PA, W_U, W_D, W_UU, W_A = 0, 9, 12, 18, 24, 30, 66, 72, 78, 79, 80
-WCOLS = 86
+W_LOCK, W_LAMBDA = 86, 87
+WCOLS = 88
 
 
 @njit
@@ -52,136 +64,140 @@ def kinematics(itree, ftree, grav, q, v, ws):  # type: ignore[no-untyped-def]
     potential = 0.0
     for i in range(n):
         par, jt, iq, iv = itree[i, 0], itree[i, 1], itree[i, 2], itree[i, 3]
-        f = ftree[i]
-        w = ws[i]
-        ax, ay, az = f[F_AXIS], f[F_AXIS + 1], f[F_AXIS + 2]
-        # joint transform: rotation RJ about the axis, or the slide d along it
-        d = 0.0
+        # local placement L = R_p R_J and pl = p + R_p a d
         if jt == PRISMATIC:
             d = q[iq]
-            c, s = 1.0, 0.0
-        elif jt == CONTINUOUS:
-            c, s = q[iq], q[iq + 1]
+            l00, l01, l02 = ftree[i, F_ROT], ftree[i, F_ROT + 1], ftree[i, F_ROT + 2]
+            l10, l11, l12 = ftree[i, F_ROT + 3], ftree[i, F_ROT + 4], ftree[i, F_ROT + 5]
+            l20, l21, l22 = ftree[i, F_ROT + 6], ftree[i, F_ROT + 7], ftree[i, F_ROT + 8]
+            pl0 = ftree[i, F_POS] + d * ftree[i, F_RA]
+            pl1 = ftree[i, F_POS + 1] + d * ftree[i, F_RA + 1]
+            pl2 = ftree[i, F_POS + 2] + d * ftree[i, F_RA + 2]
         else:
-            c, s = math.cos(q[iq]), math.sin(q[iq])
-        t = 1.0 - c
-        rj0, rj1, rj2 = c + t * ax * ax, t * ax * ay - s * az, t * ax * az + s * ay
-        rj3, rj4, rj5 = t * ax * ay + s * az, c + t * ay * ay, t * ay * az - s * ax
-        rj6, rj7, rj8 = t * ax * az - s * ay, t * ay * az + s * ax, c + t * az * az
-        # local placement: Rp RJ, pp + Rp (d axis)
-        p00, p01, p02 = f[F_ROT], f[F_ROT + 1], f[F_ROT + 2]
-        p10, p11, p12 = f[F_ROT + 3], f[F_ROT + 4], f[F_ROT + 5]
-        p20, p21, p22 = f[F_ROT + 6], f[F_ROT + 7], f[F_ROT + 8]
-        l00, l01, l02 = (
-            p00 * rj0 + p01 * rj3 + p02 * rj6,
-            p00 * rj1 + p01 * rj4 + p02 * rj7,
-            p00 * rj2 + p01 * rj5 + p02 * rj8,
-        )
-        l10, l11, l12 = (
-            p10 * rj0 + p11 * rj3 + p12 * rj6,
-            p10 * rj1 + p11 * rj4 + p12 * rj7,
-            p10 * rj2 + p11 * rj5 + p12 * rj8,
-        )
-        l20, l21, l22 = (
-            p20 * rj0 + p21 * rj3 + p22 * rj6,
-            p20 * rj1 + p21 * rj4 + p22 * rj7,
-            p20 * rj2 + p21 * rj5 + p22 * rj8,
-        )
-        pl0 = f[F_POS] + d * (p00 * ax + p01 * ay + p02 * az)
-        pl1 = f[F_POS + 1] + d * (p10 * ax + p11 * ay + p12 * az)
-        pl2 = f[F_POS + 2] + d * (p20 * ax + p21 * ay + p22 * az)
+            if jt == CONTINUOUS:
+                c, s = q[iq], q[iq + 1]
+            else:
+                c, s = math.cos(q[iq]), math.sin(q[iq])
+            t = 1.0 - c
+            # R_p (c I + s [a]x + t a a^T) = c R_p + s K + t N
+            l00 = c * ftree[i, F_ROT] + s * ftree[i, F_K] + t * ftree[i, F_N]
+            l01 = c * ftree[i, F_ROT + 1] + s * ftree[i, F_K + 1] + t * ftree[i, F_N + 1]
+            l02 = c * ftree[i, F_ROT + 2] + s * ftree[i, F_K + 2] + t * ftree[i, F_N + 2]
+            l10 = c * ftree[i, F_ROT + 3] + s * ftree[i, F_K + 3] + t * ftree[i, F_N + 3]
+            l11 = c * ftree[i, F_ROT + 4] + s * ftree[i, F_K + 4] + t * ftree[i, F_N + 4]
+            l12 = c * ftree[i, F_ROT + 5] + s * ftree[i, F_K + 5] + t * ftree[i, F_N + 5]
+            l20 = c * ftree[i, F_ROT + 6] + s * ftree[i, F_K + 6] + t * ftree[i, F_N + 6]
+            l21 = c * ftree[i, F_ROT + 7] + s * ftree[i, F_K + 7] + t * ftree[i, F_N + 7]
+            l22 = c * ftree[i, F_ROT + 8] + s * ftree[i, F_K + 8] + t * ftree[i, F_N + 8]
+            pl0, pl1, pl2 = ftree[i, F_POS], ftree[i, F_POS + 1], ftree[i, F_POS + 2]
+        # world placement R = R_parent L, o = o_parent + R_parent pl; world axis R_parent (R_p a)
+        ra0, ra1, ra2 = ftree[i, F_RA], ftree[i, F_RA + 1], ftree[i, F_RA + 2]
         if par < 0:
-            w[W_ROT], w[W_ROT + 1], w[W_ROT + 2] = l00, l01, l02
-            w[W_ROT + 3], w[W_ROT + 4], w[W_ROT + 5] = l10, l11, l12
-            w[W_ROT + 6], w[W_ROT + 7], w[W_ROT + 8] = l20, l21, l22
-            w[W_POS], w[W_POS + 1], w[W_POS + 2] = pl0, pl1, pl2
-            for k in range(6):
-                w[W_V + k] = 0.0
+            r00, r01, r02, r10, r11, r12, r20, r21, r22 = l00, l01, l02, l10, l11, l12, l20, l21, l22
+            ox, oy, oz = pl0, pl1, pl2
+            wx, wy, wz = ra0, ra1, ra2
+            l0 = l1 = l2 = g0 = g1 = g2 = 0.0
         else:
-            wp = ws[par]
-            for r in range(3):
-                a0, a1, a2 = wp[W_ROT + 3 * r], wp[W_ROT + 3 * r + 1], wp[W_ROT + 3 * r + 2]
-                w[W_ROT + 3 * r] = a0 * l00 + a1 * l10 + a2 * l20
-                w[W_ROT + 3 * r + 1] = a0 * l01 + a1 * l11 + a2 * l21
-                w[W_ROT + 3 * r + 2] = a0 * l02 + a1 * l12 + a2 * l22
-                w[W_POS + r] = wp[W_POS + r] + a0 * pl0 + a1 * pl1 + a2 * pl2
-            for k in range(6):
-                w[W_V + k] = wp[W_V + k]
-        R = w[W_ROT : W_ROT + 9]
-        ox, oy, oz = w[W_POS], w[W_POS + 1], w[W_POS + 2]
-        # world axis and motion subspace S = [o x axis; axis] (revolute) or [axis; 0] (prismatic)
-        wx = R[0] * ax + R[1] * ay + R[2] * az
-        wy = R[3] * ax + R[4] * ay + R[5] * az
-        wz = R[6] * ax + R[7] * ay + R[8] * az
+            b00, b01, b02 = ws[par, W_ROT], ws[par, W_ROT + 1], ws[par, W_ROT + 2]
+            b10, b11, b12 = ws[par, W_ROT + 3], ws[par, W_ROT + 4], ws[par, W_ROT + 5]
+            b20, b21, b22 = ws[par, W_ROT + 6], ws[par, W_ROT + 7], ws[par, W_ROT + 8]
+            r00 = b00 * l00 + b01 * l10 + b02 * l20
+            r01 = b00 * l01 + b01 * l11 + b02 * l21
+            r02 = b00 * l02 + b01 * l12 + b02 * l22
+            r10 = b10 * l00 + b11 * l10 + b12 * l20
+            r11 = b10 * l01 + b11 * l11 + b12 * l21
+            r12 = b10 * l02 + b11 * l12 + b12 * l22
+            r20 = b20 * l00 + b21 * l10 + b22 * l20
+            r21 = b20 * l01 + b21 * l11 + b22 * l21
+            r22 = b20 * l02 + b21 * l12 + b22 * l22
+            ox = ws[par, W_POS] + b00 * pl0 + b01 * pl1 + b02 * pl2
+            oy = ws[par, W_POS + 1] + b10 * pl0 + b11 * pl1 + b12 * pl2
+            oz = ws[par, W_POS + 2] + b20 * pl0 + b21 * pl1 + b22 * pl2
+            wx = b00 * ra0 + b01 * ra1 + b02 * ra2
+            wy = b10 * ra0 + b11 * ra1 + b12 * ra2
+            wz = b20 * ra0 + b21 * ra1 + b22 * ra2
+            l0, l1, l2 = ws[par, W_V], ws[par, W_V + 1], ws[par, W_V + 2]
+            g0, g1, g2 = ws[par, W_V + 3], ws[par, W_V + 4], ws[par, W_V + 5]
+        ws[i, W_ROT], ws[i, W_ROT + 1], ws[i, W_ROT + 2] = r00, r01, r02
+        ws[i, W_ROT + 3], ws[i, W_ROT + 4], ws[i, W_ROT + 5] = r10, r11, r12
+        ws[i, W_ROT + 6], ws[i, W_ROT + 7], ws[i, W_ROT + 8] = r20, r21, r22
+        ws[i, W_POS], ws[i, W_POS + 1], ws[i, W_POS + 2] = ox, oy, oz
+        # motion subspace S = [o x axis; axis] (revolute) or [axis; 0] (prismatic)
         if jt == PRISMATIC:
-            w[W_S], w[W_S + 1], w[W_S + 2] = wx, wy, wz
-            w[W_S + 3], w[W_S + 4], w[W_S + 5] = 0.0, 0.0, 0.0
+            s0, s1, s2, s3, s4, s5 = wx, wy, wz, 0.0, 0.0, 0.0
         else:
-            w[W_S], w[W_S + 1], w[W_S + 2] = oy * wz - oz * wy, oz * wx - ox * wz, ox * wy - oy * wx
-            w[W_S + 3], w[W_S + 4], w[W_S + 5] = wx, wy, wz
+            s0, s1, s2 = oy * wz - oz * wy, oz * wx - ox * wz, ox * wy - oy * wx
+            s3, s4, s5 = wx, wy, wz
+        ws[i, W_S], ws[i, W_S + 1], ws[i, W_S + 2] = s0, s1, s2
+        ws[i, W_S + 3], ws[i, W_S + 4], ws[i, W_S + 5] = s3, s4, s5
         qd = v[iv]
-        # c = v_i x (S qd), v_i = v_parent + S qd (the parent's part: S x S = 0)
-        vj0, vj1, vj2 = w[W_S] * qd, w[W_S + 1] * qd, w[W_S + 2] * qd
-        vj3, vj4, vj5 = w[W_S + 3] * qd, w[W_S + 4] * qd, w[W_S + 5] * qd
-        l0, l1, l2, g0, g1, g2 = w[W_V], w[W_V + 1], w[W_V + 2], w[W_V + 3], w[W_V + 4], w[W_V + 5]
-        w[W_C] = g1 * vj2 - g2 * vj1 + l1 * vj5 - l2 * vj4
-        w[W_C + 1] = g2 * vj0 - g0 * vj2 + l2 * vj3 - l0 * vj5
-        w[W_C + 2] = g0 * vj1 - g1 * vj0 + l0 * vj4 - l1 * vj3
-        w[W_C + 3] = g1 * vj5 - g2 * vj4
-        w[W_C + 4] = g2 * vj3 - g0 * vj5
-        w[W_C + 5] = g0 * vj4 - g1 * vj3
+        # c = v_parent x (S qd) (S x S = 0), v_i = v_parent + S qd
+        vj0, vj1, vj2, vj3, vj4, vj5 = s0 * qd, s1 * qd, s2 * qd, s3 * qd, s4 * qd, s5 * qd
+        ws[i, W_C] = g1 * vj2 - g2 * vj1 + l1 * vj5 - l2 * vj4
+        ws[i, W_C + 1] = g2 * vj0 - g0 * vj2 + l2 * vj3 - l0 * vj5
+        ws[i, W_C + 2] = g0 * vj1 - g1 * vj0 + l0 * vj4 - l1 * vj3
+        ws[i, W_C + 3] = g1 * vj5 - g2 * vj4
+        ws[i, W_C + 4] = g2 * vj3 - g0 * vj5
+        ws[i, W_C + 5] = g0 * vj4 - g1 * vj3
         l0, l1, l2 = l0 + vj0, l1 + vj1, l2 + vj2
         g0, g1, g2 = g0 + vj3, g1 + vj4, g2 + vj5
-        w[W_V], w[W_V + 1], w[W_V + 2], w[W_V + 3], w[W_V + 4], w[W_V + 5] = l0, l1, l2, g0, g1, g2
-        # world inertia about the world origin
-        m = f[F_MASS]
-        lx, ly, lz = f[F_LEVER], f[F_LEVER + 1], f[F_LEVER + 2]
-        cx = ox + R[0] * lx + R[1] * ly + R[2] * lz
-        cy = oy + R[3] * lx + R[4] * ly + R[5] * lz
-        cz = oz + R[6] * lx + R[7] * ly + R[8] * lz
-        IA = w[W_IA : W_IA + 36]
-        cc = cx * cx + cy * cy + cz * cz
-        for r in range(3):
-            # row r of R Ic
-            t0 = R[3 * r] * f[F_INERTIA] + R[3 * r + 1] * f[F_INERTIA + 3] + R[3 * r + 2] * f[F_INERTIA + 6]
-            t1 = R[3 * r] * f[F_INERTIA + 1] + R[3 * r + 1] * f[F_INERTIA + 4] + R[3 * r + 2] * f[F_INERTIA + 7]
-            t2 = R[3 * r] * f[F_INERTIA + 2] + R[3 * r + 1] * f[F_INERTIA + 5] + R[3 * r + 2] * f[F_INERTIA + 8]
-            cr = cx if r == 0 else (cy if r == 1 else cz)
-            for k in range(r, 3):
-                ck = cx if k == 0 else (cy if k == 1 else cz)
-                val = t0 * R[3 * k] + t1 * R[3 * k + 1] + t2 * R[3 * k + 2] - m * cr * ck
-                if r == k:
-                    val += m * cc
-                IA[6 * (3 + r) + 3 + k] = val
-                IA[6 * (3 + k) + 3 + r] = val
-        for r in range(3):
-            for k in range(3):
-                IA[6 * r + k] = m if r == k else 0.0
+        ws[i, W_V], ws[i, W_V + 1], ws[i, W_V + 2] = l0, l1, l2
+        ws[i, W_V + 3], ws[i, W_V + 4], ws[i, W_V + 5] = g0, g1, g2
+        # world inertia about the world origin: [m 1, -m [c]x; m [c]x, R Ic R^T - m [c]x [c]x]
+        m = ftree[i, F_MASS]
+        lx, ly, lz = ftree[i, F_LEVER], ftree[i, F_LEVER + 1], ftree[i, F_LEVER + 2]
+        cx = ox + r00 * lx + r01 * ly + r02 * lz
+        cy = oy + r10 * lx + r11 * ly + r12 * lz
+        cz = oz + r20 * lx + r21 * ly + r22 * lz
+        i00, i01, i02 = ftree[i, F_INERTIA], ftree[i, F_INERTIA + 1], ftree[i, F_INERTIA + 2]
+        i11, i12, i22 = ftree[i, F_INERTIA + 4], ftree[i, F_INERTIA + 5], ftree[i, F_INERTIA + 8]
+        # rows of R Ic (Ic symmetric)
+        t00 = r00 * i00 + r01 * i01 + r02 * i02
+        t01 = r00 * i01 + r01 * i11 + r02 * i12
+        t02 = r00 * i02 + r01 * i12 + r02 * i22
+        t10 = r10 * i00 + r11 * i01 + r12 * i02
+        t11 = r10 * i01 + r11 * i11 + r12 * i12
+        t12 = r10 * i02 + r11 * i12 + r12 * i22
+        t20 = r20 * i00 + r21 * i01 + r22 * i02
+        t21 = r20 * i01 + r21 * i11 + r22 * i12
+        t22 = r20 * i02 + r21 * i12 + r22 * i22
         mcx, mcy, mcz = m * cx, m * cy, m * cz
-        # top right -m [c]x, bottom left m [c]x
-        IA[3], IA[4], IA[5] = 0.0, mcz, -mcy
-        IA[9], IA[10], IA[11] = -mcz, 0.0, mcx
-        IA[15], IA[16], IA[17] = mcy, -mcx, 0.0
-        IA[18], IA[19], IA[20] = 0.0, -mcz, mcy
-        IA[24], IA[25], IA[26] = mcz, 0.0, -mcx
-        IA[30], IA[31], IA[32] = -mcy, mcx, 0.0
+        cc = mcx * cx + mcy * cy + mcz * cz
+        j00 = t00 * r00 + t01 * r01 + t02 * r02 + cc - mcx * cx
+        j01 = t00 * r10 + t01 * r11 + t02 * r12 - mcx * cy
+        j02 = t00 * r20 + t01 * r21 + t02 * r22 - mcx * cz
+        j11 = t10 * r10 + t11 * r11 + t12 * r12 + cc - mcy * cy
+        j12 = t10 * r20 + t11 * r21 + t12 * r22 - mcy * cz
+        j22 = t20 * r20 + t21 * r21 + t22 * r22 + cc - mcz * cz
+        b = W_IA
+        ws[i, b + 0], ws[i, b + 1], ws[i, b + 2] = m, 0.0, 0.0
+        ws[i, b + 3], ws[i, b + 4], ws[i, b + 5] = 0.0, mcz, -mcy
+        ws[i, b + 6], ws[i, b + 7], ws[i, b + 8] = 0.0, m, 0.0
+        ws[i, b + 9], ws[i, b + 10], ws[i, b + 11] = -mcz, 0.0, mcx
+        ws[i, b + 12], ws[i, b + 13], ws[i, b + 14] = 0.0, 0.0, m
+        ws[i, b + 15], ws[i, b + 16], ws[i, b + 17] = mcy, -mcx, 0.0
+        ws[i, b + 18], ws[i, b + 19], ws[i, b + 20] = 0.0, -mcz, mcy
+        ws[i, b + 21], ws[i, b + 22], ws[i, b + 23] = j00, j01, j02
+        ws[i, b + 24], ws[i, b + 25], ws[i, b + 26] = mcz, 0.0, -mcx
+        ws[i, b + 27], ws[i, b + 28], ws[i, b + 29] = j01, j11, j12
+        ws[i, b + 30], ws[i, b + 31], ws[i, b + 32] = -mcy, mcx, 0.0
+        ws[i, b + 33], ws[i, b + 34], ws[i, b + 35] = j02, j12, j22
         # h = I v; bias p = v x* h = [w x hf; v x hf + w x hn]
-        h0 = m * l0 + IA[4] * g1 + IA[5] * g2
-        h1 = m * l1 + IA[9] * g0 + IA[11] * g2
-        h2 = m * l2 + IA[15] * g0 + IA[16] * g1
-        h3 = IA[19] * l1 + IA[20] * l2 + IA[21] * g0 + IA[22] * g1 + IA[23] * g2
-        h4 = IA[24] * l0 + IA[26] * l2 + IA[27] * g0 + IA[28] * g1 + IA[29] * g2
-        h5 = IA[30] * l0 + IA[31] * l1 + IA[33] * g0 + IA[34] * g1 + IA[35] * g2
-        h = (h0, h1, h2, h3, h4, h5)
-        w[W_PA] = g1 * h[2] - g2 * h[1]
-        w[W_PA + 1] = g2 * h[0] - g0 * h[2]
-        w[W_PA + 2] = g0 * h[1] - g1 * h[0]
-        w[W_PA + 3] = l1 * h[2] - l2 * h[1] + g1 * h[5] - g2 * h[4]
-        w[W_PA + 4] = l2 * h[0] - l0 * h[2] + g2 * h[3] - g0 * h[5]
-        w[W_PA + 5] = l0 * h[1] - l1 * h[0] + g0 * h[4] - g1 * h[3]
-        kinetic += 0.5 * (l0 * h[0] + l1 * h[1] + l2 * h[2] + g0 * h[3] + g1 * h[4] + g2 * h[5])
-        kinetic += 0.5 * f[F_ARMATURE] * qd * qd
-        potential -= m * (grav[0] * cx + grav[1] * cy + grav[2] * cz)
+        h0 = m * l0 + mcz * g1 - mcy * g2
+        h1 = m * l1 - mcz * g0 + mcx * g2
+        h2 = m * l2 + mcy * g0 - mcx * g1
+        h3 = -mcz * l1 + mcy * l2 + j00 * g0 + j01 * g1 + j02 * g2
+        h4 = mcz * l0 - mcx * l2 + j01 * g0 + j11 * g1 + j12 * g2
+        h5 = -mcy * l0 + mcx * l1 + j02 * g0 + j12 * g1 + j22 * g2
+        ws[i, W_PA] = g1 * h2 - g2 * h1
+        ws[i, W_PA + 1] = g2 * h0 - g0 * h2
+        ws[i, W_PA + 2] = g0 * h1 - g1 * h0
+        ws[i, W_PA + 3] = l1 * h2 - l2 * h1 + g1 * h5 - g2 * h4
+        ws[i, W_PA + 4] = l2 * h0 - l0 * h2 + g2 * h3 - g0 * h5
+        ws[i, W_PA + 5] = l0 * h1 - l1 * h0 + g0 * h4 - g1 * h3
+        arm = ftree[i, F_ARMATURE]
+        kinetic += 0.5 * (l0 * h0 + l1 * h1 + l2 * h2 + g0 * h3 + g1 * h4 + g2 * h5 + arm * qd * qd)
+        potential -= mcx * grav[0] + mcy * grav[1] + mcz * grav[2]
     return kinetic, potential
 
 
@@ -191,58 +207,83 @@ def aba_passes(itree, ftree, grav, tau, ws, out):  # type: ignore[no-untyped-def
     n = itree.shape[0]
     for i in range(n - 1, -1, -1):
         par, iv = itree[i, 0], itree[i, 3]
-        w = ws[i]
-        IA = w[W_IA : W_IA + 36]
-        S = w[W_S : W_S + 6]
+        s0, s1, s2 = ws[i, W_S], ws[i, W_S + 1], ws[i, W_S + 2]
+        s3, s4, s5 = ws[i, W_S + 3], ws[i, W_S + 4], ws[i, W_S + 5]
+        c0, c1, c2 = ws[i, W_C], ws[i, W_C + 1], ws[i, W_C + 2]
+        c3, c4, c5 = ws[i, W_C + 3], ws[i, W_C + 4], ws[i, W_C + 5]
+        locked = ws[i, W_LOCK] != 0.0
+        # U = IA S and y = IA c, one row of IA at a time
         D = ftree[i, F_ARMATURE]
         sp = 0.0
+        uc = 0.0
         for r in range(6):
-            ur = 0.0
-            for k in range(6):
-                ur += IA[6 * r + k] * S[k]
-            w[W_U + r] = ur
-            D += S[r] * ur
-            sp += S[r] * w[W_PA + r]
+            b = W_IA + 6 * r
+            x0, x1, x2, x3, x4, x5 = ws[i, b], ws[i, b + 1], ws[i, b + 2], ws[i, b + 3], ws[i, b + 4], ws[i, b + 5]
+            ur = x0 * s0 + x1 * s1 + x2 * s2 + x3 * s3 + x4 * s4 + x5 * s5
+            ws[i, W_U + r] = ur
+            ws[i, W_A + r] = x0 * c0 + x1 * c1 + x2 * c2 + x3 * c3 + x4 * c4 + x5 * c5  # IA c, kept in W_A
+            sr = ws[i, W_S + r]
+            D += sr * ur
+            sp += sr * ws[i, W_PA + r]
         uu = tau[iv] - sp
-        w[W_D] = D
-        w[W_UU] = uu
-        if par >= 0:
-            wp = ws[par]
-            U = w[W_U : W_U + 6]
-            inv = 1.0 / D
-            # Ia = IA - U U^T / D; pa = pA + Ia c + U uu / D
+        ws[i, W_D] = D
+        ws[i, W_UU] = uu
+        if par < 0:
+            continue
+        if locked:  # the whole articulated inertia and bias (with IA c) pass to the parent
             for r in range(6):
-                acc = w[W_PA + r] + U[r] * uu * inv
+                ws[par, W_PA + r] += ws[i, W_PA + r] + ws[i, W_A + r]
                 for k in range(6):
-                    ia = IA[6 * r + k] - U[r] * U[k] * inv
-                    wp[W_IA + 6 * r + k] += ia
-                    acc += ia * w[W_C + k]
-                wp[W_PA + r] += acc
+                    ws[par, W_IA + 6 * r + k] += ws[i, W_IA + 6 * r + k]
+            continue
+        inv = 1.0 / D
+        for r in range(6):
+            uc += ws[i, W_U + r] * (ws[i, W_C + r])
+        coef = (uu - uc) * inv
+        for r in range(6):
+            ur = ws[i, W_U + r]
+            ws[par, W_PA + r] += ws[i, W_PA + r] + ws[i, W_A + r] + ur * coef
+            ui = ur * inv
+            for k in range(r, 6):
+                x = ws[i, W_IA + 6 * r + k] - ui * ws[i, W_U + k]
+                ws[par, W_IA + 6 * r + k] += x
+                if k != r:
+                    ws[par, W_IA + 6 * k + r] += x
     for i in range(n):
         par, iv = itree[i, 0], itree[i, 3]
-        w = ws[i]
         if par < 0:
             a0, a1, a2, a3, a4, a5 = -grav[0], -grav[1], -grav[2], 0.0, 0.0, 0.0
         else:
-            wp = ws[par]
-            a0, a1, a2 = wp[W_A], wp[W_A + 1], wp[W_A + 2]
-            a3, a4, a5 = wp[W_A + 3], wp[W_A + 4], wp[W_A + 5]
-        a0 += w[W_C]
-        a1 += w[W_C + 1]
-        a2 += w[W_C + 2]
-        a3 += w[W_C + 3]
-        a4 += w[W_C + 4]
-        a5 += w[W_C + 5]
-        U = w[W_U : W_U + 6]
-        qdd = (w[W_UU] - (U[0] * a0 + U[1] * a1 + U[2] * a2 + U[3] * a3 + U[4] * a4 + U[5] * a5)) / w[W_D]
-        out[iv] = qdd
-        S = w[W_S : W_S + 6]
-        w[W_A] = a0 + S[0] * qdd
-        w[W_A + 1] = a1 + S[1] * qdd
-        w[W_A + 2] = a2 + S[2] * qdd
-        w[W_A + 3] = a3 + S[3] * qdd
-        w[W_A + 4] = a4 + S[4] * qdd
-        w[W_A + 5] = a5 + S[5] * qdd
+            a0, a1, a2 = ws[par, W_A], ws[par, W_A + 1], ws[par, W_A + 2]
+            a3, a4, a5 = ws[par, W_A + 3], ws[par, W_A + 4], ws[par, W_A + 5]
+        a0 += ws[i, W_C]
+        a1 += ws[i, W_C + 1]
+        a2 += ws[i, W_C + 2]
+        a3 += ws[i, W_C + 3]
+        a4 += ws[i, W_C + 4]
+        a5 += ws[i, W_C + 5]
+        ua = (
+            ws[i, W_U] * a0
+            + ws[i, W_U + 1] * a1
+            + ws[i, W_U + 2] * a2
+            + ws[i, W_U + 3] * a3
+            + ws[i, W_U + 4] * a4
+            + ws[i, W_U + 5] * a5
+        )
+        if ws[i, W_LOCK] != 0.0:
+            # held: qdd = 0; the stop's force lambda = S . (IA a + pA) - tau = U . a - u
+            out[iv] = 0.0
+            ws[i, W_LAMBDA] = ua - ws[i, W_UU]
+            qdd = 0.0
+        else:
+            qdd = (ws[i, W_UU] - ua) / ws[i, W_D]
+            out[iv] = qdd
+        ws[i, W_A] = a0 + ws[i, W_S] * qdd
+        ws[i, W_A + 1] = a1 + ws[i, W_S + 1] * qdd
+        ws[i, W_A + 2] = a2 + ws[i, W_S + 2] * qdd
+        ws[i, W_A + 3] = a3 + ws[i, W_S + 3] * qdd
+        ws[i, W_A + 4] = a4 + ws[i, W_S + 4] * qdd
+        ws[i, W_A + 5] = a5 + ws[i, W_S + 5] * qdd
 
 
 @njit

@@ -52,6 +52,13 @@ def call_torque(key: int, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 @numba.njit(cache=True, error_model="numpy")  # no nogil: a torque callable runs in object mode
+def _callable_torque(cb, t, q, v):  # type: ignore[no-untyped-def]
+    with numba.objmode(tau_in="float64[::1]"):
+        tau_in = call_torque(cb, t, q, v)
+    return tau_in
+
+
+@njit
 def rates(itree, ftree, grav, t, q, u, forces, springs, cb, ws, tau, k):  # type: ignore[no-untyped-def]
     """Rates k = [a, P_input, P_damping] at (t, q, u); returns (T, V_gravity) [J] of (q, v).
 
@@ -67,9 +74,7 @@ def rates(itree, ftree, grav, t, q, u, forces, springs, cb, ws, tau, k):  # type
     vf = forces[3, 0]
     tau_in = forces[0]
     if cb >= 0:  # the torque callable, through the Python object registered under cb
-        v = u[:nv]
-        with numba.objmode(tau_in="float64[::1]"):
-            tau_in = call_torque(cb, t, q, v)
+        tau_in = _callable_torque(cb, t, q, u[:nv])
     for j in range(nv):
         vj = u[j]
         loss = -forces[1, j] * vj

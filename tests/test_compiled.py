@@ -121,15 +121,6 @@ def test_torque_callable_runs_compiled_and_agrees() -> None:
     assert np.max(np.abs(got.work_input - ref.work_input)) < TRAJECTORY_RTOL
 
 
-def test_a_run_that_reaches_a_stop_is_taken_by_the_python_pipeline() -> None:
-    robot = robodyn.load("cart_pole")  # rail +-2.4 m
-    got = robodyn.simulate(robot, [2.3, 0.0], [1.0, 0.0], duration=0.5, dt=1e-3)
-    ref = robodyn.simulate(robot, [2.3, 0.0], [1.0, 0.0], duration=0.5, dt=1e-3, backend="aba")
-    assert got.meta["loop"] == "python" and "'slider' at its upper stop at step" in got.meta["compiled_loop"]
-    assert got.meta["impacts"] == ref.meta["impacts"] > 0
-    np.testing.assert_array_equal(got.q, ref.q)  # the same pipeline from the start: identical arithmetic
-
-
 def test_where_the_compiled_path_does_not_apply() -> None:
     flyer = robodyn.load("panda", free_flyer=True)
     run = robodyn.simulate(flyer, flyer.neutral(), np.zeros(flyer.nv), duration=0.01, dt=1e-3)

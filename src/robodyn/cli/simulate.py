@@ -415,7 +415,8 @@ def _unit_of(meta: dict[str, Any], joint: str) -> str:
 def _loop_phrase(meta: dict[str, Any]) -> str:
     """'compiled loop', or 'Python loop: <why the compiled loop was not used>' (from the run's metadata)."""
     if meta.get("loop") == "compiled":
-        return "compiled loop"
+        events = int(meta.get("event_steps") or 0)
+        return f"compiled loop, {events} steps with stop events by the event stepper" if events else "compiled loop"
     why = str(meta.get("compiled_loop") or "").removeprefix("not used: ")
     return f"Python loop: {why}" if why else "Python loop"
 
@@ -433,6 +434,7 @@ def _report(trajectory: Any, out: Path | None, csv: Path | None, *, as_json: boo
     s["backend"] = meta.get("backend")
     s["loop"] = meta.get("loop")
     s["compiled_loop"] = meta.get("compiled_loop")
+    s["event_steps"] = int(meta.get("event_steps") or 0)
     if meta.get("stiff_friction"):
         s["stiff_friction"] = meta["stiff_friction"]
     if as_json:

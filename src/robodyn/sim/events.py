@@ -131,6 +131,10 @@ class EventStepper(Stepper):
         inner = getattr(self.inner, "rejected", None)
         return None if inner is None else self._rejected + inner
 
+    def restart(self, t: float, q: Array, u: Array) -> None:
+        """Start the method afresh at (t, q, u): after steps taken elsewhere (the compiled loop), no rates kept."""
+        self._restart(t, q, u)
+
     def _restart(self, t: float, q: Array, u: Array) -> None:
         self._steps += getattr(self.inner, "steps", 0) or 0
         self._rejected += getattr(self.inner, "rejected", 0) or 0

@@ -16,7 +16,7 @@ import math
 import numba
 import numpy as np
 
-from robodyn.sim.tree_kernels import WCOLS, aba, crba, integrate, kinematics, rnea
+from robodyn.sim.tree_kernels import W_LAMBDA, W_LOCK, WCOLS, aba, crba, integrate, kinematics, rnea
 
 __all__ = ["WCOLS", "aba", "crba", "integrate", "kinematics", "rnea"]
 
@@ -26,7 +26,7 @@ njit = numba.njit(cache=True, nogil=True, error_model="numpy")
 RK, RK4, SEMI_IMPLICIT_EULER = 0, 1, 2
 
 # run_block outcomes
-DONE, NOT_FINITE, NEAR_STOP = 0, 1, 2
+DONE, NOT_FINITE, NEAR_STOP, RELEASE = 0, 1, 2, 3
 
 # Torque callables of the runs under way, by key: key -> f(t, q, v) returning the applied torque (nv,);
 # how many times each was called, and at which call a Ctrl-C (KeyboardInterrupt) came.
@@ -117,9 +117,16 @@ def step(itree, ftree, grav, method, tab, t, h, q, u, forces, springs, cb, ws, b
     classic RK4's own arithmetic, semi-implicit Euler kicks v then drifts q with the new v.
     ``buf`` (2 s + 3, nv + 2) holds the stages' u and k (its last row: scratch for the torque).
     """
+    kin, pot = rates(itree, ftree, grav, t, q, u, forces, springs, cb, ws, buf[-1], k0)
+    stages(itree, ftree, grav, method, tab, t, h, q, u, forces, springs, cb, ws, buf, qs, q1, u1, k0)
+    return kin, pot
+
+
+@njit
+def stages(itree, ftree, grav, method, tab, t, h, q, u, forces, springs, cb, ws, buf, qs, q1, u1, k0):  # type: ignore[no-untyped-def]
+    """The rest of :func:`step` once ``k0`` holds the rates at (t, q, u): the state at t + h into (q1, u1)."""
     nv = forces.shape[1]
     nu = nv + 2
-    kin, pot = rates(itree, ftree, grav, t, q, u, forces, springs, cb, ws, buf[-1], k0)
     if method == SEMI_IMPLICIT_EULER:
         for j in range(nu):
             u1[j] = u[j] + h * k0[j]
@@ -127,7 +134,7 @@ def step(itree, ftree, grav, method, tab, t, h, q, u, forces, springs, cb, ws, b
         for j in range(nv):
             dq[j] = h * u1[j]
         integrate(itree, q, dq, q1)
-        return kin, pot
+        return
     if method == RK4:
         h2 = 0.5 * h
         u2, u3, u4, k2, k3, k4, dq = buf[0], buf[1], buf[2], buf[3], buf[4], buf[5], buf[6]
@@ -155,7 +162,7 @@ def step(itree, ftree, grav, method, tab, t, h, q, u, forces, springs, cb, ws, b
         integrate(itree, q, dq, q1)
         for j in range(nu):
             u1[j] = u[j] + h6 * (k0[j] + 2.0 * (k2[j] + k3[j]) + k4[j])
-        return kin, pot
+        return
     # a general explicit Runge-Kutta tableau: stage i from the non-zero a_ij (as the integrators' _combine)
     s = tab.shape[1]
     U = buf[0:s]
@@ -202,30 +209,62 @@ def step(itree, ftree, grav, method, tab, t, h, q, u, forces, springs, cb, ws, b
             U[i, m] = u[m] + du[m]
         integrate(itree, q, dq, qs)
         rates(itree, ftree, grav, t + tab[s + 1, i] * h, qs, U[i], forces, springs, cb, ws, buf[-1], K[i])
-    return kin, pot
+
+
+@njit
+def lock(ws, held):  # type: ignore[no-untyped-def]
+    """Lock the tree rows of ``held`` (2, h): rows [tree row; side] of the joints held at a stop."""
+    for r in range(ws.shape[0]):
+        ws[r, W_LOCK] = 0.0
+    for j in range(held.shape[1]):
+        ws[int(held[0, j]), W_LOCK] = 1.0
+
+
+@njit
+def _pulling(ws, held, release_tol):  # type: ignore[no-untyped-def]
+    """True when a held stop pulls (side x its force < -release_tol) in the last evaluation in ``ws``."""
+    for j in range(held.shape[1]):
+        if held[1, j] * ws[int(held[0, j]), W_LAMBDA] + release_tol < 0.0:
+            return True
+    return False
 
 
 @numba.njit(cache=True, error_model="numpy")  # holds the GIL: a torque callable runs in object mode
-def run_block(itree, ftree, grav, method, tab, ts, hs, lo, hi, Q, U, A, KIN, POT, forces, springs, cb, stops):  # type: ignore[no-untyped-def]
+def run_block(  # type: ignore[no-untyped-def]
+    itree, ftree, grav, method, tab, ts, hs, lo, hi, Q, U, A, KIN, POT, forces, springs, cb, stops, held, release_tol
+):
     """Take steps lo .. hi-1 (times ``ts``, sizes ``hs``) from sample lo of Q (n, nq), U (n, nv + 2).
 
+    ``stops`` (3, k): the free limited coordinates [index in q; lower; upper], the stop
+    tolerance taken off; ``held`` (2, h): the joints held at a stop [tree row; side (+1 lower,
+    -1 upper)], locked through the block.
     Samples lo+1 .. hi of Q and U are filled;
     A[k] and KIN[k], POT[k] (energies [J], gravity's potential only) are filled for samples lo .. hi-1
-    (those steps start there). Returns (outcome, the last sample filled): ``DONE``; ``NOT_FINITE``
-    (the state of that sample is not finite); ``NEAR_STOP`` (a limited coordinate of that sample
-    is not clear of its stop: the event stepper must take over from the previous sample).
+    (those steps start there). Returns (outcome, a sample): ``DONE`` (hi); ``NOT_FINITE`` (the
+    state of that sample is not finite); ``NEAR_STOP`` (a free limited coordinate of that sample
+    is not clear of its stop) or ``RELEASE`` (a held stop pulls there by more than
+    ``release_tol``): the event stepper must take the step into that sample (from the one
+    before), or the step from it when it is sample lo.
     """
     nv = forces.shape[1]
     n = itree.shape[0]
     s = max(tab.shape[1], 7)
     ws = np.zeros((n, WCOLS))
+    lock(ws, held)
     buf = np.zeros((2 * s + 3, nv + 2))
     qs = np.empty(Q.shape[1])
     k0 = np.empty(nv + 2)
     if not _clear(Q[lo], stops):
         return NEAR_STOP, lo
     for k in range(lo, hi):
-        kin, pot = step(
+        kin, pot = rates(itree, ftree, grav, ts[k], Q[k], U[k], forces, springs, cb, ws, buf[-1], k0)
+        if _pulling(ws, held, release_tol):
+            return RELEASE, k
+        for j in range(nv):
+            A[k, j] = k0[j]
+        KIN[k] = kin
+        POT[k] = pot
+        stages(
             itree,
             ftree,
             grav,
@@ -245,10 +284,6 @@ def run_block(itree, ftree, grav, method, tab, ts, hs, lo, hi, Q, U, A, KIN, POT
             U[k + 1],
             k0,
         )
-        for j in range(nv):
-            A[k, j] = k0[j]
-        KIN[k] = kin
-        POT[k] = pot
         if not (_finite(Q[k + 1]) and _finite(U[k + 1])):
             return NOT_FINITE, k + 1
         if not _clear(Q[k + 1], stops):
@@ -257,9 +292,10 @@ def run_block(itree, ftree, grav, method, tab, ts, hs, lo, hi, Q, U, A, KIN, POT
 
 
 @njit
-def sample(itree, ftree, grav, t, q, u, forces, springs, cb, a):  # type: ignore[no-untyped-def]
-    """The rates (into ``a``, nv + 2) and (T, V) [J] of one sample."""
+def sample(itree, ftree, grav, t, q, u, forces, springs, cb, held, a):  # type: ignore[no-untyped-def]
+    """The rates (into ``a``, nv + 2) and (T, V) [J] of one sample, the joints of ``held`` (2, h) locked."""
     ws = np.zeros((itree.shape[0], WCOLS))
+    lock(ws, held)
     return rates(itree, ftree, grav, t, q, u, forces, springs, cb, ws, np.empty(forces.shape[1]), a)
 
 

@@ -11,13 +11,20 @@ explicit Euler, semi-implicit Euler) with the same step sizes.
 
 It takes a run when the robot is a tree the compiled algorithms serve (checked against
 Pinocchio first, :func:`robodyn.sim.tree.compiled_of`), without loops or couplings, with no
-torque or a constant one, under one of those methods. What it does not handle it hands back,
-and the run is then taken by the Python pipeline from its start (``Run.integrate``):
+torque, a constant one or a torque callable, under one of those methods.
 
-* a joint that comes within the stop tolerance of its stop (impacts and holds are events of
-  :mod:`robodyn.sim.events`), including a q0 on a stop;
-* a state that is not finite, or an energy error above the run's bound: the Python pipeline
-  then writes the canonical divergence report.
+Joint stops are shared with the event stepper of :mod:`robodyn.sim.events`: the compiled
+loop steps while every free limited joint is clear of its stops, with the joints held at a
+stop locked (qdd = 0, their stop force computed in the same ABA pass), and stops at the first
+sample where a free joint comes within the stop tolerance or a held stop pulls. The event
+stepper (``run.stepper``, the Python pipeline) then takes that one step (locating the impact
+or the release to round-off, applying the impulse, changing the held set, booking the work of
+the stops), and the compiled loop goes on from the next sample with the new held set.
+
+What it does not handle it hands back, and the run is then taken by the Python pipeline
+from its start (``Run.integrate``): a state that is not finite, an energy error above the
+run's bound, or a step the event stepper cannot take (the Python pipeline then writes the
+canonical divergence report).
 
 Ctrl-C is honoured between blocks of ``BLOCK`` steps.
 """
@@ -32,11 +39,12 @@ from types import ModuleType
 import numpy as np
 from numpy.typing import NDArray
 
-from robodyn.errors import RobodynError
+from robodyn.errors import RobodynError, StepError
 from robodyn.integrators import Integrator
 from robodyn.integrators.explicit import ClassicRK4, ExplicitEuler, ExplicitRungeKutta
 from robodyn.integrators.symplectic import SemiImplicitEuler
 from robodyn.sim import tree
+from robodyn.sim.events import RELEASE_TOL
 from robodyn.sim.run import Run
 from robodyn.sim.system import V_FRICTION, RobotSystem
 
@@ -64,8 +72,9 @@ class Outcome:
 
     ran: bool
     note: str
-    steps: int = 0  # steps the compiled loop took (all of them when ``ran``)
+    steps: int = 0  # steps the compiled loop took
     wall_time_s: float = 0.0  # its wall time, even when the run was handed back
+    event_steps: int = 0  # steps the event stepper took (stop events) when ``ran``
 
 
 def method_code(method: Integrator) -> tuple[int, Array] | None:
@@ -101,8 +110,8 @@ def refusal(system: RobotSystem, method: Integrator) -> str | None:
     return tree.unsupported(system.robot)
 
 
-def _inputs(system: RobotSystem) -> tuple[Array, Array, Array]:
-    """(forces (4, nv), springs (4, m), stops (3, k)) in the kernels' layout."""
+def _inputs(system: RobotSystem) -> tuple[Array, Array]:
+    """(forces (4, nv), springs (4, m)) in the kernels' layout."""
     nv = system.nv
     forces = np.zeros((4, nv))
     forces[0] = system.torque.constant
@@ -111,14 +120,25 @@ def _inputs(system: RobotSystem) -> tuple[Array, Array, Array]:
     forces[3, 0] = V_FRICTION
     sp = system.springs
     springs = np.vstack([sp.iq.astype(np.float64), sp.iv.astype(np.float64), sp.stiffness, sp.rest])
-    springs = np.ascontiguousarray(springs.reshape(4, -1))
+    return forces, np.ascontiguousarray(springs.reshape(4, -1))
+
+
+def _stop_rows(system: RobotSystem, rows: NDArray[np.intp]) -> tuple[Array, Array]:
+    """(stops (3, k), held (2, h)) in the kernels' layout, for the stops held now (``system.held``).
+
+    ``stops``: the free limited coordinates [index in q; lower + tolerance; upper - tolerance];
+    ``held``: the held joints [tree row; side]. ``rows`` maps an index in v to its tree row.
+    """
     st = system.stops
     if st.empty:
-        stops = np.zeros((3, 0))
-    else:
-        tol = st.tolerance()
-        stops = np.ascontiguousarray(np.vstack([st.iq.astype(np.float64), st.lower + tol, st.upper - tol]))
-    return forces, springs, stops
+        return np.zeros((3, 0)), np.zeros((2, 0))
+    tol = st.tolerance()
+    free = np.array([k for k in range(st.iq.size) if k not in system.held], dtype=np.intp)
+    stops = np.vstack([st.iq[free].astype(np.float64), st.lower[free] + tol[free], st.upper[free] - tol[free]])
+    held = np.array(
+        [[float(rows[st.iv[k]]) for k in system.held], [float(side) for side in system.held.values()]]
+    ).reshape(2, -1)
+    return np.ascontiguousarray(stops), np.ascontiguousarray(held)
 
 
 def step_sizes(t: Array) -> Array:
@@ -162,8 +182,11 @@ def prepare(system: RobotSystem, method: Integrator) -> Plan | str:
 def attempt(plan: Plan, system: RobotSystem, run: Run) -> Outcome:
     """Run ``run`` in the compiled loop and fill its records; or leave it untouched and say why not.
 
-    A Ctrl-C between blocks marks ``run`` interrupted (its records kept up to the last block)
-    and returns ``ran=True``; the caller raises.
+    Steps with a stop event (an impact, a hold, a release) are taken by the run's event stepper
+    (``run.stepper``, the Python pipeline), one step at a time; the compiled loop takes every
+    other step, with the held joints locked. A Ctrl-C between blocks (or during an event step)
+    marks ``run`` interrupted (its records kept up to the last sample taken) and returns
+    ``ran=True``; the caller raises.
     """
     compiled, mcode, tab = plan.compiled, plan.method, plan.tableau
     kernels = tree.kernels()
@@ -171,14 +194,19 @@ def attempt(plan: Plan, system: RobotSystem, run: Run) -> Outcome:
     n = t.size
     nv, nw = system.nv, system.nw
     hs = step_sizes(t)
-    forces, springs, stops = _inputs(system)
+    forces, springs = _inputs(system)
     tr = compiled.tree
+    rows = np.empty(nv, dtype=np.intp)  # the tree row of each index in v
+    rows[tr.itree[:, 3]] = np.arange(tr.itree.shape[0])
+    held0 = dict(system.held)
     Q = run.Q
     U = np.zeros((n, nv + 2))
-    U[0, :nv] = run.U[0, :nv]
-    A = np.empty((n, nv))
-    kin = np.empty(n)
-    pot = np.empty(n)
+    U[0, : nv + nw] = run.U[0]
+    A = np.full((n, nv), np.nan)
+    kin = np.full(n, np.nan)
+    pot = np.full(n, np.nan)
+    wl = run.work_limits
+    stepper = run.stepper
     stages = 1 if mcode == _SIE else (4 if mcode == _RK4 else tab.shape[1])
     cb = -1
     if system.torque.kind == "callable":  # called in object mode, stage by stage, as RobotSystem.input_torque
@@ -186,29 +214,73 @@ def attempt(plan: Plan, system: RobotSystem, run: Run) -> Outcome:
         kernels.CALLBACKS[cb] = system.input_torque
     start = time.perf_counter()
     done, interrupted = 0, False
+    compiled_steps = compiled_evals = event_steps = 0
+    events_work = np.zeros(2, dtype=np.int64)  # (evaluations, jacobian evaluations) of the event steps
+
+    def hand_back(why: str) -> Outcome:
+        if system.held != held0:  # the Python run starts again from q0 with the stops held there
+            system.hold(held0, run.Q[0])
+        return Outcome(False, why, compiled_steps, time.perf_counter() - start)
+
     try:
         while done < n - 1:
+            stops, held = _stop_rows(system, rows)
             hi = min(done + BLOCK, n - 1)
             status, last = kernels.run_block(
-                tr.itree, tr.ftree, tr.grav, mcode, tab, t, hs, done, hi, Q, U, A, kin, pot, forces, springs, cb, stops
+                tr.itree,
+                tr.ftree,
+                tr.grav,
+                mcode,
+                tab,
+                t,
+                hs,
+                done,
+                hi,
+                Q,
+                U,
+                A,
+                kin,
+                pot,
+                forces,
+                springs,
+                cb,
+                stops,
+                held,
+                RELEASE_TOL,
             )
+            compiled_evals += stages * (last - done) + (1 if status == kernels.RELEASE else 0)
             if status != kernels.DONE and cb in kernels.INTERRUPTED:  # Ctrl-C inside the torque callable
-                done = last - 1  # the step from there was begun, not finished
+                done = max(last - 1, done)  # the step from there was begun, not finished
                 raise KeyboardInterrupt
-            # samples done .. last - 1 have their energies: the first one over the bound ends the attempt
-            over = _first_over_bound(run, kin, pot, U, done, last)
+            # the event stepper takes the step into sample ``last`` (or from it, when the block began there)
+            event = last - 1 if status in (kernels.NEAR_STOP, kernels.RELEASE) and last > done else last
+            kept = hi if status == kernels.DONE else (event if status != kernels.NOT_FINITE else last)
+            wl[done + 1 : kept + 1] = stepper.work_limits
+            compiled_steps += kept - done
+            # samples done .. kept - 1 have their energies: the first one over the bound ends the attempt
+            over = _first_over_bound(run, kin, pot, U, done, kept)
             if over is not None:
-                return Outcome(False, over, last, time.perf_counter() - start)
-            if status != kernels.DONE:
-                wall = time.perf_counter() - start
-                what = "a state that is not finite" if status == kernels.NOT_FINITE else _near_stop(system, Q[last])
-                return Outcome(False, f"{what} at step {last} (t = {float(t[last]):.6g} s)", last, wall)
-            done = hi
+                return hand_back(over)
+            if status == kernels.NOT_FINITE:
+                return hand_back(f"a state that is not finite at step {last} (t = {float(t[last]):.6g} s)")
+            done = kept
+            if status == kernels.DONE:
+                continue
+            reason = _event_step(run, kernels, tr, forces, springs, U, A, kin, pot, done, hs, events_work)
+            if reason is not None:
+                return hand_back(reason)
+            event_steps += 1
+            over = _first_over_bound(run, kin, pot, U, done, done + 1)
+            if over is not None:
+                return hand_back(over)
+            done += 1
         a_last = np.empty(nv + 2)
+        _, held = _stop_rows(system, rows)
         kin[done], pot[done] = kernels.sample(
-            tr.itree, tr.ftree, tr.grav, float(t[done]), Q[done], U[done], forces, springs, cb, a_last
+            tr.itree, tr.ftree, tr.grav, float(t[done]), Q[done], U[done], forces, springs, cb, held, a_last
         )
         A[done] = a_last[:nv]
+        compiled_evals += 1
     except KeyboardInterrupt:
         interrupted = True
     finally:
@@ -219,15 +291,16 @@ def attempt(plan: Plan, system: RobotSystem, run: Run) -> Outcome:
     keep = done + 1
     if interrupted:  # the last kept sample's rates: filled in by Run.trajectory, as the Python run does
         A[done] = np.nan
-        kin[done], pot[done] = _energies_at(kernels, tr, Q[done], U[done], forces, springs)
+    for k in np.flatnonzero(np.isnan(kin[:keep])):  # samples an event step began from, and an interrupted end
+        kin[k], pot[k] = _energies_at(kernels, tr, Q[k], U[k], forces, springs)
     if not system.springs.empty:  # their energy 1/2 k (q - rest)^2 is potential energy, booked by Springs
         pot[:keep] += system.springs.energy(Q[:keep])
     wall = time.perf_counter() - start
     if not interrupted:
-        residual = kin[:keep] + pot[:keep] - (kin[0] + pot[0]) - U[:keep, nv] - U[:keep, nv + 1]
+        residual = kin[:keep] + pot[:keep] - (kin[0] + pot[0]) - U[:keep, nv] - U[:keep, nv + 1] - wl[:keep]
         worst = float(np.max(np.abs(residual)))
         if not worst <= run.bound:
-            return Outcome(False, f"an energy error of {worst:.3g} J above the bound {run.bound:.3g} J", done, wall)
+            return hand_back(f"an energy error of {worst:.3g} J above the bound {run.bound:.3g} J")
     run.U[:keep, :nv] = U[:keep, :nv]
     if nw:
         run.U[:keep, nv:] = U[:keep, nv:]
@@ -236,16 +309,56 @@ def attempt(plan: Plan, system: RobotSystem, run: Run) -> Outcome:
     run.potential[:keep] = pot[:keep]
     run.n = keep
     run.checked = keep
+    evaluations = (calls if cb >= 0 else compiled_evals) + int(events_work[0])
     if stopped_at is not None:  # every stage begun called the torque: the interrupted one included
-        run.work = (stopped_at, 0)
-    elif interrupted:
-        run.work = (stages * done, 0)
-    else:
-        run.work = (stages * done + 1, 0) if cb < 0 else (calls, 0)
+        evaluations = stopped_at + int(events_work[0])
+    run.work = (evaluations, int(events_work[1]))
     if interrupted:
         t_stop = float(t[keep - 1])
         run.interrupted = (keep - 1, t_stop, f"interrupted after step {keep - 1} (t = {t_stop:.6g} s)")
-    return Outcome(True, "compiled loop", done, wall)
+    return Outcome(True, "compiled loop", compiled_steps, wall, event_steps)
+
+
+def _event_step(
+    run: Run,
+    kernels: ModuleType,
+    tr: tree.TreeModel,
+    forces: Array,
+    springs: Array,
+    U: Array,
+    A: Array,
+    kin: Array,
+    pot: Array,
+    k: int,
+    hs: Array,
+    work: NDArray[np.int64],
+) -> str | None:
+    """Step k (sample k to k + 1) by the run's event stepper, into Q, U, A[k] and the limits' work.
+
+    Returns why the compiled loop must hand the run back (a step the event stepper cannot
+    take), or None. ``work`` gets the evaluations the step spent.
+    """
+    system, stepper, t = run.system, run.stepper, run.t
+    nv, nw = system.nv, system.nw
+    before = (system.evaluations, system.jacobian_evaluations)
+    q, u = run.Q[k].copy(), U[k, : nv + nw].copy()
+    if np.isnan(kin[k]):
+        kin[k], pot[k] = _energies_at(kernels, tr, q, U[k], forces, springs)
+    try:
+        stepper.restart(float(t[k]), q, u)  # a fresh start of the method: no rates kept from a compiled step
+        with np.errstate(all="ignore"):
+            q1, u1, k_start = stepper.advance(float(t[k]), q, u, float(hs[k]))
+    except (StepError, np.linalg.LinAlgError) as exc:
+        what = exc.reason if isinstance(exc, StepError) else f"the forward dynamics failed ({exc})"
+        return f"{what} at step {k + 1} (t = {float(t[k + 1]):.6g} s)"
+    finally:
+        work += (system.evaluations - before[0], system.jacobian_evaluations - before[1])
+    run.Q[k + 1] = q1
+    U[k + 1, : nv + nw] = u1
+    if k_start is not None:
+        A[k] = k_start[:nv]
+    run.work_limits[k + 1] = stepper.work_limits
+    return None
 
 
 def _first_over_bound(run: Run, kin: Array, pot: Array, U: Array, lo: int, hi: int) -> str | None:
@@ -262,7 +375,7 @@ def _first_over_bound(run: Run, kin: Array, pot: Array, U: Array, lo: int, hi: i
     if not system.springs.empty:
         e = e + system.springs.energy(run.Q[lo:hi])
         e0 = e0 + float(system.springs.energy(run.Q[:1])[0])
-    residual = np.abs(e - e0 - U[lo:hi, nv] - U[lo:hi, nv + 1])
+    residual = np.abs(e - e0 - U[lo:hi, nv] - U[lo:hi, nv + 1] - run.work_limits[lo:hi])
     over = ~(residual <= bound)
     if not over.any():
         return None
@@ -278,17 +391,5 @@ def _energies_at(
 ) -> tuple[float, float]:
     """(T, V_gravity) [J] of one sample, without calling the torque."""
     a = np.empty(u.size)
-    return kernels.sample(tr.itree, tr.ftree, tr.grav, 0.0, q, u, forces, springs, -1, a)  # type: ignore[no-any-return]
-
-
-def _near_stop(system: RobotSystem, q: Array) -> str:
-    """'joint NAME at its lower|upper stop' for the first limited joint not clear of its stops at q."""
-    st = system.stops
-    tol = st.tolerance()
-    for k in range(st.iq.size):
-        x = float(q[st.iq[k]])
-        if not x > st.lower[k] + tol[k]:
-            return f"joint {st.names[k]!r} at its lower stop"
-        if not x < st.upper[k] - tol[k]:
-            return f"joint {st.names[k]!r} at its upper stop"
-    return "a joint at its stop"
+    none = np.zeros((2, 0))  # no joint locked: the energies do not depend on the held set
+    return kernels.sample(tr.itree, tr.ftree, tr.grav, 0.0, q, u, forces, springs, -1, none, a)  # type: ignore[no-any-return]

@@ -1,0 +1,178 @@
+"""Joint stops in the compiled loop: held joints locked in the compiled ABA, events taken by the event stepper.
+
+The compiled loop steps while every free limited joint is clear of its stops, with the held
+joints locked; the step with an impact, a hold or a release is taken by the Python event
+stepper, and the compiled loop goes on from the next sample (sim/whole_run.py). These tests
+check the locked ABA and its stop force against the Python pipeline's hold solve, and whole
+runs with impacts, holds and releases against the Python pipeline (``backend="aba"``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import robodyn
+from robodyn.errors import DivergenceError
+from robodyn.sim import tree
+from robodyn.sim.system import robot_system
+from tests.test_limits import PENDULUM_URDF
+
+# Locked ABA and its stop force against the Pinocchio hold solve, relative to the largest entry
+# (two float64 implementations: world-frame ABA vs a Cholesky solve of M's free block).
+LOCKED_RTOL = 1e-12
+# Whole runs with events, compiled loop + event stepper vs the Python pipeline: the same
+# method and steps, accelerations differing by round-off, events located to round-off;
+# measured 8.6e-14 rad on the Panda over 2 s (27 impacts, 37 releases).
+TRAJECTORY_ATOL = 1e-10
+
+
+def _pendulum(tmp_path: Path) -> robodyn.Robot:
+    path = tmp_path / "stopped_pendulum.urdf"  # a 1 kg bob 0.5 m from its pivot, a stop at 0.5 rad
+    path.write_text(PENDULUM_URDF.format(effort=5.0))
+    return robodyn.load(path)
+
+
+def _compiled_rates(robot: robodyn.Robot, held: dict[str, int], q: np.ndarray, v: np.ndarray):  # type: ignore[no-untyped-def]
+    """(a, lambda by index in v) of the compiled ABA with the joints of ``held`` (name -> side) locked."""
+    k = tree.kernels()
+    tr = tree.compiled_of(robot).tree
+    nv = robot.nv
+    rows = {int(tr.itree[i, 3]): i for i in range(tr.itree.shape[0])}
+    names = list(robot.joint_names)
+    hv = [names.index(name) for name in held]
+    locked = np.array([[float(rows[i]) for i in hv], [float(s) for s in held.values()]]).reshape(2, -1)
+    ws = np.zeros((tr.itree.shape[0], k.WCOLS))
+    k.lock(ws, locked)
+    forces = np.zeros((4, nv))
+    forces[3, 0] = 1e-3
+    out = np.empty(nv + 2)
+    u = np.concatenate([v, [0.0, 0.0]])
+    k.rates(tr.itree, tr.ftree, tr.grav, 0.0, q, u, forces, np.zeros((4, 0)), -1, ws, np.empty(nv), out)
+    lam = np.zeros(nv)
+    for i in hv:
+        lam[i] = ws[rows[i], k.W_LAMBDA]
+    return out[:nv], lam
+
+
+@pytest.mark.parametrize("held", [{"panda_joint4": -1}, {"panda_joint2": 1, "panda_finger_joint1": -1}])
+def test_locked_aba_and_its_stop_force_match_the_hold_solve(held: dict[str, int]) -> None:
+    robot = robodyn.load("panda")
+    robot.model.friction[:] = 0.0
+    robot.model.damping[:] = 0.0
+    system = robot_system(robot)
+    stops = system.stops
+    rng = np.random.default_rng(7)
+    for _ in range(5):
+        q, v = robot.random_state(rng)
+        for name in held:
+            v[list(robot.joint_names).index(name)] = 0.0  # a held joint does not move
+        system.hold({list(stops.names).index(name): side for name, side in held.items()}, q)
+        u = np.concatenate([v, np.zeros(system.nw)])
+        a_ref = system.rates(0.0, q, u)[: robot.nv]
+        lam_ref = system.stop_forces(0.0, q, u)
+        a, lam = _compiled_rates(robot, held, q, v)
+        scale = max(float(np.max(np.abs(a_ref))), 1.0)
+        assert np.max(np.abs(a - a_ref)) / scale < LOCKED_RTOL
+        assert all(a[list(robot.joint_names).index(name)] == 0.0 for name in held)
+        lam_scale = max(float(np.max(np.abs(lam_ref))), 1.0)
+        assert np.max(np.abs(lam - lam_ref)) / lam_scale < LOCKED_RTOL, (lam, lam_ref)
+        assert np.max(np.abs(lam_ref)) > 1e-3  # the stops do push: the comparison is not of zeros
+
+
+def _both(robot: robodyn.Robot, q0, v0, **kw):  # type: ignore[no-untyped-def]
+    got = robodyn.simulate(robot, q0, v0, **kw)
+    ref = robodyn.simulate(robot, q0, v0, backend="aba", **kw)
+    return got, ref
+
+
+def _same_events(got: robodyn.Trajectory, ref: robodyn.Trajectory) -> None:
+    for key in ("impacts", "releases", "held_at_end"):
+        assert got.meta[key] == ref.meta[key], key
+    assert np.max(np.abs(got.q - ref.q)) < TRAJECTORY_ATOL
+    assert np.max(np.abs(got.v - ref.v)) < 1e2 * TRAJECTORY_ATOL
+    assert np.max(np.abs(got.work_limits - ref.work_limits)) < TRAJECTORY_ATOL * max(1.0, abs(ref.work_limits[-1]))
+    ledger = got.kinetic + got.potential - got.kinetic[0] - got.potential[0]
+    ledger -= got.work_input + got.work_damping + got.work_limits
+    ledger_ref = ref.kinetic + ref.potential - ref.kinetic[0] - ref.potential[0]
+    ledger_ref -= ref.work_input + ref.work_damping + ref.work_limits
+    assert np.max(np.abs(ledger - ledger_ref)) < TRAJECTORY_ATOL * max(1.0, float(np.max(np.abs(ref.kinetic))))
+
+
+def test_a_slider_striking_its_stop_runs_compiled() -> None:
+    robot = robodyn.load("cart_pole")  # rail +-2.4 m
+    got, ref = _both(robot, [2.3, 0.0], [1.0, 0.0], duration=0.5, dt=1e-3)
+    assert got.meta["loop"] == "compiled" and got.meta["compiled_loop"] == "ran"
+    assert 1 <= got.meta["event_steps"] <= 5
+    assert got.meta["impacts"] >= 1
+    _same_events(got, ref)
+
+
+def test_the_panda_from_its_neutral_pose_on_a_stop_runs_compiled() -> None:
+    # panda_joint4's range excludes 0: q0 is clamped onto its upper stop, held from step 0;
+    # the arm then falls onto other stops (27 impacts, 37 releases in 2 s at 1 ms).
+    robot = robodyn.load("panda")
+    got, ref = _both(robot, robot.neutral(), np.zeros(robot.nv), duration=1.0, dt=1e-3)
+    assert got.meta["loop"] == "compiled"
+    assert got.meta["impacts"] > 5 and got.meta["releases"] > 5
+    assert got.meta["event_steps"] < 100  # of 1000 steps: the compiled loop takes the rest
+    _same_events(got, ref)
+    # the evaluations counted: 4 per compiled step, plus the event steps' own
+    assert got.evaluations >= 4 * (1000 - got.meta["event_steps"])
+
+
+def test_a_held_joint_lets_go_where_its_stop_force_crosses_zero(tmp_path: Path) -> None:
+    # The bob rests on its stop at 0.5 rad, pressed by gravity (m g l sin 0.5 = 2.3517 N m);
+    # a torque rising as 10 t N m lifts it off at t* = 0.23517 s exactly, and not before.
+    robot = _pendulum(tmp_path)
+    g_torque = 1.0 * 9.81 * 0.5 * np.sin(0.5)
+    t_star = g_torque / 10.0
+
+    def ramp(t: float, q: np.ndarray, v: np.ndarray) -> list[float]:
+        return [10.0 * t]
+
+    got, ref = _both(robot, [0.5], [0.0], duration=0.4, dt=1e-3, torque=ramp)
+    assert got.meta["loop"] == "compiled" and got.meta["releases"] == ref.meta["releases"] == 1
+    assert got.meta["event_steps"] <= 3
+    _same_events(got, ref)
+    on_stop = got.t[got.q[:, 0] == 0.5]
+    assert on_stop.max() == pytest.approx(t_star, abs=1e-3)  # the last sample on the stop is the step before t*
+    assert np.all(got.q[got.t > t_star + 1e-3, 0] > 0.5)
+
+
+def test_a_run_that_diverges_after_events_gets_the_python_report(tmp_path: Path) -> None:
+    # explicit Euler at 20 ms with an elastic stop: five impacts, then the energy bound at step 142
+    robot = _pendulum(tmp_path)
+    kw = {"duration": 20.0, "dt": 0.02, "integrator": "euler", "restitution": 1.0}
+    with pytest.raises(DivergenceError) as got:
+        robodyn.simulate(robot, [1.0], [0.0], **kw)  # type: ignore[arg-type]
+    with pytest.raises(DivergenceError) as ref:
+        robodyn.simulate(robot, [1.0], [0.0], backend="aba", **kw)  # type: ignore[arg-type]
+    assert str(got.value) == str(ref.value)
+    a, b = got.value.trajectory, ref.value.trajectory
+    assert a.meta["loop"] == "python" and "energy error" in a.meta["compiled_loop"]
+    assert a.meta["impacts"] == b.meta["impacts"] == 5
+    np.testing.assert_array_equal(a.q, b.q)  # the Python pipeline from the start, held set reset
+
+
+def test_a_run_handed_back_while_a_joint_is_held_restarts_free(tmp_path: Path) -> None:
+    # The bob falls from 1 rad onto its plastic stop and is held there; at t = 0.5 s the torque
+    # callable turns NaN, the compiled loop hands the run back, and the Python pipeline runs
+    # it again from q0, where the joint is free (not still held from the compiled attempt).
+    robot = _pendulum(tmp_path)
+
+    def spoiled(t: float, q: np.ndarray, v: np.ndarray) -> list[float]:
+        return [np.nan if t > 0.5 else 0.0]
+
+    kw = {"duration": 1.0, "dt": 1e-3, "torque": spoiled}
+    with pytest.raises(DivergenceError) as got:
+        robodyn.simulate(robot, [1.0], [0.0], **kw)  # type: ignore[arg-type]
+    with pytest.raises(DivergenceError) as ref:
+        robodyn.simulate(robot, [1.0], [0.0], backend="aba", **kw)  # type: ignore[arg-type]
+    a, b = got.value.trajectory, ref.value.trajectory
+    assert "not finite at step 501" in a.meta["compiled_loop"]
+    assert str(got.value) == str(ref.value)
+    assert a.meta["impacts"] == b.meta["impacts"] == 1 and a.meta["held_at_end"] == ["swing"]
+    np.testing.assert_array_equal(a.q, b.q)

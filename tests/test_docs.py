@@ -455,3 +455,24 @@ def test_mujoco_goals_are_judged_from_the_numbers() -> None:
         "| talos: `robodyn.simulate` with the ledger vs its own compiled loop | ≤ 1.3× | 1.4× | **not met** |" in text
     )
     assert "not met: " in text.splitlines()[-1]
+
+
+def test_the_readmes_speed_table_is_the_saved_benchmarks() -> None:
+    """The README's speed table is what docs/benchmarks/bench_mujoco*.json give, verdicts computed."""
+    import json
+
+    hook = _hook()
+    match = hook.README_SPEED.search((ROOT / "README.md").read_text(encoding="utf-8"))
+    assert match is not None, "README.md has lost its speed-table block"
+    assert match.group(2) == hook.readme_speed_block(), (
+        "README.md's speed table differs from the saved benchmarks: python docs/hooks/robodyn_docs.py readme-speed"
+    )
+    data = json.loads((ROOT / "docs" / "benchmarks" / "bench_mujoco.json").read_text(encoding="utf-8"))
+    paths = data["systems"]["panda"]["single"]["paths"]
+    paths["mujoco_rk4_c_loop"]["us_per_step"] = 1.5 * paths["robodyn_simulate_compiled"]["us_per_step"]
+    text = hook.readme_speed(data, data)
+    assert (
+        "| Panda single trajectory vs MuJoCo RK4, equal error | ≥ 2× | 1.5× (**not met**) | 1.5× (**not met**) |"
+        in text
+    )
+    assert "figures miss their target." in text.splitlines()[-1]

@@ -22,6 +22,7 @@ import json
 import os
 import posixpath
 import re
+import sys
 from collections.abc import Callable
 from contextlib import redirect_stdout
 from pathlib import Path
@@ -315,6 +316,72 @@ def _mujoco_single_ratio(system: dict[str, Any]) -> tuple[float, str]:
     )
 
 
+def mujoco_goals(data: dict[str, Any]) -> list[tuple[str, float, bool, float]]:
+    """(label, target, at least (else at most), measured ratio) of every goal the run measured."""
+    systems = data["systems"]
+    goals = []
+    for label, name, kind, threads, bound, at_least in MUJOCO_GOALS:
+        r = systems.get(name)
+        if r is None:
+            continue
+        if kind == "single":
+            if at_least and name in SEED_KINDS and "robodyn_fast_closed_form" not in r["single"]["paths"]:
+                continue
+            value, _ = _mujoco_single_ratio(r)
+        elif kind == "batch":
+            t = r["batch"]["threads"].get(threads)
+            if t is None:
+                continue
+            value = t["mujoco_rollout_us_per_state_step"] / t["robodyn_us_per_state_step"]
+        else:
+            value = r["single"]["simulate_call_over_compiled_loop"]
+        goals.append((label, bound, at_least, float(value)))
+    return goals
+
+
+def readme_speed(normal: dict[str, Any], busy: dict[str, Any]) -> str:
+    """The README's speed table: the goals against MuJoCo, measured on a quiet machine and under ``--busy``."""
+    got = {label: value for label, _, _, value in mujoco_goals(busy)}
+    lines = [
+        "| goal (ratios measured side by side in one run) | target | measured | with a CPU-bound process competing |",
+        "|---|---:|---:|---:|",
+    ]
+    verdicts = {True: 0, False: 0}
+
+    def shown(x: float | None, bound: float, at_least: bool) -> str:
+        if x is None:
+            return "–"
+        ok = x >= bound if at_least else x <= bound
+        verdicts[ok] += 1
+        return f"{x:.3g}×" + ("" if ok else " (**not met**)")
+
+    for label, bound, at_least, value in mujoco_goals(normal):
+        sign = "≥" if at_least else "≤"
+        lines.append(
+            f"| {label} | {sign} {bound:g}× | {shown(value, bound, at_least)} "
+            f"| {shown(got.get(label), bound, at_least)} |"
+        )
+
+    def when(data: dict[str, Any]) -> str:
+        run = _run_record(data) or {}
+        before, after = run.get("load_before"), run.get("load_after")
+        loads = f"load {before[0]:.2f} before, {after[0]:.2f} after" if before and after else "load not recorded"
+        return f"{run.get('date', 'undated')}, {run.get('cpus', '?')} CPUs, {loads}"
+
+    missed = verdicts[False]
+    lines += [
+        "",
+        f"From `docs/benchmarks/bench_mujoco.json` ({when(normal)}) and `bench_mujoco_busy.json` "
+        f"({when(busy)}), as `python benchmarks/bench_mujoco.py [--busy]` saved them; "
+        + (
+            f"{missed} of the {sum(verdicts.values())} figures miss their target."
+            if missed
+            else "every figure meets its target."
+        ),
+    ]
+    return "\n".join(lines) + "\n"
+
+
 def _mujoco(data: dict[str, Any]) -> str:
     systems = data["systems"]
     out = [
@@ -382,21 +449,7 @@ def _mujoco(data: dict[str, Any]) -> str:
         "|---|---:|---:|---|",
     ]
     met, missed = 0, []
-    for label, name, kind, threads, bound, at_least in MUJOCO_GOALS:
-        r = systems.get(name)
-        if r is None:
-            continue
-        if kind == "single":
-            if at_least and name in SEED_KINDS and "robodyn_fast_closed_form" not in r["single"]["paths"]:
-                continue
-            value, _ = _mujoco_single_ratio(r)
-        elif kind == "batch":
-            t = r["batch"]["threads"].get(threads)
-            if t is None:
-                continue
-            value = t["mujoco_rollout_us_per_state_step"] / t["robodyn_us_per_state_step"]
-        else:
-            value = r["single"]["simulate_call_over_compiled_loop"]
+    for label, bound, at_least, value in mujoco_goals(data):
         ok = value >= bound if at_least else value <= bound
         met += ok
         if not ok:
@@ -647,3 +700,26 @@ def render_page(markdown: str, page_dir: str = "") -> str:
 
     with redirect_stdout(io.StringIO()):
         return on_page_markdown(markdown, _Page(), None, None)
+
+
+# -- the README's speed table ----------------------------------------------------------------------
+
+README = ROOT / "README.md"
+README_SPEED = re.compile(r"(<!-- speed-table: begin -->\n)(.*?)(<!-- speed-table: end -->)", re.S)
+
+
+def readme_speed_block() -> str:
+    """The README's speed table as the saved MuJoCo comparisons give it today."""
+    normal = json.loads((DOCS / "benchmarks" / "bench_mujoco.json").read_text(encoding="utf-8"))
+    busy = json.loads((DOCS / "benchmarks" / "bench_mujoco_busy.json").read_text(encoding="utf-8"))
+    return readme_speed(normal, busy)
+
+
+if __name__ == "__main__":  # python docs/hooks/robodyn_docs.py readme-speed: rewrite the README's table
+    if sys.argv[1:] != ["readme-speed"]:
+        sys.exit("usage: python docs/hooks/robodyn_docs.py readme-speed")
+    text = README.read_text(encoding="utf-8")
+    if not README_SPEED.search(text):
+        sys.exit("README.md has no <!-- speed-table: begin --> ... <!-- speed-table: end --> block")
+    README.write_text(README_SPEED.sub(lambda m: m.group(1) + readme_speed_block() + m.group(3), text), encoding="utf-8")
+    print("README.md: speed table rewritten from docs/benchmarks/bench_mujoco.json and bench_mujoco_busy.json")

@@ -33,7 +33,7 @@ Array = NDArray[np.float64]
 CHECK_EVERY = 512
 
 
-def _step_sizes(t: Array) -> list[float]:
+def step_sizes(t: Array) -> list[float]:
     """Every step exactly dt = t[1] - t[0], but a last, shorter one that lands on t[-1]."""
     dt = float(t[1] - t[0])
     steps = [dt] * (t.size - 1)
@@ -171,7 +171,7 @@ class Run:
     def _integrate(self) -> None:
         """Every ``CHECK_EVERY`` steps store the block and check it."""
         times = self.t.tolist()
-        steps = _step_sizes(self.t)
+        steps = step_sizes(self.t)
         stepper = self.stepper
         advance = stepper.advance
         system = self.system

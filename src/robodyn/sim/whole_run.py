@@ -45,7 +45,7 @@ from robodyn.integrators.explicit import ClassicRK4, ExplicitEuler, ExplicitRung
 from robodyn.integrators.symplectic import SemiImplicitEuler
 from robodyn.sim import tree
 from robodyn.sim.events import RELEASE_TOL
-from robodyn.sim.run import Run
+from robodyn.sim.run import Run, step_sizes
 from robodyn.sim.system import V_FRICTION, RobotSystem
 
 Array = NDArray[np.float64]
@@ -141,16 +141,6 @@ def _stop_rows(system: RobotSystem, rows: NDArray[np.intp]) -> tuple[Array, Arra
     return np.ascontiguousarray(stops), np.ascontiguousarray(held)
 
 
-def step_sizes(t: Array) -> Array:
-    """Every step t[1] - t[0], but a last, shorter one that lands on t[-1] (as the Python run takes them)."""
-    dt = float(t[1] - t[0])
-    hs = np.full(t.size - 1, dt)
-    last = float(t[-1] - t[-2])
-    if abs(last - dt) > 1e-9 * dt:
-        hs[-1] = last
-    return hs
-
-
 @dataclass(frozen=True, eq=False)
 class Plan:
     """A run the compiled loop can take: the checked compiled tree and the method's code and tableau."""
@@ -193,7 +183,7 @@ def attempt(plan: Plan, system: RobotSystem, run: Run) -> Outcome:
     t = run.t
     n = t.size
     nv, nw = system.nv, system.nw
-    hs = step_sizes(t)
+    hs = np.array(step_sizes(t))
     forces, springs = _inputs(system)
     tr = compiled.tree
     rows = np.empty(nv, dtype=np.intp)  # the tree row of each index in v

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import dataclasses
+import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -121,12 +123,24 @@ def test_torque_callable_runs_compiled_and_agrees() -> None:
     assert np.max(np.abs(got.work_input - ref.work_input)) < TRAJECTORY_RTOL
 
 
-def test_where_the_compiled_path_does_not_apply() -> None:
-    flyer = robodyn.load("panda", free_flyer=True)
-    run = robodyn.simulate(flyer, flyer.neutral(), np.zeros(flyer.nv), duration=0.01, dt=1e-3)
-    assert run.meta["loop"] == "python" and "JointModelFreeFlyer" in run.meta["compiled_loop"]
+PLANAR_URDF = """<?xml version="1.0"?>
+<robot name="puck">
+  <link name="floor"/>
+  <link name="puck"><inertial><mass value="1.0"/>
+    <inertia ixx="0.01" iyy="0.01" izz="0.02" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="glide" type="planar"><parent link="floor"/><child link="puck"/><axis xyz="0 0 1"/></joint>
+</robot>
+"""
+
+
+def test_where_the_compiled_path_does_not_apply(tmp_path: Path) -> None:
+    path = tmp_path / "puck.urdf"
+    path.write_text(PLANAR_URDF)
+    puck = robodyn.load(path)
+    run = robodyn.simulate(puck, puck.neutral(), np.zeros(puck.nv), duration=0.01, dt=1e-3)
+    assert run.meta["loop"] == "python" and "JointModelPlanar" in run.meta["compiled_loop"]
     with pytest.raises(InputError, match="backend 'numba' cannot serve"):
-        robodyn.simulate(flyer, flyer.neutral(), np.zeros(flyer.nv), duration=0.01, dt=1e-3, backend="numba")
+        robodyn.simulate(puck, puck.neutral(), np.zeros(puck.nv), duration=0.01, dt=1e-3, backend="numba")
     robot = robodyn.load("pendubot")
     adaptive = robodyn.simulate(robot, [0.3, 0.2], [0, 0], duration=0.01, dt=1e-3, integrator="dopri5")
     assert adaptive.meta["loop"] == "python" and "dopri5" in adaptive.meta["compiled_loop"]
@@ -141,3 +155,21 @@ def test_numba_backend_in_the_python_pipeline_agrees() -> None:
     ref = robodyn.simulate(robot, [0.3, 0.2], [0, 0], duration=0.2, dt=1e-2, integrator="dopri5", backend="aba")
     assert (got.meta["backend"], got.meta["loop"]) == ("numba", "python")
     assert _relative(got.q, ref.q) < 1e-9  # adaptive step choices see round-off, then converge to rtol
+
+
+def test_cached_steps_older_than_the_kernels_are_dropped(tmp_path: Path) -> None:
+    # numba keys tree_steps' cache on tree_steps.py alone; its steps inline tree_kernels' kernels
+    source = tmp_path / "tree_kernels.py"
+    cache = tmp_path / "__pycache__"
+    cache.mkdir()
+    old = [cache / "tree_steps.run_block-232.py311.nbi", cache / "tree_steps.run_block-232.py311.1.nbc"]
+    kept = [cache / "tree_kernels.aba-300.py311.nbi", cache / "tree_steps.stages-125.py311.nbi"]
+    for path in old + kept:
+        path.write_bytes(b"x")
+    source.write_text("# edited\n")
+    for path in old + kept[:1]:
+        os.utime(path, (source.stat().st_mtime - 10.0,) * 2)  # compiled before the edit
+    os.utime(kept[1], (source.stat().st_mtime + 10.0,) * 2)  # compiled after it
+    assert sorted(tree.drop_stale_caches(cache, source)) == sorted(old)
+    assert all(not p.exists() for p in old) and all(p.exists() for p in kept)
+    assert tree.drop_stale_caches(tmp_path / "missing", source) == []

@@ -6,8 +6,10 @@ arrays; it calls no Pinocchio algorithm. The kernels of :mod:`robodyn.sim.tree_k
 (articulated-body algorithm, RNEA, CRBA, energies) and of
 :mod:`robodyn.sim.tree_steps` (steps and whole runs) then run on those arrays.
 
-It serves fixed-base trees of revolute, prismatic and continuous joints (one degree of
-freedom each). A free flyer, a spherical or planar joint, or a mimic joint is not served:
+It serves trees of revolute, prismatic and continuous joints (one degree of freedom each),
+fixed to the world or mounted on a free flyer at the root (Pinocchio's ``JointModelFreeFlyer``:
+q = [position; quaternion x, y, z, w], v = [linear; angular] in the body's frame). A free
+flyer below another joint, a spherical or planar joint, or a mimic joint is not served:
 :func:`unsupported` says why, and :func:`robodyn.simulate` then uses Pinocchio.
 
 It is a second implementation, so it is checked before it is trusted: :func:`compiled_of`
@@ -24,6 +26,7 @@ from __future__ import annotations
 import weakref
 from dataclasses import dataclass
 from functools import lru_cache
+from pathlib import Path
 from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
@@ -44,7 +47,8 @@ Array = NDArray[np.float64]
 VERIFY_RTOL = 1e-12
 VERIFY_STATES = 8
 
-# Joint types of the kernels (tree_kernels.REVOLUTE, PRISMATIC, CONTINUOUS), by Pinocchio's shortname.
+# Joint types of the kernels (tree_kernels.REVOLUTE, PRISMATIC, CONTINUOUS, FREEFLYER), by Pinocchio's
+# shortname; a free flyer has no axis.
 _AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
 _TYPES: dict[str, tuple[int, tuple[float, float, float] | None]] = {
     **{f"JointModelR{a}": (0, _AXES[a]) for a in "XYZ"},
@@ -53,21 +57,29 @@ _TYPES: dict[str, tuple[int, tuple[float, float, float] | None]] = {
     "JointModelRevoluteUnaligned": (0, None),
     "JointModelPrismaticUnaligned": (1, None),
     "JointModelRevoluteUnboundedUnaligned": (2, None),
+    "JointModelFreeFlyer": (3, (0.0, 0.0, 0.0)),
 }
-FCOLS = 50  # tree_kernels.FCOLS, kept here so that extraction does not import numba
+_FREE_FLYER = 3
+# tree_kernels.FCOLS, F_ARM6 (a free flyer's six armatures) and F_TOTAL (its mass with the bodies below),
+# kept here so that extraction does not import numba
+FCOLS = 57
+_F_ARM6, _F_TOTAL = 50, 56
 
 
 @dataclass(frozen=True, eq=False)
 class TreeModel:
-    """A kinematic tree as arrays: ``itree`` (n, 4) int64, ``ftree`` (n, 50) float64, ``grav`` (3,) [m/s^2].
+    """A kinematic tree as arrays: ``itree`` (n, 4) int64, ``ftree`` (n, 57) float64, ``grav`` (3,) [m/s^2].
 
     Row i of ``itree``: parent row (-1 for the world), type (0 revolute, 1 prismatic, 2
-    continuous), index in q, index in v. Row i of ``ftree``: unit joint axis (3), the joint
-    placement in its parent's frame (rotation row-major (9), translation [m] (3)), mass [kg],
-    lever (centre of mass in the joint frame) [m] (3), rotational inertia about the centre of
-    mass [kg m^2] (9), armature [kg m^2 | kg], and from the placement R_p and the axis a:
-    R_p [a]x (9), (R_p a) a^T (9) and R_p a (3), the terms of Rodrigues' formula the kernels
-    turn the joint with.
+    continuous, 3 free flyer), index in q, index in v. Row i of ``ftree``: unit joint axis (3),
+    the joint placement in its parent's frame (rotation row-major (9), translation [m] (3)),
+    mass [kg], lever (centre of mass in the joint frame) [m] (3), rotational inertia about the
+    centre of mass [kg m^2] (9), armature [kg m^2 | kg], and from the placement R_p and the
+    axis a: R_p [a]x (9), (R_p a) a^T (9) and R_p a (3), the terms of Rodrigues' formula the
+    kernels turn the joint with; then a free flyer's six armatures [kg | kg m^2] (6) and its
+    mass with every body below it [kg] (the whole tree: a free flyer is its root). A free
+    flyer's row has no axis (zeros in the axis and Rodrigues columns) and armature 0 in the
+    one-coordinate column.
     """
 
     name: str
@@ -89,9 +101,25 @@ class TreeModel:
 
 def unsupported(robot: Robot) -> str | None:
     """Why the compiled tree path cannot serve ``robot``, or None when it can."""
-    for j in robot.joints:
+    parents = robot.model.parents
+    for index, j in enumerate(robot.joints, start=1):
         if j.kind not in _TYPES:
-            return f"joint {j.name!r} is a {j.kind}; the compiled path takes revolute, prismatic and continuous joints"
+            return (
+                f"joint {j.name!r} is a {j.kind}; the compiled path takes revolute, prismatic and continuous "
+                "joints, and a free flyer at the root"
+            )
+        if _TYPES[j.kind][0] == _FREE_FLYER:
+            others = [k.name for n, k in enumerate(robot.joints, start=1) if n != index and int(parents[n]) == 0]
+            if int(parents[index]) != 0 or others:
+                where = (
+                    f"below joint {robot.joints[int(parents[index]) - 1].name!r}"
+                    if int(parents[index]) != 0
+                    else f"beside the root joint {others[0]!r}"
+                )
+                return (
+                    f"joint {j.name!r} is a free flyer {where}; the compiled path takes a free flyer only as "
+                    "the root of the whole tree (parent: the world, every other joint below it)"
+                )
     if robot.nv == 0:
         return "the model has no degree of freedom"
     return None
@@ -143,7 +171,11 @@ def extract(robot: Robot) -> TreeModel:
         ftree[i, 15] = float(inertia.mass)
         ftree[i, 16:19] = np.asarray(inertia.lever, dtype=np.float64)
         ftree[i, 19:28] = np.asarray(inertia.inertia, dtype=np.float64).reshape(9)
-        ftree[i, 28] = armature[int(joint.idx_v)]
+        if code == _FREE_FLYER:
+            ftree[i, _F_ARM6 : _F_ARM6 + 6] = armature[int(joint.idx_v) : int(joint.idx_v) + 6]
+            ftree[i, _F_TOTAL] = sum(float(model.inertias[k].mass) for k in range(j, model.njoints))
+        else:
+            ftree[i, 28] = armature[int(joint.idx_v)]
         # products of the placement with the axis (Rodrigues' formula of the joint's rotation)
         rot = ftree[i, 3:12].reshape(3, 3)
         cross = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
@@ -154,12 +186,33 @@ def extract(robot: Robot) -> TreeModel:
     return TreeModel(robot.name, int(model.nq), int(model.nv), itree, ftree, grav)
 
 
+def drop_stale_caches(folder: Path, kernels_source: Path) -> list[Path]:
+    """Remove numba's cached ``tree_steps`` functions compiled before ``kernels_source`` last changed.
+
+    numba keys a cached function on its own source file's time stamp, while the steps of
+    ``tree_steps`` inline the kernels of ``tree_kernels``: after an edit of ``tree_kernels.py``
+    alone, the cached steps would still run the old kernels. Only the cache beside the
+    sources (``__pycache__``, where numba writes it when the folder is writable) is looked at;
+    an install writes both files anew, so its caches are never stale this way. Returns what
+    was removed.
+    """
+    try:
+        changed = kernels_source.stat().st_mtime
+        stale = [p for p in folder.glob("tree_steps.*.nb[ic]") if p.stat().st_mtime < changed]
+    except OSError:  # no cache folder, or sources not on disk: nothing to compare
+        return []
+    for path in stale:
+        path.unlink(missing_ok=True)
+    return stale
+
+
 @lru_cache(maxsize=1)
 def kernels() -> ModuleType:
     """The numba kernels (:mod:`robodyn.sim.tree_steps`, which re-exports the algorithms), loaded or compiled.
 
     A one-joint tree runs each kernel once here, so that no timed run pays for loading it.
     """
+    drop_stale_caches(Path(__file__).with_name("__pycache__"), Path(__file__).with_name("tree_kernels.py"))
     try:
         from robodyn.sim import tree_steps as k
     except ImportError as exc:  # pragma: no cover - numba is a declared dependency

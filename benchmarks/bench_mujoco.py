@@ -21,18 +21,15 @@ Run from the repository root (MuJoCo is a benchmark-only dependency: pip install
    batch.rollout against mujoco.rollout, on 1 and on 2 threads; the final states compared.
 
 --busy runs one CPU-bound process (a spinning loop) for the whole measurement. Prints every
-figure and the ratios, and writes bench_mujoco.json and bench_mujoco.png/.svg into --out
-(default bench-out/; an existing JSON there is only replaced with --overwrite).
+figure and the ratios, and writes bench_mujoco.json and bench_mujoco.png/.svg (with --busy:
+bench_mujoco_busy.*) into --out (default bench-out/; a folder holding committed files only with
+--overwrite-committed).
 """
 
 from __future__ import annotations
 
-import argparse
-import datetime
 import json
 import multiprocessing
-import os
-import platform
 import re
 import sys
 import time
@@ -45,6 +42,8 @@ from robodyn import charts
 from robodyn.sim import batch
 from robodyn.sim.fast import FastDynamics
 from robodyn.studies import bench
+
+from _common import argument_parser, output_folder, run_facts, write_json
 
 MODEL_MATCH_RTOL = 1e-9  # MuJoCo's M and bias against Pinocchio's (relative to the largest entry)
 N_CHECK_STATES = 10
@@ -229,11 +228,9 @@ def batched(robot: robodyn.Robot, m, idx) -> dict:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("bench-out"), help="folder for the JSON and chart")
+    parser = argument_parser(__doc__)
     parser.add_argument("--busy", action="store_true", help="run a CPU-bound process during the measurement")
     parser.add_argument("--systems", default=",".join(SYSTEMS), help=f"comma-separated, from {', '.join(SYSTEMS)}")
-    parser.add_argument("--overwrite", action="store_true", help="replace an existing bench_mujoco.json in --out")
     args = parser.parse_args()
     import mujoco
 
@@ -241,10 +238,10 @@ def main() -> int:
     unknown = [s for s in names if s not in SYSTEMS]
     if unknown:
         parser.error(f"unknown system(s) {', '.join(unknown)}; expected some of {', '.join(SYSTEMS)}")
-    target = args.out / "bench_mujoco.json"
-    if target.exists() and not args.overwrite:
-        parser.error(f"{target} exists; pass --overwrite to replace it, or another --out")
-    load_before = os.getloadavg()
+    out = output_folder(args.out, overwrite_committed=args.overwrite_committed)
+    stem = "bench_mujoco_busy" if args.busy else "bench_mujoco"
+    facts = run_facts()
+    facts["mujoco"] = mujoco.__version__
     stop = multiprocessing.Event()
     spinner = multiprocessing.Process(target=_spin, args=(stop,), daemon=True) if args.busy else None
     if spinner is not None:
@@ -282,26 +279,9 @@ def main() -> int:
         if spinner is not None:
             stop.set()
             spinner.join(5)
-    load_after = os.getloadavg()
-    print(f"load average (1, 5, 15 min) before {load_before}, after {load_after}; busy mode {args.busy}")
-    record = {
-        "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-        "machine": {
-            "cpus": os.cpu_count(),
-            "platform": platform.platform(),
-            "processor": platform.processor(),
-            "python": platform.python_version(),
-            "mujoco": mujoco.__version__,
-            "robodyn": robodyn.__version__,
-        },
-        "load_average_before": load_before,
-        "load_average_after": load_after,
-        "busy": args.busy,
-        "command": " ".join(["python", "benchmarks/bench_mujoco.py", *sys.argv[1:]]),
-        "systems": results,
-    }
-    args.out.mkdir(parents=True, exist_ok=True)
-    target.write_text(json.dumps(record, indent=1) + "\n")
+    target = write_json(out, stem, {"busy": args.busy, "systems": results}, facts)
+    run = json.loads(target.read_text())["run"]
+    print(f"load average (1, 5, 15 min) before {run['load_before']}, after {run['load_after']}; busy mode {args.busy}")
     labels, values = [], []
     for name, r in results.items():
         for path, p in r["single"]["paths"].items():
@@ -313,11 +293,11 @@ def main() -> int:
     charts.speed_bars(
         labels,
         values,
-        args.out / "bench_mujoco",
+        out / stem,
         unit="microseconds per (state-)step, log scale",
         title=f"RK4, dt = 1 ms: robodyn against MuJoCo{' (busy)' if args.busy else ''}",
     )
-    print(f"wrote {target} and bench_mujoco.png/.svg")
+    print(f"wrote {target} and {stem}.png/.svg")
     return 0
 
 

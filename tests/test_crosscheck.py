@@ -184,3 +184,40 @@ def test_mimic_model_is_checked_with_crba_and_refused_routines_are_na():
     q, v = robot.random_state(np.random.default_rng(0))
     a = robot.forward_dynamics(q, v, np.ones(robot.nv))  # default backend: CRBA on a mimic model
     np.testing.assert_allclose(robot.inverse_dynamics(q, v, a), np.ones(robot.nv), rtol=1e-10)
+
+
+# C of a model with mimic joints against the Christoffel symbols from finite differences of CRBA's M
+# (central, h = 1e-6 rad: truncation ~1e-12, round-off ~1e-10 of M's entries over h).
+MIMIC_C_ATOL = 1e-7
+
+
+def test_coriolis_matrix_on_mimic_joints_is_the_christoffel_one() -> None:
+    # Pinocchio 4.1's computeCoriolisMatrix is wrong on mimic joints (the Panda's finger pair: its
+    # entry [6, 7] is twice the Christoffel one); robodyn's C must be the Christoffel matrix
+    robot = robodyn.load("panda", mimic=True)
+    q, v = robot.random_state(np.random.default_rng(3))
+    nv, h = robot.nv, 1e-6
+    dM = []
+    for k in range(nv):
+        e = np.zeros(nv)
+        e[k] = h
+        plus, minus = robot.M(robot.integrate(q, e)), robot.M(robot.integrate(q, -e))
+        dM.append((plus - minus) / (2 * h))
+    gamma = np.array(
+        [[[0.5 * (dM[k][i, j] + dM[j][i, k] - dM[i][j, k]) for k in range(nv)] for j in range(nv)] for i in range(nv)]
+    )
+    expected = gamma @ v
+    C = robot.C(q, v)
+    assert np.max(np.abs(C - expected)) < MIMIC_C_ATOL
+    Mdot = sum(dM[k] * v[k] for k in range(nv))
+    assert np.max(np.abs((Mdot - 2 * C) + (Mdot - 2 * C).T)) < 2 * MIMIC_C_ATOL
+    report = check(robot, samples=20)
+    assert report.passed
+    gap = next(r for r in report.rows if r.quantity == "computeCoriolisMatrix = C by RNEA")
+    assert gap.status == "gap" and "mimic" in gap.note  # Pinocchio's own, reported
+
+
+def test_pinocchios_coriolis_matrix_is_the_christoffel_one_on_ordinary_models() -> None:
+    report = check(robodyn.load("talos"), samples=5)
+    row = next(r for r in report.rows if r.quantity == "computeCoriolisMatrix = C by RNEA")
+    assert row.status == "pass"

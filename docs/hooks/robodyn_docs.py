@@ -721,5 +721,6 @@ if __name__ == "__main__":  # python docs/hooks/robodyn_docs.py readme-speed: re
     text = README.read_text(encoding="utf-8")
     if not README_SPEED.search(text):
         sys.exit("README.md has no <!-- speed-table: begin --> ... <!-- speed-table: end --> block")
-    README.write_text(README_SPEED.sub(lambda m: m.group(1) + readme_speed_block() + m.group(3), text), encoding="utf-8")
+    block = readme_speed_block()
+    README.write_text(README_SPEED.sub(lambda m: m.group(1) + block + m.group(3), text), encoding="utf-8")
     print("README.md: speed table rewritten from docs/benchmarks/bench_mujoco.json and bench_mujoco_busy.json")

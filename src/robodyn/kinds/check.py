@@ -8,7 +8,8 @@ Over seeded random states (q uniform in [-pi, pi] around neutral, v and a unifor
 * always, the structural properties: M symmetric positive definite, dM/dt - 2C skew,
   G = dV/dq, and Pinocchio's identities C v + G = RNEA(q, v, 0), M^-1 (tau - nle) = ABA,
   RNEA(ABA(tau)) = tau, CRBA = columns of RNEA;
-* Pinocchio's routines with each other: 1/2 v^T M v against ``computeKineticEnergy``.
+* Pinocchio's routines with each other: 1/2 v^T M v against ``computeKineticEnergy``, and
+  ``computeCoriolisMatrix`` against the Christoffel C built from RNEA (they differ on mimic joints).
   Disagreements there are Pinocchio's own gaps; they are reported plainly but do not fail
   the check, because robodyn uses 1/2 v^T M v.
 
@@ -203,6 +204,10 @@ def _structure_rows(robot: Robot, samples: list[_Sample], rtol: float) -> list[C
         note="Pinocchio's computeKineticEnergy leaves out armature on joints with a non-canonical axis; "
         "robodyn uses 1/2 v^T M v",
     )  # fmt: skip
+    mimic = dynamics.has_mimic_joints(model)
+    coriolis = Accumulator(
+        "computeCoriolisMatrix = C by RNEA", "pinocchio", "kg m^2/s", rtol, counts=False,
+    )  # fmt: skip
     n_scale = 0.0  # N's reference magnitude over the samples (see skew_scale)
     min_eig_ratio = np.inf
     aba_ok = True
@@ -215,6 +220,10 @@ def _structure_rows(robot: Robot, samples: list[_Sample], rtol: float) -> list[C
         # Positive definiteness: a non-positive eigenvalue shows as an error of its size.
         spd.add(np.zeros(1), np.array([max(0.0, -eig[0]) + (eig[-1] if eig[0] <= 0 else 0.0)]))
         C = dynamics.coriolis_matrix(model, data, s.q, s.v)
+        coriolis.add(
+            dynamics.pinocchio_coriolis_matrix(model, data, s.q, s.v),
+            C if mimic else dynamics.christoffel_coriolis(model, data, s.q, s.v),
+        )
         G = dynamics.gravity(model, data, s.q)
         Mdot = _mdot(mass, integrate, s.q, s.v)
         n_scale = max(n_scale, skew_scale(Mdot, C, M, s.v))
@@ -245,11 +254,16 @@ def _structure_rows(robot: Robot, samples: list[_Sample], rtol: float) -> list[C
         except RuntimeError:  # computeKineticEnergy refuses mimic joints
             energy_refused = True
             kinetic.add(T, T)
+    nle_row = nle.row(samples)
+    if mimic:  # C itself comes from RNEA here: the identity holds by construction
+        nle_row = replace(
+            nle_row, note="on mimic joints robodyn's C is built from RNEA, so this row holds by construction"
+        )
     rows = [
         spd.row(samples),
         rescale(skew.row(samples), n_scale),
         grad.row(samples),
-        nle.row(samples),
+        nle_row,
         columns.row(samples),
         inverse.row(samples),
     ]
@@ -275,6 +289,16 @@ def _structure_rows(robot: Robot, samples: list[_Sample], rtol: float) -> list[C
         else:
             kinetic_row = replace(kinetic_row, note="Pinocchio's kinetic-energy routine disagrees with 1/2 v^T M v")
     rows.append(kinetic_row)
+    coriolis_row = coriolis.row(samples)
+    if not coriolis_row.passed:
+        coriolis_row = replace(
+            coriolis_row,
+            note="Pinocchio's computeCoriolisMatrix is wrong on models with mimic joints (C v + G != RNEA, "
+            "dM/dt - 2C not skew); robodyn's C is the Christoffel matrix from RNEA"
+            if mimic
+            else "Pinocchio's computeCoriolisMatrix disagrees with the Christoffel C from RNEA",
+        )
+    rows.append(coriolis_row)
     rows[0] = replace(rows[0], note=f"min over samples of lambda_min / lambda_max = {min_eig_ratio:.3g}")
     return rows
 

@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 import robodyn
-from robodyn.errors import DivergenceError
-from robodyn.sim import tree
+from robodyn.errors import DivergenceError, SimulationInterrupted
+from robodyn.sim import tree, whole_run
 from robodyn.sim.system import robot_system
 from tests.test_limits import PENDULUM_URDF
 
@@ -41,8 +41,8 @@ def _compiled_rates(robot: robodyn.Robot, held: dict[str, int], q: np.ndarray, v
     tr = tree.compiled_of(robot).tree
     nv = robot.nv
     rows = {int(tr.itree[i, 3]): i for i in range(tr.itree.shape[0])}
-    names = list(robot.joint_names)
-    hv = [names.index(name) for name in held]
+    index_v = {j.name: int(j.idx_v) for j in robot.joints}
+    hv = [index_v[name] for name in held]
     locked = np.array([[float(rows[i]) for i in hv], [float(s) for s in held.values()]]).reshape(2, -1)
     ws = np.zeros((tr.itree.shape[0], k.WCOLS))
     k.lock(ws, locked)
@@ -176,3 +176,91 @@ def test_a_run_handed_back_while_a_joint_is_held_restarts_free(tmp_path: Path) -
     assert str(got.value) == str(ref.value)
     assert a.meta["impacts"] == b.meta["impacts"] == 1 and a.meta["held_at_end"] == ["swing"]
     np.testing.assert_array_equal(a.q, b.q)
+    assert a.evaluations == b.evaluations  # the abandoned attempt's event steps are not counted
+
+
+ARM_URDF = """<?xml version="1.0"?>
+<robot name="arm">
+  <link name="base"/>
+  <link name="l1"><inertial><origin xyz="0.25 0 0"/><mass value="1.0"/>
+    <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.02"/></inertial></link>
+  <link name="l2"><inertial><origin xyz="0.2 0 0"/><mass value="0.5"/>
+    <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/><axis xyz="0 1 0"/>
+    <limit lower="-0.05" upper="0.05" effort="50" velocity="10"/></joint>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0.5 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="-3.0" upper="3.0" effort="50" velocity="10"/></joint>
+</robot>
+"""
+
+
+def _push_then_pull(tmp_path: Path, switch: float, duration: float):  # type: ignore[no-untyped-def]
+    """j1 pressed onto its stop by -20 N m, then pulled off by +20 N m from ``switch`` [s]: compiled, ABA."""
+    path = tmp_path / "arm.urdf"
+    path.write_text(ARM_URDF)
+    robot = robodyn.load(path)
+
+    def torque(t: float, q: np.ndarray, v: np.ndarray) -> list[float]:
+        return [-20.0 if t < switch else 20.0, 0.0]
+
+    return _both(robot, [0.0, 0.3], [0.0, 0.0], duration=duration, dt=1e-3, torque=torque)
+
+
+@pytest.mark.parametrize("block", [1, 2, 3, 5])
+def test_a_release_at_the_end_of_a_compiled_block_is_taken_in_its_step(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, block: int
+) -> None:
+    # blocks of a few steps: the stop starts to pull at the last sample of some block, whose
+    # step must be taken again by the event stepper (not the step after it)
+    monkeypatch.setattr(whole_run, "BLOCK", block)
+    for switch in (0.1205, 0.1237):
+        got, ref = _push_then_pull(tmp_path, switch, 0.2)
+        assert got.meta["releases"] == ref.meta["releases"] == 1
+        _same_events(got, ref)
+
+
+def test_a_release_in_the_last_step_is_taken(tmp_path: Path) -> None:
+    # the pull starts inside the last step: the run ends with the joint let go, as in the Python pipeline
+    got, ref = _push_then_pull(tmp_path, 0.1995, 0.2)
+    assert got.meta["releases"] == ref.meta["releases"] == 1 and got.meta["held_at_end"] == []
+    _same_events(got, ref)
+    np.testing.assert_allclose(got.a[-1], ref.a[-1], rtol=1e-9, atol=1e-9)
+
+
+def test_a_ctrl_c_in_the_torque_callable_keeps_the_stops_work(tmp_path: Path) -> None:
+    # j1 strikes its stop (W_limits < 0) and is held; a Ctrl-C inside the controller at t = 0.2 s
+    # stops the run: the samples kept carry the stop's work, and the books close as in the Python run
+    path = tmp_path / "arm.urdf"
+    path.write_text(ARM_URDF)
+    robot = robodyn.load(path)
+    runs = []
+    for backend in (None, "aba"):
+        fired = [False]
+
+        def torque(t: float, q: np.ndarray, v: np.ndarray, fired: list[bool] = fired) -> list[float]:
+            if t >= 0.2 and not fired[0]:
+                fired[0] = True
+                raise KeyboardInterrupt
+            return [-20.0, 0.0]
+
+        with pytest.raises(SimulationInterrupted) as info:
+            robodyn.simulate(robot, [0.0, 0.3], [0.0, 0.0], duration=0.5, dt=1e-3, torque=torque, backend=backend)
+        runs.append(info.value.trajectory)
+    got, ref = runs
+    assert got.meta["loop"] == "compiled" and got.n_steps == ref.n_steps
+    assert ref.work_limits[-1] < -0.1  # the impact took energy
+    np.testing.assert_allclose(got.work_limits, ref.work_limits, rtol=0, atol=1e-12)
+    assert got.max_ledger_residual < 1e-9
+
+
+def test_a_joint_resting_on_a_stop_unpressed_stays_in_the_compiled_loop() -> None:
+    # the free-falling Panda: panda_finger_joint1 sits on its lower stop (0 m) and nothing presses it
+    # there, so it is neither held nor struck; its steps are ordinary steps, not events
+    robot = robodyn.load("panda", free_flyer=True)
+    got, ref = _both(robot, robot.neutral(), np.zeros(robot.nv), duration=0.5, dt=1e-3)
+    assert got.meta["loop"] == "compiled" and got.meta["event_steps"] <= 5
+    # joints touch their stops at round-off speeds (1e-18 m/s) either way: which of them count as an
+    # impact is decided by round-off, at no energy; the motion is the same
+    assert np.max(np.abs(got.q - ref.q)) < TRAJECTORY_ATOL
+    assert abs(got.work_limits[-1]) < 1e-15 and abs(ref.work_limits[-1]) < 1e-15
+    assert got.max_ledger_residual < 1e-9

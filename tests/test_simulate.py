@@ -450,3 +450,20 @@ def test_coordinate_units() -> None:
     assert coordinate_units(robodyn.load("cart_pole")) == (["m", "rad"], ["m/s", "rad/s"])
     q_units, v_units = coordinate_units(robodyn.load("geared_arm", free_flyer=True))
     assert q_units == ["m"] * 3 + [""] * 4 + ["rad"] and v_units == ["m/s"] * 3 + ["rad/s"] * 4
+
+
+def test_a_non_finite_q0_of_the_right_length_is_named_as_such() -> None:
+    robot = robodyn.load("pendubot")
+    with pytest.raises(InputError, match=r"q0 must be finite, got \[nan  0\.\]"):
+        robodyn.simulate(robot, [np.nan, 0.0], [0.0, 0.0], duration=0.01, dt=1e-3)
+    flyer = robodyn.load("panda", free_flyer=True)
+    q0 = flyer.neutral()
+    q0[2] = np.inf
+    with pytest.raises(InputError, match="q0 must be finite"):
+        robodyn.simulate(flyer, q0, np.zeros(flyer.nv), duration=0.01, dt=1e-3)
+
+
+def test_a_state_whose_energy_overflows_is_bad_input_not_a_divergence() -> None:
+    robot = robodyn.load("pendubot")
+    with pytest.raises(InputError, match=r"the initial energy is not finite \(T0 = inf J"):
+        robodyn.simulate(robot, [0.0, 0.0], [0.0, 1e200], duration=0.01, dt=1e-3)

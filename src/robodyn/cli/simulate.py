@@ -385,7 +385,9 @@ def constraint_lines(trajectory: Any) -> list[str]:
     if clamped:
         lines = [f"efforts: tau clamped at the effort limit in {clamped:,} of {samples:,} samples"]
     else:
-        lines = [f"efforts: tau never clamped (effort limits {efforts}; {samples:,} samples)"]
+        lines = [
+            f"efforts: tau never clamped (effort limits {efforts}; {samples:,} sample{'s' if samples != 1 else ''})"
+        ]
     limits = (meta.get("constraints") or {}).get("limits", True)
     if not limits:
         lines.append("stops: off (--no-limits): the joints pass through their limits")
@@ -434,7 +436,7 @@ def _report(trajectory: Any, out: Path | None, csv: Path | None, *, as_json: boo
     s["backend"] = meta.get("backend")
     s["loop"] = meta.get("loop")
     s["compiled_loop"] = meta.get("compiled_loop")
-    s["event_steps"] = int(meta.get("event_steps") or 0)
+    s["event_steps"] = meta.get("event_steps")  # steps of the event stepper inside a compiled run; None: Python loop
     if meta.get("stiff_friction"):
         s["stiff_friction"] = meta["stiff_friction"]
     if as_json:

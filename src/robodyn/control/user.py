@@ -52,9 +52,14 @@ class UserController:
                 f"{_where(self.source, exc, self.path)}: the controller raised {_what(exc)} at t = {t:.6g} s"
             ) from None
         if out.ndim != 1 or out.size not in self.sizes:
+            nv, n_act = self.sizes
+            expected = (
+                f"({nv},) (one per velocity)"
+                if nv == n_act
+                else f"({nv},) (one per velocity) or ({n_act},) (one per actuated joint)"
+            )
             raise InputError(
-                f"{self.source}: the controller returned shape {out.shape} at t = {t:.6g} s; expected "
-                f"({self.sizes[0]},) (one per velocity) or ({self.sizes[1]},) (one per actuated joint)"
+                f"{self.source}: the controller returned shape {out.shape} at t = {t:.6g} s; expected {expected}"
             )
         if not np.all(np.isfinite(out)):
             raise InputError(

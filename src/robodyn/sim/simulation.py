@@ -34,6 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 from robodyn import dynamics, integrators
 from robodyn.errors import DivergenceError, InputError, ModelError, SimulationInterrupted
 from robodyn.integrators import Integrator
+from robodyn.robot import as_vector
 from robodyn.sim import energy, whole_run
 from robodyn.sim.constraints import Constraints, Coupling, Loop, Spring
 from robodyn.sim.loops import close_initial_state
@@ -179,13 +180,20 @@ def simulate(
     stiff = friction_stiffness(system, method, q, dt)
     if stiff is not None:  # the run still happens; the finding is said, in the metadata and by the CLI
         notes["stiff_friction"] = stiff.describe()
-    check = energy.cross_check(robot, q, v)
     t_grid = _time_grid(duration, dt)
 
     def new_run() -> Run:
         return Run(robot, system, method, t_grid, q, v, rtol=rtol, atol=atol, max_energy_growth=max_energy_growth)
 
-    run = new_run()
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflowing state is refused just below
+        check = energy.cross_check(robot, q, v)
+        run = new_run()
+    e0 = (float(run.kinetic[0]), float(run.potential[0]))
+    if not np.all(np.isfinite(e0)):  # not a divergence: no step was taken
+        raise InputError(
+            f"the initial energy is not finite (T0 = {e0[0]:.6g} J, V0 = {e0[1]:.6g} J): q0 or v0 is too large "
+            "for float64 arithmetic; expected a state whose energy is a finite number"
+        )
     plan = whole_run.prepare(system, method) if backend in (None, "numba") else None
     start = time.perf_counter()
     outcome = None
@@ -233,6 +241,8 @@ def configuration(robot: Robot, q0: ArrayLike) -> Array:
     try:
         q = robot.q_(q0)
     except InputError:
+        if arr is not None and arr.shape == (robot.nq,):  # the right length: the entries themselves are wrong
+            as_vector(arr, robot.nq, "q0")  # raises, naming q0
         if robot.nq != robot.nv:
             raise InputError(
                 f"q0 must have {robot.nq} entries (configuration) or {robot.nv} (joint angles) for {robot.name}, "

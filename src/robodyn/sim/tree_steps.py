@@ -26,7 +26,7 @@ njit = numba.njit(cache=True, nogil=True, error_model="numpy")
 RK, RK4, SEMI_IMPLICIT_EULER = 0, 1, 2
 
 # run_block outcomes
-DONE, NOT_FINITE, NEAR_STOP, RELEASE = 0, 1, 2, 3
+DONE, NOT_FINITE, NEAR_STOP, RELEASE, AT_STOP = 0, 1, 2, 3, 4
 
 # Torque callables of the runs under way, by key: key -> f(t, q, v) returning the applied torque (nv,);
 # how many times each was called, and at which call a Ctrl-C (KeyboardInterrupt) came.
@@ -92,13 +92,38 @@ def rates(itree, ftree, grav, t, q, u, forces, springs, cb, ws, tau, k):  # type
 
 
 @njit
-def _clear(q, stops):  # type: ignore[no-untyped-def]
-    """True when every limited coordinate is strictly inside its (tolerance-shrunk) range."""
+def _crossed(q, stops):  # type: ignore[no-untyped-def]
+    """True when a free limited coordinate is past a stop by more than its tolerance (as ``Stops.crossed``)."""
     for s in range(stops.shape[1]):
         x = q[int(stops[0, s])]
-        if not (x > stops[1, s] and x < stops[2, s]):
-            return False
-    return True
+        tol = stops[4, s]
+        if x - stops[2, s] < -tol or stops[3, s] - x < -tol:
+            return True
+    return False
+
+
+@njit
+def _acts_at_stop(q, u, a, h, stops, release_tol):  # type: ignore[no-untyped-def]
+    """True when the event stepper acts at the start of a step of h [s] from (q, u) with accelerations ``a``.
+
+    For a free joint within its tolerance of a stop (side +1 lower, -1 upper): moving into it
+    (an impact), or pushed into it by more than ``release_tol`` and not leaving it within the
+    step (a hold): the event stepper's ``touching`` and ``_settle``.
+    """
+    for s in range(stops.shape[1]):
+        x = q[int(stops[0, s])]
+        iv = int(stops[1, s])
+        tol = stops[4, s]
+        for side in (1.0, -1.0):
+            bound = stops[2, s] if side > 0.0 else stops[3, s]
+            if abs(x - bound) <= tol:
+                speed = side * u[iv]
+                push = side * a[iv]
+                if speed < 0.0:
+                    return True
+                if push < -release_tol and (speed <= 0.0 or 2.0 * speed < -push * h):
+                    return True
+    return False
 
 
 @njit
@@ -235,16 +260,17 @@ def run_block(  # type: ignore[no-untyped-def]
 ):
     """Take steps lo .. hi-1 (times ``ts``, sizes ``hs``) from sample lo of Q (n, nq), U (n, nv + 2).
 
-    ``stops`` (3, k): the free limited coordinates [index in q; lower; upper], the stop
-    tolerance taken off; ``held`` (2, h): the joints held at a stop [tree row; side (+1 lower,
-    -1 upper)], locked through the block.
+    ``stops`` (5, k): the free limited joints [index in q; index in v; lower; upper; tolerance];
+    ``held`` (2, h): the joints held at a stop [tree row; side (+1 lower, -1 upper)], locked
+    through the block.
     Samples lo+1 .. hi of Q and U are filled;
     A[k] and KIN[k], POT[k] (energies [J], gravity's potential only) are filled for samples lo .. hi-1
-    (those steps start there). Returns (outcome, a sample): ``DONE`` (hi); ``NOT_FINITE`` (the
-    state of that sample is not finite); ``NEAR_STOP`` (a free limited coordinate of that sample
-    is not clear of its stop) or ``RELEASE`` (a held stop pulls there by more than
-    ``release_tol``): the event stepper must take the step into that sample (from the one
-    before), or the step from it when it is sample lo.
+    (those steps start there). Returns (outcome, a sample k): ``DONE`` (hi); ``NOT_FINITE``
+    (the state of sample k is not finite); events, where the event stepper must take over:
+    ``NEAR_STOP`` (a free joint is past a stop at sample k: the step into it, or the step from
+    it when k is lo), ``RELEASE`` (a held stop pulls by more than ``release_tol`` at sample k:
+    the step into it) and ``AT_STOP`` (a free joint at a stop is moving into it or pushed into
+    it at sample k: the step from it).
     """
     nv = forces.shape[1]
     n = itree.shape[0]
@@ -254,12 +280,14 @@ def run_block(  # type: ignore[no-untyped-def]
     buf = np.zeros((2 * s + 3, nv + 2))
     qs = np.empty(Q.shape[1])
     k0 = np.empty(nv + 2)
-    if not _clear(Q[lo], stops):
+    if _crossed(Q[lo], stops):
         return NEAR_STOP, lo
     for k in range(lo, hi):
         kin, pot = rates(itree, ftree, grav, ts[k], Q[k], U[k], forces, springs, cb, ws, buf[-1], k0)
         if _pulling(ws, held, release_tol):
             return RELEASE, k
+        if _acts_at_stop(Q[k], U[k], k0, hs[k], stops, release_tol):
+            return AT_STOP, k
         for j in range(nv):
             A[k, j] = k0[j]
         KIN[k] = kin
@@ -286,17 +314,21 @@ def run_block(  # type: ignore[no-untyped-def]
         )
         if not (_finite(Q[k + 1]) and _finite(U[k + 1])):
             return NOT_FINITE, k + 1
-        if not _clear(Q[k + 1], stops):
+        if _crossed(Q[k + 1], stops):
             return NEAR_STOP, k + 1
     return DONE, hi
 
 
 @njit
-def sample(itree, ftree, grav, t, q, u, forces, springs, cb, held, a):  # type: ignore[no-untyped-def]
-    """The rates (into ``a``, nv + 2) and (T, V) [J] of one sample, the joints of ``held`` (2, h) locked."""
+def sample(itree, ftree, grav, t, q, u, forces, springs, cb, held, release_tol, a):  # type: ignore[no-untyped-def]
+    """(T, V) [J], the rates (into ``a``, nv + 2) of one sample, and whether a held stop pulls there.
+
+    The joints of ``held`` (2, h) are locked; a stop pulls when side x its force < -``release_tol``.
+    """
     ws = np.zeros((itree.shape[0], WCOLS))
     lock(ws, held)
-    return rates(itree, ftree, grav, t, q, u, forces, springs, cb, ws, np.empty(forces.shape[1]), a)
+    kin, pot = rates(itree, ftree, grav, t, q, u, forces, springs, cb, ws, np.empty(forces.shape[1]), a)
+    return kin, pot, _pulling(ws, held, release_tol)
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy", parallel=True)

@@ -124,17 +124,19 @@ def _inputs(system: RobotSystem) -> tuple[Array, Array]:
 
 
 def _stop_rows(system: RobotSystem, rows: NDArray[np.intp]) -> tuple[Array, Array]:
-    """(stops (3, k), held (2, h)) in the kernels' layout, for the stops held now (``system.held``).
+    """(stops (5, k), held (2, h)) in the kernels' layout, for the stops held now (``system.held``).
 
-    ``stops``: the free limited coordinates [index in q; lower + tolerance; upper - tolerance];
+    ``stops``: the free limited joints [index in q; index in v; lower; upper; tolerance];
     ``held``: the held joints [tree row; side]. ``rows`` maps an index in v to its tree row.
     """
     st = system.stops
     if st.empty:
-        return np.zeros((3, 0)), np.zeros((2, 0))
+        return np.zeros((5, 0)), np.zeros((2, 0))
     tol = st.tolerance()
     free = np.array([k for k in range(st.iq.size) if k not in system.held], dtype=np.intp)
-    stops = np.vstack([st.iq[free].astype(np.float64), st.lower[free] + tol[free], st.upper[free] - tol[free]])
+    stops = np.vstack(
+        [st.iq[free].astype(np.float64), st.iv[free].astype(np.float64), st.lower[free], st.upper[free], tol[free]]
+    )
     held = np.array(
         [[float(rows[st.iv[k]]) for k in system.held], [float(side) for side in system.held.values()]]
     ).reshape(2, -1)
@@ -207,44 +209,71 @@ def attempt(plan: Plan, system: RobotSystem, run: Run) -> Outcome:
     compiled_steps = compiled_evals = event_steps = 0
     events_work = np.zeros(2, dtype=np.int64)  # (evaluations, jacobian evaluations) of the event steps
 
+    evaluations0 = (system.evaluations, system.jacobian_evaluations)
+    prev_compiled = False  # the step into sample ``done`` was taken by the compiled loop
+
     def hand_back(why: str) -> Outcome:
         if system.held != held0:  # the Python run starts again from q0 with the stops held there
             system.hold(held0, run.Q[0])
+        # the Python run counts its own work only (Run reads the system's counters)
+        system.evaluations, system.jacobian_evaluations = evaluations0
         return Outcome(False, why, compiled_steps, time.perf_counter() - start)
 
     try:
-        while done < n - 1:
-            stops, held = _stop_rows(system, rows)
-            hi = min(done + BLOCK, n - 1)
-            status, last = kernels.run_block(
-                tr.itree,
-                tr.ftree,
-                tr.grav,
-                mcode,
-                tab,
-                t,
-                hs,
-                done,
-                hi,
-                Q,
-                U,
-                A,
-                kin,
-                pot,
-                forces,
-                springs,
-                cb,
-                stops,
-                held,
-                RELEASE_TOL,
-            )
-            compiled_evals += stages * (last - done) + (1 if status == kernels.RELEASE else 0)
-            if status != kernels.DONE and cb in kernels.INTERRUPTED:  # Ctrl-C inside the torque callable
-                done = max(last - 1, done)  # the step from there was begun, not finished
-                raise KeyboardInterrupt
-            # the event stepper takes the step into sample ``last`` (or from it, when the block began there)
-            event = last - 1 if status in (kernels.NEAR_STOP, kernels.RELEASE) and last > done else last
-            kept = hi if status == kernels.DONE else (event if status != kernels.NOT_FINITE else last)
+        while True:
+            if done < n - 1:
+                stops, held = _stop_rows(system, rows)
+                hi = min(done + BLOCK, n - 1)
+                status, last = kernels.run_block(
+                    tr.itree,
+                    tr.ftree,
+                    tr.grav,
+                    mcode,
+                    tab,
+                    t,
+                    hs,
+                    done,
+                    hi,
+                    Q,
+                    U,
+                    A,
+                    kin,
+                    pot,
+                    forces,
+                    springs,
+                    cb,
+                    stops,
+                    held,
+                    RELEASE_TOL,
+                )
+                compiled_evals += stages * (last - done) + (status in (kernels.RELEASE, kernels.AT_STOP))
+                if status != kernels.DONE and cb in kernels.INTERRUPTED:  # Ctrl-C inside the torque callable
+                    keep_to = max(last - 1, done)  # the step from there was begun, not finished
+                    wl[done + 1 : keep_to + 1] = stepper.work_limits
+                    done = keep_to
+                    raise KeyboardInterrupt
+                if status == kernels.DONE or status == kernels.NOT_FINITE:
+                    kept = last
+                elif status == kernels.AT_STOP:  # the event stepper takes the step from there
+                    kept = last
+                else:  # NEAR_STOP, RELEASE: the step into ``last`` is the event's, when the compiled loop took it
+                    redo = last > done or (status == kernels.RELEASE and prev_compiled)
+                    kept = last - 1 if redo else last
+            else:  # the last sample: a held stop pulling there is the event of the compiled last step
+                _, held = _stop_rows(system, rows)
+                a_last = np.empty(nv + 2)
+                kin[done], pot[done], pulls = kernels.sample(
+                    tr.itree, tr.ftree, tr.grav, float(t[done]), Q[done], U[done], forces, springs, cb, held,
+                    RELEASE_TOL, a_last,
+                )  # fmt: skip
+                compiled_evals += 1
+                if not (pulls and prev_compiled):
+                    A[done] = a_last[:nv]
+                    break
+                status, kept = kernels.RELEASE, done - 1
+            if kept < done:  # a compiled step to take again: its sample is the event step's now
+                kin[done] = pot[done] = np.nan
+                A[done] = np.nan
             wl[done + 1 : kept + 1] = stepper.work_limits
             compiled_steps += kept - done
             # samples done .. kept - 1 have their energies: the first one over the bound ends the attempt
@@ -252,7 +281,8 @@ def attempt(plan: Plan, system: RobotSystem, run: Run) -> Outcome:
             if over is not None:
                 return hand_back(over)
             if status == kernels.NOT_FINITE:
-                return hand_back(f"a state that is not finite at step {last} (t = {float(t[last]):.6g} s)")
+                return hand_back(f"a state that is not finite at step {kept} (t = {float(t[kept]):.6g} s)")
+            prev_compiled = kept > done
             done = kept
             if status == kernels.DONE:
                 continue
@@ -260,17 +290,11 @@ def attempt(plan: Plan, system: RobotSystem, run: Run) -> Outcome:
             if reason is not None:
                 return hand_back(reason)
             event_steps += 1
+            prev_compiled = False
             over = _first_over_bound(run, kin, pot, U, done, done + 1)
             if over is not None:
                 return hand_back(over)
             done += 1
-        a_last = np.empty(nv + 2)
-        _, held = _stop_rows(system, rows)
-        kin[done], pot[done] = kernels.sample(
-            tr.itree, tr.ftree, tr.grav, float(t[done]), Q[done], U[done], forces, springs, cb, held, a_last
-        )
-        A[done] = a_last[:nv]
-        compiled_evals += 1
     except KeyboardInterrupt:
         interrupted = True
     finally:
@@ -382,4 +406,5 @@ def _energies_at(
     """(T, V_gravity) [J] of one sample, without calling the torque."""
     a = np.empty(u.size)
     none = np.zeros((2, 0))  # no joint locked: the energies do not depend on the held set
-    return kernels.sample(tr.itree, tr.ftree, tr.grav, 0.0, q, u, forces, springs, -1, none, a)  # type: ignore[no-any-return]
+    kin, pot, _ = kernels.sample(tr.itree, tr.ftree, tr.grav, 0.0, q, u, forces, springs, -1, none, RELEASE_TOL, a)
+    return float(kin), float(pot)

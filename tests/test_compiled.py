@@ -159,17 +159,21 @@ def test_numba_backend_in_the_python_pipeline_agrees() -> None:
 
 def test_cached_steps_older_than_the_kernels_are_dropped(tmp_path: Path) -> None:
     # numba keys tree_steps' cache on tree_steps.py alone; its steps inline tree_kernels' kernels
-    source = tmp_path / "tree_kernels.py"
+    sources = [tmp_path / "tree_kernels.py", tmp_path / "tree_steps.py"]
     cache = tmp_path / "__pycache__"
     cache.mkdir()
     old = [cache / "tree_steps.run_block-232.py311.nbi", cache / "tree_steps.run_block-232.py311.1.nbc"]
-    kept = [cache / "tree_kernels.aba-300.py311.nbi", cache / "tree_steps.stages-125.py311.nbi"]
+    old += [cache / "tree_kernels.aba-300.py311.nbi"]
+    kept = [cache / "tree_steps.stages-125.py311.nbi", cache / "other.f-1.py311.nbi"]
     for path in old + kept:
         path.write_bytes(b"x")
-    source.write_text("# edited\n")
-    for path in old + kept[:1]:
-        os.utime(path, (source.stat().st_mtime - 10.0,) * 2)  # compiled before the edit
-    os.utime(kept[1], (source.stat().st_mtime + 10.0,) * 2)  # compiled after it
-    assert sorted(tree.drop_stale_caches(cache, source)) == sorted(old)
+    sources[0].write_text("# edited\n")
+    sources[1].write_text("# older\n")
+    edit = sources[0].stat().st_mtime
+    os.utime(sources[1], (edit - 100.0,) * 2)
+    for path in old + kept[1:]:
+        os.utime(path, (edit - 10.0,) * 2)  # compiled before the edit (another module's cache is not touched)
+    os.utime(kept[0], (edit + 10.0,) * 2)  # compiled after it
+    assert sorted(tree.drop_stale_caches(cache, sources)) == sorted(old)
     assert all(not p.exists() for p in old) and all(p.exists() for p in kept)
-    assert tree.drop_stale_caches(tmp_path / "missing", source) == []
+    assert tree.drop_stale_caches(tmp_path / "missing", sources) == []

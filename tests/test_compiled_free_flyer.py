@@ -10,7 +10,7 @@ import pytest
 
 import robodyn
 from robodyn.errors import AssumptionError
-from robodyn.sim import tree, tree_kernels
+from robodyn.sim import tree, tree_layout
 
 # Compiled ABA / RNEA / CRBA / energies against Pinocchio, relative to the largest entry: two float64
 # implementations of the same recursions (world frame at the free flyer vs local frames).
@@ -77,8 +77,8 @@ def test_the_free_flyer_is_read_as_the_root_row(talos: robodyn.Robot) -> None:
     assert tree.unsupported(talos) is None
     t = tree.extract(talos)
     assert (t.nq, t.nv) == (talos.nv + 1, talos.nv)
-    assert list(t.itree[0]) == [-1, tree_kernels.FREEFLYER, 0, 0]
-    assert t.ftree[0, tree_kernels.F_TOTAL] == pytest.approx(talos.total_mass, rel=1e-15)
+    assert list(t.itree[0]) == [-1, tree_layout.FREEFLYER, 0, 0]
+    assert t.ftree[0, tree_layout.F_TOTAL] == pytest.approx(talos.total_mass, rel=1e-15)
 
 
 def test_algorithms_match_pinocchio(talos: robodyn.Robot, tmp_path: Path) -> None:
@@ -143,11 +143,11 @@ def test_a_free_flyer_is_never_held(tmp_path: Path) -> None:
     free, held = np.empty(robot.nv), np.empty(robot.nv)
     ws = np.zeros((t.itree.shape[0], kernels.WCOLS))
     kernels.aba(t.itree, t.ftree, t.grav, q, v, tau, ws, free)
-    ws[0, tree_kernels.W_LOCK] = 1.0
-    ws[0, tree_kernels.W_LAMBDA] = np.nan
+    ws[0, tree_layout.W_LOCK] = 1.0
+    ws[0, tree_layout.W_LAMBDA] = np.nan
     kernels.aba(t.itree, t.ftree, t.grav, q, v, tau, ws, held)
     np.testing.assert_array_equal(held, free)  # the lock flag is ignored on a free flyer
-    assert ws[0, tree_kernels.W_LAMBDA] == 0.0
+    assert ws[0, tree_layout.W_LAMBDA] == 0.0
 
 
 def _model_with(joints: list[tuple[int, pin.JointModel]]) -> robodyn.Robot:

@@ -505,11 +505,22 @@ def test_real_processes_refuse_in_one_line(tmp_path: Path) -> None:
 
 
 def test_a_real_overflowing_run_is_one_line(tmp_path: Path) -> None:
-    # v0 = 1e200 rad/s overflows the kinetic energy: numpy warns in several places, robodyn says it once
-    proc = real(["simulate", "pendubot", "--v0", "1e200,0", "--duration", "0.01", "--out", "w.npz"], tmp_path)
+    # v0 = 1e150 rad/s: a finite energy (3e298 J) that the first step overflows; numpy warns in several
+    # places, robodyn says it once
+    proc = real(["simulate", "pendubot", "--v0", "1e150,0", "--duration", "0.01", "--out", "w.npz"], tmp_path)
     lines = proc.stderr.splitlines()
     assert proc.returncode == EXIT_DIVERGED and len(lines) == 1, proc.stderr
-    assert "the state is not finite" in lines[0] and "partial trajectory written to w.partial.npz" in lines[0]
+    assert "diverged at step 1" in lines[0] and "overflowed float64" in lines[0]
+    assert "partial trajectory written to w.partial.npz" in lines[0]
+
+
+def test_an_initial_state_whose_energy_overflows_is_bad_input(tmp_path: Path) -> None:
+    # v0 = 1e200 rad/s: the kinetic energy is inf before any step; not a divergence
+    proc = real(["simulate", "pendubot", "--v0", "1e200,0", "--duration", "0.01", "--out", "w.npz"], tmp_path)
+    lines = proc.stderr.splitlines()
+    assert proc.returncode == 2 and len(lines) == 1, proc.stderr
+    assert "the initial energy is not finite (T0 = inf J" in lines[0]
+    assert not (tmp_path / "w.npz").exists() and not (tmp_path / "w.partial.npz").exists()
 
 
 # --------------------------------------------------------------------------- check --params files

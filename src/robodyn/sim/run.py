@@ -256,12 +256,14 @@ class Run:
         if not over.any():
             return False
         first = lo + int(np.argmax(over))
-        self._fail(
-            first,
-            first + 1,
-            f"the energy error |E - E0 - W| = {residual[first - lo]:.3g} J exceeds the bound {self.bound:.3g} J "
-            f"(max_energy_growth x the energy scale {self.scale:.3g} J)",
+        error = float(residual[first - lo])
+        what = (
+            f"the energy error |E - E0 - W| = {error:.3g} J exceeds the bound {self.bound:.3g} J "
+            f"(max_energy_growth x the energy scale {self.scale:.3g} J)"
+            if np.isfinite(error)
+            else f"the energy error |E - E0 - W| is {error} (the step overflowed float64)"
         )
+        self._fail(first, first + 1, what)
         return True
 
     def _fail(self, step: int, keep: int, what: str, *, during_step: bool = False) -> None:

@@ -35,6 +35,25 @@ from numpy.typing import ArrayLike, NDArray
 
 from robodyn import dynamics
 from robodyn.errors import AssumptionError, InputError, MissingDependencyError
+from robodyn.sim.tree_layout import (
+    CONTINUOUS,
+    F_ARM6,
+    F_ARMATURE,
+    F_AXIS,
+    F_INERTIA,
+    F_K,
+    F_LEVER,
+    F_MASS,
+    F_N,
+    F_POS,
+    F_RA,
+    F_ROT,
+    F_TOTAL,
+    FCOLS,
+    FREEFLYER,
+    PRISMATIC,
+    REVOLUTE,
+)
 
 if TYPE_CHECKING:
     from robodyn.robot import Robot
@@ -47,23 +66,19 @@ Array = NDArray[np.float64]
 VERIFY_RTOL = 1e-12
 VERIFY_STATES = 8
 
-# Joint types of the kernels (tree_kernels.REVOLUTE, PRISMATIC, CONTINUOUS, FREEFLYER), by Pinocchio's
-# shortname; a free flyer has no axis.
+# Joint types of the kernels (tree_layout), by Pinocchio's shortname; a free flyer has no axis.
 _AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
 _TYPES: dict[str, tuple[int, tuple[float, float, float] | None]] = {
-    **{f"JointModelR{a}": (0, _AXES[a]) for a in "XYZ"},
-    **{f"JointModelP{a}": (1, _AXES[a]) for a in "XYZ"},
-    **{f"JointModelRUB{a}": (2, _AXES[a]) for a in "XYZ"},
-    "JointModelRevoluteUnaligned": (0, None),
-    "JointModelPrismaticUnaligned": (1, None),
-    "JointModelRevoluteUnboundedUnaligned": (2, None),
-    "JointModelFreeFlyer": (3, (0.0, 0.0, 0.0)),
+    **{f"JointModelR{a}": (REVOLUTE, _AXES[a]) for a in "XYZ"},
+    **{f"JointModelP{a}": (PRISMATIC, _AXES[a]) for a in "XYZ"},
+    **{f"JointModelRUB{a}": (CONTINUOUS, _AXES[a]) for a in "XYZ"},
+    "JointModelRevoluteUnaligned": (REVOLUTE, None),
+    "JointModelPrismaticUnaligned": (PRISMATIC, None),
+    "JointModelRevoluteUnboundedUnaligned": (CONTINUOUS, None),
+    "JointModelFreeFlyer": (FREEFLYER, (0.0, 0.0, 0.0)),
 }
-_FREE_FLYER = 3
-# tree_kernels.FCOLS, F_ARM6 (a free flyer's six armatures) and F_TOTAL (its mass with the bodies below),
-# kept here so that extraction does not import numba
-FCOLS = 57
-_F_ARM6, _F_TOTAL = 50, 56
+# The compiled kernels' modules, whose numba caches must agree with each other (drop_stale_caches).
+KERNEL_MODULES = ("tree_layout", "tree_body", "tree_flyer", "tree_kernels", "tree_steps")
 
 
 @dataclass(frozen=True, eq=False)
@@ -108,7 +123,7 @@ def unsupported(robot: Robot) -> str | None:
                 f"joint {j.name!r} is a {j.kind}; the compiled path takes revolute, prismatic and continuous "
                 "joints, and a free flyer at the root"
             )
-        if _TYPES[j.kind][0] == _FREE_FLYER:
+        if _TYPES[j.kind][0] == FREEFLYER:
             others = [k.name for n, k in enumerate(robot.joints, start=1) if n != index and int(parents[n]) == 0]
             if int(parents[index]) != 0 or others:
                 where = (
@@ -165,41 +180,42 @@ def extract(robot: Robot) -> TreeModel:
         placement = model.jointPlacements[j]
         inertia = model.inertias[j]
         itree[i] = (int(model.parents[j]) - 1, code, int(joint.idx_q), int(joint.idx_v))
-        ftree[i, 0:3] = axis
-        ftree[i, 3:12] = np.asarray(placement.rotation, dtype=np.float64).reshape(9)
-        ftree[i, 12:15] = np.asarray(placement.translation, dtype=np.float64)
-        ftree[i, 15] = float(inertia.mass)
-        ftree[i, 16:19] = np.asarray(inertia.lever, dtype=np.float64)
-        ftree[i, 19:28] = np.asarray(inertia.inertia, dtype=np.float64).reshape(9)
-        if code == _FREE_FLYER:
-            ftree[i, _F_ARM6 : _F_ARM6 + 6] = armature[int(joint.idx_v) : int(joint.idx_v) + 6]
-            ftree[i, _F_TOTAL] = sum(float(model.inertias[k].mass) for k in range(j, model.njoints))
+        ftree[i, F_AXIS : F_AXIS + 3] = axis
+        ftree[i, F_ROT : F_ROT + 9] = np.asarray(placement.rotation, dtype=np.float64).reshape(9)
+        ftree[i, F_POS : F_POS + 3] = np.asarray(placement.translation, dtype=np.float64)
+        ftree[i, F_MASS] = float(inertia.mass)
+        ftree[i, F_LEVER : F_LEVER + 3] = np.asarray(inertia.lever, dtype=np.float64)
+        ftree[i, F_INERTIA : F_INERTIA + 9] = np.asarray(inertia.inertia, dtype=np.float64).reshape(9)
+        if code == FREEFLYER:
+            ftree[i, F_ARM6 : F_ARM6 + 6] = armature[int(joint.idx_v) : int(joint.idx_v) + 6]
+            ftree[i, F_TOTAL] = sum(float(model.inertias[k].mass) for k in range(j, model.njoints))
         else:
-            ftree[i, 28] = armature[int(joint.idx_v)]
+            ftree[i, F_ARMATURE] = armature[int(joint.idx_v)]
         # products of the placement with the axis (Rodrigues' formula of the joint's rotation)
-        rot = ftree[i, 3:12].reshape(3, 3)
+        rot = ftree[i, F_ROT : F_ROT + 9].reshape(3, 3)
         cross = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
-        ftree[i, 29:38] = (rot @ cross).reshape(9)
-        ftree[i, 38:47] = np.outer(rot @ axis, axis).reshape(9)
-        ftree[i, 47:50] = rot @ axis
+        ftree[i, F_K : F_K + 9] = (rot @ cross).reshape(9)
+        ftree[i, F_N : F_N + 9] = np.outer(rot @ axis, axis).reshape(9)
+        ftree[i, F_RA : F_RA + 3] = rot @ axis
     grav = np.asarray(model.gravity.linear, dtype=np.float64).copy()
     return TreeModel(robot.name, int(model.nq), int(model.nv), itree, ftree, grav)
 
 
-def drop_stale_caches(folder: Path, kernels_source: Path) -> list[Path]:
-    """Remove numba's cached ``tree_steps`` functions compiled before ``kernels_source`` last changed.
+def drop_stale_caches(folder: Path, sources: list[Path]) -> list[Path]:
+    """Remove numba's cached functions of the kernel modules compiled before any of ``sources`` last changed.
 
-    numba keys a cached function on its own source file's time stamp, while the steps of
-    ``tree_steps`` inline the kernels of ``tree_kernels``: after an edit of ``tree_kernels.py``
-    alone, the cached steps would still run the old kernels. Only the cache beside the
-    sources (``__pycache__``, where numba writes it when the folder is writable) is looked at;
-    an install writes both files anew, so its caches are never stale this way. Returns what
-    was removed.
+    numba keys a cached function on its own source file's time stamp, while the kernels inline
+    each other across modules (``tree_steps`` the kernels of ``tree_kernels``, which inline
+    ``tree_body`` and ``tree_flyer``): after an edit of one file alone, the cached functions of
+    the others would still run the old code. Every cache file of those modules older than the
+    newest source is dropped. Only the cache beside the sources (``__pycache__``, where numba
+    writes it when the folder is writable) is looked at; an install writes every file anew, so
+    its caches are never stale this way. Returns what was removed.
     """
     try:
-        changed = kernels_source.stat().st_mtime
-        stale = [p for p in folder.glob("tree_steps.*.nb[ic]") if p.stat().st_mtime < changed]
-    except OSError:  # no cache folder, or sources not on disk: nothing to compare
+        changed = max(p.stat().st_mtime for p in sources)
+        stale = [p for source in sources for p in folder.glob(f"{source.stem}.*.nb[ic]") if p.stat().st_mtime < changed]
+    except (OSError, ValueError):  # no cache folder, no sources, or sources not on disk: nothing to compare
         return []
     for path in stale:
         path.unlink(missing_ok=True)
@@ -212,7 +228,8 @@ def kernels() -> ModuleType:
 
     A one-joint tree runs each kernel once here, so that no timed run pays for loading it.
     """
-    drop_stale_caches(Path(__file__).with_name("__pycache__"), Path(__file__).with_name("tree_kernels.py"))
+    here = Path(__file__)
+    drop_stale_caches(here.with_name("__pycache__"), [here.with_name(f"{m}.py") for m in KERNEL_MODULES])
     try:
         from robodyn.sim import tree_steps as k
     except ImportError as exc:  # pragma: no cover - numba is a declared dependency

@@ -16,7 +16,8 @@ import math
 import numba
 import numpy as np
 
-from robodyn.sim.tree_kernels import W_LAMBDA, W_LOCK, WCOLS, aba, crba, integrate, kinematics, rnea
+from robodyn.sim.tree_kernels import aba, crba, integrate, kinematics, rnea
+from robodyn.sim.tree_layout import W_LAMBDA, W_LOCK, WCOLS
 
 __all__ = ["WCOLS", "aba", "crba", "integrate", "kinematics", "rnea"]
 

@@ -252,13 +252,12 @@ def attempt(plan: Plan, system: RobotSystem, run: Run) -> Outcome:
                     wl[done + 1 : keep_to + 1] = stepper.work_limits
                     done = keep_to
                     raise KeyboardInterrupt
-                if status == kernels.DONE or status == kernels.NOT_FINITE:
-                    kept = last
-                elif status == kernels.AT_STOP:  # the event stepper takes the step from there
-                    kept = last
-                else:  # NEAR_STOP, RELEASE: the step into ``last`` is the event's, when the compiled loop took it
-                    redo = last > done or (status == kernels.RELEASE and prev_compiled)
-                    kept = last - 1 if redo else last
+                # DONE, NOT_FINITE, AT_STOP (the event stepper takes the step from ``last``) keep every sample
+                # taken; NEAR_STOP, RELEASE: the step into ``last`` is the event's, when the compiled loop took it
+                redo = status in (kernels.NEAR_STOP, kernels.RELEASE) and (
+                    last > done or (status == kernels.RELEASE and prev_compiled)
+                )
+                kept = last - 1 if redo else last
             else:  # the last sample: a held stop pulling there is the event of the compiled last step
                 _, held = _stop_rows(system, rows)
                 a_last = np.empty(nv + 2)

@@ -35,6 +35,7 @@ SUBCOMMANDS = {
     "check": "check",
     "simulate": "simulate",
     "view": "view",
+    "portrait": "portrait",
     "bench": "bench",
     "run": "run",
     "sweep": "sweep",

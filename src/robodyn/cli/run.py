@@ -287,7 +287,7 @@ def _simulate(
         f"written to {path}"
     )
     print(f"  power: average {trajectory.average_power:.6g} W (W_input {float(trajectory.work_input[-1]):.6g} J)")
-    for line in constraint_lines(trajectory):
+    for line in constraint_lines(trajectory, robot.model.effortLimit):
         print(f"  {line}")
     s = trajectory.summary()
     summary["simulate"] = {

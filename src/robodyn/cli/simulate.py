@@ -391,8 +391,9 @@ def constraint_lines(trajectory: Any, effort: Any = None) -> list[str]:
     else:
         at_limit = _samples_at_limit(trajectory.tau, effort)
         line = f"efforts: robodyn never clamped tau (effort limits {efforts}; {_count(samples, 'sample')})"
+        saturated = "the commanded tau itself was at its effort limit"
         if at_limit:
-            line += f"; the commanded tau itself was at its effort limit in {at_limit:,} of them (saturated by its source)"
+            line += f"; {saturated} in {at_limit:,} of them (saturated at its source)"
         lines = [line]
     limits = (meta.get("constraints") or {}).get("limits", True)
     if not limits:

@@ -242,6 +242,12 @@ def format_report(report: Any, robot: Any) -> str:
         if not r.applicable:
             lines.append(f"n/a: {r.quantity}: {r.note}")
     lines.extend(f"note: {note}" for note in report.notes)
+    for r in report.rows:
+        if r.applicable and r.within_floor_only:
+            lines.append(
+                f"note: {r.quantity}: the error {r.max_abs_error:.3g} {r.unit} is round-off, within the floor "
+                f"{r.floor:.3g} {r.unit} that the magnitudes of the terms it is computed from allow"
+            )
     for r in report.failures + report.gaps:
         label = "MISMATCH" if r.counts else "PINOCCHIO GAP"
         ref = "Pinocchio" if r.group == "formula" else "expected"

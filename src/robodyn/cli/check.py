@@ -15,7 +15,9 @@ from robodyn.cli._common import (
     positive_int,
     print_json,
     seed_number,
+    unchecked_scene,
     warn_ignored_mimic,
+    warn_unchecked,
 )
 from robodyn.errors import EXIT_MISMATCH, EXIT_OK, InputError
 from robodyn.kinds.sandbox import DEFAULT_TIMEOUT, MAX_TIMEOUT
@@ -138,8 +140,10 @@ def _target(args: argparse.Namespace, name: str) -> tuple[Any, Any]:
         raise InputError(
             f"{name}: --srdf, --free-flyer and --mimic are a model's options; a scene sets them in [model]"
         )
-    scene = read_scene(Path(name))
+    scene = unchecked_scene(read_scene(Path(name)), args)
     robot, _ = scene.build()
+    if scene.model.get("physics_check") is False:
+        warn_unchecked(robot, command="check")
     return robot, scene
 
 

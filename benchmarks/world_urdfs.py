@@ -65,13 +65,30 @@ def pybullet_files(*, random_only: bool) -> list[Path]:
 
 
 def label_of(path: Path) -> str:
-    """A file's name relative to its data package (``pybullet_data/r2d2.urdf``...)."""
+    """A file's name in its data package: ``pybullet_data/r2d2.urdf``, ``hyq_description/robots/hyq.urdf``."""
     parts = path.parts
-    for anchor in ("pybullet_data", "robots"):
-        if anchor in parts:
-            i = len(parts) - 1 - parts[::-1].index(anchor)
-            return "/".join(parts[i + (0 if anchor == "pybullet_data" else 1) :])
+    if "pybullet_data" in parts:
+        return "/".join(parts[parts.index("pybullet_data") :])
+    if "example-robot-data" in parts:
+        return "/".join(parts[parts.index("example-robot-data") + 2 :])  # after example-robot-data/robots/
     return str(path)
+
+
+def portable(text: str) -> str:
+    """``text`` with this machine's data folders written as ``<example-robot-data>`` and ``<pybullet_data>``."""
+    from robodyn.model.files import robots_dir
+
+    folders = {"<example-robot-data>": robots_dir()}
+    try:
+        import pybullet_data
+
+        folders["<pybullet_data>"] = Path(pybullet_data.getDataPath())
+    except ImportError:
+        pass
+    for token, folder in folders.items():
+        if folder is not None:
+            text = text.replace(str(folder), token)
+    return text
 
 
 def run_child(argv: list[str], timeout: float) -> dict[str, Any]:
@@ -124,7 +141,7 @@ def summarize(command: str, result: dict[str, Any]) -> dict[str, Any]:
     row: dict[str, Any] = {
         "exit": result["exit"],
         "stderr_lines": len(lines),
-        "stderr_first": lines[0][:300] if lines else "",
+        "stderr_first": portable(lines[0])[:240] if lines else "",
         "traceback": result["exit"] == TRACEBACK_EXIT or "Traceback (most recent call last)" in result["stderr"],
         "wall_s": result["wall_s"],
     }
@@ -132,7 +149,7 @@ def summarize(command: str, result: dict[str, Any]) -> dict[str, Any]:
         fails = []
         for line in result["stdout"].splitlines():
             if line.startswith("MISMATCH "):
-                fails.append(line[:300])
+                fails.append(portable(line)[:240])
         row["fail_rows"] = fails
     return row
 
@@ -163,6 +180,13 @@ def main() -> int:
     parser.add_argument("--timeout", type=float, default=300.0, help="seconds per command before it is killed")
     parser.add_argument("--label", default="", help="suffix of the JSON's name (world_urdfs_LABEL.json)")
     parser.add_argument("--extra", default="", help="extra arguments for both commands, e.g. --no-physics-check")
+    parser.add_argument(
+        "--before",
+        type=Path,
+        action="append",
+        default=[],
+        help="a JSON of an earlier run (repeatable): each row gets its exit codes there as 'before'",
+    )
     args = parser.parse_args()
     sets = [s for s in args.sets.split(",") if s]
     unknown = sorted(set(sets) - set(SETS))
@@ -203,10 +227,40 @@ def main() -> int:
             ),
         }
         print(f"{which}: {summary[which]}")
+    result: dict[str, Any] = {"summary": summary, "extra": extra, "rows": rows}
+    if args.before:
+        result.update(merge_before(rows, args.before, sets))
     stem = "world_urdfs" + (f"_{args.label}" if args.label else "")
-    path = write_json(out, stem, {"summary": summary, "extra": extra, "rows": rows}, facts)
+    path = write_json(out, stem, result, facts)
     print(f"wrote {path}")
     return 0
+
+
+def merge_before(rows: list[dict[str, Any]], files: list[Path], sets: list[str]) -> dict[str, Any]:
+    """Each row's exit codes in the earlier runs ``files`` (as ``before``), and their summary per set."""
+    import json
+
+    earlier: dict[tuple[str, str], dict[str, Any]] = {}
+    facts = []
+    for file in files:
+        data = json.loads(file.read_text())
+        facts.append({"file": file.name, **{k: data["run"].get(k) for k in ("date", "command")}})
+        for row in data["rows"]:
+            earlier[(row["set"], row["target"])] = row
+    summary = {}
+    for row in rows:
+        old = earlier.get((row["set"], row["target"]))
+        row["before"] = None if old is None else {c: old[c]["exit"] for c in ("info", "check")}
+        if old is not None and old["check"].get("fail_rows"):
+            row["before"]["fail_rows"] = [portable(line)[:240] for line in old["check"]["fail_rows"]]
+    for which in sets:
+        mine = [r["before"] for r in rows if r["set"] == which and r["before"] is not None]
+        summary[which] = {
+            "files": len(mine),
+            "info_exits": _count(b["info"] for b in mine),
+            "check_exits": _count(b["check"] for b in mine),
+        }
+    return {"before": {"runs": facts, "summary": summary}}
 
 
 def _count(codes: Any) -> dict[str, int]:

@@ -207,3 +207,10 @@ def test_physics_check_false_in_a_sweep_file(tmp_path):
     assert all(isinstance(c.model, AsWritten) for c in prepared.plan.chunks)
     with pytest.raises(InputError, match="physics_check must be true or false"):
         sweep.prepare({**spec, "physics_check": 0}, tmp_path / "d")
+
+
+def test_a_geometry_that_is_no_urdf_shape_is_skipped_with_a_warning(capfd, tmp_path):
+    text = _TWO_LINKS.replace('<mesh filename="a.stl" scale="SCALE"/>', '<plane normal="0 0 1"/>')
+    code, _, err = _run(capfd, ["check", _copy_with(tmp_path, text), "--samples", "3"])
+    assert code == 0 and len(err) == 1, err
+    assert "link 'a' <visual> <plane>: not a URDF shape" in err[0] and "skipped" in err[0]

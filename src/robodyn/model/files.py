@@ -143,6 +143,7 @@ def read_xml(path: Path, what: str) -> ET.Element:
     _check_depth(root, path)
     if what == "URDF":
         _read_homogeneous_scales(root, path)
+        _skip_unknown_geometry(root, path)
     return root
 
 
@@ -204,6 +205,37 @@ def _read_homogeneous_scales(root: ET.Element, path: Path) -> None:
             ModelWarning(
                 f"{path}: {len(changed)} <mesh scale={changed[0][1]!r}> with a fourth number 1 (link {shown}) read "
                 "as its first three numbers (geometry only: masses, inertias, joints and frames are not touched)"
+            ),
+            stacklevel=3,
+        )
+
+
+# The shapes of a URDF <geometry> (urdfdom 6: capsule too); pybullet adds its own (plane, cdf, ...).
+GEOMETRY_SHAPES = ("box", "cylinder", "sphere", "mesh", "capsule")
+
+
+def _skip_unknown_geometry(root: ET.Element, path: Path) -> None:
+    """Drop a link's ``<visual>`` or ``<collision>`` whose geometry is no URDF shape, with a warning.
+
+    urdfdom drops it too, with an ``Error:`` (pybullet's ``<plane>``, ``<cdf>``); it is geometry,
+    never a mass, an inertia, a joint or a frame of the dynamics.
+    """
+    skipped: list[str] = []
+    for link in root.findall("link"):
+        for kind in ("visual", "collision"):
+            for element in link.findall(kind):
+                geometry = element.find("geometry")
+                shapes = [str(child.tag) for child in geometry] if geometry is not None else []
+                if shapes and not any(shape in GEOMETRY_SHAPES for shape in shapes):
+                    link.remove(element)
+                    skipped.append(f"link {link.get('name')!r} <{kind}> <{shapes[0][:40]}>")
+    if skipped:
+        more = f" and {len(skipped) - 2} more" if len(skipped) > 2 else ""
+        warnings.warn(
+            ModelWarning(
+                f"{path}: {', '.join(skipped[:2])}{more}: not a URDF shape (expected one of "
+                f"{', '.join(GEOMETRY_SHAPES)}), skipped as urdfdom skips it (geometry only: masses, inertias, "
+                "joints and frames are not touched)"
             ),
             stacklevel=3,
         )

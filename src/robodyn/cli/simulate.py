@@ -32,12 +32,14 @@ import numpy as np
 
 from robodyn.cli import _control
 from robodyn.cli._common import (
+    add_physics_argument,
     file_path,
     float_list,
     load_robot,
     number_in,
     positive_float,
     print_json,
+    refuse_uncoupled_sizes,
     warn_ignored_mimic,
 )
 from robodyn.cli._output import partial_path, refuse_clobbering, writable_path
@@ -75,6 +77,7 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument("--srdf", type=file_path, default=None, help="SRDF file (default: same stem as the URDF)")
     p.add_argument("--free-flyer", action="store_true", help="mount the root on a free-flyer joint")
+    add_physics_argument(p)
     p.add_argument(
         "--mimic",
         action="store_true",
@@ -219,6 +222,7 @@ def run(args: argparse.Namespace) -> int:
         check_frame_count(args.duration, speed=1.0, fps=None, what="--view of --duration", hint=hint)
     robot = load_robot(args, mimic=args.mimic)
     refuse_clobbering(outputs, [("the model's URDF", robot.urdf_path), ("the model's SRDF", robot.srdf_path)])
+    refuse_uncoupled_sizes(robot, q0=args.q0, v0=args.v0, mimic=args.mimic)
     q0 = args.q0 if args.q0 is not None else robot.neutral()
     v0 = args.v0 if args.v0 is not None else np.zeros(robot.nv)
     torque = args.torque if args.controller is None else _control.build(robot, args.controller, gains)

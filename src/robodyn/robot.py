@@ -2,11 +2,9 @@
 
 from __future__ import annotations
 
-import importlib
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -320,19 +318,6 @@ class Robot:
         q = dynamics.random_configuration(self.model, rng)
         v = rng.uniform(-speed, speed, self.nv)
         return q, v
-
-    def view(self, trajectory: Any = None, **options: Any) -> Any:
-        """Deprecated since 0.2: use ``robodyn.viewer.show(robot, trajectory, ...)``; removed in 0.3.
-
-        The core type no longer depends on the viewer: this forwards to :func:`robodyn.viewer.show`
-        through a run-time import, with a :class:`DeprecationWarning`.
-        """
-        warnings.warn(
-            "Robot.view is deprecated since robodyn 0.2; use robodyn.viewer.show(robot, trajectory, ...)",
-            DeprecationWarning,
-            stacklevel=2,
-        )
-        return importlib.import_module("robodyn.viewer").show(self, trajectory, **options)
 
 
 def joint_coordinates(kind: str, nq: int, values: ArrayLike) -> NDArray[np.float64]:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -24,8 +26,22 @@ Array = NDArray[np.float64]
 EQUILIBRIUM_TOL = 1e-9
 
 
+_FLOAT64 = np.dtype(np.float64)
+
+
 def as_vector(value: ArrayLike, size: int, name: str) -> Array:
-    """``value`` as a float64 vector of length ``size``, or an :class:`InputError` naming ``name``."""
+    """``value`` as a float64 vector of length ``size``, or an :class:`InputError` naming ``name``.
+
+    A float64 array of the right shape (what robodyn's own loops pass) takes a fast path: finite
+    exactly when the sum of its entries is (a NaN or an infinity makes the sum NaN or infinite;
+    only finite entries whose sum overflows go on to the full test). Python's float sum over
+    ``tolist()``: 0.2 us for the Panda's 9 entries, half a dot product's cost, and silent where
+    NumPy would count an overflow warning. The array is returned as given, not copied: Pinocchio
+    reads it and nothing here keeps it.
+    """
+    if type(value) is np.ndarray and value.dtype is _FLOAT64 and value.shape == (size,):
+        if math.isfinite(sum(value.tolist())):
+            return value
     try:
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
@@ -100,12 +116,12 @@ class Robot:
         return cls(name, model, urdf_path, srdf_path, joints, model.createData())
 
     # ----------------------------------------------------------------- sizes and names
-    @property
+    @functools.cached_property
     def nq(self) -> int:
-        """Size of the configuration vector q."""
+        """Size of the configuration vector q (read once from the model: every call validates against it)."""
         return int(self.model.nq)
 
-    @property
+    @functools.cached_property
     def nv(self) -> int:
         """Size of the velocity vector v (degrees of freedom)."""
         return int(self.model.nv)

@@ -249,3 +249,16 @@ def test_C_matches_the_hand_derived_formula_entrywise(kind):
             rtol=FORMULA_RTOL,
             atol=FORMULA_RTOL * _scale(robot, q, v),
         )
+
+
+def test_total_mass_is_the_moving_mass_as_its_docstring_says():
+    """The UR5's 4 kg base is welded to the world: left out, as Pinocchio's centre of mass leaves it out."""
+    fixed = robodyn.load("ur5")
+    assert fixed.model.inertias[0].mass == pytest.approx(4.0)  # the welded base, on the world's body
+    moving = sum(fixed.model.inertias[j].mass for j in range(1, fixed.model.njoints))
+    assert fixed.total_mass == pytest.approx(moving, rel=1e-15)
+    data = fixed.model.createData()
+    pin.centerOfMass(fixed.model, data, fixed.neutral())
+    assert fixed.total_mass == pytest.approx(data.mass[0], rel=1e-15)  # what the potential energy's route uses
+    flying = robodyn.load("ur5", free_flyer=True)
+    assert flying.total_mass == pytest.approx(moving + 4.0, rel=1e-15)  # on a free flyer, every link moves

@@ -161,7 +161,13 @@ class Robot:
 
     @property
     def total_mass(self) -> float:
-        """Sum of the masses of all bodies [kg]."""
+        """The moving mass [kg]: the sum over the bodies the joints carry, what M, G and V see.
+
+        Links welded to the world (a fixed base, say) are left out, as Pinocchio's centre of mass
+        and potential energy leave them out: the UR5's 4 kg base is not in its 16.99 kg. With
+        ``free_flyer=True`` every link moves, and this is the URDF's whole mass. ``robodyn info``
+        prints both (``total mass = ... kg (moving ... kg)``).
+        """
         return float(sum(self.model.inertias[j].mass for j in range(1, self.model.njoints)))
 
     @property

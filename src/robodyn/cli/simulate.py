@@ -43,6 +43,7 @@ from robodyn.cli._common import (
 from robodyn.cli._output import partial_path, refuse_clobbering, writable_path
 from robodyn.errors import EXIT_DIVERGED, EXIT_OK, InputError, UnknownNameError
 from robodyn.registry import BACKENDS
+from robodyn.wording import count
 
 EXIT_INTERRUPTED = 130
 
@@ -383,11 +384,11 @@ def constraint_lines(trajectory: Any) -> list[str]:
     clamped = int(s["effort_clamped_samples"] or 0)
     efforts = "on" if (meta.get("constraints") or {}).get("effort_limits", True) else "off"
     if clamped:
-        lines = [f"efforts: tau clamped at the effort limit in {clamped:,} of {samples:,} samples"]
-    else:
         lines = [
-            f"efforts: tau never clamped (effort limits {efforts}; {samples:,} sample{'s' if samples != 1 else ''})"
+            f"efforts: tau clamped at the effort limit in {clamped:,} of {count(samples, 'sample', thousands=True)}"
         ]
+    else:
+        lines = [f"efforts: tau never clamped (effort limits {efforts}; {count(samples, 'sample', thousands=True)})"]
     limits = (meta.get("constraints") or {}).get("limits", True)
     if not limits:
         lines.append("stops: off (--no-limits): the joints pass through their limits")
@@ -398,7 +399,7 @@ def constraint_lines(trajectory: Any) -> list[str]:
         violation = float(s["limit_violation"] or 0.0)
         restitution = (meta.get("constraints") or {}).get("restitution", 0.0)
         lines.append(
-            f"stops: {impacts:,} impact{'' if impacts == 1 else 's'} (restitution {restitution:g}), "
+            f"stops: {count(impacts, 'impact', thousands=True)} (restitution {restitution:g}), "
             f"W_limits = {s['work_limits']:.6g} J, worst limit violation {violation:.3e}{where}"
         )
     if s["loop_drift"] is not None:
@@ -418,7 +419,11 @@ def _loop_phrase(meta: dict[str, Any]) -> str:
     """'compiled loop', or 'Python loop: <why the compiled loop was not used>' (from the run's metadata)."""
     if meta.get("loop") == "compiled":
         events = int(meta.get("event_steps") or 0)
-        return f"compiled loop, {events} steps with stop events by the event stepper" if events else "compiled loop"
+        return (
+            f"compiled loop, {count(events, 'step')} with stop events by the event stepper"
+            if events
+            else "compiled loop"
+        )
     why = str(meta.get("compiled_loop") or "").removeprefix("not used: ")
     return f"Python loop: {why}" if why else "Python loop"
 
@@ -444,8 +449,8 @@ def _report(trajectory: Any, out: Path | None, csv: Path | None, *, as_json: boo
         return
     print(
         f"{s['model']}: {s['integrator']} (order {meta.get('order')}), dt = {s['dt']:g} s, "
-        f"{s['steps']} steps to t = {s['t_final']:g} s in {s['wall_time_s']:.3f} s wall "
-        f"({s['evaluations']} dynamics evaluations, backend {meta.get('backend')}, {_loop_phrase(meta)})"
+        f"{count(s['steps'], 'step')} to t = {s['t_final']:g} s in {s['wall_time_s']:.3f} s wall "
+        f"({count(s['evaluations'], 'dynamics evaluation')}, backend {meta.get('backend')}, {_loop_phrase(meta)})"
     )
     if controller is not None:
         print(f"controller: {_control.describe(controller['name'], controller['gains'])}")

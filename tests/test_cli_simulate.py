@@ -273,3 +273,11 @@ def test_a_torque_free_run_reports_its_energy_drift(capsys):
     assert main(["simulate", "pendubot", "--q0", "0.3,-0.2", "--duration", "0.1"]) == 0
     out = capsys.readouterr().out
     assert "drift max|E - E0|" in out and "at its effort limit" not in out
+
+
+def test_a_one_step_run_says_one_step_in_the_singular(capsys: pytest.CaptureFixture[str]) -> None:
+    """'1 step', not '1 steps': the summary's counts agree with their numbers (Euler: 2 evaluations, 2 samples)."""
+    assert main(["simulate", "pendubot", "--duration", "0.001", "--dt", "0.001", "--integrator", "euler"]) == 0
+    out = capsys.readouterr().out
+    assert "1 step to t = 0.001 s" in out and "(2 dynamics evaluations," in out and "; 2 samples)" in out, out
+    assert "1 steps" not in out

@@ -251,6 +251,29 @@ def _overhead(data: dict[str, Any]) -> str:
     )
 
 
+def _api(data: dict[str, Any]) -> str:
+    out = ["| call | robodyn [µs] | Pinocchio [µs] | ratio | limit [µs] | |", "|---|---:|---:|---:|---:|---|"]
+    for row in data["rows"]:
+        verdict = "within" if row["within_limit"] else "**over**"
+        out.append(
+            f"| `robot.{row['call']}` | {row['robodyn_us']:.2f} | {row['pinocchio_us']:.2f} | {row['ratio']:.2f} | "
+            f"{row['limit_us']:.2f} | {verdict} |"
+        )
+    over = [row["call"] for row in data["rows"] if not row["within_limit"]]
+    worst = max(data["rows"], key=lambda row: row["robodyn_us"] - row["limit_us"])
+    reading = (
+        f"{data['model']} (nv = {data['nv']}), best of {data['repeat']} loops of {data['calls']} calls each; the "
+        f"limit is {data['ratio_limit']:g}× the Pinocchio call + {data['slack_us']:g} µs. "
+        + (
+            f"Every call is within it; the closest, `robot.{worst['call']}`, by "
+            f"{worst['limit_us'] - worst['robodyn_us']:.2f} µs."
+            if not over
+            else f"Over it: {', '.join(f'`robot.{c}`' for c in over)}."
+        )
+    )
+    return "\n".join(out) + "\n\n" + reading + "\n"
+
+
 def _control(data: dict[str, Any]) -> str:
     out = [
         "| system | swing-up: upright from | peak torque / limit | LQR basin balanced | hand-over region | "
@@ -675,6 +698,7 @@ RENDERERS: dict[str, Callable[[dict[str, Any]], str]] = {
     "scaling": _scaling,
     "fidelity": _fidelity,
     "overhead": _overhead,
+    "bench_api": _api,
     "control": _control,
     "bench_mujoco": _mujoco,
     "bench_mujoco_busy": _mujoco,

@@ -42,6 +42,7 @@ from robodyn.cli._common import (
 from robodyn.cli.view import port_number
 from robodyn.errors import InputError
 from robodyn.fileio import write_text_atomically
+from robodyn.wording import count
 
 BUILTINS = ("pendubot", "cart_pole", "geared_arm")
 
@@ -199,7 +200,7 @@ def run(args: argparse.Namespace) -> int:
     with _interrupt_held() as held:
         _publish(stage, out)
     runs = sum(len(s.results) for s in sweeps)
-    print(f"wrote {out / 'bench.json'} ({runs} runs), charts and {out / REPORT}")
+    print(f"wrote {out / 'bench.json'} ({count(runs, 'run')}), charts and {out / REPORT}")
     if held:
         raise KeyboardInterrupt(f"interrupted while the results were being moved; {out} holds them all")
     if args.view:
@@ -271,8 +272,8 @@ def _replay(args: argparse.Namespace, robot: Any, sweep: Any) -> int:
         names=[pair.name(r.result) for r in replayed],
     )
     print(
-        f"{playback.robot_name}: {playback.n_frames} frames, {playback.duration:.2f} s of playback, "
-        f"{len(playback.runs)} run{'s' if len(playback.runs) > 1 else ''}, camera {playback.camera_mode}",
+        f"{playback.robot_name}: {count(playback.n_frames, 'frame')}, {playback.duration:.2f} s of playback, "
+        f"{count(len(playback.runs), 'run')}, camera {playback.camera_mode}",
         flush=True,
     )
     if args.html is not None:

@@ -21,6 +21,7 @@ from robodyn.cli._common import (
 )
 from robodyn.errors import EXIT_MISMATCH, EXIT_OK, InputError
 from robodyn.kinds.sandbox import DEFAULT_TIMEOUT, MAX_TIMEOUT
+from robodyn.wording import count
 
 
 def add_parser(sub: Any) -> None:
@@ -264,7 +265,9 @@ def format_report(report: Any, robot: Any) -> str:
         if r.note:
             lines.append(f"    {r.note}")
     verdict = (
-        "PASS: everything agrees within tolerance" if report.passed else f"FAIL: {len(report.failures)} mismatch(es)"
+        "PASS: everything agrees within tolerance"
+        if report.passed
+        else f"FAIL: {count(len(report.failures), 'mismatch', 'mismatches')}"
     )
     lines.append("")
     lines.append(f"{verdict}  ({report.wall_time_s:.2f} s)")

@@ -24,6 +24,7 @@ from robodyn.cli._output import (
 from robodyn.cli.simulate import constraint_lines
 from robodyn.errors import EXIT_MISMATCH, EXIT_OK
 from robodyn.fileio import write_text_atomically
+from robodyn.wording import count
 
 
 def add_parser(sub: Any) -> None:
@@ -76,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
         summary["kept"] = list(robot.joint_names)
         summary["locked"] = values
         print(f"model: {robot.name}, {reduction.full.nv} -> {robot.nv} DoF; kept {', '.join(robot.joint_names)}")
-        print(f"  locked {_count(len(values), 'joint')} at " + ", ".join(f"{k}={_short(v)}" for k, v in values.items()))
+        print(f"  locked {count(len(values), 'joint')} at " + ", ".join(f"{k}={_short(v)}" for k, v in values.items()))
     else:
         print(f"model: {robot.name}, {robot.nv} DoF (nothing locked)")
     q0, v0 = scene.initial_state(robot, reduction)
@@ -154,11 +155,6 @@ def _write_summary(out: Path, summary: dict[str, Any]) -> None:
     print(f"summary: {path}")
 
 
-def _count(n: int, noun: str) -> str:
-    """``1 joint``, ``2 joints``."""
-    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
-
-
 def _short(values: list[float]) -> str:
     return f"{values[0]:.4g}" if len(values) == 1 else "[" + " ".join(f"{x:.4g}" for x in values) + "]"
 
@@ -195,7 +191,8 @@ def _check(scene: Any, robot: Any, reduction: Any, q0: Any, v0: Any, torque: Any
         raise scene.error(*where, str(exc)) from None
     failures = [row.quantity for row in report.failures]
     print(
-        f"check: {'passed' if report.passed else 'FAILED'} ({len(report.rows)} rows, {report.samples} samples"
+        f"check: {'passed' if report.passed else 'FAILED'} "
+        f"({count(len(report.rows), 'row')}, {count(report.samples, 'sample')}"
         + (f", formula {report.formula}" if report.formula else "")
         + ")"
         + (f"; failed: {', '.join(failures)}" if failures else "")
@@ -211,11 +208,13 @@ def _check(scene: Any, robot: Any, reduction: Any, q0: Any, v0: Any, torque: Any
         duration, dt, integrator = _timing(scene)
         exact = prove_exact(reduction, q0, v0, duration=duration, dt=dt, tau=torque, method=integrator)
         ok = exact.holds(EXACTNESS_TOL)
-        held = _count(len(reduction.locked), "joint")
+        held = count(len(reduction.locked), "joint")
+        q_unit, v_unit, lock_unit = _exactness_units(reduction)
         print(
             f"exactness: {'passed' if ok else 'FAILED'}: reduced vs full model with {held} "
-            f"held by constraint over {scene.simulate['duration']} s: max |dq| = {exact.q_error:.2e} rad, "
-            f"max |dv| = {exact.v_error:.2e} rad/s, lock drift {exact.lock_drift:.2e} (tolerance {EXACTNESS_TOL:g})"
+            f"held by constraint over {scene.simulate['duration']} s: max |dq| = {exact.q_error:.2e} {q_unit}, "
+            f"max |dv| = {exact.v_error:.2e} {v_unit}, lock drift {exact.lock_drift:.2e} {lock_unit} "
+            f"(tolerance {EXACTNESS_TOL:g} in each of these units)"
         )
         summary["exactness"] = {
             "passed": ok,
@@ -233,6 +232,26 @@ def _check(scene: Any, robot: Any, reduction: Any, q0: Any, v0: Any, torque: Any
 # Reduced vs constrained full trajectory: the same integrator on two algorithms (ABA vs a
 # KKT solve) differs by round-off that a few seconds of smooth motion grow to ~1e-12.
 EXACTNESS_TOL = 1e-9
+
+
+def _exactness_units(reduction: Any) -> tuple[str, str, str]:
+    """The units of the kept q, the kept v and the locked q: ``rad``, ``m`` or ``rad | m`` where they mix."""
+    import numpy as np
+
+    from robodyn.sim.system import coordinate_units
+
+    q_units, v_units = coordinate_units(reduction.full)
+    locked_q = np.setdiff1d(np.arange(reduction.full.nq), reduction.kept_q)
+
+    def one(units: list[str], mixed: str) -> str:
+        found = sorted({u for u in units if u})
+        return found[0] if len(found) == 1 else mixed
+
+    return (
+        one([q_units[i] for i in reduction.kept_q], "rad | m"),
+        one([v_units[i] for i in reduction.kept_v], "rad/s | m/s"),
+        one([q_units[i] for i in locked_q], "rad | m"),
+    )
 
 
 def _timing(scene: Any) -> tuple[float, float, str]:
@@ -285,7 +304,7 @@ def _simulate(
         trajectory = dataclasses.replace(trajectory, meta=meta)
     trajectory.save(writable_path(path))
     print(
-        f"simulate: {trajectory.n_steps} steps of {scene.simulate['dt']} s with {integrator} in "
+        f"simulate: {count(trajectory.n_steps, 'step')} of {scene.simulate['dt']} s with {integrator} in "
         f"{trajectory.wall_time_s:.3f} s wall; energy ledger residual {abs(trajectory.ledger_residual).max():.2e} J; "
         f"written to {path}"
     )

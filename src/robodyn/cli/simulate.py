@@ -45,6 +45,7 @@ from robodyn.cli._common import (
 from robodyn.cli._output import partial_path, refuse_clobbering, writable_path
 from robodyn.errors import EXIT_DIVERGED, EXIT_OK, InputError, UnknownNameError
 from robodyn.registry import BACKENDS
+from robodyn.wording import count
 
 EXIT_INTERRUPTED = 130
 
@@ -390,11 +391,12 @@ def constraint_lines(trajectory: Any, effort: Any = None) -> list[str]:
     samples = len(trajectory.t)
     clamped = int(s["effort_clamped_samples"] or 0)
     efforts = "on" if (meta.get("constraints") or {}).get("effort_limits", True) else "off"
+    of_samples = count(samples, "sample", thousands=True)
     if clamped:
-        lines = [f"efforts: tau clamped at the effort limit in {clamped:,} of {samples:,} samples"]
+        lines = [f"efforts: tau clamped at the effort limit in {clamped:,} of {of_samples}"]
     else:
         at_limit = _samples_at_limit(trajectory.tau, effort)
-        line = f"efforts: robodyn never clamped tau (effort limits {efforts}; {_count(samples, 'sample')})"
+        line = f"efforts: robodyn never clamped tau (effort limits {efforts}; {of_samples})"
         saturated = "the commanded tau itself was at its effort limit"
         if at_limit:
             line += f"; {saturated} in {at_limit:,} of them (saturated at its source)"
@@ -409,7 +411,7 @@ def constraint_lines(trajectory: Any, effort: Any = None) -> list[str]:
         violation = float(s["limit_violation"] or 0.0)
         restitution = (meta.get("constraints") or {}).get("restitution", 0.0)
         lines.append(
-            f"stops: {impacts:,} impact{'' if impacts == 1 else 's'} (restitution {restitution:g}), "
+            f"stops: {count(impacts, 'impact', thousands=True)} (restitution {restitution:g}), "
             f"W_limits = {s['work_limits']:.6g} J, worst limit violation {violation:.3e}{where}"
         )
     if s["loop_drift"] is not None:
@@ -429,14 +431,13 @@ def _loop_phrase(meta: dict[str, Any]) -> str:
     """'compiled loop', or 'Python loop: <why the compiled loop was not used>' (from the run's metadata)."""
     if meta.get("loop") == "compiled":
         events = int(meta.get("event_steps") or 0)
-        return f"compiled loop, {events} steps with stop events by the event stepper" if events else "compiled loop"
+        return (
+            f"compiled loop, {count(events, 'step')} with stop events by the event stepper"
+            if events
+            else "compiled loop"
+        )
     why = str(meta.get("compiled_loop") or "").removeprefix("not used: ")
     return f"Python loop: {why}" if why else "Python loop"
-
-
-def _count(n: int, noun: str) -> str:
-    """``1 sample``, ``1,000 samples``."""
-    return f"{n:,} {noun}{'' if n == 1 else 's'}"
 
 
 def _samples_at_limit(tau: Any, effort: Any) -> int:
@@ -486,8 +487,8 @@ def _report(trajectory: Any, out: Path | None, csv: Path | None, *, as_json: boo
         return
     print(
         f"{s['model']}: {s['integrator']} (order {meta.get('order')}), dt = {s['dt']:g} s, "
-        f"{s['steps']} steps to t = {s['t_final']:g} s in {s['wall_time_s']:.3f} s wall "
-        f"({s['evaluations']} dynamics evaluations, backend {meta.get('backend')}, {_loop_phrase(meta)})"
+        f"{count(s['steps'], 'step')} to t = {s['t_final']:g} s in {s['wall_time_s']:.3f} s wall "
+        f"({count(s['evaluations'], 'dynamics evaluation')}, backend {meta.get('backend')}, {_loop_phrase(meta)})"
     )
     if controller is not None:
         print(f"controller: {_control.describe(controller['name'], controller['gains'])}")

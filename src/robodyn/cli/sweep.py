@@ -15,6 +15,7 @@ from typing import Any
 
 from robodyn.cli._common import add_physics_argument, file_path, physics_checked, positive_int
 from robodyn.cli._output import check_output_folder
+from robodyn.wording import count
 
 
 def add_parser(sub: Any) -> None:
@@ -77,7 +78,7 @@ def run(args: Any) -> int:
     )
     table = result.table()
     print(
-        f"{table.num_rows} runs in {len(result.plan.chunks)} chunks ({result.computed} computed, "
+        f"{count(table.num_rows, 'run')} in {count(len(result.plan.chunks), 'chunk')} ({result.computed} computed, "
         f"{result.skipped} already written) -> {args.out / 'results'}"
     )
     if args.plots:

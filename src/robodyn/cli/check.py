@@ -20,6 +20,7 @@ from robodyn.cli._common import (
     warn_unchecked,
 )
 from robodyn.errors import EXIT_MISMATCH, EXIT_OK, InputError
+from robodyn.fileio import read_user_file
 from robodyn.kinds.sandbox import DEFAULT_TIMEOUT, MAX_TIMEOUT
 from robodyn.wording import count
 
@@ -177,13 +178,7 @@ def read_params(path: Path) -> dict[str, Any]:
         InputError: the file cannot be read, is larger than :data:`MAX_PARAMS_BYTES`, is not UTF-8,
             not JSON, nested too deeply for the parser, or not an object; the message names the file.
     """
-    try:
-        with path.open("rb") as stream:
-            raw = stream.read(MAX_PARAMS_BYTES + 1)
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read parameters: {exc.strerror or exc}") from None
-    if len(raw) > MAX_PARAMS_BYTES:
-        raise InputError(f"{path}: larger than {MAX_PARAMS_BYTES // 2**20} MiB (expected a short JSON object)")
+    raw = read_user_file(path, what="parameter", expected="a short JSON object", limit=MAX_PARAMS_BYTES)
     try:
         data = json.loads(raw.decode("utf-8"))
     except UnicodeDecodeError as exc:

@@ -44,6 +44,7 @@ from robodyn.cli._common import (
 )
 from robodyn.cli._output import partial_path, refuse_clobbering, writable_path
 from robodyn.errors import EXIT_DIVERGED, EXIT_OK, InputError, UnknownNameError
+from robodyn.fileio import read_user_file
 from robodyn.registry import BACKENDS
 from robodyn.wording import count
 
@@ -310,12 +311,9 @@ def read_constraints(path: Path) -> Any:
     from robodyn.sim.constraints import Constraints
 
     try:
-        with path.open("rb") as stream:
-            raw = stream.read(MAX_CONSTRAINTS_BYTES + 1)
-    except OSError as exc:
-        raise InputError(f"--constraints {path}: cannot read it: {exc.strerror or exc}") from None
-    if len(raw) > MAX_CONSTRAINTS_BYTES:
-        raise InputError(f"--constraints {path}: larger than 1 MiB (expected a short JSON object)")
+        raw = read_user_file(path, what="constraints", expected="a short JSON object", limit=MAX_CONSTRAINTS_BYTES)
+    except InputError as exc:
+        raise InputError(f"--constraints {exc}") from None
     try:
         data = json.loads(raw.decode("utf-8"))
     except UnicodeDecodeError as exc:

@@ -37,7 +37,7 @@ from robodyn.kinds.params import detect_kind
 from robodyn.model.load import load as load_model
 from robodyn.sweep import measures
 from robodyn.sweep.chunk import Job, controller_of, upright_of
-from robodyn.sweep.engine import run_chunks
+from robodyn.sweep.engine import check_cluster, run_chunks
 from robodyn.sweep.plan import Chunk, Plan, Setting, make_plan, settings
 from robodyn.sweep.source import (
     AsWritten,
@@ -53,6 +53,7 @@ from robodyn.sweep.spec import (
     SCENE_CONTROLLER,
     SweepSpec,
     check_against,
+    check_bounds,
     load,
     resolve,
     with_digest,
@@ -106,6 +107,8 @@ def prepare(
     scene = _scene(spec, read_scene)
     if scene is not None:
         spec = _with_scene_defaults(spec, scene)
+    check_bounds(spec)  # before loading anything: a grid or a duration past the bounds is a typo
+    if scene is not None:
         robot, reduction = scene.build()
         model: Model = scene
         q_default, v_default = scene.scene.initial_state(robot, reduction)
@@ -186,6 +189,8 @@ def run(
     existing ``distributed.Client`` to use instead. ``progress`` is a stream for the progress bar.
     ``read_scene`` reads the scene file a sweep may name (default :func:`robodyn.scene.read_scene`).
     """
+    if client is None:
+        check_cluster(scheduler=scheduler, workers=workers)  # before reading anything, let alone submitting
     prepared = prepare(source, out, read_scene=read_scene)
     store = Store(prepared.out, prepared.spec.digest, prepared.spec.source)
     computed = run_chunks(

@@ -113,6 +113,7 @@
       box.appendChild(title);
       var legend = document.createElement("div");
       legend.className = "robodyn-legend";
+      if ((chart.markers || []).length) { addKey(legend, "#c62828", [], "impact (tick on the time axis)"); }
       var seen = {};
       chart.series.forEach(function (s) {
         if (runs.length > 1) {
@@ -182,24 +183,31 @@
     };
   }
 
+  // A step of 1, 2 or 5 times a power of ten, about (hi - lo) / 4: tick labels read as round numbers.
+  function niceStep(span) {
+    var raw = span / 4, power = Math.pow(10, Math.floor(Math.log10(raw))), m = raw / power;
+    return power * (m < 1.5 ? 1 : m < 3.5 ? 2 : m < 7.5 ? 5 : 10);
+  }
+
   function linearAxis(chart) {
     var lo = Infinity, hi = -Infinity;
     chart.series.forEach(function (s) {
       s.values.forEach(function (v) { lo = Math.min(lo, v); hi = Math.max(hi, v); });
     });
     chart.limits.forEach(function (l) { lo = Math.min(lo, l.value); hi = Math.max(hi, l.value); });
-    if (!(hi > lo)) { var c = isFinite(lo) ? lo : 0; lo = c - 1; hi = c + 1; }
-    var pad = 0.05 * (hi - lo), ends = [lo, hi];
+    if (!(hi > lo)) { var c = isFinite(lo) ? lo : 0; var half = c === 0 ? 1 : Math.abs(c) * 0.1; lo = c - half; hi = c + half; }
+    var pad = 0.05 * (hi - lo);
     lo -= pad; hi += pad;
     function frac(v) { return (v - lo) / (hi - lo); }
-    var values = ends.slice();
-    if (lo < 0 && hi > 0 && Math.min(Math.abs(frac(0) - frac(ends[0])), Math.abs(frac(0) - frac(ends[1]))) > 0.12) {
-      values.push(0);
-    }
+    var step = niceStep(hi - lo), values = [];
+    for (var k = Math.ceil(lo / step); k * step <= hi + 1e-9 * step; k++) { values.push(k * step); }
     return {
       scale: "linear",
       frac: frac,
-      ticks: values.map(function (v) { return { value: v, label: fmt(v) }; })
+      ticks: values.map(function (v) {
+        var r = Math.abs(v) < 1e-9 * step ? 0 : v;
+        return { value: r, label: fmt(parseFloat(r.toPrecision(6))) };
+      })
     };
   }
 
@@ -218,7 +226,7 @@
     ctx.textAlign = "right"; ctx.textBaseline = "middle";
     var labels = [];
     axis.ticks.forEach(function (tick) {
-      var text = tick.label + " " + chart.unit;
+      var text = chart.tickUnit === false ? tick.label : tick.label + " " + chart.unit;
       labels.push(text);
       ctx.fillText(text, b.left - 4, y(tick.value));
       ctx.strokeStyle = "#e3e3e3"; ctx.beginPath(); ctx.moveTo(b.left + 1, y(tick.value)); ctx.lineTo(b.right, y(tick.value)); ctx.stroke();
@@ -238,6 +246,15 @@
       ctx.strokeStyle = l.color; ctx.lineWidth = 1; ctx.setLineDash([5, 4]);
       ctx.beginPath(); ctx.moveTo(b.left, y(l.value)); ctx.lineTo(b.right, y(l.value)); ctx.stroke();
     });
+    // events (impacts on the stops): short red ticks on the time axis
+    (chart.markers || []).forEach(function (frame) {
+      var k = Math.floor(frame), s = frame - k;
+      var tau = k + 1 < info.tau.length ? (1 - s) * info.tau[k] + s * info.tau[k + 1] : info.tau[info.tau.length - 1];
+      var x = xOfTau(entry, tau);
+      ctx.strokeStyle = "#c62828"; ctx.lineWidth = 2; ctx.setLineDash([]);
+      ctx.beginPath(); ctx.moveTo(x, b.bottom); ctx.lineTo(x, b.bottom - 8); ctx.stroke();
+    });
+    entry.box.setAttribute("data-markers", String((chart.markers || []).length));
     // curves
     chart.series.forEach(function (s) {
       ctx.strokeStyle = s.color; ctx.lineWidth = 1.6; ctx.setLineDash(s.dash);
@@ -269,6 +286,7 @@
     var text = info.robot + "   t = " + (info.t0 + tau * info.speed).toFixed(3) + " s";
     if (info.energy.length) {
       text += "   E = " + energyAt(tau).toPrecision(6) + " J";
+      if (panelInfo && panelInfo.runs.length > 1) { text += " (" + panelInfo.runs[0].name + ")"; }
     }
     if (info.speed !== 1) {
       text += "   (x" + info.speed + ")";

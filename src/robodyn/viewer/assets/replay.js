@@ -66,7 +66,7 @@
   function fmt(x) {
     if (x === 0) { return "0"; }
     var a = Math.abs(x);
-    return (a >= 1e4 || a < 1e-3) ? x.toExponential(2) : String(parseFloat(x.toPrecision(3)));
+    return (a >= 1e4 || a < 1e-3) ? x.toExponential(2).replace(/\.?0+e/, "e") : String(parseFloat(x.toPrecision(3)));
   }
 
   function svgKey(color, dash) {

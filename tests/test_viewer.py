@@ -566,3 +566,37 @@ def test_joint_positions_show_their_limits_and_the_impacts_on_the_stops() -> Non
     info = json.loads(re.search(r'id="robodyn-info">(.*?)</script>', viewer.to_html(playback), re.S).group(1))
     chart = next(c for c in info["panel"]["charts"] if c["key"] == "position")
     assert chart["markers"] == list(position.markers) and chart["tickUnit"] is False
+
+
+def test_springs_split_the_potential_and_their_couples_join_the_torques(
+    pendubot: robodyn.Robot, motion: Trajectory
+) -> None:
+    """V gravity + V spring = V; the spring's curve is 1/2 k (q - rest)^2, its couple -k (q - rest)."""
+    k, rest = 2.5, 0.1  # [N m/rad], [rad]
+    sprung = dataclasses.replace(motion, meta={**motion.meta, "springs": {"joint2": {"stiffness": k, "rest": rest}}})
+    playback = viewer.build(pendubot, sprung)
+    charts = {chart.key: chart for chart in playback.charts}
+    energy = {s.label: s.values for s in charts["energy"].series}
+    index = playback.sample_index
+    stretch = motion.q[index, 1] - rest
+    np.testing.assert_allclose(energy["V spring"], 0.5 * k * stretch**2, rtol=1e-15)
+    np.testing.assert_allclose(energy["V gravity"] + energy["V spring"], motion.potential[index], rtol=1e-12)
+    assert "V potential" not in energy
+    torque = {s.label: s.values for s in charts["torque"].series}
+    np.testing.assert_allclose(torque["spring at joint2"], -k * stretch, rtol=1e-15)
+
+
+def test_a_switched_controller_records_its_mode_and_the_replay_charts_it(tmp_path: Path) -> None:
+    out = tmp_path / "swing.npz"
+    argv = ["simulate", "cart_pole", "--q0", "0,3.14159", "--controller", "swing_up", "--duration", "4", "--out"]
+    assert main([*argv, str(out)]) == 0
+    motion = Trajectory.load(out)
+    mode = motion.meta["controller"]["mode"]
+    assert len(mode) == len(motion.t) and mode[0] == 0 and mode[-1] == 1  # pumping, then the LQR holds it
+    handover = mode.index(1)
+    controller = robodyn.control.make("swing_up", robodyn.load("cart_pole"))
+    assert controller.mode(motion.q[handover], motion.v[handover]) == 1
+    assert controller.mode(motion.q[handover - 1], motion.v[handover - 1]) == 0
+    playback = viewer.build(robodyn.load("cart_pole"), motion)
+    chart = next(c for c in playback.charts if c.key == "mode")
+    np.testing.assert_array_equal(chart.series[0].values, np.asarray(mode, dtype=float)[playback.sample_index])

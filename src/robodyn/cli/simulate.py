@@ -258,9 +258,12 @@ def run(args: argparse.Namespace) -> int:
         if args.constraints is None:
             raise
         raise InputError(f"--constraints {args.constraints}: {exc}") from None
-    if args.controller is not None:  # the trajectory file says what closed the loop
-        meta = {**trajectory.meta, "controller": {"name": args.controller, "gains": gains}}
-        trajectory = dataclasses.replace(trajectory, meta=meta)
+    if args.controller is not None:  # the trajectory file says what closed the loop (and in which mode, when)
+        record: dict[str, Any] = {"name": args.controller, "gains": gains}
+        if hasattr(torque, "modes") and len(trajectory.t):  # a switched controller: swing-up, then balance
+            record["modes"] = ["swing-up", "LQR balance"]
+            record["mode"] = [int(m) for m in torque.modes(trajectory.q, trajectory.v)]
+        trajectory = dataclasses.replace(trajectory, meta={**trajectory.meta, "controller": record})
     # Said after the run, not before it: a refused input stays one line on stderr.
     warn_ignored_mimic(robot, mimic=args.mimic, command="simulate")
     kept: list[Path] = []

@@ -109,7 +109,7 @@
       box.setAttribute("data-chart", chart.key);
       var title = document.createElement("div");
       title.className = "robodyn-title";
-      title.textContent = chart.title + " [" + chart.unit + "]" + (chart.scale === "log" ? ", log scale" : "");
+      title.textContent = chart.title + (chart.unit ? " [" + chart.unit + "]" : "") + (chart.scale === "log" ? ", log scale" : "");
       box.appendChild(title);
       var legend = document.createElement("div");
       legend.className = "robodyn-legend";
@@ -183,13 +183,14 @@
     };
   }
 
-  // A step of 1, 2 or 5 times a power of ten, about (hi - lo) / 4: tick labels read as round numbers.
-  function niceStep(span) {
-    var raw = span / 4, power = Math.pow(10, Math.floor(Math.log10(raw))), m = raw / power;
-    return power * (m < 1.5 ? 1 : m < 3.5 ? 2 : m < 7.5 ? 5 : 10);
+  // The smallest step of 1, 2 or 5 times a power of ten that gives at most maxTicks ticks over span:
+  // tick labels read as round numbers, and never crowd a short chart.
+  function niceStep(span, maxTicks) {
+    var raw = span / Math.max(1, maxTicks - 1), power = Math.pow(10, Math.floor(Math.log10(raw))), m = raw / power;
+    return power * (m <= 1 ? 1 : m <= 2 ? 2 : m <= 5 ? 5 : 10);
   }
 
-  function linearAxis(chart) {
+  function linearAxis(chart, maxTicks) {
     var lo = Infinity, hi = -Infinity;
     chart.series.forEach(function (s) {
       s.values.forEach(function (v) { lo = Math.min(lo, v); hi = Math.max(hi, v); });
@@ -199,7 +200,7 @@
     var pad = 0.05 * (hi - lo);
     lo -= pad; hi += pad;
     function frac(v) { return (v - lo) / (hi - lo); }
-    var step = niceStep(hi - lo), values = [];
+    var step = niceStep(hi - lo, maxTicks), values = [];
     for (var k = Math.ceil(lo / step); k * step <= hi + 1e-9 * step; k++) { values.push(k * step); }
     return {
       scale: "linear",
@@ -213,7 +214,8 @@
 
   function drawChart(entry) {
     var chart = entry.chart, ctx = entry.plot.getContext("2d"), b = plotBox(entry);
-    var axis = (chart.scale === "log" && logAxis(chart)) || linearAxis(chart);
+    var maxTicks = Math.max(2, Math.min(5, Math.floor((b.bottom - b.top) / 16)));  // a label per 16 px at most
+    var axis = (chart.scale === "log" && logAxis(chart)) || linearAxis(chart, maxTicks);
     function y(v) { return b.bottom - axis.frac(v) * (b.bottom - b.top); }
     ctx.fillStyle = "#fff";
     ctx.fillRect(0, 0, entry.width, entry.height);

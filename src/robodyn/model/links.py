@@ -154,12 +154,12 @@ class LinkTable(Mapping[str, Link]):
         return cls(str(data["name"]), tuple(Link(**link) for link in data["links"]), np.array(data["gravity"]))
 
 
-def _axis(joint_model: Any, kind: str) -> Array:
-    """The unit axis of a 1-DoF joint in its own frame: stored on the unaligned types, named by the others."""
-    axis = getattr(joint_model.extract(), "axis", None)
-    if axis is not None:
-        return np.array(axis, dtype=np.float64)
-    return np.eye(3)["XYZ".index(kind[-1])]
+def _axis(joint_model: Any, q: Array, prismatic: bool) -> Array:
+    """The unit axis of a 1-DoF joint in its own frame: its motion subspace S (linear; angular), at ``q``."""
+    data = joint_model.createData()
+    joint_model.calc(data, q)
+    S = np.array(data.S, dtype=np.float64).reshape(6)
+    return S[:3] if prismatic else S[3:]
 
 
 def link_table(robot: Any) -> LinkTable:
@@ -173,6 +173,7 @@ def link_table(robot: Any) -> LinkTable:
             spherical or planar joint, a mimic joint): the table has no row for it.
     """
     model = robot.model
+    neutral = robot.neutral()
     links = []
     for j, info in enumerate(robot.joints, start=1):
         joint_type = JOINT_TYPES.get(info.kind)
@@ -193,7 +194,7 @@ def link_table(robot: Any) -> LinkTable:
                 inertia=np.array(inertia.inertia),
                 origin=np.array(model.jointPlacements[j].translation),
                 rotation=np.array(model.jointPlacements[j].rotation),
-                axis=_axis(model.joints[j], info.kind),
+                axis=_axis(model.joints[j], neutral, joint_type == "prismatic"),
                 armature=float(model.armature[info.idx_v]),
             )
         )

@@ -45,7 +45,6 @@ from robodyn.kinds.check_rows import (
     CheckRow,
     formula_points,
     formula_values,
-    rescale,
     skew_scale,
 )
 from robodyn.kinds.formula import Formula
@@ -162,6 +161,7 @@ def _formula_rows(
         "fd": Accumulator("a (forward dynamics)", "formula", "rad/s^2 (m/s^2 on slides)", rtol),
         "T": Accumulator("T = 1/2 v^T M v", "formula", "J", rtol),
         "skew": Accumulator("N = dM/dt - 2C skew (formula)", "structure", "kg m^2/s", fd_tol),
+        "sym": Accumulator("M = M^T (formula)", "structure", "kg m^2 (kg on slides)", rtol),
     }
     if formula.potential_energy is not None:
         acc["V"] = Accumulator("V - V(q0)", "formula", "J", rtol)
@@ -173,6 +173,7 @@ def _formula_rows(
     if given is not None:
         _refuse_singular(p, M_all[:n], samples, given)
     n_scale = 0.0  # dM/dt - 2C has no reference of its own: see skew_scale
+    m_scale = 0.0  # nor has M - M^T: the formula's largest |M| entry
     for k, s in enumerate(samples):
         M_p = ref.mass_matrix(s.q)
         M_f, C_f, G_f = M_all[k], C_all[k], G_all[k]
@@ -186,6 +187,8 @@ def _formula_rows(
         Mdot = (M_all[n + k] - M_all[2 * n + k]) / (2 * FD_STEP)  # central difference along v
         N = Mdot - 2 * C_f
         acc["skew"].add(np.zeros_like(N), N + N.T)
+        acc["sym"].add(np.zeros_like(M_f), M_f - M_f.T)
+        m_scale = max(m_scale, float(np.abs(M_f).max()))
         n_scale = max(n_scale, skew_scale(Mdot, C_f, M_f, s.v))
         if formula.potential_energy is not None:
             acc["V"].add(
@@ -199,7 +202,8 @@ def _formula_rows(
         keep.update(acc)
     scalars = {"T", "V"}
     rows = [a.row(samples, scalar=k in scalars) for k, a in acc.items()]
-    rows[list(acc).index("skew")] = rescale(acc["skew"].row(samples), n_scale)
+    rows[list(acc).index("skew")] = acc["skew"].row(samples, zero_reference_scale=n_scale)
+    rows[list(acc).index("sym")] = acc["sym"].row(samples, zero_reference_scale=m_scale)
     return rows
 
 
@@ -277,7 +281,7 @@ def _structure_rows(robot: Robot, samples: list[_Sample], rtol: float) -> list[C
         )
     rows = [
         spd.row(samples),
-        rescale(skew.row(samples), n_scale),
+        skew.row(samples, zero_reference_scale=n_scale),
         grad.row(samples),
         nle_row,
         columns.row(samples),

@@ -65,6 +65,12 @@ def add_parser(sub: Any) -> None:
     p.add_argument(
         "--mimic", action="store_true", help="keep URDF <mimic> couplings as mimic joints (checked with CRBA)"
     )
+    p.add_argument(
+        "--explain",
+        action="store_true",
+        help="name the wrong term of each mismatching entry in the formula's own symbols (its difference from "
+        "Pinocchio fitted over the samples, its coefficient named by the file's parameters)",
+    )
     p.add_argument("--json", action="store_true", help="print the report as JSON")
     p.set_defaults(handler=run)
 
@@ -114,6 +120,7 @@ def _check_all(args: argparse.Namespace, given: dict[str, Any] | None, process: 
             rtol=args.rtol,
             params=given,
             params_source=source,
+            explain=args.explain,
             **where,
         )
         reports.append(report)

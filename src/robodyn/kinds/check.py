@@ -47,6 +47,7 @@ from robodyn.kinds.check_rows import (
     formula_values,
     skew_scale,
 )
+from robodyn.kinds.explain import explain
 from robodyn.kinds.formula import Formula
 from robodyn.kinds.loop_check import loop_rows
 from robodyn.kinds.params import Params, extract, from_mapping
@@ -54,6 +55,7 @@ from robodyn.kinds.reduced import KIND as CONSTRAINED
 from robodyn.kinds.reference import Reference
 from robodyn.kinds.sandbox import DEFAULT_TIMEOUT
 from robodyn.kinds.user import UserFormula, resolve
+from robodyn.model.links import JOINT_TYPES
 from robodyn.robot import Robot
 
 Array = NDArray[np.float64]
@@ -336,6 +338,7 @@ def check(
     loops: Iterable[Any] = (),
     springs: Any = None,
     scene: str | Path | None = None,
+    explain: bool = False,
 ) -> CheckReport:
     """Compare ``robot``'s Pinocchio dynamics with ``formula`` and with its own identities.
 
@@ -366,6 +369,9 @@ def check(
         springs: a constrained formula's joint springs: joint -> ``{"stiffness", "rest"}`` (or
             a Spring, or ``(k, rest)``), or (joint, spring) pairs.
         scene: the scene file a constrained formula's ``parameters(scene)`` reads.
+        explain: name the wrong term of each mismatching entry of M, C, G and V in the formula's own
+            symbols, and say what the knock-on rows follow from (:mod:`robodyn.kinds.explain`); the lines
+            are the report's ``explanation``.
 
     Raises:
         AssumptionError: the model is not of the formula's kind.
@@ -391,6 +397,7 @@ def check(
     source = None
     notes: tuple[str, ...] = ()
     kept: dict[str, Accumulator] = {}  # the formula rows' accumulators, for --explain
+    explained: tuple[list[_Sample], Reference] | None = None  # and the states they were taken at
     if formula is not None:
         resolved = resolve(formula, timeout=formula_timeout) if isinstance(formula, str) else formula
         try:
@@ -411,6 +418,7 @@ def check(
                 used, notes = setup.params, setup.notes
                 p_any = Params(ANY, used)
                 rows += _formula_rows(setup.robot, resolved, p_any, mapped, rtol, None, reference=ref, keep=kept)
+                explained = (mapped, ref)
             else:
                 try:
                     p = extract(robot, resolved.kind)
@@ -421,11 +429,15 @@ def check(
                     p = _given_params(resolved.kind, params, given)
                 used = p.as_dict()
                 rows += _formula_rows(robot, resolved, p, states, rtol, given, keep=kept)
+                explained = (states, Reference.identity(robot))
         finally:
             if isinstance(formula, str) and isinstance(resolved, UserFormula):
                 resolved.close()  # the file's process was this check's own
     rows += _structure_rows(robot, states, rtol)
     rows.sort(key=lambda r: GROUP_ORDER.index(r.group))  # stable: keeps the order within a group
+    explanation: tuple[str, ...] = ()
+    if explain and explained is not None:
+        explanation = explain_rows(rows, kept, *explained, used)
     if kind != CONSTRAINED and (tuple(loops) or springs):
         notes += ("the loops and springs are not checked: only a KIND = 'constrained' formula lives on them",)
     return CheckReport(
@@ -441,4 +453,15 @@ def check(
         wall_time_s=time.perf_counter() - start,
         notes=notes,
         params_given=params is not None,
+        explanation=explanation,
     )
+
+
+def explain_rows(
+    rows: list[CheckRow], kept: dict[str, Accumulator], states: list[_Sample], ref: Reference, used: Mapping[str, float]
+) -> tuple[str, ...]:
+    """``--explain``'s lines (:func:`robodyn.kinds.explain.explain`), the coordinates' kinds read from ``ref``."""
+    joints = [next(j for j in ref.robot.joints if j.idx_v == column) for column in ref.columns]
+    prismatic = [JOINT_TYPES.get(j.kind) == "prismatic" for j in joints]
+    g = float(np.linalg.norm(dynamics.gravity_vector(ref.robot.model)))
+    return explain(rows, kept, states, used, prismatic=prismatic, g=g)

@@ -45,6 +45,7 @@ ROUNDOFF = 1e-12  # ... or this fraction of the entry's own scale (a difference 
 NAME_RTOL = 1e-9  # a coefficient is named by a product of parameters that equals it to this (fits give ~1e-13)
 PAIR_CANDIDATES = 40  # pairs of terms are searched among this many best-correlated ones
 MAX_FACTORS = 3  # parameters in a product (g comes on top)
+PAIR_RATIONALS = 3  # a sum or difference of two products is tried with the first three rationals: 1, 2, 1/2
 RATIONALS = tuple(
     Fraction(x) for x in ("1", "2", "1/2", "3", "1/3", "4", "1/4", "3/2", "2/3", "3/4", "4/3", "1/12", "1/6", "1/8")
 )
@@ -238,6 +239,7 @@ class Namer:
 
     def __init__(self, params: Mapping[str, float], g: float) -> None:
         names = [k for k, x in params.items() if math.isfinite(x) and x != 0 and k != "g"]
+        names.sort(key=_factor_rank)  # masses, lengths, inertias, others: m2*l1*lc2, in the file's order within each
         gravity = params.get("g", g)
         products: list[tuple[str, float, int, Dim | None]] = []  # (text, value, factors, dimension)
         for size in range(1, MAX_FACTORS + 1):
@@ -281,7 +283,16 @@ class Namer:
         return self._pair(c, dim)
 
     def _pair(self, c: float, dim: Dim | None) -> Name | None:
-        """``c`` = +-P1 +- P2 for two products (rational 1) of dimension ``dim``, the simplest pair; None if none."""
+        """``c`` = r (+-P1 +- P2) for two products of dimension ``dim`` (r 1, 2 or 1/2), the simplest; else None."""
+        for r in RATIONALS[:PAIR_RATIONALS]:
+            found = self._plain_pair(c / float(r), dim)
+            if found is not None:
+                text = found.text if r == 1 else f"{_scaled('(' + found.text + ')', r)}"
+                return Name(text, found.error)
+        return None
+
+    def _plain_pair(self, c: float, dim: Dim | None) -> Name | None:
+        """``c`` = +-P1 +- P2 for two products of dimension ``dim``, the simplest pair; None if none."""
         best: tuple[tuple[int, int, int], str, float] | None = None
         for i, (text1, value1, size1, dim1) in enumerate(self.products):
             if dim is not None and dim1 is not None and dim1 != dim:
@@ -300,10 +311,18 @@ class Namer:
                         first, second = (s1, text1), (s2, text2)
                         if s1 < 0 < s2:
                             first, second = second, first
-                        text = f"{'-' if first[0] < 0 else ''}{first[1]} {'-' if second[0] < 0 else '+'} {second[1]}"
+                        if first[0] < 0:  # both negative: -(a + b)
+                            text = f"-({first[1]} + {second[1]})"
+                        else:
+                            text = f"{first[1]} {'-' if second[0] < 0 else '+'} {second[1]}"
                         err = abs(s1 * value1 + s2 * value2 - c) / abs(c)
                         best = (key, text, err)
         return None if best is None else Name(best[1], best[2])
+
+
+def _factor_rank(name: str) -> int:
+    dim = parameter_dimension(name)
+    return {(1, 0, 0): 0, (0, 1, 0): 1, (1, 2, 0): 2}.get(dim, 3) if dim is not None else 3
 
 
 def _add(a: Dim, b: Dim) -> Dim:
@@ -343,12 +362,25 @@ def _scaled(text: str, r: Fraction) -> str:
 
 
 # ---------------------------------------------------------------------------------------- the explanation
+def _top_level_space(text: str) -> bool:
+    """True when ``text`` has a space outside parentheses (``a - b``, not ``2*(a - b)``)."""
+    depth = 0
+    for ch in text:
+        depth += {"(": 1, ")": -1}.get(ch, 0)
+        if ch == " " and depth == 0:
+            return True
+    return False
+
+
 def _term(coefficient: float, name: Name | None, atom: str) -> tuple[str, str]:
     """(sign, magnitude text) of one term: ``-``, ``m2*l1*lc2*cos(q2)``."""
     if name is not None:
         text = name.text
-        sign = "-" if text.startswith("-") and " " not in text else "+"
-        body = text.lstrip("-") if " " not in text or atom == "1" else f"({text})"
+        negative = text.startswith("-") and not _top_level_space(text)
+        sign = "-" if negative else "+"
+        body = text[1:] if negative else text
+        if _top_level_space(body) and atom != "1":
+            body = f"({body})"
     else:
         sign = "-" if coefficient < 0 else "+"
         body = f"{abs(coefficient):.3g}"
@@ -392,7 +424,8 @@ def describe_fit(label: str, f: Fit, namer: Namer, unit: str, dims: Sequence[Dim
             f"{f.residual:.3g} {unit}): more than a term is wrong, or a term is outside the basis"
         ]
     named = [namer.name(c, None if dims is None else dims[j]) for j, c in enumerate(f.coefficients)]
-    order = sorted(range(len(f.terms)), key=lambda j: -abs(f.coefficients[j]))
+    # largest first; of two equal ones, the formula's own (positive: formula - Pinocchio) first
+    order = sorted(range(len(f.terms)), key=lambda j: (-float(f"{abs(f.coefficients[j]):.9g}"), f.coefficients[j] < 0))
     expression = ""
     details = []
     for position, j in enumerate(order):
@@ -423,16 +456,14 @@ def _swapped(f: Fit, named: Sequence[Name | None], order: Sequence[int]) -> str:
     if abs(ca + cb) > NAME_RTOL * max(abs(ca), abs(cb)) * 1e3:
         return ""
     extra, missing = (a, b) if ca > 0 else (b, a)  # formula - Pinocchio: + what the formula has, - what it lacks
-    name = named[extra]
-    coefficient = name.text if name is not None else f"{abs(f.coefficients[extra]):.3g}"
+    has = _term(f.coefficients[extra], named[extra], f.terms[extra])[1]
+    lacks = _term(f.coefficients[extra], named[extra], f.terms[missing])[1]
     what = "a term written wrong"
     if _sin_cos(f.terms[extra], f.terms[missing]):
         what = "a sine and a cosine swapped"
     elif re.sub(r"\d", "#", f.terms[extra]) == re.sub(r"\d", "#", f.terms[missing]):
         what = "an index written wrong"
-    return (
-        f"the formula has {coefficient}*{f.terms[extra]} where Pinocchio has {coefficient}*{f.terms[missing]}: {what}"
-    )
+    return f"the formula has {has} where Pinocchio has {lacks}: {what}"
 
 
 def _sin_cos(a: str, b: str) -> bool:
@@ -505,9 +536,10 @@ def _structure(rows: Sequence[CheckRow], acc: Mapping[str, Accumulator], samples
         for k, (_, M) in enumerate(acc["M"].pairs):
             eig = np.linalg.eigvalsh(0.5 * (M + M.T))
             if eig[0] <= 0:
+                q = ", ".join(f"{x:.4g}" for x in samples[k].q)
                 out.append(
-                    f"the formula's M is not positive definite at sample {k}: q = "
-                    f"{np.array2string(samples[k].q, precision=4, separator=', ')}, smallest eigenvalue {eig[0]:.3g}"
+                    f"the formula's M is not positive definite at sample {k}: q = [{q}], smallest eigenvalue "
+                    f"{eig[0]:.3g} (its unit)"
                 )
                 break
     skew = by_quantity.get("N = dM/dt - 2C skew (formula)")
@@ -546,6 +578,8 @@ def _knock_on(rows: Sequence[CheckRow], failing: Mapping[str, list[str]]) -> lis
                     if key in ("C", "G") and row.quantity in ("nle = C v + G", "tau (inverse dynamics)") and entry:
                         if not source.startswith(f"{key}[{entry[0]}"):
                             continue
+                    if row.quantity == "G = dV/dq (formula)" and key == "G" and source != f"G[{entry[0]}]":
+                        continue
                     if key == "M" and row.quantity == "tau (inverse dynamics)" and entry:
                         if not source.startswith(f"M[{entry[0]},") and not source.endswith(f",{entry[0]}]"):
                             continue

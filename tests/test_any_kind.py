@@ -9,9 +9,11 @@ each single-term mistake planted in it fails, and --explain names the term and i
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import robodyn
+from robodyn.errors import FormulaError
 from robodyn.kinds.check import check
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -105,3 +107,160 @@ def test_each_single_term_mistake_fails_and_explain_names_it(name, what, old, ne
     assert not report.passed
     for line in expected:
         assert any(got.startswith(line) for got in report.explanation), (line, report.explanation)
+
+
+# ---------------------------------------------------------------------------------------- bad files
+GOOD = (ROOT / "examples" / "formulas" / "double_pendulum.py").read_text()
+BAD_FILES = {
+    "unknown joint": (GOOD.replace('JOINTS = ["shoulder", "elbow"]', 'JOINTS = ["shoulder", "elbw"]')
+                      .replace('"elbow": (-1.0, 0.0)', '"elbw": (-1.0, 0.0)'),
+                      "JOINTS names 'elbw', which is not a moving joint of double_pendulum"),
+    "sign not +-1": (GOOD.replace('"elbow": (-1.0, 0.0)', '"elbow": (2.0, 0.0)'),
+                     "COORDINATES['elbow'] = (2.0, 0.0); expected (sign, offset) with sign +1 or -1"),
+    "offset not finite": (GOOD.replace("(1.0, math.pi / 2)", "(1.0, math.inf)"),
+                          "COORDINATES['shoulder'] = (1.0, inf); expected a finite offset"),
+    "coordinates of a joint not in JOINTS": (GOOD.replace('"elbow": (-1.0, 0.0)}', '"elbow": (-1.0, 0.0), "hip": (1, 0)}'),
+                                             "COORDINATES names 'hip', which is not in JOINTS"),
+    "a parameter missing": (GOOD.replace('"lc2": lower.com[0],', ""),
+                            "mass_matrix raised KeyError: 'lc2'"),
+    "wrong shape": (GOOD.replace("return np.array([[m11, m12], [m12, m22]])", "return np.array([m11, m12])"),
+                    "mass_matrix returned shape (2,), expected (2, 2)"),
+    "no parameters": (GOOD.replace("def parameters(robot):", "def _parameters(robot):"),
+                      "define PARAMETERS = {name: number} or def parameters(robot)"),
+    "parameters not numbers": (GOOD.replace('"g": robot.g,', '"g": "9.81",'),
+                               "parameters()['g'] is str; expected a number"),
+    "JOINTS not a list of names": (GOOD.replace('JOINTS = ["shoulder", "elbow"]', 'JOINTS = "shoulder"'),
+                                   "JOINTS = 'shoulder'; expected a list of the URDF joints"),
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("case", sorted(BAD_FILES))
+def test_a_bad_file_is_one_line_with_exit_2(case, tmp_path, capsys):
+    from robodyn.cli import main
+
+    text, expected = BAD_FILES[case]
+    assert text != GOOD
+    path = tmp_path / "bad.py"
+    path.write_text(text)
+    code = main(["check", str(_urdf("double_pendulum")), "--formula", str(path), "--samples", "5"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2, err
+    assert len(err.splitlines()) == 1 and "Traceback" not in err, err
+    assert expected in err, err
+
+
+def test_a_named_free_flyer_is_refused_by_name(tmp_path):
+    path = tmp_path / "ff.py"
+    path.write_text(
+        GOOD.replace('JOINTS = ["shoulder", "elbow"]', 'JOINTS = ["root_joint", "elbow"]').replace(
+            '"shoulder": (1.0, math.pi / 2), ', ""
+        )
+    )
+    with pytest.raises(FormulaError, match="JOINTS names 'root_joint', a JointModelFreeFlyer"):
+        check(robodyn.load(_urdf("double_pendulum"), free_flyer=True), str(path), samples=3)
+
+
+# ---------------------------------------------------------------------------------------- locked joints
+LOCKED_ELBOW = """
+import numpy as np
+
+KIND = "any"
+JOINTS = ["shoulder"]
+COORDINATES = {"shoulder": (1.0, np.pi / 2)}
+LOCKED = {"elbow": -0.4}  # the URDF's own coordinate: theta2 = -q_elbow = 0.4 rad
+PARAMETERS = {"m1": 1.2, "m2": 0.7, "l1": 0.5, "lc1": 0.22, "lc2": 0.31, "I1": 0.0262, "I2": 0.0231, "g": 9.81}
+PHI = 0.4
+
+
+def mass_matrix(q, p):  # one rigid body: link 2's centre at |l1 + lc2 e(phi)| from the shoulder
+    r2 = p["l1"] ** 2 + p["lc2"] ** 2 + 2 * p["l1"] * p["lc2"] * np.cos(PHI)
+    return np.array([[p["I1"] + p["m1"] * p["lc1"] ** 2 + p["I2"] + p["m2"] * r2]])
+
+
+def coriolis_matrix(q, v, p):
+    return np.zeros((1, 1))
+
+
+def gravity(q, p):
+    g = p["g"]
+    return np.array([g * (p["m1"] * p["lc1"] + p["m2"] * p["l1"]) * np.sin(q[0]) + g * p["m2"] * p["lc2"] * np.sin(q[0] + PHI)])
+"""
+
+
+def test_joints_left_out_are_locked_at_the_stated_value(tmp_path):
+    path = tmp_path / "locked.py"
+    path.write_text(LOCKED_ELBOW)
+    report = check(robodyn.load(_urdf("double_pendulum")), str(path), samples=SAMPLES)
+    assert report.passed, [r.quantity for r in report.failures]
+    assert any("locked (welded to their parents): elbow at -0.4" in note for note in report.notes)
+    path.write_text(LOCKED_ELBOW.replace('LOCKED = {"elbow": -0.4}', 'LOCKED = {"elbow": 0.4}'))
+    assert not check(robodyn.load(_urdf("double_pendulum")), str(path), samples=SAMPLES).passed
+
+
+# ---------------------------------------------------------------------------------------- every entry, symmetry
+def test_every_mismatching_entry_is_reported_not_only_the_worst(tmp_path):
+    text = (ROOT / "examples" / "formulas" / "pendubot_mine.py").read_text()
+    both = text.replace("t2 + t3 * c2", "t2 + 2 * t3 * c2").replace("t1 + t2 + 2 * t3 * c2", "t1 + t2 + 3 * t3 * c2")
+    assert both.count("t2 + 2 * t3 * c2") == 2 and "3 * t3 * c2" in both  # M[0,0], M[0,1] and M[1,0] wrong
+    path = tmp_path / "both.py"
+    path.write_text(both)
+    report = check(robodyn.load("pendubot"), str(path), samples=SAMPLES, explain=True)
+    row = report.row("M")
+    assert {m.entry for m in row.mismatches} == {(0, 0), (0, 1)}
+    assert report.row("M = M^T (formula)").passed  # still symmetric: M[1,0] is M[0,1]'s, not listed twice
+    assert any(line.startswith("M[0,0]: formula - Pinocchio = m2*l1*lc2*cos(q2)") for line in report.explanation)
+
+
+def test_an_asymmetric_formula_mass_matrix_is_said(tmp_path):
+    text = (ROOT / "examples" / "formulas" / "pendubot_mine.py").read_text()
+    lopsided = text.replace("[t2 + t3 * c2, t2]])", "[t2 + 2 * t3 * c2, t2]])")
+    assert lopsided != text
+    path = tmp_path / "lopsided.py"
+    path.write_text(lopsided)
+    report = check(robodyn.load("pendubot"), str(path), samples=SAMPLES, explain=True)
+    assert not report.row("M = M^T (formula)").passed
+    assert {m.entry for m in report.row("M").mismatches} == {(1, 0)}
+    assert any(line.startswith("the formula's M is not symmetric: M[0,1] - M[1,0]") for line in report.explanation)
+
+
+def test_a_non_christoffel_c_with_a_right_c_v_is_said(tmp_path):
+    text = (ROOT / "examples" / "formulas" / "pendubot_mine.py").read_text()
+    # C v is the same with row 1 of C written as (-t3 s2 (2 v1 + v2), 0) ... times v: the whole bias in column 0
+    other = text.replace(
+        "return np.array([[-t3 * s2 * v[1], -t3 * s2 * (v[0] + v[1])], [t3 * s2 * v[0], 0.0]])",
+        "return np.array([[-t3 * s2 * (2 * v[0] + v[1]) * v[1] / v[0], 0.0], [t3 * s2 * v[0], 0.0]])",
+    )
+    assert other != text
+    path = tmp_path / "other.py"
+    path.write_text(other)
+    report = check(robodyn.load("pendubot"), str(path), samples=SAMPLES, explain=True)
+    assert report.row("nle = C v + G").passed and not report.row("N = dM/dt - 2C skew (formula)").passed
+    assert any("a valid C v written in a non-Christoffel form" in line for line in report.explanation)
+
+
+def test_explain_names_the_textbook_misprints():
+    report = check(robodyn.load("pendubot"), str(ROOT / "examples/formulas/pendubot_seed.py"), explain=True)
+    lines = report.explanation
+    assert any(
+        line.startswith("M[0,1]: formula - Pinocchio = m2*l1*lc2*cos(q2)   (coefficient 0.00945") for line in lines
+    )
+    assert any(
+        line.startswith("C[1,0]: formula - Pinocchio = m2*l1*lc2*sin(q2)*v2 - m2*l1*lc2*sin(q2)*v1") for line in lines
+    )
+    assert "tau[1] (tau (inverse dynamics)) follows from M[0,1], C[1,0]" in lines
+
+
+def test_coordinates_map_pinocchio_exactly():
+    from robodyn.kinds.reference import Reference
+
+    robot = robodyn.load(_urdf("cart_double_pendulum"))
+    ref = Reference.mapped(robot, ["hinge1", "hinge2", "cart"], [1.0, 1.0, -1.0], [0.0, 0.0, 0.3])
+    rng = np.random.default_rng(0)
+    q, v = robot.random_state(rng)
+    qf, vf = ref.formula_q(q), ref.formula_v(v)
+    np.testing.assert_array_equal(qf, [q[1], q[2], -q[0] + 0.3])
+    S = ref.S
+    np.testing.assert_allclose(ref.mass_matrix(qf), S.T @ robot.M(q) @ S, rtol=0, atol=0)
+    np.testing.assert_allclose(ref.coriolis_matrix(qf, vf), S.T @ robot.C(q, v) @ S, rtol=0, atol=0)
+    np.testing.assert_allclose(ref.gravity(qf), S.T @ robot.G(q), rtol=0, atol=0)
+    np.testing.assert_allclose(ref.urdf_q(qf), q, rtol=0, atol=1e-15)

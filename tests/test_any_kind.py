@@ -264,3 +264,14 @@ def test_coordinates_map_pinocchio_exactly():
     np.testing.assert_allclose(ref.coriolis_matrix(qf, vf), S.T @ robot.C(q, v) @ S, rtol=0, atol=0)
     np.testing.assert_allclose(ref.gravity(qf), S.T @ robot.G(q), rtol=0, atol=0)
     np.testing.assert_allclose(ref.urdf_q(qf), q, rtol=0, atol=1e-15)
+
+
+def test_a_coefficient_is_named_with_the_entrys_dimension():
+    from robodyn.kinds.explain import Namer
+
+    namer = Namer({"m2": 1.0, "l1": 0.15, "lc2": 0.126}, 9.81)  # m2 = 1 kg: l1*lc2 has the same value
+    c = 1.0 * 0.15 * 0.126
+    assert namer.name(c, (1, 2, 0)).text == "m2*l1*lc2"  # an entry of M in kg m^2
+    assert namer.name(c, (0, 2, 0)).text == "l1*lc2"
+    assert namer.name(-0.126 * 9.81, (1, 2, -2)).text == "-m2*lc2*g"  # a torque of gravity [N m], not lc2*g
+    assert namer.name(0.123456789, (1, 2, 0)) is None  # no product of these equals it

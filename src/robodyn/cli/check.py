@@ -211,6 +211,20 @@ PARAM_UNITS = {
 }  # fmt: skip
 
 
+_DIMENSION_UNITS = {(1, 0, 0): "kg", (0, 1, 0): "m", (1, 2, 0): "kg m^2", (0, 1, -2): "m/s^2"}
+
+
+def _unit(name: str, kind: str | None) -> str:
+    """`` kg`` for a parameter: a built-in kind's table, or (KIND = "any") guessed from the name as --explain does."""
+    unit = PARAM_UNITS.get(name, "")
+    if not unit and kind == "any":
+        from robodyn.kinds.explain import parameter_dimension
+
+        dim = parameter_dimension(name)
+        unit = _DIMENSION_UNITS.get(dim, "") if dim is not None else ""
+    return f" {unit}" if unit else ""
+
+
 def _vector(x: Any) -> str:
     return "[" + ", ".join(f"{v:.4g}" for v in x) + "]"
 
@@ -223,10 +237,7 @@ def format_report(report: Any, robot: Any) -> str:
         f"   samples: {report.samples}   seed: {report.seed}   rtol: {report.rtol:g}",
     ]
     if report.params:
-        params = ", ".join(
-            f"{k} = {v:.6g}{' ' + PARAM_UNITS.get(k, '') if PARAM_UNITS.get(k) else ''}"
-            for k, v in report.params.items()
-        )
+        params = ", ".join(f"{k} = {v:.6g}{_unit(k, report.kind)}" for k, v in report.params.items())
         origin = "given with --params" if report.params_given else _origin(report)
         lines.append(f"parameters {origin}: {params}")
     if report.formula is None:
@@ -283,7 +294,7 @@ def _mismatch_lines(r: Any) -> list[str]:
 def _origin(report: Any) -> str:
     """Where the parameters of a report came from, when the user did not give them."""
     if report.kind == "any":
-        return "from the formula file (PARAMETERS or parameters(robot) of the link table)"
+        return "from the formula file"
     return "from the formula file's parameters(scene)" if report.kind == "constrained" else "read from the model"
 
 

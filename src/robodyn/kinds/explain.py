@@ -539,7 +539,7 @@ def _structure(rows: Sequence[CheckRow], acc: Mapping[str, Accumulator], samples
                 q = ", ".join(f"{x:.4g}" for x in samples[k].q)
                 out.append(
                     f"the formula's M is not positive definite at sample {k}: q = [{q}], smallest eigenvalue "
-                    f"{eig[0]:.3g} (its unit)"
+                    f"{eig[0]:.3g} {acc['M'].unit}"
                 )
                 break
     skew = by_quantity.get("N = dM/dt - 2C skew (formula)")

@@ -267,7 +267,7 @@ def test_coordinates_map_pinocchio_exactly():
 
 
 def test_a_coefficient_is_named_with_the_entrys_dimension():
-    from robodyn.kinds.explain import Namer
+    from robodyn.kinds.explain_names import Namer
 
     namer = Namer({"m2": 1.0, "l1": 0.15, "lc2": 0.126}, 9.81)  # m2 = 1 kg: l1*lc2 has the same value
     c = 1.0 * 0.15 * 0.126

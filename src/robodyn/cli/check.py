@@ -218,7 +218,7 @@ def _unit(name: str, kind: str | None) -> str:
     """`` kg`` for a parameter: a built-in kind's table, or (KIND = "any") guessed from the name as --explain does."""
     unit = PARAM_UNITS.get(name, "")
     if not unit and kind == "any":
-        from robodyn.kinds.explain import parameter_dimension
+        from robodyn.kinds.explain_names import parameter_dimension
 
         dim = parameter_dimension(name)
         unit = _DIMENSION_UNITS.get(dim, "") if dim is not None else ""

@@ -438,6 +438,8 @@ def check(
     explanation: tuple[str, ...] = ()
     if explain and explained is not None:
         explanation = explain_rows(rows, kept, *explained, used)
+    elif explain and kind == CONSTRAINED:
+        explanation = ("explain: not available for a KIND = 'constrained' formula (its rows are on the loop)",)
     if kind != CONSTRAINED and (tuple(loops) or springs):
         notes += ("the loops and springs are not checked: only a KIND = 'constrained' formula lives on them",)
     return CheckReport(

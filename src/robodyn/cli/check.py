@@ -15,7 +15,9 @@ from robodyn.cli._common import (
     positive_int,
     print_json,
     seed_number,
+    unchecked_scene,
     warn_ignored_mimic,
+    warn_unchecked,
 )
 from robodyn.errors import EXIT_MISMATCH, EXIT_OK, InputError
 from robodyn.kinds.sandbox import DEFAULT_TIMEOUT, MAX_TIMEOUT
@@ -145,8 +147,10 @@ def _target(args: argparse.Namespace, name: str) -> tuple[Any, Any]:
         raise InputError(
             f"{name}: --srdf, --free-flyer and --mimic are a model's options; a scene sets them in [model]"
         )
-    scene = read_scene(Path(name))
+    scene = unchecked_scene(read_scene(Path(name)), args)
     robot, _ = scene.build()
+    if scene.model.get("physics_check") is False:
+        warn_unchecked(robot, command="check")
     return robot, scene
 
 
@@ -260,6 +264,12 @@ def format_report(report: Any, robot: Any) -> str:
         if not r.applicable:
             lines.append(f"n/a: {r.quantity}: {r.note}")
     lines.extend(f"note: {note}" for note in report.notes)
+    for r in report.rows:
+        if r.applicable and r.within_floor_only:
+            lines.append(
+                f"note: {r.quantity}: the error {r.max_abs_error:.3g} {r.unit} is round-off, within the floor "
+                f"{r.floor:.3g} {r.unit} that the magnitudes of the terms it is computed from allow"
+            )
     for r in report.failures + report.gaps:
         lines.extend(_mismatch_lines(r))
         if r.note:

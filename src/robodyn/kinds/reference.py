@@ -146,6 +146,10 @@ class Reference:
         model, data = self.robot.model, self.robot.data
         return self.formula_v(dynamics.aba(model, data, self.urdf_q(q), self.urdf_v(v), self.urdf_v(tau)))
 
+    def gravity_scale(self, q: Array) -> float:
+        """The energy scale |g| sum m_i |c_i| [J] (the round-off floors' scale), the same in every coordinate."""
+        return dynamics.gravity_scale(self.robot.model, self.robot.data, self.urdf_q(q))
+
     def potential_energy(self, q: Array) -> float:
         """V [J], the same in every coordinate."""
         return dynamics.potential_energy(self.robot.model, self.robot.data, self.urdf_q(q))

@@ -43,8 +43,8 @@ def add_parser(sub: Any) -> None:
         "--formula",
         metavar="KIND_OR_FILE",
         help="built-in kind (geared_arm, cart_pole, pendubot), 'auto' (the kind each model meets, if any) or a "
-        ".py file with your own derivation; without it only the structural properties and Pinocchio's "
-        "identities are checked",
+        ".py file with your own derivation (KIND = a built-in kind, or 'any': any tree robot in your own joints "
+        "and coordinates); without it only the structural properties and Pinocchio's identities are checked",
     )
     p.add_argument("--samples", type=_samples, default=100, help="number of random states, 1 to 100,000 (default 100)")
     p.add_argument("--seed", type=seed_number, default=0, help="seed of the random states (default 0)")

@@ -13,7 +13,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from robodyn.cli._common import file_path
+from robodyn.cli._common import add_passive_argument, file_path
 from robodyn.cli._output import (
     check_output_file,
     check_output_folder,
@@ -40,6 +40,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("scene", type=file_path, metavar="SCENE.toml", help="the scene file")
     p.add_argument("--out", type=file_path, default=None, help="output folder (overrides the scene's [output] dir)")
     p.add_argument("--no-view", action="store_true", help="skip the [view] part")
+    add_passive_argument(p, what="the scene's model (added to its [model] passive)")
     p.set_defaults(handler=run)
 
 
@@ -48,7 +49,7 @@ def run(args: argparse.Namespace) -> int:
     from robodyn.errors import DivergenceError, SimulationInterrupted
     from robodyn.scene import read_scene
 
-    scene = read_scene(args.scene)
+    scene = read_scene(args.scene).with_passive(args.passive)
     out = args.out or scene.output or Path("scene-out") / scene.name
     check_output_folder(out)  # before the model, the check and the exactness proof: a bad folder fails at once
     view = None if args.no_view else scene.view

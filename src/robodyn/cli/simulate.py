@@ -32,6 +32,7 @@ import numpy as np
 
 from robodyn.cli import _control
 from robodyn.cli._common import (
+    add_passive_argument,
     file_path,
     float_list,
     load_robot,
@@ -80,6 +81,7 @@ def add_parser(sub: Any) -> None:
         action="store_true",
         help="keep the URDF's <mimic> couplings (forward dynamics then by CRBA); without it they are ignored",
     )
+    add_passive_argument(p)
     p.add_argument(
         "--q0",
         type=float_list,

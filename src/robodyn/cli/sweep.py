@@ -10,10 +10,11 @@ unwritable --out); 4 Dask or pyarrow missing; 5 no scheduler at --scheduler; 130
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 from typing import Any
 
-from robodyn.cli._common import file_path, positive_int
+from robodyn.cli._common import add_passive_argument, file_path, positive_int
 from robodyn.cli._output import check_output_folder
 
 
@@ -42,6 +43,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--workers", type=positive_int, help="local worker processes (default: one per CPU)")
     p.add_argument("--plots", action="store_true", help="also draw maps and sensitivity charts into DIR/plots/")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_passive_argument(p, what="the sweep's model or scene (added to its passive list)")
     p.set_defaults(handler=run)
 
 
@@ -51,8 +53,12 @@ def run(args: Any) -> int:
     from robodyn.scene import read_scene
 
     check_output_folder(args.out)
+    source: Any = args.sweep
+    if args.passive:
+        spec = sweep.load(args.sweep)
+        source = dataclasses.replace(spec, passive=tuple(dict.fromkeys((*spec.passive, *args.passive))))
     result = sweep.run(
-        args.sweep,
+        source,
         out=args.out,
         scheduler=args.scheduler,
         workers=args.workers,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import reprlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -30,7 +31,7 @@ CONTROL_GAINS: dict[str, tuple[str, ...]] = {
 PD_KEYS = ("kp", "kd", "target", "gravity_compensation")
 
 TABLES = {
-    "model": ("name", "urdf", "srdf", "free_flyer", "mimic", "keep", "lock", "reference"),
+    "model": ("name", "urdf", "srdf", "free_flyer", "mimic", "passive", "keep", "lock", "reference"),
     "initial": ("q", "v"),
     "control": tuple(dict.fromkeys(("kind", "torque", *PD_KEYS, *(k for ks in CONTROL_GAINS.values() for k in ks)))),
     "simulate": ("duration", "dt", "integrator", "backend"),
@@ -99,7 +100,12 @@ class Scene:
 
         m = self.model
         target = m.get("urdf") or m["name"]
-        options = {"srdf": m.get("srdf"), "free_flyer": m.get("free_flyer", False), "mimic": m.get("mimic", False)}
+        options = {
+            "srdf": m.get("srdf"),
+            "free_flyer": m.get("free_flyer", False),
+            "mimic": m.get("mimic", False),
+            "passive": tuple(m.get("passive", ())),
+        }
         try:
             if not m.get("keep") and not m.get("lock"):
                 return load(target, **options), None
@@ -116,7 +122,11 @@ class Scene:
 
     def _model_key(self, what: str) -> str:
         """The [model] key an error about ``what`` comes from (keep, lock, reference or the model)."""
+        from robodyn.model.load import PASSIVE_JOINT
+
         m = self.model
+        if what == PASSIVE_JOINT:
+            return "passive"
         if "reference" in what:
             return "reference"
         if ("keep" in what or "kept" in what) and "keep" in m:
@@ -126,6 +136,13 @@ class Scene:
         if "joint" in what:
             return "keep" if "keep" in m else "lock"
         return "name" if "name" in m else "urdf"
+
+    def with_passive(self, names: tuple[str, ...]) -> Scene:
+        """This scene with ``names`` added to its [model] passive joints (the command line's ``--passive``)."""
+        if not names:
+            return self
+        passive = tuple(dict.fromkeys((*self.model.get("passive", ()), *names)))
+        return dataclasses.replace(self, model={**self.model, "passive": list(passive)})
 
     def initial_state(self, robot: Robot, reduction: Reduction | None = None) -> tuple[Array, Array]:
         """(q0 (nq,), v0 (nv,)) of the scene for ``robot``, zero velocity by default.

@@ -30,15 +30,24 @@ from typing import Any, TextIO
 import numpy as np
 
 from robodyn import integrators
-from robodyn.errors import InputError
+from robodyn.errors import InputError, UnknownNameError
 from robodyn.kinds.edit import check_changes, write_params
 from robodyn.kinds.params import detect_kind
+from robodyn.model.load import PASSIVE_JOINT
 from robodyn.model.load import load as load_model
 from robodyn.sweep import measures
 from robodyn.sweep.chunk import Job, controller_of, upright_of
 from robodyn.sweep.engine import run_chunks
 from robodyn.sweep.plan import Chunk, Plan, Setting, make_plan, settings
-from robodyn.sweep.source import Model, SceneReader, SceneSource, has_control, scene_source, simulate_defaults
+from robodyn.sweep.source import (
+    Model,
+    ModelFile,
+    SceneReader,
+    SceneSource,
+    has_control,
+    scene_source,
+    simulate_defaults,
+)
 from robodyn.sweep.spec import (
     NO_CONTROLLER,
     SCENE_CONTROLLER,
@@ -95,14 +104,17 @@ def prepare(
     spec = source if isinstance(source, SweepSpec) else load(source)
     out = Path(out)
     scene = _scene(spec, read_scene)
+    name = ""
     if scene is not None:
         spec = _with_scene_defaults(spec, scene)
+        scene = scene.with_passive(spec.passive)
         robot, reduction = scene.build()
         model: Model = scene
         q_default, v_default = scene.scene.initial_state(robot, reduction)
     else:
-        model = resolve(spec, spec.model)
-        robot = load_model(model)
+        name = resolve(spec, spec.model)
+        model = ModelFile(name, spec.passive) if spec.passive else name
+        robot = _passive_named(spec, model)
     if not robot.nq_equals_nv:
         raise InputError(f"{spec.source}: model {robot.name} has nq={robot.nq} != nv={robot.nv}; sweeps need nq == nv")
     if scene is None:
@@ -116,7 +128,7 @@ def prepare(
     spec = SweepSpec(
         **{
             **spec.__dict__,
-            "model": model.scene.path.as_posix() if isinstance(model, SceneSource) else model,
+            "model": model.scene.path.as_posix() if isinstance(model, SceneSource) else name,
             "measures": resolved_measures,
             "controllers": controllers,
             "gains": gains,
@@ -137,8 +149,8 @@ def prepare(
     files = measures.user_files(spec.measures)
     if isinstance(model, SceneSource):
         files["scene"] = model.key.encode()
-    elif Path(model).is_file():
-        files["model"] = Path(model).read_bytes()
+    elif Path(name).is_file():
+        files["model"] = Path(name).read_bytes()
     for c in controllers:
         if c not in (NO_CONTROLLER, SCENE_CONTROLLER) and Path(c).is_file():
             files[f"controller:{c}"] = Path(c).read_bytes()
@@ -216,6 +228,19 @@ def _with_scene_defaults(spec: SweepSpec, scene: SceneSource) -> SweepSpec:
     return SweepSpec(**{**spec.__dict__, **changes})
 
 
+def _passive_named(spec: SweepSpec, model: str | ModelFile) -> Any:
+    """The sweep's robot, its ``passive`` joints (if any) checked against the model's joints."""
+    if isinstance(model, str):
+        return load_model(model)
+    try:
+        robot, _ = model.build()
+    except UnknownNameError as exc:
+        if exc.what != PASSIVE_JOINT:
+            raise
+        raise InputError(f"{spec.source}: passive: {exc}") from None
+    return robot
+
+
 def _check_params(spec: SweepSpec, robot: Any) -> str | None:
     if not spec.params:
         return None
@@ -236,7 +261,7 @@ def _models(spec: SweepSpec, model: Model, robot: Any, kind: str | None, out: Pa
     written: dict[tuple[tuple[str, float], ...], Model] = {}
     models: dict[Setting, Model] = {}
     full = model.full() if isinstance(model, SceneSource) and spec.params else robot
-    tag_of = model.key if isinstance(model, SceneSource) else str(model)
+    tag_of = model.key if isinstance(model, SceneSource) else repr(model) if isinstance(model, ModelFile) else model
     for setting in settings(spec):
         if not setting.params or kind is None:
             models[setting] = model
@@ -248,6 +273,11 @@ def _models(spec: SweepSpec, model: Model, robot: Any, kind: str | None, out: Pa
                 path.parent.mkdir(parents=True, exist_ok=True)
                 write_params(full, kind, dict(setting.params), path)
             resolved = path.resolve()
-            written[setting.params] = model.with_urdf(resolved) if isinstance(model, SceneSource) else str(resolved)
+            if isinstance(model, SceneSource):
+                written[setting.params] = model.with_urdf(resolved)
+            elif isinstance(model, ModelFile):
+                written[setting.params] = ModelFile(str(resolved), model.passive)
+            else:
+                written[setting.params] = str(resolved)
         models[setting] = written[setting.params]
     return models

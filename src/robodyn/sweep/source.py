@@ -119,6 +119,12 @@ class SceneSource:
         scene = dataclasses.replace(self.scene, model=model)
         return SceneSource(_digest(self.key, Path(urdf).read_bytes()), scene)
 
+    def with_passive(self, names: tuple[str, ...]) -> SceneSource:
+        """This scene with ``names`` added to its [model] passive joints (keyed apart from the scene without)."""
+        if not names:
+            return self
+        return SceneSource(_digest(self.key, "passive=" + ",".join(sorted(names))), self.scene.with_passive(names))
+
     def full(self) -> Robot:
         """The scene's model before any joint is locked (parameters are written to its URDF)."""
         model = {k: v for k, v in self.scene.model.items() if k not in ("keep", "lock", "reference")}
@@ -126,7 +132,21 @@ class SceneSource:
         return robot
 
 
-Model = str | SceneSource
+@dataclass(frozen=True)
+class ModelFile:
+    """A model name or URDF path with joints declared passive (the sweep's ``passive``); plain str without any."""
+
+    name: str
+    passive: tuple[str, ...]
+
+    def build(self) -> tuple[Robot, None]:
+        """(robot, None): the model loaded with its passive joints."""
+        from robodyn.model.load import load
+
+        return load(self.name, passive=self.passive), None
+
+
+Model = str | SceneSource | ModelFile
 
 
 def scene_source(scene: SceneLike) -> SceneSource:

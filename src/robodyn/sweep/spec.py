@@ -9,6 +9,7 @@ value is crossed with every other (a full grid)::
     dt = 1e-3                     # [s]; a list makes it an axis
     integrator = "rk4"            # or a list: an axis
     controller = "lqr"            # optional; "none", a name, a list, or a controller file
+    passive = ["joint2"]          # optional: joints without an actuator, besides the SRDF's
     measure = ["final_state", "time_to_balance", "wall_time", "my_measures.py:peak"]
     chunk = 1000                  # runs per Dask task
     seed = 0                      # the Lyapunov twins' seed (the run's index is added)
@@ -61,6 +62,7 @@ TOP_KEYS = (
     "measure",
     "model",
     "params",
+    "passive",
     "q0",
     "scene",
     "seed",
@@ -87,7 +89,8 @@ class SweepSpec:
     built-in kind's parameter name to its values (SI units); ``base`` is the folder that relative paths
     in the file are read from; ``digest`` identifies everything that decides a run's numbers.
     ``scene`` is the scene file's path ("" without one; ``model`` is then "" until the scene is
-    read); ``given`` the top-level keys the file gave (the rest may come from the scene).
+    read); ``given`` the top-level keys the file gave (the rest may come from the scene); ``passive``
+    the joints declared unactuated besides the SRDF's (added to a scene's [model] passive).
     """
 
     source: str
@@ -107,6 +110,7 @@ class SweepSpec:
     digest: str = ""
     scene: str = ""
     given: frozenset[str] = frozenset()
+    passive: tuple[str, ...] = ()
 
 
 def load(source: str | Path | Mapping[str, Any]) -> SweepSpec:
@@ -164,6 +168,9 @@ def parse(data: Mapping[str, Any], *, name: str, base: Path) -> SweepSpec:
     q0 = {k: _axis(v, f"{name}: q0.{k}") for k, v in _table(data.get("q0", {}), f"{name}: q0").items()}
     v0 = {k: _axis(v, f"{name}: v0.{k}") for k, v in _table(data.get("v0", {}), f"{name}: v0").items()}
     params = {k: _axis(v, f"{name}: params.{k}") for k, v in _table(data.get("params", {}), f"{name}: params").items()}
+    passive = data.get("passive", [])
+    if not isinstance(passive, list) or not all(isinstance(x, str) and x.strip() for x in passive):
+        raise InputError(f'{name}: passive must be a list of joint names like ["joint2"], got {passive!r}')
     for label, values in (("dt", dts), ("integrator", integrators), ("controller", controllers), ("measure", measures)):
         if len(set(values)) != len(values):
             raise InputError(f"{name}: {label} lists a value twice: {list(values)}")
@@ -184,6 +191,7 @@ def parse(data: Mapping[str, Any], *, name: str, base: Path) -> SweepSpec:
         base=base,
         scene=scene,
         given=frozenset(str(k) for k in data),
+        passive=tuple(dict.fromkeys(x.strip() for x in passive)),
     )
     return spec
 
@@ -195,7 +203,7 @@ def with_digest(spec: SweepSpec, files: Mapping[str, bytes]) -> SweepSpec:
     edited model or measure file makes every chunk new.
     """
     h = hashlib.sha256()
-    parts = (
+    parts: tuple[str, ...] = (
         spec.model,
         spec.scene,
         repr(spec.duration),
@@ -203,6 +211,8 @@ def with_digest(spec: SweepSpec, files: Mapping[str, bytes]) -> SweepSpec:
         repr(sorted((k, sorted(v.items())) for k, v in spec.gains.items())),
         repr(spec.seed),
     )
+    if spec.passive:  # only when given: the digests (and resumable folders) of other sweeps stay as they were
+        parts = (*parts, "passive=" + ",".join(sorted(spec.passive)))
     for part in parts:
         h.update(part.encode() + b"\0")
     for label in sorted(files):

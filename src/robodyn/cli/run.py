@@ -21,7 +21,7 @@ from robodyn.cli._output import (
     refuse_clobbering,
     writable_path,
 )
-from robodyn.cli.simulate import constraint_lines
+from robodyn.cli.simulate import constraint_lines, note_clamped_q0
 from robodyn.errors import EXIT_MISMATCH, EXIT_OK
 from robodyn.fileio import write_text_atomically
 
@@ -282,6 +282,7 @@ def _simulate(
         }
         trajectory = dataclasses.replace(trajectory, meta=meta)
     trajectory.save(writable_path(path))
+    note_clamped_q0(trajectory, command="run")
     print(
         f"simulate: {trajectory.n_steps} steps of {scene.simulate['dt']} s with {integrator} in "
         f"{trajectory.wall_time_s:.3f} s wall; energy ledger residual {abs(trajectory.ledger_residual).max():.2e} J; "

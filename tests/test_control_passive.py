@@ -26,8 +26,8 @@ UPRIGHT = np.array([np.pi / 2, 0.0])
 HANGING = [-1.5708, 0.0]  # the q0: 3.7e-6 rad off hanging, so the swing-up has a side to start
 
 # "Balanced" at the end of the 20 s swing-up: both angles within 1e-3 rad of upright and both speeds
-# within 1e-3 rad/s. The LQR, once it holds, takes the error to ~1e-11 (measured: 2.7e-6 rad at 16.5 s
-# after the hand-over, 1e-11 at 20 s): 1e-3 fails any run that is still swinging or has fallen.
+# within 1e-3 rad/s. Measured: the LQR takes over at t = 16.4 s and leaves 2.3e-6 rad and 7.9e-6 rad/s
+# at 20 s; 1e-3 fails any run that is still swinging or has fallen.
 BALANCED_RAD = 1e-3
 # The gains scale exactly with the model (a product of the same numbers): round-off only.
 SCALING_RTOL = 1e-9

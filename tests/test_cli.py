@@ -11,7 +11,16 @@ from robodyn.cli import _attach_negative_values, get_argument_parser, main
 def test_every_subcommand_is_registered():
     parser = get_argument_parser()
     sub = next(a for a in parser._actions if a.dest == "command")
-    assert set(sub.choices) == {"info", "params", "check", "simulate", "view", "bench", "run", "sweep"}
+    assert set(sub.choices) == {"info", "params", "check", "simulate", "view", "portrait", "bench", "run", "sweep"}
+
+
+def test_help_is_plain_text(capsys):
+    """``robodyn --help`` and each subcommand's help show no reST markup (``x``, :func:, :class:)."""
+    for argv in (["--help"], *([name, "--help"] for name in ("info", "params", "check", "simulate", "bench"))):
+        with pytest.raises(SystemExit):
+            main(argv)
+        out = capsys.readouterr().out
+        assert out and not any(mark in out for mark in ("``", ":func:", ":class:", ":mod:")), out
 
 
 def test_negative_vector_values_attach_to_their_option():

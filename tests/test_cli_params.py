@@ -271,3 +271,17 @@ def test_a_real_run_prints_only_the_json(tmp_path):
     assert (result.returncode, result.stderr) == (0, "")
     assert json.loads(result.stdout)["params"]["m1"] == pytest.approx(1.2, rel=ROUND_TRIP_RTOL)
     assert 'filename="../meshes/missing.stl"' in out.read_text()
+
+
+def test_params_print_the_files_decimals_not_the_round_off_of_reading_them(capsys):
+    """The Pendubot's URDF says lc1 = 0.10 and lc2 = 0.126; Pinocchio's rotated placements give them 2 ulp off."""
+    from robodyn.cli.params import decimal
+
+    assert main(["params", "pendubot"]) == 0
+    printed = json.loads(capsys.readouterr().out)["params"]
+    assert printed["lc1"] == 0.1 and printed["lc2"] == 0.126, printed
+    exact = robodyn.extract_params(robodyn.load("pendubot"), "pendubot").as_dict()  # the values are left as read
+    assert exact["lc1"] != 0.1 and abs(exact["lc1"] - 0.1) <= 4 * math.ulp(0.1)
+    # A value with more digits than round-off explains stays as it is; non-finite values too.
+    assert decimal(1 / 3) == 1 / 3 and decimal(0.0026502) == 0.0026502 and decimal(0.0) == 0.0
+    assert math.isnan(decimal(math.nan)) and decimal(-math.inf) == -math.inf

@@ -171,6 +171,16 @@ def test_the_passive_set_changes_a_sweeps_digest(tmp_path):
     assert plain != passive  # results computed with another actuation are never resumed as these
 
 
+def test_an_edited_model_file_changes_a_passive_sweeps_digest(tmp_path):
+    """The model's bytes are in the digest whatever wraps its name (here its passive set)."""
+    urdf = tmp_path / "other.urdf"
+    urdf.write_text(OTHER.read_text())
+    before = sweep.prepare(sweep_of(model=str(urdf), passive=["joint2"]), tmp_path / "a").spec.digest
+    urdf.write_text(OTHER.read_text().replace('<mass value="0.4"/>', '<mass value="0.41"/>'))
+    after = sweep.prepare(sweep_of(model=str(urdf), passive=["joint2"]), tmp_path / "b").spec.digest
+    assert before != after
+
+
 def test_a_sweep_with_an_unknown_passive_joint_is_refused(tmp_path):
     with pytest.raises(InputError, match=r"passive: unknown passive joint 'elbow'.*joint1, joint2"):
         sweep.prepare(sweep_of(passive=["elbow"]), tmp_path / "out")

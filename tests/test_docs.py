@@ -62,6 +62,7 @@ NOT_RUN = {
 }
 COPIED = ("examples", "models", "benchmarks", "tests/fixtures")
 TIMEOUT = 600  # [s] per command
+PAGE_TIMEOUT = 1800  # [s] per page (pytest-timeout): a page runs several commands, a bench or a first numba compile
 CACHES = ("__pycache__/", ".pytest_cache/", ".mypy_cache/", ".ruff_cache/", ".hypothesis/", ".venv/")
 MARKER = re.compile(r"^<!-- doc-test: (?P<body>.*) -->$")
 FENCE = re.compile(r"^```(?P<lang>\S*)\s*$")
@@ -308,6 +309,7 @@ def all_blocks() -> list[Block]:
     return [block for page in PAGES for block in parse(page)]
 
 
+@pytest.mark.timeout(PAGE_TIMEOUT)
 @pytest.mark.parametrize("page", PAGES, ids=[p.relative_to(ROOT).as_posix() for p in PAGES])
 def test_page_runs_as_written(page: Path, tmp_path: Path) -> None:
     """Every runnable block of the page, in order, in a folder of its own; the checkout stays as it was."""

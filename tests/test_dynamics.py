@@ -72,6 +72,74 @@ def test_bad_vectors_are_refused_with_the_argument_named():
         r.forward_dynamics([0, 0], [0, 0], [0, 0], backend="featherstone")
 
 
+@pytest.mark.parametrize("size", [1, 9, 40])
+def test_the_fast_path_still_refuses_what_is_not_a_finite_vector(size):
+    """float64 arrays of the right shape skip np.asarray, not the finiteness test; the rest takes the full path."""
+    from robodyn.robot import as_vector
+
+    good = np.linspace(-1.0, 1.0, size)
+    assert as_vector(good, size, "q") is good  # no copy on the fast path
+    for bad in (np.nan, np.inf, -np.inf):
+        for where in (0, size - 1):
+            x = good.copy()
+            x[where] = bad
+            with pytest.raises(robodyn.InputError, match="q must be finite"):
+                as_vector(x, size, "q")
+    x = np.full(size, np.inf)
+    x[0] = -np.inf  # inf - inf is NaN: still refused
+    with pytest.raises(robodyn.InputError, match="q must be finite"):
+        as_vector(x, size, "q")
+    huge = np.full(size, 1.5e308)  # finite, but (from 2 entries) its sum overflows: the full test accepts it
+    np.testing.assert_array_equal(as_vector(huge, size, "q"), huge)
+    np.testing.assert_array_equal(as_vector(good.astype(np.float32), size, "q"), good.astype(np.float32))
+    np.testing.assert_array_equal(as_vector(good.tolist(), size, "q"), good)
+    for wrong in (good[None, :], np.append(good, 0.0), np.array(["a"] * size)):
+        with pytest.raises(robodyn.InputError):
+            as_vector(wrong, size, "q")
+
+
+def test_every_per_state_call_refuses_a_nan_array():
+    """M, C, G and the others validate float64 arrays too (the fast path), naming the argument."""
+    r = robodyn.load("panda")
+    q, v = r.random_state(np.random.default_rng(3))
+    bad = v.copy()
+    bad[4] = np.nan
+    bad_q = np.full(r.nq, np.nan)
+    for call, name in [
+        (lambda: r.M(bad_q), "q"),
+        (lambda: r.C(q, bad), "v"),
+        (lambda: r.G(bad_q), "q"),
+        (lambda: r.nle(q, bad), "v"),
+        (lambda: r.inverse_dynamics(q, v, bad), "a"),
+        (lambda: r.forward_dynamics(q, v, bad), "tau"),
+        (lambda: r.kinetic_energy(q, bad), "v"),
+        (lambda: r.potential_energy(bad_q), "q"),
+        (lambda: r.integrate(q, bad), "dq"),
+    ]:
+        with pytest.raises(robodyn.InputError, match=f"^{name} must be finite"):
+            call()
+
+
+def test_M_is_symmetric_even_from_a_crba_that_fills_one_triangle(monkeypatch):
+    """Should a Pinocchio release return only CRBA's upper triangle, the probe sees it and M is mirrored from it."""
+    from robodyn import dynamics
+
+    r = robodyn.load("panda")
+    q, v = r.random_state(np.random.default_rng(4))
+    full = r.M(q)
+    real = pin.crba
+    monkeypatch.setattr(pin, "crba", lambda model, data, q: np.triu(real(model, data, q)))
+    dynamics.crba_fills_both_triangles.cache_clear()
+    try:
+        assert not dynamics.crba_fills_both_triangles()
+        np.testing.assert_array_equal(r.M(q), full)
+        assert r.kinetic_energy(q, v) == pytest.approx(0.5 * v @ full @ v, rel=1e-14)
+    finally:
+        monkeypatch.undo()
+        dynamics.crba_fills_both_triangles.cache_clear()
+    assert dynamics.crba_fills_both_triangles()  # the installed release fills both
+
+
 def test_passive_joints_come_from_the_srdf():
     assert robodyn.load("pendubot").passive_joints == ("joint2",)
     assert robodyn.load("cart_pole").passive_joints == ("hinge",)
@@ -181,3 +249,16 @@ def test_C_matches_the_hand_derived_formula_entrywise(kind):
             rtol=FORMULA_RTOL,
             atol=FORMULA_RTOL * _scale(robot, q, v),
         )
+
+
+def test_total_mass_is_the_moving_mass_as_its_docstring_says():
+    """The UR5's 4 kg base is welded to the world: left out, as Pinocchio's centre of mass leaves it out."""
+    fixed = robodyn.load("ur5")
+    assert fixed.model.inertias[0].mass == pytest.approx(4.0)  # the welded base, on the world's body
+    moving = sum(fixed.model.inertias[j].mass for j in range(1, fixed.model.njoints))
+    assert fixed.total_mass == pytest.approx(moving, rel=1e-15)
+    data = fixed.model.createData()
+    pin.centerOfMass(fixed.model, data, fixed.neutral())
+    assert fixed.total_mass == pytest.approx(data.mass[0], rel=1e-15)  # what the potential energy's route uses
+    flying = robodyn.load("ur5", free_flyer=True)
+    assert flying.total_mass == pytest.approx(moving + 4.0, rel=1e-15)  # on a free flyer, every link moves

@@ -117,6 +117,13 @@ def test_hostile_formula_file_as_a_real_process(tmp_path, name):
     assert f"{path}: " in line and HOSTILE[name][1] in line, line
 
 
+# The test's own deadline (pytest-timeout): above the longest the parent may wait when it works
+# (the child's start, STARTUP_TIMEOUT, then the 1 s limit and the GRACE), so that a parent that
+# waits for ever for the reply fails here instead of hanging the suite.
+STUBBORN_DEADLINE = sandbox.STARTUP_TIMEOUT + 1 + sandbox.GRACE + 30  # [s]
+
+
+@pytest.mark.timeout(STUBBORN_DEADLINE)
 def test_a_formula_that_ignores_the_alarm_is_killed_after_the_grace(tmp_path, capsys):
     """robodyn's own limit holds when the file swallows the child's alarm (a bare except)."""
     path = tmp_path / "stubborn.py"

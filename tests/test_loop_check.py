@@ -128,7 +128,7 @@ def test_the_issues_printed_m_is_half_and_the_check_names_it(capsys):
     code = main(["check", str(SCENE), "--formula", str(AS_PRINTED), "--samples", str(SAMPLES)])
     out = capsys.readouterr().out
     assert code == 1
-    assert "MISMATCH M[0,0] (M (reduced: S^T M S)): formula" in out and "FAIL: 3 mismatch(es)" in out
+    assert "MISMATCH M[0,0] (M (reduced: S^T M S)): formula" in out and "FAIL: 3 mismatches" in out
 
 
 @pytest.mark.parametrize(

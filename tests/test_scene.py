@@ -264,3 +264,20 @@ def test_panda_arm_scene_runs_in_a_subprocess(tmp_path):
     assert "9 -> 3 DoF" in result.stdout and "exactness: passed" in result.stdout
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["exactness"]["q_error"] < 1e-10
+
+
+def test_run_gives_the_exactness_figures_their_units(tmp_path, capsys):
+    """Every number of the exactness line has its unit: the lock drift's is the locked joints' (rad, m, or both)."""
+    import re
+
+    path = write(tmp_path, GOOD + "[check]\nsamples = 3\nexactness = true\n")
+    assert main(["run", str(path), "--out", str(tmp_path / "out")]) == 0
+    line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("exactness:"))
+    assert re.search(
+        r"max \|dq\| = \S+ rad, max \|dv\| = \S+ rad/s, lock drift \S+ rad \(tolerance 1e-09 in each", line
+    ), line
+    slider = "[model]\nname = 'cart_pole'\nlock = { slider = 0.2 }\n[simulate]\nduration = 0.1\ndt = 1e-3\n"
+    path = write(tmp_path, slider + "[check]\nsamples = 3\nexactness = true\n")
+    assert main(["run", str(path), "--out", str(tmp_path / "out2")]) == 0
+    line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("exactness:"))
+    assert re.search(r"max \|dq\| = \S+ rad, max \|dv\| = \S+ rad/s, lock drift \S+ m \(tolerance", line), line

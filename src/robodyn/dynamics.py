@@ -11,6 +11,7 @@ M [kg m^2 | kg], energies [J].
 
 from __future__ import annotations
 
+import functools
 import weakref
 
 import numpy as np
@@ -23,13 +24,31 @@ Array = NDArray[np.float64]
 def mass_matrix(model: pin.Model, data: pin.Data, q: Array) -> Array:
     """Joint-space inertia matrix M(q) by CRBA (armature included), shape (nv, nv).
 
-    pin's Python ``crba`` returns both triangles filled (pin 4.1); should a release return
-    only the upper one, the matrix is symmetrised from it. The test costs ~1 us.
+    pin's Python ``crba`` fills both triangles (pin 3 and 4: the binding mirrors the upper one);
+    :func:`crba_fills_both_triangles` asks the installed release once per process, and should it
+    return only the upper triangle, the matrix is symmetrised from it. Symmetric by construction,
+    so no per-call symmetry test (an ``array_equal(M, M.T)`` cost as much as CRBA on the Panda).
     """
-    M = np.array(pin.crba(model, data, q))
-    if not np.array_equal(M, M.T):
+    M = pin.crba(model, data, q).copy()
+    if not crba_fills_both_triangles():
         M = np.triu(M) + np.triu(M, 1).T
     return M
+
+
+@functools.cache
+def crba_fills_both_triangles() -> bool:
+    """Whether this Pinocchio's Python ``crba`` returns M with both triangles filled, probed once.
+
+    On Pinocchio's sample manipulator (6 revolute joints) at a configuration away from the
+    neutral one, where most off-diagonal entries of M are non-zero: an upper-only release leaves
+    the strict lower triangle all zero.
+    """
+    model = pin.buildSampleModelManipulator()
+    data = model.createData()
+    q = pin.integrate(model, pin.neutral(model), np.linspace(0.3, 1.1, model.nv))
+    M = np.array(pin.crba(model, data, q))
+    lower = M[np.tril_indices(model.nv, -1)]
+    return bool(np.any(lower != 0.0) and np.array_equal(M, M.T))
 
 
 def coriolis_matrix(model: pin.Model, data: pin.Data, q: Array, v: Array) -> Array:
@@ -112,8 +131,10 @@ def aba_derivatives(model: pin.Model, data: pin.Data, q: Array, v: Array, tau: A
 
 def kinetic_energy(model: pin.Model, data: pin.Data, q: Array, v: Array) -> float:
     """Kinetic energy 1/2 v^T M v [J], the one to trust: it includes rotor armature."""
-    M = mass_matrix(model, data, q)
-    return 0.5 * float(v @ M @ v)
+    M = pin.crba(model, data, q)  # read at once, so the live view needs no copy
+    if not crba_fills_both_triangles():
+        M = np.triu(M) + np.triu(M, 1).T
+    return 0.5 * float(v.dot(M.dot(v)))
 
 
 def pinocchio_kinetic_energy(model: pin.Model, data: pin.Data, q: Array, v: Array) -> float:
@@ -139,8 +160,8 @@ def potential_energy(model: pin.Model, data: pin.Data, q: Array) -> float:
 
 
 def integrate(model: pin.Model, q: Array, dq: Array) -> Array:
-    """Configuration q (+) dq on the configuration manifold, shape (nq,)."""
-    return np.array(pin.integrate(model, q, dq))
+    """Configuration q (+) dq on the configuration manifold, shape (nq,) (a fresh array: no copy needed)."""
+    return pin.integrate(model, q, dq)
 
 
 def difference(model: pin.Model, q0: Array, q1: Array) -> Array:
@@ -309,6 +330,22 @@ def potential_energy_com(model: pin.Model, data: pin.Data, q: Array) -> float:
     """
     com = np.array(pin.centerOfMass(model, data, q))
     return -float(data.mass[0]) * float(gravity_vector(model) @ com)
+
+
+def gravity_scale(model: pin.Model, data: pin.Data, q: Array) -> float:
+    """The energy scale |g| sum_i m_i |c_i(q)| [J]: each body's weight times its centre's distance from the origin.
+
+    It bounds the terms that the potential energy and the gravity torques are summed from, so
+    their round-off is a few eps times it, even where V or G is zero (``robodyn check``'s floor).
+    """
+    pin.forwardKinematics(model, data, q)
+    g = float(np.linalg.norm(gravity_vector(model)))
+    total = 0.0
+    for j in range(1, model.njoints):
+        inertia = model.inertias[j]
+        c = np.array(data.oMi[j].act(np.array(inertia.lever)))
+        total += abs(float(inertia.mass)) * float(np.linalg.norm(c))
+    return g * total
 
 
 def potential_energy_bodies(model: pin.Model, data: pin.Data, q: Array) -> float:

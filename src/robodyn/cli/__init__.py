@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import importlib
 import os
 import re
 import reprlib
@@ -26,19 +25,10 @@ from collections.abc import Iterator, Sequence
 from typing import TextIO
 
 from robodyn import __version__
-from robodyn.errors import EXIT_BAD_INPUT, RobodynError
+from robodyn.errors import EXIT_BAD_INPUT, ModelWarning, RobodynError
 
-# Subcommand -> module in robodyn.cli, in the order shown by --help.
-SUBCOMMANDS = {
-    "info": "info",
-    "params": "params",
-    "check": "check",
-    "simulate": "simulate",
-    "view": "view",
-    "bench": "bench",
-    "run": "run",
-    "sweep": "sweep",
-}
+DESCRIPTION = "robodyn: rigid-body robot dynamics checked against Pinocchio, simulated and replayed."
+"""What ``robodyn --help`` says first: plain text (the module docstring's reST markup would show as written)."""
 
 
 class _Parser(argparse.ArgumentParser):
@@ -50,17 +40,15 @@ class _Parser(argparse.ArgumentParser):
 
 def get_argument_parser() -> argparse.ArgumentParser:
     """Build the parser with every available subcommand."""
-    parser = _Parser(prog="robodyn", description=__doc__.splitlines()[0] if __doc__ else None)
+    parser = _Parser(prog="robodyn", description=DESCRIPTION)
     parser.add_argument("--version", action="version", version=f"robodyn {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
-    for module_name in SUBCOMMANDS.values():
-        try:
-            module = importlib.import_module(f"robodyn.cli.{module_name}")
-        except ModuleNotFoundError as exc:
-            if exc.name == f"robodyn.cli.{module_name}":
-                continue  # subcommand not built in this version
-            raise
+    # Each subcommand module is light to import (its heavy imports happen inside its ``run``);
+    # plain imports, in the order --help shows them, so that import-linter sees every edge.
+    from robodyn.cli import bench, check, info, params, portrait, run, simulate, sweep, view
+
+    for module in (info, params, check, simulate, view, portrait, bench, run, sweep):
         module.add_parser(sub)
     return parser
 
@@ -83,7 +71,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the process exit code."""
     parser = get_argument_parser()
     args = parser.parse_args(_attach_negative_values(sys.argv[1:] if argv is None else argv))
-    with _numeric_warnings() as counts:
+    with _numeric_warnings(args.command) as counts:
         code = _run(args)
     if counts and code in (0, 1):  # a refusal or a failure says what went wrong in its own one line
         print(f"robodyn {args.command}: note: {_describe_warnings(counts)}", file=sys.stderr)
@@ -128,15 +116,19 @@ def _run(args: argparse.Namespace) -> int:
 
 
 @contextlib.contextmanager
-def _numeric_warnings() -> Iterator[Counter[str]]:
+def _numeric_warnings(command: str) -> Iterator[Counter[str]]:
     """Count numpy's floating-point RuntimeWarnings (overflow, invalid value...) instead of printing them.
 
     They would break the one-line promise (a warning and its source line in the middle of a
-    progress bar); :func:`main` folds their count into one note. Other warnings pass through.
+    progress bar); :func:`main` folds their count into one note. robodyn's own
+    :class:`~robodyn.errors.ModelWarning` is one line ``robodyn COMMAND: warning: ...`` (each
+    message once). Other warnings pass through.
     """
     counts: Counter[str] = Counter()
+    shown_once: set[str] = set()
     with warnings.catch_warnings():
         warnings.simplefilter("always", RuntimeWarning)
+        warnings.simplefilter("always", ModelWarning)  # deduplicated below, by message
         show = warnings.showwarning
 
         def count(
@@ -149,6 +141,10 @@ def _numeric_warnings() -> Iterator[Counter[str]]:
         ) -> None:
             if issubclass(category, RuntimeWarning):
                 counts[str(message)] += 1
+            elif issubclass(category, ModelWarning):
+                if str(message) not in shown_once:  # the file is read more than once by some commands
+                    shown_once.add(str(message))
+                    print(f"robodyn {command}: warning: {message}", file=sys.stderr)
             else:
                 show(message, category, filename, lineno, file, line)
 

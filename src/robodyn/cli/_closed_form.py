@@ -24,6 +24,7 @@ from robodyn.errors import EXIT_MISMATCH, EXIT_OK, InputError, SceneError
 from robodyn.kinds.deviation import worst_deviation
 from robodyn.scene import DEFAULT_CLOSED_FORM_RTOL, Scene
 from robodyn.userfile import at_line, import_user_file
+from robodyn.wording import count
 
 FUNCTIONS = ("parameters", "closed_form", "simulated")
 
@@ -57,7 +58,8 @@ def compare(scene: Scene, robot: Any, trajectory: Any, summary: dict[str, Any]) 
     listed = ", ".join(f"{name} {x:.3e}" for name, x in deviation.items())
     print(
         f"closed form: {'passed' if passed else 'FAILED'}: worst deviation from {path.name} over {duration:g} s "
-        f"({len(trajectory.t):,} samples): {listed} (tolerance {rtol:g}, relative to the largest value)"
+        f"({count(len(trajectory.t), 'sample', thousands=True)}): {listed} "
+        f"(tolerance {rtol:g}, relative to the largest value)"
     )
     summary["closed_form"] = {
         "file": str(path),

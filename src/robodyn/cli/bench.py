@@ -31,10 +31,18 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from robodyn.cli._common import _json_default, file_path, number_in
+from robodyn.cli._common import (
+    _json_default,
+    add_physics_argument,
+    file_path,
+    number_in,
+    physics_checked,
+    warn_unchecked,
+)
 from robodyn.cli.view import port_number
 from robodyn.errors import InputError
 from robodyn.fileio import write_text_atomically
+from robodyn.wording import count
 
 BUILTINS = ("pendubot", "cart_pole", "geared_arm")
 
@@ -67,6 +75,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--quick", action="store_true", help="a CI-sized subset (under a minute)")
     p.add_argument("--no-stability", action="store_true", help="skip the stability study (stability.json)")
     p.add_argument("--no-progress", action="store_true", help="do not draw the progress bar on stderr")
+    add_physics_argument(p)
     view = p.add_argument_group("replay of two runs (one model)")
     view.add_argument(
         "--view",
@@ -166,7 +175,9 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(
             f"--view replays the runs of one model; {len(names)} given ({', '.join(names)}): name one MODEL"
         )
-    robots = [load(name) for name in names]  # bad names fail here, before any work
+    robots = [load(name, check_physics=physics_checked(args)) for name in names]  # bad names fail here, before any work
+    for robot in robots if not physics_checked(args) else ():
+        warn_unchecked(robot, command="bench")
     written = [("the output", out / name) for name in (*FIXED_OUTPUTS, REPORT)]
     written += [("the output", out / f"{stem}_{r.name}.{ext}") for r in robots for stem, ext in _CHART_FILES]
     written.append(("--html", args.html))
@@ -189,7 +200,7 @@ def run(args: argparse.Namespace) -> int:
     with _interrupt_held() as held:
         _publish(stage, out)
     runs = sum(len(s.results) for s in sweeps)
-    print(f"wrote {out / 'bench.json'} ({runs} runs), charts and {out / REPORT}")
+    print(f"wrote {out / 'bench.json'} ({count(runs, 'run')}), charts and {out / REPORT}")
     if held:
         raise KeyboardInterrupt(f"interrupted while the results were being moved; {out} holds them all")
     if args.view:
@@ -261,8 +272,8 @@ def _replay(args: argparse.Namespace, robot: Any, sweep: Any) -> int:
         names=[pair.name(r.result) for r in replayed],
     )
     print(
-        f"{playback.robot_name}: {playback.n_frames} frames, {playback.duration:.2f} s of playback, "
-        f"{len(playback.runs)} run{'s' if len(playback.runs) > 1 else ''}, camera {playback.camera_mode}",
+        f"{playback.robot_name}: {count(playback.n_frames, 'frame')}, {playback.duration:.2f} s of playback, "
+        f"{count(len(playback.runs), 'run')}, camera {playback.camera_mode}",
         flush=True,
     )
     if args.html is not None:

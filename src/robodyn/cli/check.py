@@ -16,10 +16,13 @@ from robodyn.cli._common import (
     positive_int,
     print_json,
     seed_number,
+    unchecked_scene,
     warn_ignored_mimic,
+    warn_unchecked,
 )
 from robodyn.errors import EXIT_MISMATCH, EXIT_OK, InputError
 from robodyn.kinds.sandbox import DEFAULT_TIMEOUT, MAX_TIMEOUT
+from robodyn.wording import count
 
 
 def add_parser(sub: Any) -> None:
@@ -140,8 +143,10 @@ def _target(args: argparse.Namespace, name: str) -> tuple[Any, Any]:
         raise InputError(
             f"{name}: --srdf, --free-flyer and --mimic are a model's options; a scene sets them in [model]"
         )
-    scene = read_scene(Path(name)).with_passive(args.passive)
+    scene = unchecked_scene(read_scene(Path(name)), args).with_passive(args.passive)
     robot, _ = scene.build()
+    if scene.model.get("physics_check") is False:
+        warn_unchecked(robot, command="check")
     return robot, scene
 
 
@@ -244,6 +249,12 @@ def format_report(report: Any, robot: Any) -> str:
         if not r.applicable:
             lines.append(f"n/a: {r.quantity}: {r.note}")
     lines.extend(f"note: {note}" for note in report.notes)
+    for r in report.rows:
+        if r.applicable and r.within_floor_only:
+            lines.append(
+                f"note: {r.quantity}: the error {r.max_abs_error:.3g} {r.unit} is round-off, within the floor "
+                f"{r.floor:.3g} {r.unit} that the magnitudes of the terms it is computed from allow"
+            )
     for r in report.failures + report.gaps:
         label = "MISMATCH" if r.counts else "PINOCCHIO GAP"
         ref = "Pinocchio" if r.group == "formula" else "expected"
@@ -256,7 +267,9 @@ def format_report(report: Any, robot: Any) -> str:
         if r.note:
             lines.append(f"    {r.note}")
     verdict = (
-        "PASS: everything agrees within tolerance" if report.passed else f"FAIL: {len(report.failures)} mismatch(es)"
+        "PASS: everything agrees within tolerance"
+        if report.passed
+        else f"FAIL: {count(len(report.failures), 'mismatch', 'mismatches')}"
     )
     lines.append("")
     lines.append(f"{verdict}  ({report.wall_time_s:.2f} s)")

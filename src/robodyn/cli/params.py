@@ -33,6 +33,27 @@ def assignments(text: str) -> list[tuple[str, float]]:
     return pairs
 
 
+# A printed parameter is the shortest decimal within this many units in the last place of the
+# value read: the reading goes through Pinocchio's placements (a rotation by pi/2 turns the
+# file's 0.10 into 0.09999999999999998, 2 ulp off), a round-off of a few ulp.
+DECIMAL_ULPS = 4
+
+
+def decimal(value: float) -> float:
+    """``value`` as the shortest decimal (at most 15 significant digits) within ``DECIMAL_ULPS`` ulp of it.
+
+    ``0.09999999999999998`` prints as ``0.1``, the file's 0.10; a value with more digits than
+    round-off explains (1/3, a measured inertia) is left as it is.
+    """
+    if not math.isfinite(value):
+        return value
+    for digits in range(1, 16):
+        candidate = float(f"{value:.{digits}g}")
+        if abs(candidate - value) <= DECIMAL_ULPS * math.ulp(value):
+            return candidate
+    return value
+
+
 def add_parser(sub: Any) -> None:
     """Register the subcommand."""
     p = sub.add_parser(
@@ -97,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
         params = written.params
     from robodyn.cli.check import PARAM_UNITS
 
-    report["params"] = params.as_dict()
+    report["params"] = {name: decimal(value) for name, value in params.as_dict().items()}
     report["units"] = {name: PARAM_UNITS.get(name, "") or "1" for name in params}
     print_json(report)
     return 0

@@ -13,7 +13,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from robodyn.cli._common import add_passive_argument, file_path
+from robodyn.cli._common import add_passive_argument, add_physics_argument, file_path, unchecked_scene, warn_unchecked
 from robodyn.cli._output import (
     check_output_file,
     check_output_folder,
@@ -24,6 +24,7 @@ from robodyn.cli._output import (
 from robodyn.cli.simulate import constraint_lines, note_clamped_q0
 from robodyn.errors import EXIT_MISMATCH, EXIT_OK
 from robodyn.fileio import write_text_atomically
+from robodyn.wording import count
 
 
 def add_parser(sub: Any) -> None:
@@ -40,6 +41,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("scene", type=file_path, metavar="SCENE.toml", help="the scene file")
     p.add_argument("--out", type=file_path, default=None, help="output folder (overrides the scene's [output] dir)")
     p.add_argument("--no-view", action="store_true", help="skip the [view] part")
+    add_physics_argument(p)
     add_passive_argument(p, what="the scene's model (added to its [model] passive)")
     p.set_defaults(handler=run)
 
@@ -49,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
     from robodyn.errors import DivergenceError, SimulationInterrupted
     from robodyn.scene import read_scene
 
-    scene = read_scene(args.scene).with_passive(args.passive)
+    scene = unchecked_scene(read_scene(args.scene), args).with_passive(args.passive)
     out = args.out or scene.output or Path("scene-out") / scene.name
     check_output_folder(out)  # before the model, the check and the exactness proof: a bad folder fails at once
     view = None if args.no_view else scene.view
@@ -66,6 +68,8 @@ def run(args: argparse.Namespace) -> int:
         hint = "shorten [simulate] duration, or run with --no-view"
         check_frame_count(float(scene.simulate["duration"]), speed=1.0, fps=None, what=what, hint=hint)
     robot, reduction = scene.build()
+    if scene.model.get("physics_check") is False:
+        warn_unchecked(robot, command="run")
     refuse_clobbering(outputs, _model_files(robot.urdf_path, robot.srdf_path))
     summary: dict[str, Any] = {"scene": str(scene.path), "model": robot.name, "nq": robot.nq, "nv": robot.nv}
     if reduction is not None:
@@ -74,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
         summary["kept"] = list(robot.joint_names)
         summary["locked"] = values
         print(f"model: {robot.name}, {reduction.full.nv} -> {robot.nv} DoF; kept {', '.join(robot.joint_names)}")
-        print(f"  locked {_count(len(values), 'joint')} at " + ", ".join(f"{k}={_short(v)}" for k, v in values.items()))
+        print(f"  locked {count(len(values), 'joint')} at " + ", ".join(f"{k}={_short(v)}" for k, v in values.items()))
     else:
         print(f"model: {robot.name}, {robot.nv} DoF (nothing locked)")
     q0, v0 = scene.initial_state(robot, reduction)
@@ -152,11 +156,6 @@ def _write_summary(out: Path, summary: dict[str, Any]) -> None:
     print(f"summary: {path}")
 
 
-def _count(n: int, noun: str) -> str:
-    """``1 joint``, ``2 joints``."""
-    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
-
-
 def _short(values: list[float]) -> str:
     return f"{values[0]:.4g}" if len(values) == 1 else "[" + " ".join(f"{x:.4g}" for x in values) + "]"
 
@@ -193,7 +192,8 @@ def _check(scene: Any, robot: Any, reduction: Any, q0: Any, v0: Any, torque: Any
         raise scene.error(*where, str(exc)) from None
     failures = [row.quantity for row in report.failures]
     print(
-        f"check: {'passed' if report.passed else 'FAILED'} ({len(report.rows)} rows, {report.samples} samples"
+        f"check: {'passed' if report.passed else 'FAILED'} "
+        f"({count(len(report.rows), 'row')}, {count(report.samples, 'sample')}"
         + (f", formula {report.formula}" if report.formula else "")
         + ")"
         + (f"; failed: {', '.join(failures)}" if failures else "")
@@ -209,11 +209,13 @@ def _check(scene: Any, robot: Any, reduction: Any, q0: Any, v0: Any, torque: Any
         duration, dt, integrator = _timing(scene)
         exact = prove_exact(reduction, q0, v0, duration=duration, dt=dt, tau=torque, method=integrator)
         ok = exact.holds(EXACTNESS_TOL)
-        held = _count(len(reduction.locked), "joint")
+        held = count(len(reduction.locked), "joint")
+        q_unit, v_unit, lock_unit = _exactness_units(reduction)
         print(
             f"exactness: {'passed' if ok else 'FAILED'}: reduced vs full model with {held} "
-            f"held by constraint over {scene.simulate['duration']} s: max |dq| = {exact.q_error:.2e} rad, "
-            f"max |dv| = {exact.v_error:.2e} rad/s, lock drift {exact.lock_drift:.2e} (tolerance {EXACTNESS_TOL:g})"
+            f"held by constraint over {scene.simulate['duration']} s: max |dq| = {exact.q_error:.2e} {q_unit}, "
+            f"max |dv| = {exact.v_error:.2e} {v_unit}, lock drift {exact.lock_drift:.2e} {lock_unit} "
+            f"(tolerance {EXACTNESS_TOL:g} in each of these units)"
         )
         summary["exactness"] = {
             "passed": ok,
@@ -231,6 +233,26 @@ def _check(scene: Any, robot: Any, reduction: Any, q0: Any, v0: Any, torque: Any
 # Reduced vs constrained full trajectory: the same integrator on two algorithms (ABA vs a
 # KKT solve) differs by round-off that a few seconds of smooth motion grow to ~1e-12.
 EXACTNESS_TOL = 1e-9
+
+
+def _exactness_units(reduction: Any) -> tuple[str, str, str]:
+    """The units of the kept q, the kept v and the locked q: ``rad``, ``m`` or ``rad | m`` where they mix."""
+    import numpy as np
+
+    from robodyn.sim.system import coordinate_units
+
+    q_units, v_units = coordinate_units(reduction.full)
+    locked_q = np.setdiff1d(np.arange(reduction.full.nq), reduction.kept_q)
+
+    def one(units: list[str], mixed: str) -> str:
+        found = sorted({u for u in units if u})
+        return found[0] if len(found) == 1 else mixed
+
+    return (
+        one([q_units[i] for i in reduction.kept_q], "rad | m"),
+        one([v_units[i] for i in reduction.kept_v], "rad/s | m/s"),
+        one([q_units[i] for i in locked_q], "rad | m"),
+    )
 
 
 def _timing(scene: Any) -> tuple[float, float, str]:
@@ -284,12 +306,12 @@ def _simulate(
     trajectory.save(writable_path(path))
     note_clamped_q0(trajectory, command="run")
     print(
-        f"simulate: {trajectory.n_steps} steps of {scene.simulate['dt']} s with {integrator} in "
+        f"simulate: {count(trajectory.n_steps, 'step')} of {scene.simulate['dt']} s with {integrator} in "
         f"{trajectory.wall_time_s:.3f} s wall; energy ledger residual {abs(trajectory.ledger_residual).max():.2e} J; "
         f"written to {path}"
     )
     print(f"  power: average {trajectory.average_power:.6g} W (W_input {float(trajectory.work_input[-1]):.6g} J)")
-    for line in constraint_lines(trajectory):
+    for line in constraint_lines(trajectory, robot.model.effortLimit):
         print(f"  {line}")
     s = trajectory.summary()
     summary["simulate"] = {

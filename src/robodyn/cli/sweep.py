@@ -10,12 +10,12 @@ unwritable --out); 4 Dask or pyarrow missing; 5 no scheduler at --scheduler; 130
 
 from __future__ import annotations
 
-import dataclasses
 import sys
 from typing import Any
 
-from robodyn.cli._common import add_passive_argument, file_path, positive_int
+from robodyn.cli._common import add_passive_argument, add_physics_argument, file_path, physics_checked, positive_int
 from robodyn.cli._output import check_output_folder
+from robodyn.wording import count
 
 
 def add_parser(sub: Any) -> None:
@@ -43,31 +43,45 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--workers", type=positive_int, help="local worker processes (default: one per CPU)")
     p.add_argument("--plots", action="store_true", help="also draw maps and sensitivity charts into DIR/plots/")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_physics_argument(p)
     add_passive_argument(p, what="the sweep's model or scene (added to its passive list)")
     p.set_defaults(handler=run)
 
 
 def run(args: Any) -> int:
     """Run the sweep and print one summary line."""
+    import dataclasses
+
     import robodyn.sweep as sweep
     from robodyn.scene import read_scene
+    from robodyn.sweep.spec import load
 
     check_output_folder(args.out)
-    source: Any = args.sweep
+    spec = load(args.sweep)
+    if not physics_checked(args):
+        spec = dataclasses.replace(spec, physics_check=False)
     if args.passive:
-        spec = sweep.load(args.sweep)
-        source = dataclasses.replace(spec, passive=tuple(dict.fromkeys((*spec.passive, *args.passive))))
+        spec = dataclasses.replace(spec, passive=tuple(dict.fromkeys((*spec.passive, *args.passive))))
+    if not spec.physics_check:
+        print(_as_written(spec.model or spec.scene), file=sys.stderr)
+
+    def reader(path: Any) -> Any:
+        scene = read_scene(path)
+        if spec.physics_check and scene.model.get("physics_check") is False:  # the scene's own [model] setting
+            print(_as_written(str(scene.model.get("urdf") or scene.model.get("name"))), file=sys.stderr)
+        return scene
+
     result = sweep.run(
-        source,
+        spec,
         out=args.out,
         scheduler=args.scheduler,
         workers=args.workers,
         progress=None if args.quiet else sys.stderr,
-        read_scene=read_scene,
+        read_scene=reader,
     )
     table = result.table()
     print(
-        f"{table.num_rows} runs in {len(result.plan.chunks)} chunks ({result.computed} computed, "
+        f"{count(table.num_rows, 'run')} in {count(len(result.plan.chunks), 'chunk')} ({result.computed} computed, "
         f"{result.skipped} already written) -> {args.out / 'results'}"
     )
     if args.plots:
@@ -76,3 +90,11 @@ def run(args: Any) -> int:
         written = plots.draw(table, result.plan.axes, args.out / "plots")
         print(f"{len(written)} picture files -> {args.out / 'plots'}")
     return 0
+
+
+def _as_written(model: str) -> str:
+    """The one warning line of a sweep whose model is loaded with its file's numbers as written."""
+    return (
+        f"robodyn sweep: warning: physics check off (--no-physics-check or physics_check = false): {model} is "
+        "loaded with its file's masses and inertias as written (robodyn info lists any physically impossible ones)"
+    )

@@ -29,6 +29,7 @@ from robodyn.cli._common import add_model_arguments, file_path, float_list, load
 from robodyn.cli._output import check_output_file, refuse_clobbering, writable_path
 from robodyn.errors import InputError, UnavailableError
 from robodyn.fileio import write_text_atomically
+from robodyn.wording import count
 
 if TYPE_CHECKING:
     from robodyn.robot import Robot
@@ -278,7 +279,7 @@ def _describe(playback: Playback) -> None:
         trace = f", tracing frame {playback.trace_frame!r}" if playback.trace_frame else ""
         runs = f", {len(playback.runs)} runs" if len(playback.runs) > 1 else ""
         print(
-            f"{playback.robot_name}: {playback.n_frames} frames, {playback.duration:.2f} s of playback "
+            f"{playback.robot_name}: {count(playback.n_frames, 'frame')}, {playback.duration:.2f} s of playback "
             f"at x{playback.speed:g}{trace}{runs}, camera {playback.camera_mode}",
             flush=True,
         )

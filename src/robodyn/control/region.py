@@ -26,6 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from robodyn import dynamics
 from robodyn.control.lqr import LQR
+from robodyn.wording import count
 
 Array = NDArray[np.float64]
 
@@ -51,7 +52,7 @@ class Region:
         """One line: the region and how it was found."""
         rail = f", rail bound {self.rho_rail:.4g}" if np.isfinite(self.rho_rail) else ""
         return (
-            f"e^T P e < {self.rho:.4g} (sampled dV/dt < 0 on {self.samples} states, seed {self.seed}: "
+            f"e^T P e < {self.rho:.4g} (sampled dV/dt < 0 on {count(self.samples, 'state')}, seed {self.seed}: "
             f"{self.rho_lyapunov:.4g}{rail})"
         )
 

@@ -27,6 +27,7 @@ import numpy as np
 
 from robodyn.errors import InputError, StepError
 from robodyn.integrators.problem import Array, SecondOrderProblem
+from robodyn.wording import count
 
 
 class Stepper(abc.ABC):
@@ -150,11 +151,6 @@ MIN_RELATIVE_STEP = 1e-12
 SMALLEST_RELATIVE_STEP = 4 * float(np.finfo(np.float64).eps)
 
 
-def _count(n: int, what: str) -> str:
-    """``1 step``, ``1,000 steps``."""
-    return f"{n:,} {what}" if n == 1 else f"{n:,} {what}s"
-
-
 def _is_count(value: object) -> bool:
     return isinstance(value, (int, np.integer)) and not isinstance(value, bool) and int(value) >= 1
 
@@ -262,14 +258,14 @@ class StepBudget:
                 t,
                 f"{method.name} hit max_steps_per_interval = {method.max_steps_per_interval:,} at t = {t:.6g} s, "
                 f"{end - t:.3g} s short of the end of the output interval [{self.t0:.6g}, {end:.6g}] s: "
-                f"{self._steps_taken()} ({self._evaluations():,} evaluations)",
+                f"{self._steps_taken()} ({count(self._evaluations(), 'evaluation', thousands=True)})",
                 "or raise max_steps_per_interval",
             )
         if method.max_steps is not None and self.run_steps >= method.max_steps:
             self._fail(
                 t,
                 f"{method.name} hit max_steps = {method.max_steps:,} at t = {t:.6g} s: "
-                f"{self.run_steps:,} steps in this run",
+                f"{count(self.run_steps, 'step', thousands=True)} in this run",
                 "or raise max_steps",
             )
         self.steps += 1
@@ -292,9 +288,9 @@ class StepBudget:
         if h >= smallest:  # False for NaN too
             return
         after = (
-            f"after {_count(self.in_a_row, 'rejected step')} in a row"
+            f"after {count(self.in_a_row, 'rejected step', thousands=True)} in a row"
             if self.in_a_row
-            else f"after {_count(self.steps, 'step')} in this output interval"
+            else f"after {count(self.steps, 'step', thousands=True)} in this output interval"
         )
         self._fail(
             t,
@@ -306,8 +302,8 @@ class StepBudget:
 
     def _steps_taken(self) -> str:
         if self.sees_rejections:
-            return f"{_count(self.steps, 'step')}, {self.rejections:,} of them rejected"
-        return _count(self.steps, "solver step")
+            return f"{count(self.steps, 'step', thousands=True)}, {self.rejections:,} of them rejected"
+        return count(self.steps, "solver step", thousands=True)
 
     def _evaluations(self) -> int:
         return int(self.problem.evaluations) - self.evaluations0

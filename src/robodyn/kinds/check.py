@@ -18,6 +18,14 @@ rows by those of :mod:`robodyn.kinds.loop_check`. Errors are relative to the lar
 the quantity takes over the sampled states.
 Finite differences (dM/dt, dV/dq) use a central step of ``FD_STEP`` and are held to
 ``FD_TOL``.
+
+A row also passes when its absolute error is within its round-off floor: ``ROUNDOFF`` eps times
+the magnitude of the terms the quantity is computed from, from the model's own scales (the norm
+of M, the speeds and accelerations of the sample, the energy scale |g| sum m_i |c_i|); the
+round trips through M are held to the same times |M| |a| (cond(M) on an ill-conditioned M), and
+the finite differences to it divided by their step. A quantity that is zero by the robot's
+symmetry, or tiny against its terms, then passes on round-off; an error of 1e-6 relative still
+fails.
 """
 
 from __future__ import annotations
@@ -35,9 +43,11 @@ from robodyn import dynamics
 from robodyn.errors import AssumptionError, InputError
 from robodyn.kinds.check_rows import (
     DEFAULT_RTOL,
+    EPS,
     FD_STEP,
     FD_TOL,
     GROUP_ORDER,
+    ROUNDOFF,
     Accumulator,
     CheckReport,
     CheckRow,
@@ -80,6 +90,55 @@ def _draw_samples(robot: Robot, samples: int, seed: int) -> list[_Sample]:
         q, v = robot.random_state(rng, speed=SPEED)
         out.append(_Sample(q, v, rng.uniform(-SPEED, SPEED, robot.nv), rng.uniform(-TORQUE, TORQUE, robot.nv)))
     return out
+
+
+@dataclass(frozen=True)
+class _Scales:
+    """The magnitudes of the terms one sample's quantities are computed from: their round-off scale.
+
+    Each ``*_floor`` is ROUNDOFF eps times such a magnitude, in the unit of the rows it serves.
+    """
+
+    mass: float  # max |M_ij| [kg m^2]
+    cond: float  # lambda_max / lambda_min of M (inf when M is not positive definite)
+    inverse: float  # 1 / lambda_min of M [1/(kg m^2)]
+    energy: float  # |g| sum_i m_i |c_i| [J]: the potential energy's terms, and the gravity torques' scale
+    speed: float  # max |v| [rad/s | m/s]
+    accel: float  # max |a| [rad/s^2 | m/s^2]
+    torque: float  # max |tau| [N m | N]
+
+    @property
+    def torque_terms(self) -> float:
+        """|M| (|a| + |v|^2) + the energy scale + |tau| [N m]: the terms of M a + C v + G and of tau."""
+        return self.mass * (self.accel + self.speed**2) + self.energy + self.torque
+
+    @property
+    def coriolis_terms(self) -> float:
+        """|M| |v| + the energy scale / |v| [kg m^2/s]: C is built from RNEA(q, v, 0) - G, divided by |v|."""
+        return self.mass * self.speed + (self.energy / self.speed if self.speed > 0 else 0.0)
+
+    def floor(self, terms: float) -> float:
+        """The round-off ROUNDOFF eps ``terms`` of a quantity summed from terms of magnitude ``terms``."""
+        return ROUNDOFF * EPS * terms
+
+    def forward_floor(self, a: Array) -> float:
+        """Round-off of a = M^-1 (tau - C v - G) [rad/s^2]: cond(M) |a| + |M^-1| |the right side's terms|."""
+        return self.floor(self.cond * float(np.abs(a).max(initial=0.0)) + self.inverse * self.torque_terms)
+
+
+def _scales(robot: Robot, s: _Sample, M: Array) -> _Scales:
+    """The round-off scales of sample ``s`` whose mass matrix is ``M``."""
+    eig = np.linalg.eigvalsh(0.5 * (M + M.T)) if np.all(np.isfinite(M)) else np.full(1, np.nan)
+    positive = bool(eig[0] > 0)
+    return _Scales(
+        mass=float(np.abs(M).max()),
+        cond=float(eig[-1] / eig[0]) if positive else np.inf,
+        inverse=float(1.0 / eig[0]) if positive else np.inf,
+        energy=dynamics.gravity_scale(robot.model, robot.data, s.q),
+        speed=float(np.abs(s.v).max()),
+        accel=float(np.abs(s.a).max()),
+        torque=float(np.abs(s.tau).max()),
+    )
 
 
 def _mdot(mass: Callable[[Array], Array], integrate: Callable[[Array, Array], Array], q: Array, v: Array) -> Array:
@@ -162,25 +221,29 @@ def _formula_rows(
     for k, s in enumerate(samples):
         M_p = dynamics.mass_matrix(model, data, s.q)
         M_f, C_f, G_f = M_all[k], C_all[k], G_all[k]
-        acc["M"].add(M_p, M_f)
-        acc["C"].add(dynamics.coriolis_matrix(model, data, s.q, s.v), C_f)
-        acc["G"].add(dynamics.gravity(model, data, s.q), G_f)
-        acc["nle"].add(dynamics.nonlinear_effects(model, data, s.q, s.v), C_f @ s.v + G_f)
-        acc["id"].add(dynamics.rnea(model, data, s.q, s.v, s.a), M_f @ s.a + C_f @ s.v + G_f)
-        acc["fd"].add(dynamics.aba(model, data, s.q, s.v, s.tau), _solve(M_f, s.tau - C_f @ s.v - G_f))
-        acc["T"].add(0.5 * float(s.v @ M_p @ s.v), 0.5 * float(s.v @ M_f @ s.v))
+        sc = _scales(robot, s, M_p)
+        a_p = dynamics.aba(model, data, s.q, s.v, s.tau)
+        acc["M"].add(M_p, M_f, sc.floor(sc.mass))
+        acc["C"].add(dynamics.coriolis_matrix(model, data, s.q, s.v), C_f, sc.floor(sc.coriolis_terms))
+        acc["G"].add(dynamics.gravity(model, data, s.q), G_f, sc.floor(sc.energy))
+        nle_terms = sc.mass * sc.speed**2 + sc.energy
+        acc["nle"].add(dynamics.nonlinear_effects(model, data, s.q, s.v), C_f @ s.v + G_f, sc.floor(nle_terms))
+        acc["id"].add(dynamics.rnea(model, data, s.q, s.v, s.a), M_f @ s.a + C_f @ s.v + G_f, sc.floor(sc.torque_terms))
+        acc["fd"].add(a_p, _solve(M_f, s.tau - C_f @ s.v - G_f), sc.forward_floor(a_p))
+        acc["T"].add(0.5 * float(s.v @ M_p @ s.v), 0.5 * float(s.v @ M_f @ s.v), sc.floor(sc.mass * sc.speed**2))
         Mdot = (M_all[n + k] - M_all[2 * n + k]) / (2 * FD_STEP)  # central difference along v
         N = Mdot - 2 * C_f
-        acc["skew"].add(np.zeros_like(N), N + N.T)
+        acc["skew"].add(np.zeros_like(N), N + N.T, sc.floor(sc.mass * sc.speed / FD_STEP))
         n_scale = max(n_scale, skew_scale(Mdot, C_f, M_f, s.v))
         if formula.potential_energy is not None:
             acc["V"].add(
                 dynamics.potential_energy(model, data, s.q) - dynamics.potential_energy(model, data, q_anchor),
                 float(V_all[k]) - float(V_all[n]),
+                sc.floor(sc.energy + dynamics.gravity_scale(model, data, q_anchor)),
             )
             plus = V_all[n + 1 + k : n + 1 + nv * n : n]  # V(q + h e_i), i = 0 .. nv-1
             minus = V_all[n + 1 + nv * n + k :: n]  # V(q - h e_i)
-            acc["dV"].add(G_f, (plus - minus) / (2 * FD_STEP))
+            acc["dV"].add(G_f, (plus - minus) / (2 * FD_STEP), sc.floor(sc.energy / FD_STEP))
     scalars = {"T", "V"}
     rows = [a.row(samples, scalar=k in scalars) for k, a in acc.items()]
     rows[list(acc).index("skew")] = rescale(acc["skew"].row(samples), n_scale)
@@ -217,24 +280,31 @@ def _structure_rows(robot: Robot, samples: list[_Sample], rtol: float) -> list[C
         raw = np.array(M)
         eig = np.linalg.eigvalsh(raw) if np.all(np.isfinite(raw)) else np.full(robot.nv, np.nan)
         min_eig_ratio = min(min_eig_ratio, eig[0] / eig[-1])
-        # Positive definiteness: a non-positive eigenvalue shows as an error of its size.
+        sc = _scales(robot, s, raw)
+        # Positive definiteness: a non-positive eigenvalue shows as an error of its size. An eigenvalue
+        # within round-off of zero (a body without inertia: icub) is still singular, so no floor here.
         spd.add(np.zeros(1), np.array([max(0.0, -eig[0]) + (eig[-1] if eig[0] <= 0 else 0.0)]))
         C = dynamics.coriolis_matrix(model, data, s.q, s.v)
         coriolis.add(
             dynamics.pinocchio_coriolis_matrix(model, data, s.q, s.v),
             C if mimic else dynamics.christoffel_coriolis(model, data, s.q, s.v),
+            sc.floor(sc.coriolis_terms),
         )
         G = dynamics.gravity(model, data, s.q)
         Mdot = _mdot(mass, integrate, s.q, s.v)
         n_scale = max(n_scale, skew_scale(Mdot, C, M, s.v))
         N = Mdot - 2 * C
-        skew.add(np.zeros_like(N), N + N.T)
-        grad.add(G, _grad(lambda q: dynamics.potential_energy(model, data, q), integrate, s.q, robot.nv))
+        skew.add(np.zeros_like(N), N + N.T, sc.floor(sc.mass * sc.speed / FD_STEP))
+        grad.add(
+            G,
+            _grad(lambda q: dynamics.potential_energy(model, data, q), integrate, s.q, robot.nv),
+            sc.floor(sc.energy / FD_STEP),
+        )
         b = dynamics.nonlinear_effects(model, data, s.q, s.v)
-        nle.add(b, C @ s.v + G)
+        nle.add(b, C @ s.v + G, sc.floor(sc.mass * sc.speed**2 + sc.energy))
         zero = np.zeros(robot.nv)
         cols = np.column_stack([dynamics.rnea(model, data, s.q, zero, e) - G for e in np.eye(robot.nv)])
-        columns.add(M, cols)
+        columns.add(M, cols, sc.floor(sc.mass + sc.energy))
         try:
             a_crba = dynamics.crba_solve(model, data, s.q, s.v, s.tau)
         except np.linalg.LinAlgError:  # M not positive definite: the rows solving through it fail, saying so
@@ -246,11 +316,15 @@ def _structure_rows(robot: Robot, samples: list[_Sample], rtol: float) -> list[C
             a_aba = dynamics.aba(model, data, s.q, s.v, s.tau)
         except (RuntimeError, ValueError):
             aba_ok, a_aba = False, a_crba
-        forward.add(a_aba, a_crba)
-        inverse.add(s.tau, dynamics.rnea(model, data, s.q, s.v, a_crba))
+        forward.add(a_aba, a_crba, sc.forward_floor(a_aba))
+        # tau -> a -> tau: ABA solves with a matrix off by eps |M|, which comes back through RNEA as eps |M| |a|
+        # (|a| is up to |M^-1| |tau - nle|: cond(M) times the torques' terms on an ill-conditioned M)
+        a_size = float(np.abs(a_crba).max())
+        inverse.add(s.tau, dynamics.rnea(model, data, s.q, s.v, a_crba), sc.floor(sc.mass * a_size + sc.torque_terms))
         T = 0.5 * float(s.v @ M @ s.v)
+        t_floor = sc.floor(sc.mass * sc.speed**2)
         try:
-            kinetic.add(T, dynamics.pinocchio_kinetic_energy(model, data, s.q, s.v))
+            kinetic.add(T, dynamics.pinocchio_kinetic_energy(model, data, s.q, s.v), t_floor)
         except RuntimeError:  # computeKineticEnergy refuses mimic joints
             energy_refused = True
             kinetic.add(T, T)

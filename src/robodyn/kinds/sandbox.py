@@ -13,6 +13,8 @@ the file and evaluates it (:func:`serve`); robodyn's process never runs a line o
 * Each request (import the file; evaluate a batch of points) gets ``timeout`` seconds of the
   formula's own time. The child interrupts itself at the limit (SIGALRM) to say which function
   and line it was in; robodyn kills its process group ``GRACE`` seconds later in any case.
+  Every wait on robodyn's side has its own deadline (the child's start, each reply, its exit
+  after the kill): a child that never answers is an error, never a hang.
 * A ``SystemExit`` is caught where it is raised (:mod:`robodyn.kinds.user_file`); a process that
   ends anyway (``os._exit``, a crash) is an error naming the file, never a result.
 
@@ -428,7 +430,12 @@ def _kill(process: subprocess.Popen[bytes]) -> None:
                 pass
         else:  # pragma: no cover - Windows
             process.kill()
-        process.wait()
+        try:
+            process.wait(
+                timeout=SETTLE
+            )  # SIGKILL cannot be refused; a process stuck in the kernel is left, not waited for
+        except subprocess.TimeoutExpired:
+            pass
     for stream in (process.stdin, process.stdout, process.stderr):
         try:
             if stream is not None:

@@ -31,7 +31,7 @@ CONTROL_GAINS: dict[str, tuple[str, ...]] = {
 PD_KEYS = ("kp", "kd", "target", "gravity_compensation")
 
 TABLES = {
-    "model": ("name", "urdf", "srdf", "free_flyer", "mimic", "passive", "keep", "lock", "reference"),
+    "model": ("name", "urdf", "srdf", "free_flyer", "mimic", "physics_check", "passive", "keep", "lock", "reference"),
     "initial": ("q", "v"),
     "control": tuple(dict.fromkeys(("kind", "torque", *PD_KEYS, *(k for ks in CONTROL_GAINS.values() for k in ks)))),
     "simulate": ("duration", "dt", "integrator", "backend"),
@@ -104,6 +104,7 @@ class Scene:
             "srdf": m.get("srdf"),
             "free_flyer": m.get("free_flyer", False),
             "mimic": m.get("mimic", False),
+            "check_physics": m.get("physics_check", True),  # false: the file's numbers as written
             "passive": tuple(m.get("passive", ())),
         }
         try:

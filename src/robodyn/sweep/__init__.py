@@ -20,6 +20,7 @@ the scene package in robodyn's layers); ``read_scene`` replaces that reader.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 from collections.abc import Callable, Mapping
@@ -40,6 +41,7 @@ from robodyn.sweep.chunk import Job, controller_of, upright_of
 from robodyn.sweep.engine import run_chunks
 from robodyn.sweep.plan import Chunk, Plan, Setting, make_plan, settings
 from robodyn.sweep.source import (
+    AsWritten,
     Model,
     ModelFile,
     SceneReader,
@@ -104,7 +106,7 @@ def prepare(
     spec = source if isinstance(source, SweepSpec) else load(source)
     out = Path(out)
     scene = _scene(spec, read_scene)
-    name = ""
+    model_name = ""
     if scene is not None:
         spec = _with_scene_defaults(spec, scene)
         scene = scene.with_passive(spec.passive)
@@ -112,9 +114,12 @@ def prepare(
         model: Model = scene
         q_default, v_default = scene.scene.initial_state(robot, reduction)
     else:
-        name = resolve(spec, spec.model)
-        model = ModelFile(name, spec.passive) if spec.passive else name
-        robot = _passive_named(spec, model)
+        model_name = resolve(spec, spec.model)
+        if not spec.physics_check:
+            model = AsWritten(model_name, spec.passive)
+        else:
+            model = ModelFile(model_name, spec.passive) if spec.passive else model_name
+        robot = _robot_named(spec, model)
     if not robot.nq_equals_nv:
         raise InputError(f"{spec.source}: model {robot.name} has nq={robot.nq} != nv={robot.nv}; sweeps need nq == nv")
     if scene is None:
@@ -128,7 +133,7 @@ def prepare(
     spec = SweepSpec(
         **{
             **spec.__dict__,
-            "model": model.scene.path.as_posix() if isinstance(model, SceneSource) else name,
+            "model": model.scene.path.as_posix() if isinstance(model, SceneSource) else str(model),
             "measures": resolved_measures,
             "controllers": controllers,
             "gains": gains,
@@ -149,8 +154,8 @@ def prepare(
     files = measures.user_files(spec.measures)
     if isinstance(model, SceneSource):
         files["scene"] = model.key.encode()
-    elif Path(name).is_file():
-        files["model"] = Path(name).read_bytes()
+    elif Path(model_name).is_file():
+        files["model"] = Path(model_name).read_bytes()
     for c in controllers:
         if c not in (NO_CONTROLLER, SCENE_CONTROLLER) and Path(c).is_file():
             files[f"controller:{c}"] = Path(c).read_bytes()
@@ -210,7 +215,10 @@ def _scene(spec: SweepSpec, read_scene: SceneReader | None) -> SceneSource | Non
     else:
         reader = read_scene
     path = Path(resolve(spec, spec.scene))
-    return scene_source(reader(path))
+    scene = reader(path)
+    if not spec.physics_check:  # the sweep's physics_check = false reaches the model of its scene
+        scene = dataclasses.replace(scene, model={**scene.model, "physics_check": False})  # type: ignore[type-var]
+    return scene_source(scene)
 
 
 def _with_scene_defaults(spec: SweepSpec, scene: SceneSource) -> SweepSpec:
@@ -228,7 +236,7 @@ def _with_scene_defaults(spec: SweepSpec, scene: SceneSource) -> SweepSpec:
     return SweepSpec(**{**spec.__dict__, **changes})
 
 
-def _passive_named(spec: SweepSpec, model: str | ModelFile) -> Any:
+def _robot_named(spec: SweepSpec, model: str | ModelFile) -> Any:
     """The sweep's robot, its ``passive`` joints (if any) checked against the model's joints."""
     if isinstance(model, str):
         return load_model(model)
@@ -261,7 +269,9 @@ def _models(spec: SweepSpec, model: Model, robot: Any, kind: str | None, out: Pa
     written: dict[tuple[tuple[str, float], ...], Model] = {}
     models: dict[Setting, Model] = {}
     full = model.full() if isinstance(model, SceneSource) and spec.params else robot
-    tag_of = model.key if isinstance(model, SceneSource) else repr(model) if isinstance(model, ModelFile) else model
+    tag_of = model.key if isinstance(model, SceneSource) else str(model)
+    if isinstance(model, ModelFile) and model.passive:  # a passive set of its own: URDFs of their own
+        tag_of += "|passive=" + ",".join(model.passive)
     for setting in settings(spec):
         if not setting.params or kind is None:
             models[setting] = model
@@ -275,8 +285,8 @@ def _models(spec: SweepSpec, model: Model, robot: Any, kind: str | None, out: Pa
             resolved = path.resolve()
             if isinstance(model, SceneSource):
                 written[setting.params] = model.with_urdf(resolved)
-            elif isinstance(model, ModelFile):
-                written[setting.params] = ModelFile(str(resolved), model.passive)
+            elif isinstance(model, ModelFile):  # AsWritten too: the same passive joints, the same physics check
+                written[setting.params] = dataclasses.replace(model, name=str(resolved))
             else:
                 written[setting.params] = str(resolved)
         models[setting] = written[setting.params]

@@ -134,16 +134,33 @@ class SceneSource:
 
 @dataclass(frozen=True)
 class ModelFile:
-    """A model name or URDF path with joints declared passive (the sweep's ``passive``); plain str without any."""
+    """A model name or URDF path with how to load it: joints declared passive, the physics check.
+
+    A sweep's model is a plain str unless its file declares ``passive`` joints or ``physics_check = false``.
+    """
 
     name: str
-    passive: tuple[str, ...]
+    passive: tuple[str, ...] = ()
+    check_physics: bool = True
+
+    def __str__(self) -> str:
+        return self.name
+
+    def __fspath__(self) -> str:
+        return self.name
 
     def build(self) -> tuple[Robot, None]:
-        """(robot, None): the model loaded with its passive joints."""
+        """(robot, None): the model loaded with its passive joints (and the physics check as asked)."""
         from robodyn.model.load import load
 
-        return load(self.name, passive=self.passive), None
+        return load(self.name, passive=self.passive, check_physics=self.check_physics), None
+
+
+@dataclass(frozen=True)
+class AsWritten(ModelFile):
+    """A model loaded with its file's numbers as written (a sweep's ``physics_check = false``)."""
+
+    check_physics: bool = False
 
 
 Model = str | SceneSource | ModelFile

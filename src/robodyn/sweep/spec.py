@@ -63,6 +63,7 @@ TOP_KEYS = (
     "model",
     "params",
     "passive",
+    "physics_check",
     "q0",
     "scene",
     "seed",
@@ -110,6 +111,7 @@ class SweepSpec:
     digest: str = ""
     scene: str = ""
     given: frozenset[str] = frozenset()
+    physics_check: bool = True  # False: the model's file is loaded with its numbers as written
     passive: tuple[str, ...] = ()
 
 
@@ -165,6 +167,9 @@ def parse(data: Mapping[str, Any], *, name: str, base: Path) -> SweepSpec:
         _table(table, f"{name}: gains.{controller}")
     chunk = _whole(data.get("chunk", DEFAULT_CHUNK), f"{name}: chunk", 1, MAX_CHUNK)
     seed = _whole(data.get("seed", 0), f"{name}: seed", 0, 2**32 - 1)
+    physics_check = data.get("physics_check", True)
+    if not isinstance(physics_check, bool):
+        raise InputError(f"{name}: physics_check must be true or false, got {physics_check!r}")
     q0 = {k: _axis(v, f"{name}: q0.{k}") for k, v in _table(data.get("q0", {}), f"{name}: q0").items()}
     v0 = {k: _axis(v, f"{name}: v0.{k}") for k, v in _table(data.get("v0", {}), f"{name}: v0").items()}
     params = {k: _axis(v, f"{name}: params.{k}") for k, v in _table(data.get("params", {}), f"{name}: params").items()}
@@ -191,6 +196,7 @@ def parse(data: Mapping[str, Any], *, name: str, base: Path) -> SweepSpec:
         base=base,
         scene=scene,
         given=frozenset(str(k) for k in data),
+        physics_check=physics_check,
         passive=tuple(dict.fromkeys(x.strip() for x in passive)),
     )
     return spec
@@ -210,6 +216,7 @@ def with_digest(spec: SweepSpec, files: Mapping[str, bytes]) -> SweepSpec:
         repr(spec.measures),
         repr(sorted((k, sorted(v.items())) for k, v in spec.gains.items())),
         repr(spec.seed),
+        *(() if spec.physics_check else ("physics as written",)),  # absent by default: old digests hold
     )
     if spec.passive:  # only when given: the digests (and resumable folders) of other sweeps stay as they were
         parts = (*parts, "passive=" + ",".join(sorted(spec.passive)))

@@ -162,20 +162,50 @@ def unchecked_scene(scene: Any, args: argparse.Namespace) -> Any:
     return dataclasses.replace(scene, model={**scene.model, "physics_check": False})
 
 
+def joint_list(text: str) -> tuple[str, ...]:
+    """Argparse type: ``"joint2"`` or ``"joint1,joint2"`` -> the joint names (one line of error otherwise)."""
+    names = tuple(name.strip() for name in text.split(","))
+    if not text.strip() or not all(names):
+        raise argparse.ArgumentTypeError(
+            f"expected joint names separated by commas like joint2,joint3, got {shown(text)}"
+        )
+    return names
+
+
+def add_passive_argument(parser: argparse.ArgumentParser, *, what: str = "the model") -> None:
+    """``--passive JOINT[,JOINT]``: joints without an actuator, added to those the SRDF declares."""
+    parser.add_argument(
+        "--passive",
+        type=joint_list,
+        default=(),
+        metavar="JOINT[,JOINT]",
+        help=f"joints of {what} that no actuator drives (they take no torque), added to the SRDF's <passive_joint> "
+        "entries: declares an underactuated robot without writing an SRDF",
+    )
+
+
 def load_robot(args: argparse.Namespace, model: str | None = None, **options: Any) -> Any:
-    """Load the robot named by ``model`` (default ``args.model``) with the common options.
+    """Load the robot named by ``model`` (default ``args.model``) with the common options and ``--passive``.
 
     With ``--no-physics-check`` the file's numbers are loaded as written, and one warning line says so.
     """
-    from robodyn.model.load import load
+    from robodyn.errors import InputError, UnknownNameError
+    from robodyn.model.load import PASSIVE_JOINT, load
 
     checked = physics_checked(args)
-    robot = load(
-        args.model if model is None else model,
-        srdf=args.srdf,
-        free_flyer=args.free_flyer,
-        **{"check_physics": checked, **options},
-    )
+    passive = getattr(args, "passive", ())
+    try:
+        robot = load(
+            args.model if model is None else model,
+            srdf=args.srdf,
+            free_flyer=args.free_flyer,
+            passive=passive,
+            **{"check_physics": checked, **options},
+        )
+    except UnknownNameError as exc:
+        if exc.what != PASSIVE_JOINT:
+            raise
+        raise InputError(f"--passive {','.join(passive)}: {exc}") from None
     if not checked:
         warn_unchecked(robot, command=str(getattr(args, "command", "")))
     return robot

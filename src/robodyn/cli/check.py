@@ -9,6 +9,7 @@ from typing import Any
 
 from robodyn.cli._common import (
     add_model_arguments,
+    add_passive_argument,
     file_path,
     load_robot,
     positive_float,
@@ -35,6 +36,7 @@ def add_parser(sub: Any) -> None:
         "(M SPD, dM/dt - 2C skew, G = dV/dq). Exit 0: all agree; 1: a mismatch; 2: bad input.",
     )
     add_model_arguments(p, many=True)
+    add_passive_argument(p, what="each model (or scene)")
     p.epilog = (
         "A scene file (SCENE.toml) in place of a model checks the scene's model; with a formula file whose KIND is "
         "'constrained' (a closed chain's reduced Lagrangian, e.g. examples/textbook/linkage/reduced_formula.py) it "
@@ -149,7 +151,7 @@ def _target(args: argparse.Namespace, name: str) -> tuple[Any, Any]:
         raise InputError(
             f"{name}: --srdf, --free-flyer and --mimic are a model's options; a scene sets them in [model]"
         )
-    scene = unchecked_scene(read_scene(Path(name)), args)
+    scene = unchecked_scene(read_scene(Path(name)), args).with_passive(args.passive)
     robot, _ = scene.build()
     if scene.model.get("physics_check") is False:
         warn_unchecked(robot, command="check")

@@ -13,7 +13,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from robodyn.cli._common import add_physics_argument, file_path, unchecked_scene, warn_unchecked
+from robodyn.cli._common import add_passive_argument, add_physics_argument, file_path, unchecked_scene, warn_unchecked
 from robodyn.cli._output import (
     check_output_file,
     check_output_folder,
@@ -21,7 +21,7 @@ from robodyn.cli._output import (
     refuse_clobbering,
     writable_path,
 )
-from robodyn.cli.simulate import constraint_lines
+from robodyn.cli.simulate import constraint_lines, note_clamped_q0
 from robodyn.errors import EXIT_MISMATCH, EXIT_OK
 from robodyn.fileio import write_text_atomically
 from robodyn.wording import count
@@ -42,6 +42,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--out", type=file_path, default=None, help="output folder (overrides the scene's [output] dir)")
     p.add_argument("--no-view", action="store_true", help="skip the [view] part")
     add_physics_argument(p)
+    add_passive_argument(p, what="the scene's model (added to its [model] passive)")
     p.set_defaults(handler=run)
 
 
@@ -50,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
     from robodyn.errors import DivergenceError, SimulationInterrupted
     from robodyn.scene import read_scene
 
-    scene = unchecked_scene(read_scene(args.scene), args)
+    scene = unchecked_scene(read_scene(args.scene), args).with_passive(args.passive)
     out = args.out or scene.output or Path("scene-out") / scene.name
     check_output_folder(out)  # before the model, the check and the exactness proof: a bad folder fails at once
     view = None if args.no_view else scene.view
@@ -309,6 +310,7 @@ def _simulate(
         }
         trajectory = dataclasses.replace(trajectory, meta=meta)
     trajectory.save(writable_path(path))
+    note_clamped_q0(trajectory, command="run")
     print(
         f"simulate: {count(trajectory.n_steps, 'step')} of {scene.simulate['dt']} s with {integrator} in "
         f"{trajectory.wall_time_s:.3f} s wall; energy ledger residual {abs(trajectory.ledger_residual).max():.2e} J; "

@@ -32,6 +32,7 @@ import numpy as np
 
 from robodyn.cli import _control
 from robodyn.cli._common import (
+    add_passive_argument,
     add_physics_argument,
     file_path,
     float_list,
@@ -85,6 +86,7 @@ def add_parser(sub: Any) -> None:
         action="store_true",
         help="keep the URDF's <mimic> couplings (forward dynamics then by CRBA); without it they are ignored",
     )
+    add_passive_argument(p)
     p.add_argument(
         "--q0",
         type=float_list,
@@ -266,6 +268,7 @@ def run(args: argparse.Namespace) -> int:
         trajectory = dataclasses.replace(trajectory, meta={**trajectory.meta, "controller": record})
     # Said after the run, not before it: a refused input stays one line on stderr.
     warn_ignored_mimic(robot, mimic=args.mimic, command="simulate")
+    note_clamped_q0(trajectory, command="simulate")
     kept: list[Path] = []
     if failure is not None:  # what was computed goes beside, never over, an earlier complete run
         kept = [p for p in (out, csv) if p is not None and p.exists()]
@@ -418,6 +421,28 @@ def constraint_lines(trajectory: Any, effort: Any = None) -> list[str]:
     if s["loop_drift"] is not None:
         lines.append(f"loops: worst drift max|residual| = {float(s['loop_drift']):.3e} m")
     return lines
+
+
+def clamped_q0_line(meta: dict[str, Any]) -> str | None:
+    """One line saying which joints of q0 were moved onto their limits (given value, limit, unit), or None."""
+    moved = meta.get("q0_clamped") or {}
+    if not moved:
+        return None
+    parts = []
+    for joint, (given, inside) in moved.items():
+        unit = _unit_of(meta, joint)
+        side = "upper" if given > inside else "lower"
+        parts.append(
+            f"{joint} = {given:.7g} {unit} is outside its limits, moved onto its {side} limit {inside:.7g} {unit}"
+        )
+    return "q0: " + "; ".join(parts) + " (the run starts there)"
+
+
+def note_clamped_q0(trajectory: Any, *, command: str) -> None:
+    """The :func:`clamped_q0_line` as a ``note:`` on stderr, when q0 was moved onto a joint's limits."""
+    line = clamped_q0_line(trajectory.meta)
+    if line is not None:
+        print(f"robodyn {command}: note: {line}", file=sys.stderr)
 
 
 def _unit_of(meta: dict[str, Any], joint: str) -> str:

@@ -14,7 +14,7 @@ from __future__ import annotations
 import sys
 from typing import Any
 
-from robodyn.cli._common import add_physics_argument, file_path, physics_checked, positive_int
+from robodyn.cli._common import add_passive_argument, add_physics_argument, file_path, physics_checked, positive_int
 from robodyn.cli._output import check_output_folder
 from robodyn.wording import count
 
@@ -47,6 +47,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--plots", action="store_true", help="also draw maps and sensitivity charts into DIR/plots/")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     add_physics_argument(p)
+    add_passive_argument(p, what="the sweep's model or scene (added to its passive list)")
     p.set_defaults(handler=run)
 
 
@@ -66,6 +67,8 @@ def run(args: Any) -> int:
     spec = load(args.sweep)
     if not physics_checked(args):
         spec = dataclasses.replace(spec, physics_check=False)
+    if args.passive:
+        spec = dataclasses.replace(spec, passive=tuple(dict.fromkeys((*spec.passive, *args.passive))))
     if not spec.physics_check:
         print(_as_written(spec.model or spec.scene), file=sys.stderr)
 

@@ -18,6 +18,7 @@ A name that ends in ``.py`` or holds a path separator is a user's controller fil
 
 from __future__ import annotations
 
+import json
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -92,6 +93,7 @@ def _make_swing_up(robot: Robot, **gains: Any) -> Switched:
         raise InputError(
             f"controller 'swing_up' knows the {' and the '.join(CONTROLLED_KINDS)}; {robot.name} is neither"
         )
+    _require_drive(robot, p.kind)
     own = SWING_UP_GAINS[p.kind]
     _check_gains(f"swing_up ({p.kind})", gains, LQR_GAINS[:3] + REGION_GAINS + own)
     balance = lqr.design(robot, **{k: gains[k] for k in LQR_GAINS[:3] if k in gains})
@@ -108,6 +110,30 @@ def _make_swing_up(robot: Robot, **gains: Any) -> Switched:
     law_gains = {k: gains[k] for k in own if k in gains}
     law = swing_up.cart_pole(p, **law_gains) if p.kind == "cart_pole" else swing_up.pendubot(p, **law_gains)
     return Switched(law, balance, estimated)
+
+
+# The joint each kind's swing-up law drives (by its place in the model); every other joint must be passive.
+DRIVEN = {"cart_pole": 0, "pendubot": 0}
+
+
+def _require_drive(robot: Robot, kind: str) -> None:
+    """Refuse, in one line, a robot whose actuated joints are not the one the kind's law drives.
+
+    The laws are collocated PFL on one driven joint with the other passive (an underactuated
+    system): a robot read with more actuators (a URDF without the SRDF that declares the passive
+    joint) would give the law a torque per actuator that it has no rule for.
+    """
+    driven = robot.joint_names[DRIVEN[kind]]
+    if driven in robot.passive_joints:
+        raise InputError(f"swing_up drives {driven} of the {kind}, but {robot.name} declares it passive")
+    extra = [j.name for j in robot.joints if j.actuated and j.name != driven]
+    if extra:
+        raise InputError(
+            f"swing_up drives {driven} of the {kind} alone (the others swing freely), but {robot.name} also "
+            f"actuates {', '.join(extra)}: declare {'it' if len(extra) == 1 else 'them'} passive "
+            f"(--passive {','.join(extra)}, [model] passive = {json.dumps(extra)} in a scene, or <passive_joint> "
+            "in an SRDF)"
+        )
 
 
 def _count(value: Any, name: str, *, minimum: int = 1) -> int:

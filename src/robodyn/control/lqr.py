@@ -27,7 +27,7 @@ from numpy.typing import ArrayLike, NDArray
 from robodyn import dynamics
 from robodyn.control.plant import Plant, plant
 from robodyn.errors import InputError
-from robodyn.robot import Robot
+from robodyn.robot import EQUILIBRIUM_TOL, Robot
 
 Array = NDArray[np.float64]
 
@@ -111,6 +111,7 @@ def design(
         u0 = np.asarray(np.linalg.lstsq(S, G, rcond=None)[0], dtype=np.float64)
     else:
         u0 = robot.input_vector(u_eq, "u_eq")
+    _require_equilibrium(robot, q0, S @ u0)
     A, B = robot.linearize(q0, np.zeros(n), u0)
     Qm = _weight(Q, 2 * n, "Q", default=np.r_[np.full(n, DEFAULT_Q_POSITION), np.full(n, DEFAULT_Q_VELOCITY)])
     Rm = _weight(R, n_act, "R", default=np.full(n_act, DEFAULT_R))
@@ -119,6 +120,7 @@ def design(
     if np.min(np.linalg.eigvalsh(Rm)) <= 0:
         raise InputError(f"lqr weight R must be positive definite, got eigenvalues {np.linalg.eigvalsh(Rm)}")
     if K is None:
+        _require_stabilisable(robot, q0, A, B)
         try:
             P = scipy.linalg.solve_continuous_are(A, B, Qm, Rm)
         except (np.linalg.LinAlgError, ValueError) as exc:
@@ -131,6 +133,69 @@ def design(
         Km = gain_matrix(K, n_act, 2 * n)
         P = _closed_loop_lyapunov(A, B, Km, Qm, Rm, robot.name)
     return LQR(p, q0, u0, A, B, Qm, Rm, np.asarray(Km, dtype=np.float64), 0.5 * (P + P.T))
+
+
+def _require_equilibrium(robot: Robot, q: Array, tau: Array) -> None:
+    """Refuse, in one line, a q_eq that the torques tau (nv,) do not hold at rest: name each joint's missing torque.
+
+    At rest the dynamics are M a = tau - G(q); an equilibrium needs G(q) - tau = 0, to the tolerance
+    of :meth:`Robot.linearize` (``EQUILIBRIUM_TOL`` of the weight scale m_total |g| (1 m)).
+    """
+    residual = dynamics.gravity(robot.model, robot.data, q) - tau
+    scale = robot.total_mass * float(np.linalg.norm(robot.model.gravity.linear))
+    tol = EQUILIBRIUM_TOL * max(scale, 1.0)
+    worst = float(np.max(np.abs(residual))) if residual.size else 0.0
+    if worst <= tol:
+        return
+    needed = []
+    for joint in robot.joints:
+        for k in range(joint.idx_v, joint.idx_v + joint.nv):
+            if abs(residual[k]) > tol:
+                drive = "passive: no actuator gives it" if not joint.actuated else "beyond u_eq"
+                needed.append(f"{joint.name} {residual[k]:+.6g} {_unit(joint.kind)} ({drive})")
+    raise InputError(
+        f"{robot.name}: q_eq = {np.array2string(q, precision=6)} is not an equilibrium: residual nle(q) - B u = "
+        f"{np.array2string(residual, precision=6)} [N m | N] (max |.| {worst:.3g} > {tol:.3g}): holding it at rest "
+        f"needs {', '.join(needed)}"
+    )
+
+
+def _unit(kind: str) -> str:
+    return "N" if kind.startswith("JointModelP") else "N m"
+
+
+# PBH test: a mode lambda of A (Re >= -STABLE_MARGIN |lambda|_max) is uncontrollable when the smallest
+# singular value of [A - lambda I, B] is below this fraction of the matrix's largest: round-off in
+# an exactly uncontrollable mode is ~1e-16 of it, a weakly controllable one (a Pendubot) ~1e-3.
+PBH_RTOL = 1e-9
+STABLE_MARGIN = 1e-9
+
+
+def _require_stabilisable(robot: Robot, q: Array, A: Array, B: Array) -> None:
+    """Refuse, in one line, a linearisation with an unstable mode that no input reaches (the PBH test).
+
+    (A, B) is stabilisable iff rank [A - lambda I, B] = 2n for every eigenvalue lambda of A with
+    Re lambda >= 0 (Popov-Belevitch-Hautus). The message names the mode and the joints it moves.
+    """
+    eigenvalues, vectors = np.linalg.eig(A)
+    size = max(float(np.max(np.abs(eigenvalues))), 1.0)
+    n = robot.nv
+    for k, lam in enumerate(eigenvalues):
+        if lam.real < -STABLE_MARGIN * size:
+            continue
+        test = np.hstack([A - lam * np.eye(A.shape[0]), B])
+        sigma = np.linalg.svd(test, compute_uv=False)
+        if sigma[-1] > PBH_RTOL * sigma[0]:
+            continue
+        motion = np.abs(vectors[:n, k]) + np.abs(vectors[n:, k])
+        moved = [j.name for j in robot.joints if np.max(motion[j.idx_v : j.idx_v + j.nv]) > 1e-6 * np.max(motion)]
+        actuated = [j.name for j in robot.joints if j.actuated]
+        raise InputError(
+            f"{robot.name}: the linearisation at q_eq = {np.array2string(q, precision=6)} is not stabilisable: "
+            f"its {'unstable' if lam.real > STABLE_MARGIN * size else 'undamped'} mode lambda = {lam.real:.4g} "
+            f"{lam.imag:+.4g}j [1/s] moves {', '.join(moved)} and no actuator ({', '.join(actuated)}) reaches it "
+            "(PBH rank test): no gain makes it decay"
+        )
 
 
 def gain_matrix(K: ArrayLike, n_act: int, nx: int) -> Array:

@@ -166,15 +166,20 @@ def pendubot(
     *,
     k_energy: float = 1.0,
     k_d: float | None = None,
-    k_p: float = 30.0,
-    k_v: float = 2.0,
+    k_p: float | None = None,
+    k_v: float | None = None,
     energy_offset: float = 0.0,
 ) -> PendubotEnergy:
-    """The Pendubot's swing-up; ``k_d`` defaults to ``K_D_FACTOR`` times the smallest value that keeps the law defined.
+    """The Pendubot's swing-up, its default gains scaled from the model's own numbers.
 
-    Only the ratios of the gains matter (W scales with them). The defaults were picked on the built-in
-    pendubot model with its 2 N m effort limit: k_d close to its bound lets the energy term dominate, and
-    k_p = 30 holds link 1 near upright while k_v = 2 dissipates W.
+    Only the ratios of the gains matter (W scales with them). With the energy to gain
+    E_s = E_up - E_hanging [J] and the largest reduced inertia of the shoulder Mbar_max [kg m^2]
+    (both read from the model), the law is unchanged by any scaling of masses, lengths and time when
+    k_d ~ k_E E_s Mbar_max, k_p ~ k_d w0^2 and k_v ~ k_d w0, w0 = sqrt(E_s / Mbar_max) [rad/s]. So:
+
+    * ``k_d`` defaults to ``K_D_FACTOR`` times its bound k_E E_s Mbar_max (close to it, the energy term dominates);
+    * ``k_p`` to ``K_P_RATIO`` k_d w0^2 (holds link 1 near upright), ``k_v`` to ``K_V_RATIO`` k_d w0
+      (dissipates W): 30 and 2 on the built-in model, where they were tuned.
 
     ``energy_offset`` [J] shifts the target E_up (for experiments; the upright needs 0).
     """
@@ -187,6 +192,9 @@ def pendubot(
     k_d_min = k_energy * deficit * Mbar_max
     if k_d is None:
         k_d = K_D_FACTOR * k_d_min
+    omega = float(np.sqrt(max(deficit, 0.0) / Mbar_max))  # [rad/s] the model's own time scale
+    k_p = K_P_RATIO * k_d * omega**2 if k_p is None else k_p
+    k_v = K_V_RATIO * k_d * omega if k_v is None else k_v
     _positive(k_energy=k_energy, k_p=k_p, k_v=k_v)
     if not k_d > k_d_min:
         raise InputError(
@@ -198,6 +206,12 @@ def pendubot(
 
 # The default k_d sits this factor above its bound k_E (E_up - E_hanging) max Mbar.
 K_D_FACTOR = 1.02
+# The default k_p / (k_d w0^2) and k_v / (k_d w0), dimensionless: the same law on every Pendubot up
+# to scale. They are the gains first tuned by hand on the built-in Pendubot (k_p = 30, k_v = 2 where
+# E_s = 5.328792 J and Mbar_max = 0.0308 kg m^2: k_d w0^2 = 28.964, k_d w0 = 2.2020), kept to the last
+# digit so that its swing-up stays the one measured and documented.
+K_P_RATIO = 1.0357705191475395
+K_V_RATIO = 0.9082623517267436
 
 # Mbar depends on q2 only (the Pendubot's inertia does not change with q1): a grid over one turn.
 _Q2_GRID = np.linspace(-np.pi, np.pi, 73)

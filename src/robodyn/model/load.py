@@ -33,7 +33,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike
 
-from robodyn.errors import InputError, ModelError
+from robodyn.errors import InputError, ModelError, UnknownNameError
 from robodyn.model.consistency import LinkInertial, impossible_inertials, link_inertials, welded_to_root
 from robodyn.model.files import _check_urdf_root, looks_like_path, package_dirs, read_srdf, read_xml
 from robodyn.model.reduce import Reduction, reduce
@@ -52,6 +52,7 @@ def load(
     lock: Mapping[str, float | Sequence[float]] | None = None,
     keep: Iterable[str] | None = None,
     reference: ArrayLike | str | None = None,
+    passive: Iterable[str] = (),
 ) -> Robot:
     """Load a built-in model by name or any URDF by path into a :class:`Robot`.
 
@@ -70,11 +71,13 @@ def load(
             (or at its value in ``lock``).
         reference: full configuration (nq,) or the name of an SRDF group state at which
             the locked joints are held; Pinocchio's neutral configuration by default.
+        passive: names of joints without an actuator, added to the SRDF's ``<passive_joint>``
+            entries (for a URDF that has no SRDF saying so: ``--passive`` on the command line).
 
     Raises:
         ModelError: a missing or malformed file, or an impossible inertia.
-        UnknownNameError: a name that is neither built in nor in example-robot-data, or a
-            locked/kept joint the model does not have.
+        UnknownNameError: a name that is neither built in nor in example-robot-data, a
+            locked/kept joint the model does not have, or a ``passive`` joint it does not have.
         InputError: a lock value of the wrong size or outside the joint's limits.
     """
     if lock is not None or keep is not None:
@@ -87,6 +90,7 @@ def load(
             lock=lock,
             keep=keep,
             reference=reference,
+            passive=passive,
         ).reduced
     source = resolve(name_or_path, srdf=srdf)
     root = read_xml(source.urdf, "URDF")
@@ -97,15 +101,15 @@ def load(
         check_mimic_targets(root, source.urdf)
     model = build_model(source.urdf, free_flyer=free_flyer, mimic=mimic, root=root)
     check_model_matches_file(model, root, inertials, source.urdf, free_flyer=free_flyer)
-    passive: tuple[str, ...] = ()
+    declared: tuple[str, ...] = ()
     if source.srdf is not None:
         if not source.srdf.is_file():
             raise ModelError("no such SRDF file", path=source.srdf)
         info = read_srdf(source.srdf)
         if info.has_rotor_params:
             _load_rotor_parameters(model, source.srdf)
-        known = set(list(model.names)[1:])
-        passive = tuple(name for name in info.passive_joints if name in known)
+        declared = info.passive_joints
+    passive = passive_joint_names(model, declared, passive)
     if check_physics:
         welded = () if free_flyer else welded_to_root(root)  # on a fixed base they are the world: never moved
         refuse_impossible(model, source.urdf, links=inertials, welded=welded)
@@ -130,6 +134,7 @@ def load_reduction(
     lock: Mapping[str, float | Sequence[float]] | None = None,
     keep: Iterable[str] | None = None,
     reference: ArrayLike | str | None = None,
+    passive: Iterable[str] = (),
 ) -> Reduction:
     """As :func:`load` with ``lock``/``keep``, but return the whole :class:`robodyn.model.reduce.Reduction`.
 
@@ -139,7 +144,7 @@ def load_reduction(
     """
     if lock is None and keep is None:
         raise InputError("load_reduction needs lock or keep (the joints to lock or to keep)")
-    full = load(name_or_path, srdf=srdf, free_flyer=free_flyer, mimic=mimic, check_physics=False)
+    full = load(name_or_path, srdf=srdf, free_flyer=free_flyer, mimic=mimic, check_physics=False, passive=passive)
     if check_physics:
         root = read_xml(full.urdf_path, "URDF") if full.urdf_path is not None else None
         links = link_inertials(root) if root is not None else []
@@ -387,6 +392,30 @@ def _load_rotor_parameters(model: pin.Model, srdf: Path) -> None:
     reflected = np.asarray(model.rotorInertia) * np.square(np.asarray(model.rotorGearRatio))
     armature = np.asarray(model.armature, dtype=np.float64)
     model.armature = np.where(armature == 0.0, reflected, armature)
+
+
+PASSIVE_JOINT = "passive joint"
+"""What an unknown ``passive`` name is called in its :class:`UnknownNameError` (``.what``)."""
+
+
+def passive_joint_names(model: pin.Model, srdf: Iterable[str], given: Iterable[str]) -> tuple[str, ...]:
+    """The passive joints of ``model``: the SRDF's ``<passive_joint>`` names it has, and the ``given`` ones.
+
+    The two sources are one set: a joint named by both is passive once. An SRDF name the model
+    lacks is skipped (an SRDF written for a larger robot; ``robodyn info`` lists it through
+    :func:`unknown_passive_joints`); a ``given`` name it lacks is a typo and is refused.
+
+    Raises:
+        UnknownNameError: a ``given`` name that is not a joint of ``model`` (naming those that are).
+    """
+    moving = [str(name) for name in list(model.names)[1:]]
+    known = set(moving)
+    given = (given,) if isinstance(given, str) else tuple(given)  # one name, not its letters
+    for name in given:
+        if name not in known:
+            raise UnknownNameError(PASSIVE_JOINT, str(name), moving)
+    names = set(srdf) | set(given)
+    return tuple(n for n in moving if n in names)
 
 
 def unknown_passive_joints(robot: Robot) -> tuple[str, ...]:

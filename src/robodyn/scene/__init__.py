@@ -10,6 +10,7 @@ then builds the model and runs the parts asked for. Example::
     name = "panda"                          # or: urdf = "path/to/robot.urdf"
     keep = ["panda_joint2", "panda_joint4", "panda_joint6"]
     reference = "default"                   # SRDF group state holding the locked joints
+    passive = []                            # joints without an actuator (besides the SRDF's), e.g. ["joint2"]
 
     [initial]
     q = { panda_joint2 = 0.3, panda_joint4 = -2.0 }   # by joint name, or a list of nq

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import reprlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -30,7 +31,7 @@ CONTROL_GAINS: dict[str, tuple[str, ...]] = {
 PD_KEYS = ("kp", "kd", "target", "gravity_compensation")
 
 TABLES = {
-    "model": ("name", "urdf", "srdf", "free_flyer", "mimic", "physics_check", "keep", "lock", "reference"),
+    "model": ("name", "urdf", "srdf", "free_flyer", "mimic", "physics_check", "passive", "keep", "lock", "reference"),
     "initial": ("q", "v"),
     "control": tuple(dict.fromkeys(("kind", "torque", *PD_KEYS, *(k for ks in CONTROL_GAINS.values() for k in ks)))),
     "simulate": ("duration", "dt", "integrator", "backend"),
@@ -104,6 +105,7 @@ class Scene:
             "free_flyer": m.get("free_flyer", False),
             "mimic": m.get("mimic", False),
             "check_physics": m.get("physics_check", True),  # false: the file's numbers as written
+            "passive": tuple(m.get("passive", ())),
         }
         try:
             if not m.get("keep") and not m.get("lock"):
@@ -121,7 +123,11 @@ class Scene:
 
     def _model_key(self, what: str) -> str:
         """The [model] key an error about ``what`` comes from (keep, lock, reference or the model)."""
+        from robodyn.model.load import PASSIVE_JOINT
+
         m = self.model
+        if what == PASSIVE_JOINT:
+            return "passive"
         if "reference" in what:
             return "reference"
         if ("keep" in what or "kept" in what) and "keep" in m:
@@ -131,6 +137,13 @@ class Scene:
         if "joint" in what:
             return "keep" if "keep" in m else "lock"
         return "name" if "name" in m else "urdf"
+
+    def with_passive(self, names: tuple[str, ...]) -> Scene:
+        """This scene with ``names`` added to its [model] passive joints (the command line's ``--passive``)."""
+        if not names:
+            return self
+        passive = tuple(dict.fromkeys((*self.model.get("passive", ()), *names)))
+        return dataclasses.replace(self, model={**self.model, "passive": list(passive)})
 
     def initial_state(self, robot: Robot, reduction: Reduction | None = None) -> tuple[Array, Array]:
         """(q0 (nq,), v0 (nv,)) of the scene for ``robot``, zero velocity by default.

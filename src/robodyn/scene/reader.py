@@ -139,6 +139,11 @@ def read_scene(path: str | Path) -> Scene:
     for key in ("free_flyer", "mimic", "physics_check"):
         if key in model:
             _bool(path, "model", key, model[key])
+    if "passive" in model:
+        passive = model["passive"]
+        if not isinstance(passive, list) or not all(isinstance(k, str) and k for k in passive):
+            got = reprlib.repr(passive)
+            raise _fail(path, "[model] passive", f'expected a list of joint names like ["joint2"], got {got}')
     if "keep" in model:
         keep = model["keep"]
         if not isinstance(keep, list) or not keep or not all(isinstance(k, str) and k for k in keep):

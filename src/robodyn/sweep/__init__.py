@@ -31,9 +31,10 @@ from typing import Any, TextIO
 import numpy as np
 
 from robodyn import integrators
-from robodyn.errors import InputError
+from robodyn.errors import InputError, UnknownNameError
 from robodyn.kinds.edit import check_changes, write_params
 from robodyn.kinds.params import detect_kind
+from robodyn.model.load import PASSIVE_JOINT
 from robodyn.model.load import load as load_model
 from robodyn.sweep import measures
 from robodyn.sweep.chunk import Job, controller_of, upright_of
@@ -42,6 +43,7 @@ from robodyn.sweep.plan import Chunk, Plan, Setting, make_plan, settings
 from robodyn.sweep.source import (
     AsWritten,
     Model,
+    ModelFile,
     SceneReader,
     SceneSource,
     has_control,
@@ -105,20 +107,22 @@ def prepare(
     spec = source if isinstance(source, SweepSpec) else load(source)
     out = Path(out)
     scene = _scene(spec, read_scene)
+    model_name = ""
     if scene is not None:
         spec = _with_scene_defaults(spec, scene)
     check_bounds(spec)  # before loading anything: a grid or a duration past the bounds is a typo
     if scene is not None:
+        scene = scene.with_passive(spec.passive)
         robot, reduction = scene.build()
         model: Model = scene
         q_default, v_default = scene.scene.initial_state(robot, reduction)
     else:
-        model = resolve(spec, spec.model)
-        if spec.physics_check:
-            robot = load_model(model)
+        model_name = resolve(spec, spec.model)
+        if not spec.physics_check:
+            model = AsWritten(model_name, spec.passive)
         else:
-            model = AsWritten(str(model))
-            robot, _ = model.build()
+            model = ModelFile(model_name, spec.passive) if spec.passive else model_name
+        robot = _robot_named(spec, model)
     if not robot.nq_equals_nv:
         raise InputError(f"{spec.source}: model {robot.name} has nq={robot.nq} != nv={robot.nv}; sweeps need nq == nv")
     if scene is None:
@@ -153,8 +157,8 @@ def prepare(
     files = measures.user_files(spec.measures)
     if isinstance(model, SceneSource):
         files["scene"] = model.key.encode()
-    elif Path(model).is_file():
-        files["model"] = Path(model).read_bytes()
+    elif Path(model_name).is_file():
+        files["model"] = Path(model_name).read_bytes()
     for c in controllers:
         if c not in (NO_CONTROLLER, SCENE_CONTROLLER) and Path(c).is_file():
             files[f"controller:{c}"] = Path(c).read_bytes()
@@ -237,6 +241,19 @@ def _with_scene_defaults(spec: SweepSpec, scene: SceneSource) -> SweepSpec:
     return SweepSpec(**{**spec.__dict__, **changes})
 
 
+def _robot_named(spec: SweepSpec, model: str | ModelFile) -> Any:
+    """The sweep's robot, its ``passive`` joints (if any) checked against the model's joints."""
+    if isinstance(model, str):
+        return load_model(model)
+    try:
+        robot, _ = model.build()
+    except UnknownNameError as exc:
+        if exc.what != PASSIVE_JOINT:
+            raise
+        raise InputError(f"{spec.source}: passive: {exc}") from None
+    return robot
+
+
 def _check_params(spec: SweepSpec, robot: Any) -> str | None:
     if not spec.params:
         return None
@@ -258,6 +275,8 @@ def _models(spec: SweepSpec, model: Model, robot: Any, kind: str | None, out: Pa
     models: dict[Setting, Model] = {}
     full = model.full() if isinstance(model, SceneSource) and spec.params else robot
     tag_of = model.key if isinstance(model, SceneSource) else str(model)
+    if isinstance(model, ModelFile) and model.passive:  # a passive set of its own: URDFs of their own
+        tag_of += "|passive=" + ",".join(model.passive)
     for setting in settings(spec):
         if not setting.params or kind is None:
             models[setting] = model
@@ -271,7 +290,9 @@ def _models(spec: SweepSpec, model: Model, robot: Any, kind: str | None, out: Pa
             resolved = path.resolve()
             if isinstance(model, SceneSource):
                 written[setting.params] = model.with_urdf(resolved)
+            elif isinstance(model, ModelFile):  # AsWritten too: the same passive joints, the same physics check
+                written[setting.params] = dataclasses.replace(model, name=str(resolved))
             else:
-                written[setting.params] = AsWritten(str(resolved)) if isinstance(model, AsWritten) else str(resolved)
+                written[setting.params] = str(resolved)
         models[setting] = written[setting.params]
     return models

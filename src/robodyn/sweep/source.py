@@ -119,6 +119,12 @@ class SceneSource:
         scene = dataclasses.replace(self.scene, model=model)
         return SceneSource(_digest(self.key, Path(urdf).read_bytes()), scene)
 
+    def with_passive(self, names: tuple[str, ...]) -> SceneSource:
+        """This scene with ``names`` added to its [model] passive joints (keyed apart from the scene without)."""
+        if not names:
+            return self
+        return SceneSource(_digest(self.key, "passive=" + ",".join(sorted(names))), self.scene.with_passive(names))
+
     def full(self) -> Robot:
         """The scene's model before any joint is locked (parameters are written to its URDF)."""
         model = {k: v for k, v in self.scene.model.items() if k not in ("keep", "lock", "reference")}
@@ -127,10 +133,15 @@ class SceneSource:
 
 
 @dataclass(frozen=True)
-class AsWritten:
-    """A model name or URDF path loaded with its file's numbers as written (a sweep's ``physics_check = false``)."""
+class ModelFile:
+    """A model name or URDF path with how to load it: joints declared passive, the physics check.
+
+    A sweep's model is a plain str unless its file declares ``passive`` joints or ``physics_check = false``.
+    """
 
     name: str
+    passive: tuple[str, ...] = ()
+    check_physics: bool = True
 
     def __str__(self) -> str:
         return self.name
@@ -139,13 +150,20 @@ class AsWritten:
         return self.name
 
     def build(self) -> tuple[Robot, None]:
-        """(robot, None): the model loaded without refusing physically impossible inertias."""
+        """(robot, None): the model loaded with its passive joints (and the physics check as asked)."""
         from robodyn.model.load import load
 
-        return load(self.name, check_physics=False), None
+        return load(self.name, passive=self.passive, check_physics=self.check_physics), None
 
 
-Model = str | SceneSource | AsWritten
+@dataclass(frozen=True)
+class AsWritten(ModelFile):
+    """A model loaded with its file's numbers as written (a sweep's ``physics_check = false``)."""
+
+    check_physics: bool = False
+
+
+Model = str | SceneSource | ModelFile
 
 
 def scene_source(scene: SceneLike) -> SceneSource:

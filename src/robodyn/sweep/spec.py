@@ -9,6 +9,7 @@ value is crossed with every other (a full grid)::
     dt = 1e-3                     # [s]; a list makes it an axis
     integrator = "rk4"            # or a list: an axis
     controller = "lqr"            # optional; "none", a name, a list, or a controller file
+    passive = ["joint2"]          # optional: joints without an actuator, besides the SRDF's
     measure = ["final_state", "time_to_balance", "wall_time", "my_measures.py:peak"]
     chunk = 1000                  # runs per Dask task
     seed = 0                      # the Lyapunov twins' seed (the run's index is added)
@@ -63,6 +64,7 @@ TOP_KEYS = (
     "measure",
     "model",
     "params",
+    "passive",
     "physics_check",
     "q0",
     "scene",
@@ -97,7 +99,8 @@ class SweepSpec:
     built-in kind's parameter name to its values (SI units); ``base`` is the folder that relative paths
     in the file are read from; ``digest`` identifies everything that decides a run's numbers.
     ``scene`` is the scene file's path ("" without one; ``model`` is then "" until the scene is
-    read); ``given`` the top-level keys the file gave (the rest may come from the scene).
+    read); ``given`` the top-level keys the file gave (the rest may come from the scene); ``passive``
+    the joints declared unactuated besides the SRDF's (added to a scene's [model] passive).
     """
 
     source: str
@@ -118,6 +121,7 @@ class SweepSpec:
     scene: str = ""
     given: frozenset[str] = frozenset()
     physics_check: bool = True  # False: the model's file is loaded with its numbers as written
+    passive: tuple[str, ...] = ()
 
 
 def load(source: str | Path | Mapping[str, Any]) -> SweepSpec:
@@ -175,6 +179,9 @@ def parse(data: Mapping[str, Any], *, name: str, base: Path) -> SweepSpec:
     q0 = {k: _axis(v, f"{name}: q0.{k}") for k, v in _table(data.get("q0", {}), f"{name}: q0").items()}
     v0 = {k: _axis(v, f"{name}: v0.{k}") for k, v in _table(data.get("v0", {}), f"{name}: v0").items()}
     params = {k: _axis(v, f"{name}: params.{k}") for k, v in _table(data.get("params", {}), f"{name}: params").items()}
+    passive = data.get("passive", [])
+    if not isinstance(passive, list) or not all(isinstance(x, str) and x.strip() for x in passive):
+        raise InputError(f'{name}: passive must be a list of joint names like ["joint2"], got {passive!r}')
     for label, values in (("dt", dts), ("integrator", integrators), ("controller", controllers), ("measure", measures)):
         if len(set(values)) != len(values):
             raise InputError(f"{name}: {label} lists a value twice: {list(values)}")
@@ -196,6 +203,7 @@ def parse(data: Mapping[str, Any], *, name: str, base: Path) -> SweepSpec:
         scene=scene,
         given=frozenset(str(k) for k in data),
         physics_check=physics_check,
+        passive=tuple(dict.fromkeys(x.strip() for x in passive)),
     )
     return spec
 
@@ -207,7 +215,7 @@ def with_digest(spec: SweepSpec, files: Mapping[str, bytes]) -> SweepSpec:
     edited model or measure file makes every chunk new.
     """
     h = hashlib.sha256()
-    parts = (
+    parts: tuple[str, ...] = (
         spec.model,
         spec.scene,
         repr(spec.duration),
@@ -216,6 +224,8 @@ def with_digest(spec: SweepSpec, files: Mapping[str, bytes]) -> SweepSpec:
         repr(spec.seed),
         *(() if spec.physics_check else ("physics as written",)),  # absent by default: old digests hold
     )
+    if spec.passive:  # only when given: the digests (and resumable folders) of other sweeps stay as they were
+        parts = (*parts, "passive=" + ",".join(sorted(spec.passive)))
     for part in parts:
         h.update(part.encode() + b"\0")
     for label in sorted(files):

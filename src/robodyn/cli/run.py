@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from robodyn.cli._common import file_path
+from robodyn.cli._interrupts import held
 from robodyn.cli._output import (
     check_output_file,
     check_output_folder,
@@ -273,14 +274,16 @@ def _simulate(
 
         hint = ' (mimic joints: try [simulate] backend = "crba")' if scene.model.get("mimic") else ""
         raise ModelError(f"simulate: Pinocchio refused the model: {pinocchio_message(exc)}{hint}") from None
-    if reduction is not None:
-        meta = dict(trajectory.meta)
-        meta["reduction"] = {
-            "full_nv": reduction.full.nv,
-            "locked": {k: v.tolist() for k, v in reduction.lock_values().items()},
-        }
-        trajectory = dataclasses.replace(trajectory, meta=meta)
-    trajectory.save(writable_path(path))
+    abandoned = f"interrupted twice while the finished run was being written; {path} not written"
+    with held(abandoned=lambda: abandoned) as ctrl_c:  # the run is over: a Ctrl-C must not lose it
+        if reduction is not None:
+            meta = dict(trajectory.meta)
+            meta["reduction"] = {
+                "full_nv": reduction.full.nv,
+                "locked": {k: v.tolist() for k, v in reduction.lock_values().items()},
+            }
+            trajectory = dataclasses.replace(trajectory, meta=meta)
+        trajectory.save(writable_path(path))
     print(
         f"simulate: {trajectory.n_steps} steps of {scene.simulate['dt']} s with {integrator} in "
         f"{trajectory.wall_time_s:.3f} s wall; energy ledger residual {abs(trajectory.ledger_residual).max():.2e} J; "
@@ -297,6 +300,11 @@ def _simulate(
         "trajectory": str(path),
         **{key: s[key] for key in CONSTRAINT_FIGURES},
     }
+    if ctrl_c:  # written whole: the one line says where, and the scene's later parts are not run
+        summary["simulate"]["interrupted"] = True
+        raise SimulationInterrupted(
+            f"interrupted after the simulation had finished; its trajectory is written to {path}", trajectory=trajectory
+        )
     return trajectory
 
 
@@ -334,7 +342,8 @@ def _stopped_early(exc: BaseException, path: Path, summary: dict[str, Any]) -> B
     message = str(exc)
     if trajectory is not None:
         partial = writable_path(partial_path(path))
-        trajectory.save(partial)
+        with held(abandoned=lambda: f"interrupted twice while {partial} was being written; not written"):
+            trajectory.save(partial)
         record["trajectory"] = str(partial)
         kept = f" ({path} left as it was)" if path.exists() else ""
         message += f"; partial trajectory written to {partial}{kept}"

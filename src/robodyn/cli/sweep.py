@@ -15,6 +15,7 @@ from typing import Any
 
 from robodyn.cli._common import file_path, positive_int
 from robodyn.cli._output import check_output_folder
+from robodyn.errors import SweepInterrupted
 
 
 def add_parser(sub: Any) -> None:
@@ -51,14 +52,17 @@ def run(args: Any) -> int:
     from robodyn.scene import read_scene
 
     check_output_folder(args.out)
-    result = sweep.run(
-        args.sweep,
-        out=args.out,
-        scheduler=args.scheduler,
-        workers=args.workers,
-        progress=None if args.quiet else sys.stderr,
-        read_scene=read_scene,
-    )
+    try:
+        result = sweep.run(
+            args.sweep,
+            out=args.out,
+            scheduler=args.scheduler,
+            workers=args.workers,
+            progress=None if args.quiet else sys.stderr,
+            read_scene=read_scene,
+        )
+    except SweepInterrupted as exc:
+        raise KeyboardInterrupt(f"{exc}; run the same command again to resume from them") from None
     table = result.table()
     print(
         f"{table.num_rows} runs in {len(result.plan.chunks)} chunks ({result.computed} computed, "

@@ -1,0 +1,196 @@
+"""Interrupted at the worst moment: nothing lost, nothing left running, one line (issue 27).
+
+Each test runs the real ``robodyn`` program in a session of its own, paused at a window by
+``ROBODYN_TEST_PAUSE_AT=WINDOW:FILE`` (:func:`robodyn.fileio.pause_for_test`): the command
+creates ``FILE.waiting`` there and waits for ``FILE``. The test sends its signal inside the
+window, to the whole process group as a terminal's Ctrl-C does, then lets the command go on.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import psutil
+import pytest
+
+from robodyn.sim.trajectory import Trajectory
+
+ROOT = Path(__file__).resolve().parents[1]
+# Seconds [s] a paused command may take to reach its window (imports, numba's cache, a cluster's start).
+REACH_WINDOW_S = 240.0
+# Seconds [s] the processes of a command get to be gone after it ended: the kernel kills at once;
+# this only bounds the wait on a loaded machine.
+GONE_WITHIN_S = 30.0
+# A small sweep: 6 runs of 0.3 s in chunks of 1 on 2 workers (the main thread is paused after chunk 1).
+SWEEP = """model = "pendubot"
+duration = 0.3
+dt = 1e-3
+integrator = "rk4"
+measure = ["final_state"]
+chunk = 1
+
+[q0]
+joint1 = [1.0, 1.2, 1.4, 1.6, 1.8, 2.0]
+"""
+
+
+class Paused:
+    """A robodyn command started in its own session, paused at ``window``."""
+
+    def __init__(self, tmp_path: Path, window: str, *args: str) -> None:
+        self.go = tmp_path / f"go-{window}"
+        self.stderr_path = tmp_path / f"stderr-{window}.txt"
+        env = {**os.environ, "ROBODYN_TEST_PAUSE_AT": f"{window}:{self.go}"}
+        env["PYTHONPATH"] = os.pathsep.join([str(ROOT / "src"), env.get("PYTHONPATH", "")])
+        with self.stderr_path.open("wb") as err:
+            self.process = subprocess.Popen(
+                [sys.executable, "-m", "robodyn", *args],
+                cwd=tmp_path,
+                env=env,
+                stdout=subprocess.DEVNULL,
+                stderr=err,
+                start_new_session=True,  # a process group of its own: a "terminal" to send Ctrl-C to
+                preexec_fn=_default_sigint,
+            )
+        self.children: list[psutil.Process] = []
+
+    def wait_for_window(self) -> None:
+        """Block until the command sits in its window; note its child processes then."""
+        waiting = Path(f"{self.go}.waiting")
+        deadline = time.monotonic() + REACH_WINDOW_S
+        while not waiting.exists():
+            if self.process.poll() is not None:
+                pytest.fail(f"the command ended ({self.process.returncode}) before its window: {self.stderr()}")
+            if time.monotonic() > deadline:
+                self.process.kill()
+                pytest.fail("the command never reached its window")
+            time.sleep(0.02)
+        self.children = psutil.Process(self.process.pid).children(recursive=True)
+
+    def signal_group(self, signum: int) -> None:
+        """Send ``signum`` to the command's whole process group (as a terminal sends Ctrl-C)."""
+        os.killpg(self.process.pid, signum)
+
+    def release(self) -> int:
+        """Let the command leave its window; return its exit code."""
+        self.go.touch()
+        return self.process.wait(timeout=REACH_WINDOW_S)
+
+    def stderr(self) -> str:
+        """The command's stderr, each progress bar redraw on a line of its own."""
+        return self.stderr_path.read_text(errors="replace").replace("\r", "\n")
+
+    def left_alive(self) -> list[psutil.Process]:
+        """The command's processes (noted in the window) still running after it ended."""
+        _, alive = psutil.wait_procs(self.children, timeout=GONE_WITHIN_S)
+        return [p for p in alive if p.status() != psutil.STATUS_ZOMBIE]
+
+
+def _default_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_DFL)  # a background pytest may ignore it; a user's shell does not
+
+
+def _lines(text: str, *, drop: str = "") -> list[str]:
+    """The non-empty lines of ``text``, less the progress bar's (those starting with ``drop``)."""
+    return [line for line in text.splitlines() if line.strip() and not (drop and line.startswith(drop))]
+
+
+def test_ctrl_c_while_simulate_writes_its_finished_run_keeps_it(tmp_path: Path) -> None:
+    out, csv = tmp_path / "x.npz", tmp_path / "x.csv"
+    command = Paused(
+        tmp_path, "write", "simulate", "pendubot", "--duration", "0.2", "--out", str(out), "--csv", str(csv)
+    )
+    command.wait_for_window()  # the .npz is written under its temporary name, not yet renamed
+    assert list(tmp_path.glob(".x.npz.*.part")), "the window is the .npz's temporary file"
+    command.signal_group(signal.SIGINT)
+    code = command.release()
+    assert code == 130
+    assert _lines(command.stderr()) == [
+        f"robodyn simulate: interrupted after the run had finished; its trajectory is written to {out} and {csv}"
+    ]
+    whole = Trajectory.load(out)
+    assert whole.t[-1] == pytest.approx(0.2)
+    assert np.loadtxt(csv, delimiter=",", skiprows=1).shape[0] == whole.t.size
+    assert not list(tmp_path.glob("*.part")), "no temporary file left"
+
+
+def test_a_second_ctrl_c_abandons_the_write_and_says_so(tmp_path: Path) -> None:
+    out = tmp_path / "x.npz"
+    command = Paused(tmp_path, "write", "simulate", "pendubot", "--duration", "0.2", "--out", str(out))
+    command.wait_for_window()
+    command.signal_group(signal.SIGINT)
+    time.sleep(0.2)  # two presses, not one: the first is noted before the second comes
+    command.signal_group(signal.SIGINT)
+    code = command.release()
+    assert code == 130
+    assert _lines(command.stderr()) == [
+        "robodyn simulate: interrupted twice while the finished run was being written; the writes were abandoned "
+        "(nothing written)"
+    ]
+    assert not out.exists() and not list(tmp_path.glob("*.part"))
+
+
+def test_ctrl_c_while_run_writes_the_scene_trajectory_keeps_it(tmp_path: Path) -> None:
+    scene = tmp_path / "s.toml"
+    scene.write_text('[model]\nname = "pendubot"\n\n[simulate]\nduration = 0.2\ndt = 1e-3\n')
+    command = Paused(tmp_path, "write", "run", str(scene), "--no-view", "--out", str(tmp_path / "out"))
+    command.wait_for_window()
+    command.signal_group(signal.SIGINT)
+    code = command.release()
+    assert code == 130
+    path = tmp_path / "out" / "s.npz"
+    assert _lines(command.stderr()) == [
+        f"robodyn run: interrupted after the simulation had finished; its trajectory is written to {path}"
+    ]
+    assert Trajectory.load(path).t[-1] == pytest.approx(0.2)
+
+
+@pytest.mark.timeout(600)
+def test_ctrl_c_in_a_sweep_kills_its_cluster_and_says_how_to_resume(tmp_path: Path) -> None:
+    (tmp_path / "s.toml").write_text(SWEEP)
+    command = Paused(tmp_path, "chunk", "sweep", "s.toml", "--out", "out", "--workers", "2")
+    command.wait_for_window()  # chunk 1 is written; the workers go on with the others
+    assert len(command.children) >= 2, "a scheduler's workers run in processes of their own"
+    command.signal_group(signal.SIGINT)
+    code = command.release()
+    assert code == 130
+    lines = _lines(command.stderr(), drop="sweep [")
+    assert len(lines) == 1, command.stderr()
+    assert lines[0].startswith("robodyn sweep: interrupted; ")
+    assert lines[0].endswith(" of 6 chunks are written in out/results; run the same command again to resume from them")
+    assert command.left_alive() == []
+
+
+@pytest.mark.timeout(600)
+def test_a_killed_sweep_leaves_no_process_and_no_leaked_semaphore_warning(tmp_path: Path) -> None:
+    (tmp_path / "s.toml").write_text(SWEEP)
+    command = Paused(tmp_path, "chunk", "sweep", "s.toml", "--out", "out", "--workers", "2")
+    command.wait_for_window()
+    os.kill(command.process.pid, signal.SIGKILL)  # the sweep alone: its workers must follow
+    assert command.process.wait(timeout=GONE_WITHIN_S) == -signal.SIGKILL
+    assert command.left_alive() == []  # the resource tracker too, once the workers are gone
+    assert "leaked" not in command.stderr()
+    assert _lines(command.stderr(), drop="sweep [") == []
+
+
+def test_the_workers_of_a_local_cluster_die_with_their_parent() -> None:
+    from robodyn.sweep.engine import client_for
+
+    def parent_death_signal() -> int:
+        import ctypes
+
+        value = ctypes.c_int(0)
+        ctypes.CDLL(None).prctl(2, ctypes.byref(value), 0, 0, 0)  # PR_GET_PDEATHSIG
+        return value.value
+
+    if not sys.platform.startswith("linux"):
+        pytest.skip("prctl(PR_SET_PDEATHSIG) is Linux's")
+    with client_for(scheduler=None, workers=1) as client:
+        signals = client.run(parent_death_signal)
+    assert list(signals.values()) == [signal.SIGKILL]

@@ -27,16 +27,19 @@ REACH_WINDOW_S = 240.0
 # Seconds [s] the processes of a command get to be gone after it ended: the kernel kills at once;
 # this only bounds the wait on a loaded machine.
 GONE_WITHIN_S = 30.0
-# A small sweep: 6 runs of 0.3 s in chunks of 1 on 2 workers (the main thread is paused after chunk 1).
+# A sweep whose chunks keep the workers busy when the signal comes: 6 runs of 8 s balanced by LQR
+# (a torque callback from the compiled loop at every stage: seconds of wall time each), chunks of 1,
+# 2 workers. Paused after chunk 1 is written, the workers are inside chunks 3 and 4.
 SWEEP = """model = "pendubot"
-duration = 0.3
+duration = 8.0
 dt = 1e-3
 integrator = "rk4"
+controller = "lqr"
 measure = ["final_state"]
 chunk = 1
 
 [q0]
-joint1 = [1.0, 1.2, 1.4, 1.6, 1.8, 2.0]
+joint1 = [1.53, 1.55, 1.57, 1.59, 1.61, 1.63]
 """
 
 

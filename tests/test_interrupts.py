@@ -182,18 +182,19 @@ def test_a_killed_sweep_leaves_no_process_and_no_leaked_semaphore_warning(tmp_pa
     assert _lines(command.stderr(), drop="sweep [") == []
 
 
-def test_the_workers_of_a_local_cluster_die_with_their_parent() -> None:
+def test_the_workers_of_a_local_cluster_are_deaf_to_ctrl_c_and_die_with_their_parent() -> None:
     from robodyn.sweep.engine import client_for
 
-    def parent_death_signal() -> int:
+    def parent_death_signal_and_blocked() -> tuple[int, bool]:
         import ctypes
 
         value = ctypes.c_int(0)
         ctypes.CDLL(None).prctl(2, ctypes.byref(value), 0, 0, 0)  # PR_GET_PDEATHSIG
-        return value.value
+        return value.value, signal.SIGINT in signal.pthread_sigmask(signal.SIG_BLOCK, set())
 
     if not sys.platform.startswith("linux"):
         pytest.skip("prctl(PR_SET_PDEATHSIG) is Linux's")
     with client_for(scheduler=None, workers=1) as client:
-        signals = client.run(parent_death_signal)
-    assert list(signals.values()) == [signal.SIGKILL]
+        found = client.run(parent_death_signal_and_blocked)
+    assert list(found.values()) == [(signal.SIGKILL, True)]
+    assert signal.SIGINT not in signal.pthread_sigmask(signal.SIG_BLOCK, set()), "this process hears Ctrl-C again"

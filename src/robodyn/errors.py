@@ -113,6 +113,14 @@ class SweepInterrupted(KeyboardInterrupt):
         super().__init__(message)
 
 
+class BenchInterrupted(KeyboardInterrupt):
+    """A work-precision sweep stopped by Ctrl-C; ``sweep`` holds the runs it finished (None before the first)."""
+
+    def __init__(self, message: str, *, sweep: Any) -> None:
+        self.sweep = sweep
+        super().__init__(message)
+
+
 class SceneError(InputError):
     """A scene file is missing, malformed or says something impossible."""
 

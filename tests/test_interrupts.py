@@ -198,3 +198,141 @@ def test_the_workers_of_a_local_cluster_are_deaf_to_ctrl_c_and_die_with_their_pa
         found = client.run(parent_death_signal_and_blocked)
     assert list(found.values()) == [(signal.SIGKILL, True)]
     assert signal.SIGINT not in signal.pthread_sigmask(signal.SIG_BLOCK, set()), "this process hears Ctrl-C again"
+
+
+# --------------------------------------------------------------------------- robodyn bench
+# A robot robodyn did not build (no built-in kind): a slider of range [0, 0.2] m (the bench's +0.5 m
+# offset from neutral 0 would start it outside) carrying a double pendulum.
+SLIDER_PENDULUM = """<?xml version="1.0"?>
+<robot name="slider_pendulum">
+  <link name="base"/>
+  <link name="carriage">
+    <inertial><origin xyz="0 0 0"/><mass value="1.0"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+  <link name="arm">
+    <inertial><origin xyz="0 0 -0.25"/><mass value="0.5"/><inertia ixx="0.003" iyy="0.003" izz="0.0005" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+  <joint name="slide" type="prismatic"><parent link="base"/><child link="carriage"/><origin xyz="0 0 0"/>
+    <axis xyz="1 0 0"/><limit lower="0" upper="0.2" effort="10" velocity="10"/></joint>
+  <link name="forearm">
+    <inertial><origin xyz="0 0 -0.2"/><mass value="0.3"/><inertia ixx="0.002" iyy="0.002" izz="0.0003" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+  <joint name="swing" type="revolute"><parent link="carriage"/><child link="arm"/><origin xyz="0 0 0"/>
+    <axis xyz="0 1 0"/><limit lower="-3" upper="3" effort="10" velocity="10"/></joint>
+  <joint name="elbow" type="revolute"><parent link="arm"/><child link="forearm"/><origin xyz="0 0 -0.5"/>
+    <axis xyz="0 1 0"/><limit lower="-3" upper="3" effort="10" velocity="10"/></joint>
+</robot>
+"""
+# A bench that is quick: rk4 at two steps on ABA and the compiled backend, over 0.4 s.
+TINY_PLAN = dict(
+    error_horizon=0.2,
+    energy_horizon=0.4,
+    sample_interval=0.02,
+    dts=(0.01, 0.005),
+    rtols=(),
+    fixed=("rk4",),
+    adaptive=(),
+    backends=("aba", "formula", "fast"),
+    all_backends_for=("rk4",),
+)
+
+
+@pytest.fixture
+def slider(tmp_path: Path) -> Path:
+    path = tmp_path / "slider_pendulum.urdf"
+    path.write_text(SLIDER_PENDULUM)
+    return path
+
+
+def test_a_user_robot_starts_inside_its_joint_ranges(slider: Path) -> None:
+    import robodyn
+    from robodyn.studies.bench import INSIDE_RANGE, start_state
+
+    q0, v0 = start_state(robodyn.load(slider))
+    assert q0[0] == pytest.approx(0.2 - INSIDE_RANGE * 0.2)  # 0.5 m would pass the upper limit: 10 % of the range in
+    assert list(q0[1:]) == [-0.3, -0.3]  # inside their ranges: the usual offset
+    assert not v0.any()
+
+
+def test_a_user_robot_runs_the_compiled_backend_simulate_runs(slider: Path) -> None:
+    import robodyn
+    from robodyn.studies import bench
+
+    result = bench.sweep(robodyn.load(slider), plan=bench.SweepPlan(**TINY_PLAN))
+    assert [s.split(":")[0] for s in result.skipped] == ["formula"]  # not a built-in kind: no closed form
+    fast = [r for r in result.results if r.backend == "fast"]
+    aba = {r.dt: r for r in result.results if r.backend == "aba"}
+    assert [r.dt for r in fast] == [0.01, 0.005]
+    for r in fast:  # the same RK4 steps: the compiled loop agrees with ABA to round-off
+        assert not r.diverged and r.error == pytest.approx(aba[r.dt].error, rel=1e-3)
+
+
+def test_a_report_about_a_user_robot_holds_no_built_in_study(
+    slider: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import json
+
+    from robodyn.cli import main
+    from robodyn.studies import bench
+
+    monkeypatch.setattr(bench, "default_plan", lambda *, quick=False: bench.SweepPlan(**TINY_PLAN))
+    out = tmp_path / "out"
+    assert main(["bench", str(slider), "--quick", "--no-progress", "--out", str(out)]) == 0
+    stability = json.loads((out / "stability.json").read_text())
+    assert {x["case"] for x in stability["limits"]} == {"slider_pendulum"}
+    assert not {"stiff", "chaos", "near_singular"} & set(stability)
+    report = (out / "report.md").read_text()
+    for study in ("geared_arm_stiff", "Chaos (pendubot", "lyapunov.png", "pendubot_light"):
+        assert study not in report
+    assert not (out / "lyapunov.png").exists()
+
+
+def test_ctrl_c_during_a_bench_sweep_keeps_its_runs_on_a_line_of_their_own(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import json
+
+    from robodyn.cli import main
+    from robodyn.errors import SimulationInterrupted
+    from robodyn.studies import bench
+
+    monkeypatch.setattr(bench, "default_plan", lambda *, quick=False: bench.SweepPlan(**TINY_PLAN))
+    original, calls = bench.run_one, []
+
+    def run_one_then_ctrl_c(*args: object, **kwargs: object) -> object:
+        calls.append(1)
+        if len(calls) == 3:  # as simulate answers a Ctrl-C during its third run
+            raise SimulationInterrupted("simulation interrupted at t = 0.1 s", trajectory=None)
+        return original(*args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(bench, "run_one", run_one_then_ctrl_c)
+    out = tmp_path / "out"
+    assert main(["bench", "pendubot", "--no-stability", "--out", str(out)]) == 130
+    err = capsys.readouterr().err
+    (stage,) = out.glob("bench.partial.*")
+    line = f"robodyn bench: interrupted; the results so far are in {stage} ({out} is left as it was)\n"
+    assert err.endswith("\n" + line)  # after the progress bar's line, not glued to it
+    records = json.loads((stage / "bench.json").read_text())
+    assert [(r["backend"], r["dt"]) for r in records] == [("aba", 0.01), ("aba", 0.005)]
+
+
+def test_ctrl_c_while_bench_moves_its_results_in_leaves_out_as_it_was(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "report.md").write_text("# an earlier run\n")
+    (out / "bench.json").write_text("[]\n")
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    command = Paused(tmp_path, "publish", "bench", "cart_pole", "--quick", "--no-stability", "--out", str(out))
+    command.wait_for_window()  # the first new file is in out
+    command.signal_group(signal.SIGINT)
+    code = command.release()
+    assert code == 130
+    (stage,) = out.glob("bench.partial.*")
+    assert {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()} == before
+    lines = _lines(command.stderr())
+    assert lines[-1] == (
+        f"robodyn bench: interrupted while the results were being moved in; they are in {stage} "
+        f"({out} is left as it was)"
+    )
+    assert "Exception ignored" not in command.stderr() and "Traceback" not in command.stderr()
+    assert (stage / "report.md").is_file() and (stage / "bench.json").is_file()

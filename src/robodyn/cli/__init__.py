@@ -96,6 +96,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = parser.parse_args(_attach_negative_values(sys.argv[1:] if argv is None else argv))
     except KeyboardInterrupt:  # while the subcommands' modules load: nothing began
         print("robodyn: interrupted", file=sys.stderr)
+        if argv is None:
+            _interrupts.quiet_exit()
         return EXIT_INTERRUPTED
     with _numeric_warnings() as counts:
         code = _run(args)

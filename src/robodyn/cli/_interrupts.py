@@ -62,9 +62,19 @@ def install() -> None:
 
 
 def quiet_exit() -> None:
-    """Ignore Ctrl-C from now on: the command has finished, the interpreter is shutting down."""
+    """Ignore Ctrl-C from now on: the command has finished, the interpreter is shutting down.
+
+    Also clears CPython's note of a KeyboardInterrupt seen by a nested ``PyRun_String`` (a
+    library's call into the interpreter during the run): with it set, the interpreter ends the
+    process with SIGINT at exit instead of the exit code the command returned. Running an empty
+    statement through ``PyRun_SimpleString`` resets that note, as every such run does.
+    """
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGINT, signal.SIG_IGN)
+    with contextlib.suppress(AttributeError, OSError, ImportError):
+        import ctypes
+
+        ctypes.pythonapi.PyRun_SimpleString(b"pass")
 
 
 def _interrupt(signum: int, frame: FrameType | None) -> None:

@@ -1,7 +1,7 @@
 """Interrupt robodyn at random moments: SIGINT and SIGKILL to simulate, run, bench and sweep.
 
     python benchmarks/fuzz_interrupts.py [--trials 60] [--seed 0] [--out DIR (default bench-out)]
-                                         [--commands simulate,run,bench,sweep]
+                                         [--commands simulate,run,bench,sweep] [--minutes M]
 
 A sibling of ``fuzz.py`` for issue 27. Each command is first run once without a signal (its
 duration T calibrates the moments, its outputs are the good results of an "earlier run"). Each
@@ -310,6 +310,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--trials", type=int, default=60, help="number of trials (default 60)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the draws (default 0)")
     parser.add_argument("--commands", default=",".join(COMMANDS), help="commands to interrupt, comma-separated")
+    parser.add_argument(
+        "--minutes", type=float, default=None, help="start no trial after this many minutes (default: no limit)"
+    )
     args = parser.parse_args(argv)
     names = [n for n in args.commands.split(",") if n]
     unknown = sorted(set(names) - set(COMMANDS))
@@ -329,7 +332,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         calibration[name] = outcome.wall_s
         print(f"calibration: {name} takes {outcome.wall_s:.1f} s without a signal", flush=True)
     records = []
+    deadline = time.monotonic() + 60.0 * args.minutes if args.minutes is not None else float("inf")
     for index in range(args.trials):
+        if time.monotonic() > deadline:
+            break
         record = run_trial(index, args.seed, names, calibration, work)
         records.append(record)
         flags = ", ".join(record["findings"]) or "ok"

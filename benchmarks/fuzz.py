@@ -914,6 +914,29 @@ def scene_bytes(scene: dict[str, dict[str, Any]]) -> bytes:
 
 # ============================================================================ cases
 
+FAMILY_MODULES = ("_fuzz_files",)
+"""Families of side files kept in modules of their own beside this file. Each module has ``KINDS`` (kind name ->
+weight: cases of that kind per 20 drawn), ``make(kind, index, pick, fixtures) -> dict`` (the fields of a
+:class:`Case`) and ``execute(case) -> (exit code, findings)``, run in the child from the case's folder."""
+
+
+def family_modules() -> list[Any]:
+    """The modules of :data:`FAMILY_MODULES`, imported from this file's folder."""
+    _shared()  # puts this folder on sys.path
+    import importlib
+
+    return [importlib.import_module(name) for name in FAMILY_MODULES]
+
+
+def _module_of(kind: str) -> Any:
+    return next((m for m in family_modules() if kind in m.KINDS), None)
+
+
+def base_kinds() -> list[str]:
+    """Every kind of case, each repeated by its weight (per 20 drawn)."""
+    extra = [k for m in family_modules() for k, w in m.KINDS.items() for _ in range(w)]
+    return ["api"] * 9 + ["info"] * 3 + ["check"] * 2 + ["cli"] * 4 + ["scene"] * 2 + extra
+
 
 @dataclass
 class Case:
@@ -927,6 +950,7 @@ class Case:
     files: dict[str, bytes]
     argv: list[str] | None  # None: robodyn.load("model.urdf")
     compare: bool  # on exit 0, model.urdf must load as the file says
+    oracle: dict[str, Any] | None = None  # what a family module's execute() checks (its own keys)
 
 
 @dataclass(frozen=True)
@@ -938,10 +962,14 @@ class Inputs:
     options: dict[str, list[tuple[str, Any]]]
 
 
-def make_case(index: int, seed: int, inputs: Inputs) -> Case:
-    """Case ``index`` of the campaign ``seed`` (the same pair gives the same case)."""
+def make_case(index: int, seed: int, inputs: Inputs, kinds: Sequence[str] | None = None) -> Case:
+    """Case ``index`` of the campaign ``seed`` (the same pair gives the same case); ``kinds`` keeps only those."""
     pick = RandomChooser(f"{seed}:{index}")
-    kind = pick.choice(["api"] * 9 + ["info"] * 3 + ["check"] * 2 + ["cli"] * 4 + ["scene"] * 2)
+    pool = [k for k in base_kinds() if kinds is None or k in kinds]
+    kind = pick.choice(pool)
+    module = _module_of(kind)
+    if module is not None:
+        return Case(index=index, kind=kind, **module.make(kind, index, pick, inputs.fixtures))
     if kind in ("api", "info", "check"):
         base, text = pick.choice(inputs.bases)
         if pick.integer(0, 199) == 0:
@@ -1019,6 +1047,9 @@ def _execute(case: Case) -> tuple[int, list[str]]:
     from robodyn.cli import main
     from robodyn.errors import RobodynError
 
+    module = _module_of(case.kind)
+    if module is not None:
+        return module.execute(case)  # type: ignore[no-any-return]
     if case.argv is None:
         try:
             robot = robodyn.load("model.urdf")
@@ -1191,6 +1222,9 @@ def classify(run: Running, status: int) -> dict[str, Any]:
     if code == 1 and "FAIL" not in out:
         problems.append("exit 1 without a mismatch")
     result = folder / "result.json"
+    if code == 0 and not result.exists():  # something ended the process (os._exit) before robodyn returned
+        problems.append("accepted-but-wrong")
+        outcome["wrong"] = ["exit 0 before robodyn returned (the process ended without a result)"]
     if code not in (TRACEBACK_EXIT,) and result.exists():
         wrong = json.loads(result.read_text())["wrong"]
         if wrong:
@@ -1217,7 +1251,7 @@ def table(outcomes: list[dict[str, Any]], wall: float) -> dict[str, Any]:
             "exits": dict(Counter(str(o["exit"]) for o in outcomes if o["kind"] == kind)),
             "problems": sum(bool(o["problems"]) for o in outcomes if o["kind"] == kind),
         }
-        for kind in ("api", "info", "check", "cli", "scene")
+        for kind in dict.fromkeys(o["kind"] for o in outcomes)
     }
     families = Counter((o["kind"], o["family"], str(o["exit"])) for o in outcomes)
     by_family: dict[str, dict[str, int]] = {}
@@ -1331,7 +1365,8 @@ def campaign(args: argparse.Namespace) -> dict[str, Any]:
             if index is None:
                 pending = False
                 break
-            pid, run = start(make_case(index, args.seed, inputs), cases_dir, args.time_limit, args.memory_gib * 2**30)
+            case = make_case(index, args.seed, inputs, args.kinds)
+            pid, run = start(case, cases_dir, args.time_limit, args.memory_gib * 2**30)
             running[pid] = run
         if not running:
             break
@@ -1371,6 +1406,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--memory-gib", type=int, default=4, help="address-space cap per case [GiB]")
     parser.add_argument("--only", type=int, default=None, help="run only case INDEX (to reproduce it)")
     parser.add_argument("--builtins-only", action="store_true", help="mutate the built-in models only")
+    parser.add_argument(
+        "--kinds", type=lambda text: text.split(","), default=None, metavar="K1,K2", help="draw only these kinds"
+    )
     parser.add_argument("--progress", type=int, default=250, help="a progress line every this many cases")
     args = parser.parse_args(argv)
     summary = campaign(args)

@@ -97,11 +97,11 @@ def same_file(a: Path, b: Path) -> bool:
     The same resolved path (links followed), or, when both exist, the same inode (a hard
     link, another spelling of the name on a case-insensitive disk).
     """
-    if a.resolve() == b.resolve():
-        return True
     try:
+        if a.resolve() == b.resolve():
+            return True
         return a.exists() and b.exists() and os.path.samefile(a, b)
-    except OSError:
+    except (OSError, RuntimeError):  # a link loop (RuntimeError before Python 3.13): no file to be one
         return False
 
 
@@ -113,13 +113,13 @@ def same_entry(a: Path, b: Path) -> bool:
     folders resolve to one and their names are the same (or, both existing, are one file in
     that folder under two spellings).
     """
-    if a.parent.resolve() != b.parent.resolve():
-        return False
-    if a.name == b.name:
-        return True
     try:
+        if a.parent.resolve() != b.parent.resolve():
+            return False
+        if a.name == b.name:
+            return True
         return not a.is_symlink() and not b.is_symlink() and a.exists() and b.exists() and os.path.samefile(a, b)
-    except OSError:
+    except (OSError, RuntimeError):
         return False
 
 

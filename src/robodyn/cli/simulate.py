@@ -221,14 +221,13 @@ def run(args: argparse.Namespace) -> int:
     refuse_clobbering(outputs, [("the model's URDF", robot.urdf_path), ("the model's SRDF", robot.srdf_path)])
     q0 = args.q0 if args.q0 is not None else robot.neutral()
     v0 = args.v0 if args.v0 is not None else np.zeros(robot.nv)
-    torque = args.torque if args.controller is None else _control.build(robot, args.controller, gains)
-
+    from robodyn.control.user import looks_like_file
     from robodyn.errors import DivergenceError, SimulationInterrupted
     from robodyn.sim.simulation import simulate
 
-    trajectory: Any
-    try:
-        trajectory = simulate(
+    def job() -> Any:
+        torque = args.torque if args.controller is None else _control.build(robot, args.controller, gains)
+        return simulate(
             robot,
             q0,
             v0,
@@ -243,6 +242,16 @@ def run(args: argparse.Namespace) -> int:
             max_energy_growth=args.max_energy_growth,
             constraints=constraints,
         )
+
+    trajectory: Any
+    try:
+        if args.controller is not None and looks_like_file(args.controller):
+            from robodyn.control.supervised import run_supervised
+
+            # A controller file runs in a forked child: os._exit or a hang in it cannot fake a finished run.
+            trajectory = run_supervised(job, source=args.controller)
+        else:
+            trajectory = job()
         failure: BaseException | None = None
     except DivergenceError as exc:
         trajectory, failure = exc.trajectory, exc

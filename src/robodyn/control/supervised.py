@@ -38,8 +38,9 @@ from robodyn.sim.trajectory import Trajectory
 CALL_TIMEOUT = 10.0
 """Seconds one call of a controller file's ``tau(t, q, v)`` may take: a plain NumPy controller takes ~10 us, so
 a call that runs 10 s is a loop that will not end (the run is refused, naming the file and the time t)."""
-LOAD_TIMEOUT = 60.0
-"""Seconds a controller file's import and its ``make(robot, **gains)`` may take (as a formula file's import)."""
+LOAD_TIMEOUT = 30.0
+"""Seconds a controller file's import and its ``make(robot, **gains)`` may take: room for a file that imports a large
+library, while a loop at import ends the run within half a minute."""
 
 _ARRAYS = ("t", "q", "v", "a", "tau", "kinetic", "potential", "work_input", "work_damping", "work_limits")
 _BUILTIN_ERRORS: dict[str, type[Exception]] = {

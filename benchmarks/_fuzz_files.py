@@ -392,20 +392,111 @@ FORMULA_OPS: dict[str, tuple[str, str]] = {
     "generator": (REFUSE, "    return (x for x in range(4))"),
 }
 FORMULA_AT_IMPORT = {"os._exit at import": "os._exit(0)", "loop at import": "while True:\n    pass",
-                     "sys.exit at import": "sys.exit(3)", "raise at import": "raise ValueError('x')"}  # fmt: skip
+                     "sys.exit at import": "sys.exit(3)", "raise at import": "raise ValueError('x')",
+                     "KeyboardInterrupt at import": "raise KeyboardInterrupt",
+                     "BaseException at import": "class B(BaseException):\n    pass\nraise B('x')",
+                     "multi-line error at import": "raise ValueError('line one\\nline two')",
+                     "print flood at import": "print('x' * 100000)\nsys.stderr.write('y\\n' * 1000)",
+                     "KIND missing": "del KIND", "KIND number": "KIND = 3", "KIND unknown": "KIND = 'nope'",
+                     "KIND constrained": "KIND = 'constrained'", "gravity missing": "del gravity",
+                     "mass_matrix not callable": "mass_matrix = 3",
+                     "wrong arity": "def mass_matrix(q):\n    return np.eye(2)",
+                     "recursion": "def mass_matrix(q, p):\n    return mass_matrix(q, p)",
+                     "huge array": "def mass_matrix(q, p):\n    return np.zeros((30000, 30000))",
+                     "raises KeyboardInterrupt": "def mass_matrix(q, p):\n    raise KeyboardInterrupt",
+                     "raises BaseException": "def gravity(q, p):\n    raise GeneratorExit",
+                     "multi-line error": "def gravity(q, p):\n    raise ValueError('one\\ntwo\\nthree')",
+                     "returns matrix": "def gravity(q, p):\n    return np.matrix([[1.0, 2.0]])",
+                     "potential array": "def potential_energy(q, p):\n    return np.ones(3)",
+                     "potential complex": "def potential_energy(q, p):\n    return 1j",
+                     "gravity complex": "def gravity(q, p):\n    return np.array([1 + 1j, 0])",
+                     "coriolis object": "def coriolis_matrix(q, v, p):\n    return np.array([[None, 0], [0, 0]])",
+                     "coriolis bool": "def coriolis_matrix(q, v, p):\n    return np.zeros((2, 2), dtype=bool)",
+                     "__array__ raises": "class A:\n    def __array__(self, *a, **k):\n        raise ValueError('no')"
+                                         "\ndef gravity(q, p):\n    return A()",
+                     "COORDINATES motor": "COORDINATES = 'motor'", "COORDINATES bogus": "COORDINATES = 3",
+                     "writes q": "_m = mass_matrix\ndef mass_matrix(q, p):\n    q[0] = 1e9\n    return _m(q, p)",
+                     "writes p": "_g = gravity\ndef gravity(q, p):\n    p['g'] = 0.0\n    return _g(q, p)"}  # fmt: skip
+FORMULA_BYTES = {"not UTF-8": b"KIND = '\xff\xfe'\n", "null bytes": b"KIND = 'pendubot'\x00\n", "empty": b""}
+
+
+LINKAGE = ROOT / "examples" / "textbook" / "linkage"
+CONSTRAINED_OPS: dict[str, tuple[str, str]] = {
+    # label -> (expect, lines appended to the linkage's reduced_formula.py)
+    "valid": (OK, ""),
+    "parameters list": (REFUSE, "def parameters(scene):\n    return [1, 2]"),
+    "parameters complex": (REFUSE, "_p = parameters\ndef parameters(scene):\n    return {**_p(scene), 'l': 1j}"),
+    "parameters nan": (REFUSE, "_p = parameters\ndef parameters(scene):\n    return {**_p(scene), 'l': float('nan')}"),
+    "parameters bool": (REFUSE, "_p = parameters\ndef parameters(scene):\n    return {**_p(scene), 'l': True}"),
+    "parameters raises": (REFUSE, "def parameters(scene):\n    raise ValueError('a\\nb')"),
+    "parameters os._exit": (REFUSE, "def parameters(scene):\n    os._exit(0)"),
+    "parameters key not str": (REFUSE, "_p = parameters\ndef parameters(scene):\n    return {**_p(scene), 3: 1.0}"),
+    "on_the_loop None": (REFUSE, "def on_the_loop(q, v, p):\n    return None"),
+    "on_the_loop complex": (REFUSE, "_o = on_the_loop\ndef on_the_loop(q, v, p):\n    a, b = _o(q, v, p)\n"
+                                    "    a['joint_a'] = 1j\n    return a, b"),
+    "on_the_loop strings": (REFUSE, "_o = on_the_loop\ndef on_the_loop(q, v, p):\n    a, b = _o(q, v, p)\n"
+                                    "    a['joint_a'] = 'x'\n    return a, b"),
+    "on_the_loop array": (REFUSE, "_o = on_the_loop\ndef on_the_loop(q, v, p):\n    a, b = _o(q, v, p)\n"
+                                  "    a['joint_a'] = np.ones(3)\n    return a, b"),
+    "on_the_loop unknown joint": (REFUSE, "_o = on_the_loop\ndef on_the_loop(q, v, p):\n    a, b = _o(q, v, p)\n"
+                                          "    a['nope'] = 0.0\n    b['nope'] = 0.0\n    return a, b"),
+    "on_the_loop missing joint": (REFUSE, "_o = on_the_loop\ndef on_the_loop(q, v, p):\n    a, b = _o(q, v, p)\n"
+                                          "    del a['guide'], b['guide']\n    return a, b"),
+    "on_the_loop off the loop": ("mismatch", "_o = on_the_loop\ndef on_the_loop(q, v, p):\n    a, b = _o(q, v, p)\n"
+                                             "    a['guide'] += 0.1\n    return a, b"),
+    "on_the_loop loops": (REFUSE, "def on_the_loop(q, v, p):\n    while True:\n        pass"),
+    "INDEPENDENT unknown": (REFUSE, "INDEPENDENT = ('nope',)"),
+    "INDEPENDENT two": (REFUSE, "INDEPENDENT = ('joint_a', 'joint_b')"),
+    "INDEPENDENT string": (REFUSE, "INDEPENDENT = 'joint_a'"),
+    "INDEPENDENT numbers": (REFUSE, "INDEPENDENT = (1,)"),
+    "mass complex": (REFUSE, "_m = mass_matrix\ndef mass_matrix(q, p):\n    return _m(q, p) * (1 + 1e-3j)"),
+    "mass object": (REFUSE, "_m = mass_matrix\ndef mass_matrix(q, p):\n    return _m(q, p).astype(object)"),
+    "potential complex": (REFUSE, "def potential_energy(q, p):\n    return 1j"),
+}  # fmt: skip
+
+
+def _constrained(pick: Any, fixtures: dict[str, bytes]) -> dict[str, Any]:
+    label = pick.choice(list(CONSTRAINED_OPS))
+    expect, tail = CONSTRAINED_OPS[label]
+    files = {name: (LINKAGE / name).read_bytes() for name in ("linkage.toml", "linkage.urdf", "closed_form.py")}
+    files["reduced_formula.py"] = (
+        "import os\n" + (LINKAGE / "reduced_formula.py").read_text(encoding="utf-8") + "\n" + tail + "\n"
+    ).encode()
+    argv = ["check", "linkage.toml", "--formula", "reduced_formula.py", "--samples", "2", "--formula-timeout", "5"]
+    if pick.integer(0, 3) == 0:
+        argv.append("--json")
+    return _case(f"formula constrained {label}", label, "check", files, argv, expect=expect)
 
 
 def _formula(pick: Any, fixtures: dict[str, bytes]) -> dict[str, Any]:
+    if pick.integer(0, 3) == 0:
+        return _constrained(pick, fixtures)
     head = "import os\nimport sys\n"
-    if pick.integer(0, 5) == 0:
+    data = None
+    choice = pick.integer(0, 9)
+    if choice < 4:
         label = pick.choice(list(FORMULA_AT_IMPORT))
         text, expect = head + FORMULA + "\n" + FORMULA_AT_IMPORT[label] + "\n", REFUSE
+        if label in ("print flood at import", "writes q", "writes p"):
+            expect = OK if label == "print flood at import" else "any"
+    elif choice == 4:
+        label = pick.choice(list(FORMULA_BYTES))
+        text, expect, data = "", REFUSE, FORMULA_BYTES[label]
     else:
         label = pick.choice(list(FORMULA_OPS))
         expect, line = FORMULA_OPS[label]
         text = head + FORMULA.replace(M_RETURN, line)
-    files = {"model.urdf": fixtures["model.urdf"], "f.py": text.encode()}
-    argv = ["check", "pendubot", "--formula", "f.py", "--samples", "2", "--formula-timeout", "5"]
+    files = {"model.urdf": fixtures["model.urdf"], "f.py": data if data is not None else text.encode()}
+    route = pick.integer(0, 5)
+    if route == 0:  # a scene's [check] formula
+        files["scene.toml"] = b'[model]\nname = "pendubot"\n[check]\nformula = "f.py"\nsamples = 2\n'
+        argv = ["run", "scene.toml", "--no-view", "--out", "out"]
+        return _case(f"formula {label} (scene)", label, "check", files, argv, expect=expect)  # exits as check
+    models = ["pendubot", "model.urdf"] if route == 1 else ["pendubot"]
+    argv = ["check", *models, "--formula", "f.py", "--samples", "2", "--formula-timeout", "5"]
+    if route == 2:
+        files["p.json"] = fixtures["p.json"]
+        argv += ["--params", "p.json"]
     if pick.integer(0, 3) == 0:
         argv.append("--json")
     return _case(f"formula {label}", label, "check", files, argv, expect=expect)

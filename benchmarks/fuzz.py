@@ -1240,6 +1240,11 @@ COLUMNS = ("one-line violation", "refusal names no input", "files changed on ref
            "unexpected exit", "exit 1 without a mismatch", "accepted-but-wrong")  # fmt: skip
 
 
+TABLE_COLUMNS = ("traceback", "hang", "accepted-but-wrong", "one-line violation", "files changed on refusal")
+"""The per-kind table's problem columns (silently wrong is accepted-but-wrong, a multi-line refusal a one-line
+violation); "other" counts the rest (signals, unexpected exits, refusals that name no input)."""
+
+
 def table(outcomes: list[dict[str, Any]], wall: float) -> dict[str, Any]:
     """The summary: exit codes, and each kind of violation (signals by name), in total and per case kind."""
     exits = Counter(str(o["exit"]) for o in outcomes)
@@ -1253,6 +1258,14 @@ def table(outcomes: list[dict[str, Any]], wall: float) -> dict[str, Any]:
         }
         for kind in dict.fromkeys(o["kind"] for o in outcomes)
     }
+    for kind, row in kinds.items():  # the issue's table: one row per kind, zeros wanted after the first two
+        mine = [o for o in outcomes if o["kind"] == kind]
+        row["table"] = {
+            "clean refusal": sum(not o["problems"] and o["exit"] not in (0, 1) for o in mine),
+            "accepted and right": sum(not o["problems"] and o["exit"] in (0, 1) for o in mine),
+            **{column: sum(column in o["problems"] for o in mine) for column in TABLE_COLUMNS},
+            "other": sum(bool(set(o["problems"]) - set(TABLE_COLUMNS)) for o in mine),
+        }
     families = Counter((o["kind"], o["family"], str(o["exit"])) for o in outcomes)
     by_family: dict[str, dict[str, int]] = {}
     for (kind, name, code), n in sorted(families.items()):
@@ -1290,6 +1303,11 @@ def print_table(summary: dict[str, Any]) -> None:
         "slowest cases: "
         + ", ".join(f"{o['index']} {o['seconds']:.1f} s ({o['label'][:40]})" for o in summary["slowest"])
     )
+    heads = ["clean refusal", "accepted and right", *TABLE_COLUMNS, "other"]
+    print("| kind | cases | " + " | ".join(heads) + " |")
+    print("|---|" + "---:|" * (len(heads) + 1))
+    for kind, row in summary["by_kind"].items():
+        print(f"| {kind} | {row['cases']} | " + " | ".join(str(row["table"][h]) for h in heads) + " |")
     print("by kind: " + "; ".join(f"{k} {v['cases']} (exits {v['exits']}, {v['problems']} with problems)"
                                   for k, v in summary["by_kind"].items()))  # fmt: skip
 

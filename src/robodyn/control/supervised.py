@@ -97,12 +97,13 @@ def run_supervised(job: Callable[[], T], *, source: str) -> T:
     if not supervision_available():
         return job()
     read_end, write_end = os.pipe()
+    parent = os.getpid()
     sys.stdout.flush()
     sys.stderr.flush()
     pid = os.fork()
     if pid == 0:  # pragma: no cover - the child (its coverage is not collected)
         os.close(read_end)
-        _child(job, write_end)
+        _child(job, write_end, parent)
     os.close(write_end)
     data, interrupted = _read_all(read_end)
     _, status = os.waitpid(pid, 0)
@@ -114,9 +115,10 @@ def run_supervised(job: Callable[[], T], *, source: str) -> T:
     return _rebuild(reply)  # type: ignore[return-value]
 
 
-def _child(job: Callable[[], Any], fd: int) -> None:  # pragma: no cover - runs in the forked child
+def _child(job: Callable[[], Any], fd: int, parent: int) -> None:  # pragma: no cover - runs in the forked child
     global _in_child
     _in_child = True
+    _die_with_parent(parent)
     signal.signal(signal.SIGALRM, _alarm)
     code = 0
     try:
@@ -151,6 +153,21 @@ def _child(job: Callable[[], Any], fd: int) -> None:  # pragma: no cover - runs 
             sys.stdout.flush()
             sys.stderr.flush()
         os._exit(code)
+
+
+def _die_with_parent(parent: int) -> None:  # pragma: no cover - runs in the forked child
+    """On Linux, ask for SIGKILL when robodyn's process ends (killed, or past a harness's time limit): no orphan."""
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, signal.SIGKILL, 0, 0, 0)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+    if os.getppid() != parent:  # the parent ended before the request took hold
+        os._exit(1)
 
 
 def _trajectory_message(header: dict[str, Any], trajectory: Trajectory | None) -> bytes:

@@ -9,7 +9,8 @@ the whole simulation (the controller stays in-process and fast), then sends the 
 the error, back through a pipe, as JSON and raw float64 arrays (never a pickle), and exits. The
 parent (robodyn's process, which never imports the file) rebuilds the result, or says in one
 line how the child ended when it sent none. In the child each call of the controller, its
-import and its ``make`` get a time limit (:data:`CALL_TIMEOUT`, :data:`LOAD_TIMEOUT`) by SIGALRM.
+import and its ``make`` get a time limit (:data:`CALL_TIMEOUT`, :data:`LOAD_TIMEOUT`), kept by a
+watchdog thread (:class:`Watchdog`).
 
 Cost (``python benchmarks/bench_controller_file.py``): one fork and the trajectory's way back,
 a few milliseconds per run, whatever the run's length; the per-call guards (read-only copies of
@@ -26,6 +27,8 @@ import io
 import os
 import signal
 import sys
+import threading
+import time
 import traceback
 from collections.abc import Callable, Iterator
 from typing import Any, TypeVar
@@ -55,32 +58,76 @@ class OutOfTime(BaseException):
 
 def supervision_available() -> bool:
     """Whether runs can be forked and watched (POSIX)."""
-    return hasattr(os, "fork") and hasattr(signal, "setitimer")
+    return hasattr(os, "fork") and hasattr(signal, "pthread_kill")
 
 
-_in_child = False
+GRACE = 2.0
+"""Seconds after a time limit's SIGALRM before the watchdog ends the child itself (a controller that catches it)."""
+
+
+class Watchdog:
+    """The child's timer of the user's code: a thread that interrupts a call past its deadline.
+
+    A call sets :attr:`deadline` (a ``time.monotonic()`` value) and clears it after: two attribute
+    writes, where an interval timer would cost two system calls per call. Past the deadline the
+    thread sends SIGALRM, whose handler raises :class:`OutOfTime` in the call; if the user's code
+    swallows it and goes on, the thread sends robodyn the refusal itself ``GRACE`` seconds later and
+    ends the child.
+    """
+
+    def __init__(self, fd: int) -> None:
+        self.fd = fd
+        self.deadline: float | None = None
+        self.seconds = 0.0
+        self.what = ""
+        threading.Thread(target=self._watch, daemon=True).start()
+
+    def _watch(self) -> None:  # pragma: no cover - runs in the forked child
+        fired: float | None = None
+        while True:
+            time.sleep(0.05)
+            deadline = self.deadline
+            if deadline is None or time.monotonic() < deadline:
+                fired = None
+                continue
+            if fired is None or fired != deadline:
+                fired = deadline
+                signal.pthread_kill(threading.main_thread().ident or 0, signal.SIGALRM)
+            elif time.monotonic() > deadline + GRACE:
+                message = f"{self.what} did not return within {self.seconds:g} s (and caught the interruption)"
+                _send(self.fd, _encode({"kind": "InputError", "message": message, "exit_code": InputError.exit_code}))
+                os._exit(0)
+
+
+watch: Watchdog | None = None
+"""The watchdog of :func:`run_supervised`'s child; None elsewhere (no limit: the Python API runs unwatched)."""
 
 
 def in_supervised_child() -> bool:
     """True inside :func:`run_supervised`'s child: the controller's calls are then timed."""
-    return _in_child
+    return watch is not None
 
 
 @contextlib.contextmanager
-def time_limit(seconds: float) -> Iterator[None]:
-    """Raise :class:`OutOfTime` in the body after ``seconds`` (in a supervised child only; elsewhere no limit)."""
-    if not _in_child:
+def time_limit(seconds: float, what: str) -> Iterator[None]:
+    """Raise :class:`OutOfTime` in the body after ``seconds`` (in a supervised child only; elsewhere no limit).
+
+    ``what`` names the code for the watchdog's own message (``"ctl.py: make(robot, **gains)"``).
+    """
+    if watch is None:
         yield
         return
-    signal.setitimer(signal.ITIMER_REAL, seconds)  # the child's SIGALRM handler raises OutOfTime
+    watch.seconds, watch.what = seconds, what
+    watch.deadline = time.monotonic() + seconds
     try:
         yield
     finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
+        watch.deadline = None
 
 
 def _alarm(signum: int, frame: Any) -> None:
-    raise OutOfTime
+    if watch is not None and watch.deadline is not None:  # still inside the user's code
+        raise OutOfTime
 
 
 def run_supervised(job: Callable[[], T], *, source: str) -> T:
@@ -116,10 +163,10 @@ def run_supervised(job: Callable[[], T], *, source: str) -> T:
 
 
 def _child(job: Callable[[], Any], fd: int, parent: int) -> None:  # pragma: no cover - runs in the forked child
-    global _in_child
-    _in_child = True
+    global watch
     _die_with_parent(parent)
     signal.signal(signal.SIGALRM, _alarm)
+    watch = Watchdog(fd)
     code = 0
     try:
         try:
@@ -143,9 +190,8 @@ def _child(job: Callable[[], Any], fd: int, parent: int) -> None:  # pragma: no 
             if exit_code is None:
                 traceback.print_exc()  # not robodyn's own error: where it came from, as in-process
             message = _encode({"kind": kind, "message": str(exc), "exit_code": exit_code})
-        view = memoryview(message)
-        while view:
-            view = view[os.write(fd, view) :]
+        watch.deadline = None
+        _send(fd, message)
     except BaseException:
         code = 1
     finally:
@@ -153,6 +199,12 @@ def _child(job: Callable[[], Any], fd: int, parent: int) -> None:  # pragma: no 
             sys.stdout.flush()
             sys.stderr.flush()
         os._exit(code)
+
+
+def _send(fd: int, message: bytes) -> None:
+    view = memoryview(message)
+    while view:
+        view = view[os.write(fd, view) :]
 
 
 def _die_with_parent(parent: int) -> None:  # pragma: no cover - runs in the forked child

@@ -8,8 +8,9 @@ Measured here on the Pendubot with a plain NumPy controller (tau = [-k q1 - d v1
   (RK4, dt = 1 ms, the Python loop of the aba backend) in robodyn's
   process and in the watched child, for DURATIONS seconds of motion: the difference is the fork,
   the trajectory's way back through the pipe and the child's exit;
-* per call: the user's function alone, with the read-only copies, and with the copies and the
-  alarm set and cleared (as in the child), best of REPEAT batches of CALLS calls;
+* per call: the user's function alone, with robodyn's checks of its torques, with the read-only
+  copies of q and v, and with the time limit's deadline set and cleared (as in the child), best of
+  REPEAT batches of CALLS calls;
 * the alternative the module's docstring weighs: one round trip per call to a process of its own
   through pipes (a forked echo of q and v, 32 bytes each way), the floor of any per-call sandbox.
 

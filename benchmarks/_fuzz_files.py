@@ -11,7 +11,10 @@
   strings, NaN, 1e400, shapes);
 * ``formula``: the Pendubot formula file of the examples mutated (complex, object, 2**70,
   strings, wrong shapes, exceptions, ``os._exit``, loops) through ``robodyn check``;
-* ``json``: every ``--json`` output (diverging runs included) parsed by a strict parser.
+* ``json``: every ``--json`` output (diverging runs included) parsed by a strict parser;
+* ``srdf``: the Pendubot's SRDF with rotor parameters, mutated (numbers, joints, XML), through
+  ``info --json``, ``simulate`` and ``check``; an accepted file must give the armature J n^2 and
+  the passive joints it says (read independently with lxml).
 
 Each case says what must happen (``expect``: "accept" or "refuse"); :func:`execute` runs it and
 returns its findings: exit 0 where a refusal was due (silently wrong), a refusal of a valid file,
@@ -22,6 +25,7 @@ from __future__ import annotations
 
 import io
 import json
+import math
 import re
 import sys
 import zipfile
@@ -31,7 +35,7 @@ from typing import Any
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-KINDS = {"trajectory": 4, "controller": 3, "gains": 1, "formula": 2, "json": 1}
+KINDS = {"trajectory": 4, "controller": 3, "gains": 1, "formula": 2, "json": 1, "srdf": 2}
 """Kind -> weight (cases per 20 drawn, beside fuzz.py's own 20)."""
 OK, REFUSE = "accept", "refuse"
 
@@ -39,7 +43,7 @@ OK, REFUSE = "accept", "refuse"
 def make(kind: str, index: int, pick: Any, fixtures: dict[str, bytes]) -> dict[str, Any]:
     """The fields of a case of ``kind`` (all but ``index`` and ``kind``)."""
     return {"trajectory": _trajectory, "controller": _controller, "gains": _gains, "formula": _formula,
-            "json": _json_case}[kind](pick, fixtures)  # fmt: skip
+            "json": _json_case, "srdf": _srdf}[kind](pick, fixtures)  # fmt: skip
 
 
 def _case(family: str, label: str, command: str, files: dict[str, bytes], argv: list[str], **oracle: Any) -> dict:
@@ -529,6 +533,122 @@ def _json_case(pick: Any, fixtures: dict[str, bytes]) -> dict[str, Any]:
     return _case(f"json {argv[0]}", " ".join(argv[1:4]), argv[0], files, argv, expect="any", strict_json=True)
 
 
+# ============================================================================ SRDF
+
+SRDF = """<?xml version="1.0"?>
+<robot name="pendubot">
+  <passive_joint name="joint2"/>
+  <rotor_params>
+    <joint name="joint1" mass="1e-6" gear_ratio="10"/>
+  </rotor_params>
+</robot>
+"""
+SRDF_NUMBERS = ["nan", "inf", "-inf", "-1", "0", "1e308", "1e-400", "", "abc", "0x10", " 2 ", "1,5", "1e6", "2e-5"]
+SRDF_OPS = [
+    "valid", "valid no rotor", "mass", "gear_ratio", "passive unknown", "passive both", "passive twice",
+    "passive no name", "rotor unknown joint", "rotor no mass", "rotor twice", "robot name other", "truncated",
+    "entity", "billion laughs", "utf-16", "byte order mark", "deep nesting", "binary", "empty", "not a robot",
+    "huge comment",
+]  # fmt: skip
+
+
+def _srdf(pick: Any, fixtures: dict[str, bytes]) -> dict[str, Any]:
+    op = pick.choice(SRDF_OPS)
+    text, data, label = SRDF, None, op
+    if op == "valid no rotor":
+        text = re.sub(r"\s*<rotor_params>.*</rotor_params>", "", SRDF, flags=re.S)
+    elif op in ("mass", "gear_ratio"):
+        value = pick.choice(SRDF_NUMBERS)
+        text = re.sub(rf'{op}="[^"]*"', f'{op}="{value}"', SRDF)
+        label = f"{op} {value!r}"
+    elif op == "passive unknown":
+        text = SRDF.replace('passive_joint name="joint2"', 'passive_joint name="nope"')
+    elif op == "passive both":
+        text = SRDF.replace("<passive_joint", '<passive_joint name="joint1"/><passive_joint', 1)
+    elif op == "passive twice":
+        text = SRDF.replace("<passive_joint", '<passive_joint name="joint2"/><passive_joint', 1)
+    elif op == "passive no name":
+        text = SRDF.replace('passive_joint name="joint2"', "passive_joint")
+    elif op == "rotor unknown joint":
+        text = SRDF.replace('joint name="joint1" mass', 'joint name="nope" mass')
+    elif op == "rotor no mass":
+        text = SRDF.replace(' mass="1e-6"', "")
+    elif op == "rotor twice":
+        text = SRDF.replace("</rotor_params>", '<joint name="joint1" mass="2e-6" gear_ratio="3"/></rotor_params>')
+    elif op == "robot name other":
+        text = SRDF.replace('robot name="pendubot"', 'robot name="other"')
+    elif op == "truncated":
+        data = SRDF.encode()[: pick.integer(0, len(SRDF) - 1)]
+    elif op == "entity":
+        text = SRDF.replace("<robot ", '<!DOCTYPE robot [<!ENTITY m "1e-6">]>\n<robot ').replace('"1e-6"', '"&m;"', 1)
+    elif op == "billion laughs":
+        ents = '<!ENTITY a "aaaaaaaaaa">' + "".join(
+            f'<!ENTITY {c} "{("&" + q + ";") * 10}">' for q, c in zip("abcde", "bcdef", strict=True)
+        )
+        text = SRDF.replace("<robot ", f"<!DOCTYPE robot [{ents}]>\n<robot ").replace(
+            "<passive_joint", "<x a='&f;'/><passive_joint"
+        )
+    elif op == "utf-16":
+        data = SRDF.replace('version="1.0"?>', 'version="1.0" encoding="UTF-16"?>').encode("utf-16")
+    elif op == "byte order mark":
+        data = b"\xef\xbb\xbf" + SRDF.encode()
+    elif op == "deep nesting":
+        text = SRDF.replace("</robot>", "<a>" * 5000 + "</a>" * 5000 + "</robot>")
+    elif op == "binary":
+        data = bytes(range(256))
+    elif op == "empty":
+        data = b""
+    elif op == "not a robot":
+        data = b"<html></html>"
+    elif op == "huge comment":
+        text = SRDF.replace("<robot ", f"<!-- {'c' * 3_000_000} --><robot ")
+    files = {"model.urdf": fixtures["model.urdf"], "s.srdf": data if data is not None else text.encode()}
+    command = pick.choice(["info", "simulate", "check"])
+    argv = {
+        "info": ["info", "model.urdf", "--srdf", "s.srdf", "--json"],
+        "simulate": ["simulate", "model.urdf", "--srdf", "s.srdf", "--duration", "0.05", "--torque", "0.1"],
+        "check": ["check", "model.urdf", "--srdf", "s.srdf", "--samples", "2"],
+    }[command]
+    expect = OK if op.startswith("valid") else "any"
+    return _case(f"srdf {op}", label, command, files, argv, expect=expect, srdf=True, strict_json=command == "info")
+
+
+def _srdf_findings() -> list[str]:
+    """An accepted SRDF: the model's armature is J n^2 and its passive joints those the file says (lxml reading).
+
+    A passive joint the model does not have is skipped at load (``info`` lists it): not a finding.
+    """
+    from lxml import etree
+
+    import robodyn
+
+    try:
+        root = etree.parse("s.srdf", etree.XMLParser(resolve_entities=False, load_dtd=False, no_network=True)).getroot()
+    except (etree.XMLSyntaxError, OSError, ValueError) as exc:
+        return [f"accepted an SRDF that lxml cannot read: {str(exc)[:80]}"]
+    robot = robodyn.load("model.urdf", srdf="s.srdf")
+    found = []
+    expected = np.zeros(robot.nv)
+    for joint in root.findall("rotor_params/joint"):
+        try:
+            mass, ratio = float(joint.get("mass")), float(joint.get("gear_ratio"))
+        except (TypeError, ValueError):
+            return [f"accepted rotor parameters that are not numbers: {dict(joint.attrib)}"]
+        if not (math.isfinite(mass) and math.isfinite(ratio)) or mass < 0:
+            return [f"accepted rotor parameters {dict(joint.attrib)}"]
+        name = joint.get("name")
+        if name in robot.joint_names:
+            expected[robot.joint_names.index(name)] = mass * ratio**2
+    armature = np.asarray(robot.model.armature, dtype=np.float64)
+    if not np.allclose(armature, expected, rtol=1e-12, atol=0):  # one product: exact up to rounding
+        found.append(f"armature {armature.tolist()} where the file says {expected.tolist()}")
+    passive = sorted({str(j.get("name")) for j in root.findall("passive_joint")} & set(robot.joint_names))
+    actuated = [name for name, a in zip(robot.joint_names, robot.actuated, strict=True) if not a]
+    if sorted(actuated) != passive:
+        found.append(f"passive joints {sorted(actuated)} where the file says {passive}")
+    return found
+
+
 # ============================================================================ running
 
 
@@ -554,6 +674,8 @@ def execute(case: Any) -> tuple[int, list[str]]:
         wrong += _page_findings()
     if code == 0 and oracle.get("out") and expect == OK:
         wrong += _run_findings(oracle["out"], case.label)
+    if oracle.get("srdf") and code == 0:
+        wrong += _srdf_findings()
     if oracle.get("strict_json") and code in (0, 1, 3):
         wrong += _json_findings(Path("/dev/fd/1"))
     return code, wrong

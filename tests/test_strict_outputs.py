@@ -113,3 +113,18 @@ def test_an_overflowing_power_has_no_curve(tmp_path: Path) -> None:
         playback = viewer.build(robot, huge)
     assert {chart.key for chart in playback.charts} == {"energy", "ledger", "torque"}  # no power: tau * v overflows
     strict(json.dumps(panel_info(playback.charts, playback.runs)))
+
+
+def test_an_srdf_naming_a_rotor_twice_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # Pinocchio would add both rotors' J n^2 to the armature and keep the last J and n: a model at odds with itself
+    srdf = tmp_path / "s.srdf"
+    srdf.write_text(
+        '<robot name="pendubot"><passive_joint name="joint2"/><rotor_params>'
+        '<joint name="joint1" mass="1e-6" gear_ratio="10"/><joint name="joint1" mass="2e-6" gear_ratio="3"/>'
+        "</rotor_params></robot>"
+    )
+    urdf = ROOT / "models" / "pendubot.urdf"
+    assert main(["info", str(urdf), "--srdf", str(srdf)]) == 2
+    err = capsys.readouterr().err
+    assert "<rotor_params> names joint 'joint1' twice (expected one rotor per joint)" in err
+    assert len(err.splitlines()) == 1

@@ -128,3 +128,21 @@ def test_an_srdf_naming_a_rotor_twice_is_refused(tmp_path: Path, capsys: pytest.
     err = capsys.readouterr().err
     assert "<rotor_params> names joint 'joint1' twice (expected one rotor per joint)" in err
     assert len(err.splitlines()) == 1
+
+
+def test_a_constrained_formula_placing_a_joint_at_a_complex_angle_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # np.asarray(1j, dtype=float64) would drop the imaginary part (with a warning) and check the real one
+    linkage = ROOT / "examples" / "textbook" / "linkage"
+    path = tmp_path / "reduced.py"
+    path.write_text(
+        (linkage / "reduced_formula.py")
+        .read_text()
+        .replace('Path(__file__).with_name("closed_form.py")', repr(str(linkage / "closed_form.py")))
+        + "\n_o = on_the_loop\n\ndef on_the_loop(q, v, p):\n    a, b = _o(q, v, p)\n    a['joint_b'] = a['joint_b'] + 0j\n"
+        "    return a, b\n"
+    )
+    assert main(["check", str(linkage / "linkage.toml"), "--formula", str(path), "--samples", "2"]) == 2
+    err = capsys.readouterr().err
+    assert "on_the_loop's q['joint_b'] is complex128; expected a number" in err and len(err.splitlines()) == 1, err

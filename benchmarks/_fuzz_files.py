@@ -638,8 +638,10 @@ def _srdf_findings() -> list[str]:
         if not (math.isfinite(mass) and math.isfinite(ratio)) or mass < 0:
             return [f"accepted rotor parameters {dict(joint.attrib)}"]
         name = joint.get("name")
+        if not math.isfinite(mass * ratio * ratio):
+            return [f"accepted rotor parameters whose J n^2 overflows: {dict(joint.attrib)}"]
         if name in robot.joint_names:
-            expected[robot.joint_names.index(name)] = mass * ratio**2
+            expected[robot.joint_names.index(name)] = mass * ratio * ratio
     armature = np.asarray(robot.model.armature, dtype=np.float64)
     if not np.allclose(armature, expected, rtol=1e-12, atol=0):  # one product: exact up to rounding
         found.append(f"armature {armature.tolist()} where the file says {expected.tolist()}")

@@ -146,3 +146,16 @@ def test_a_constrained_formula_placing_a_joint_at_a_complex_angle_is_refused(
     assert main(["check", str(linkage / "linkage.toml"), "--formula", str(path), "--samples", "2"]) == 2
     err = capsys.readouterr().err
     assert "on_the_loop's q['joint_b'] is complex128; expected a number" in err and len(err.splitlines()) == 1, err
+
+
+def test_rotor_parameters_whose_armature_overflows_are_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # J n^2 = 1e-6 * (1e308)^2 is inf: the model loaded with an infinite inertia and a note about an overflow
+    srdf = tmp_path / "s.srdf"
+    srdf.write_text(
+        '<robot name="p"><rotor_params><joint name="joint1" mass="1e-6" gear_ratio="1e308"/></rotor_params></robot>'
+    )
+    assert main(["info", str(ROOT / "models" / "pendubot.urdf"), "--srdf", str(srdf), "--json"]) == 2
+    err = capsys.readouterr().err
+    assert "gear ratio 1e+308 squared is inf (expected a finite armature)" in err and len(err.splitlines()) == 1, err

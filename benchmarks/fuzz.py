@@ -917,6 +917,15 @@ def scene_bytes(scene: dict[str, dict[str, Any]]) -> bytes:
 # ============================================================================ cases
 
 
+def _module_of(kind: str) -> Any:
+    """The family module beside this file that runs cases of ``kind`` itself (its ``execute``), or None."""
+    for name in ("_fuzz_scenes", "_fuzz_files"):
+        module = sys.modules.get(name)
+        if module is not None and kind in getattr(module, "KINDS", {}) and hasattr(module, "execute"):
+            return module
+    return None
+
+
 @dataclass
 class Case:
     """One fuzz case: the files of its folder, and what runs there."""
@@ -1096,6 +1105,9 @@ def _execute(case: Case) -> tuple[int, list[str]]:
     from robodyn.cli import main
     from robodyn.errors import RobodynError
 
+    module = _module_of(case.kind)
+    if module is not None:
+        return module.execute(case)  # type: ignore[no-any-return]
     if case.argv is None:
         try:
             robot = robodyn.load("model.urdf")
@@ -1271,6 +1283,9 @@ def classify(run: Running, status: int) -> dict[str, Any]:
     if code == 1 and "FAIL" not in out:
         problems.append("exit 1 without a mismatch")
     result = folder / "result.json"
+    if code == 0 and not result.exists():  # something ended the process (os._exit) before robodyn returned
+        problems.append("accepted-but-wrong")
+        outcome["wrong"] = ["exit 0 before robodyn returned (the process ended without a result)"]
     if code not in (TRACEBACK_EXIT,) and result.exists():
         wrong = json.loads(result.read_text())["wrong"]
         if wrong:

@@ -153,15 +153,30 @@ def test_view_never_writes_the_page_over_the_model(tmp_path: Path, capsys: pytes
 
 
 def test_view_notes_come_only_after_the_input_is_known_good(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    # a cart-pole trajectory shown on the pendubot (both nq = 2) is worth a note, but not beside a refusal
+    # a pendubot trajectory shown on a copy of its model under another name is worth a note, but not beside a refusal
+    run = tmp_path / "run.npz"
+    assert main(["simulate", "pendubot", "--duration", "0.1", "--out", str(run)]) == 0
+    capsys.readouterr()
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text(
+        (Path(__file__).parents[1] / "models" / "pendubot.urdf").read_text().replace('name="pendubot"', 'name="arm"', 1)
+    )
+    html = tmp_path / "v.html"
+    line = refused(["view", str(urdf), str(run), "--trace", "no_such_frame", "--html", str(html)], tmp_path, capsys)
+    assert "unknown frame 'no_such_frame'" in line
+    assert main(["view", str(urdf), str(run), "--html", str(html)]) == 0
+    assert "simulated with model 'pendubot', shown on 'arm'" in capsys.readouterr().err
+
+
+def test_view_refuses_a_trajectory_of_other_joints(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # a cart-pole run (slider, hinge) has nq = 2 like the pendubot: played on it, its metres would turn as radians
     cart = tmp_path / "cart.npz"
     assert main(["simulate", "cart_pole", "--duration", "0.1", "--out", str(cart)]) == 0
     capsys.readouterr()
     html = tmp_path / "v.html"
-    line = refused(["view", "pendubot", str(cart), "--trace", "no_such_frame", "--html", str(html)], tmp_path, capsys)
-    assert "unknown frame 'no_such_frame'" in line
-    assert main(["view", "pendubot", str(cart), "--html", str(html)]) == 0
-    assert "simulated with model 'cart_pole'" in capsys.readouterr().err
+    line = refused(["view", "pendubot", str(cart), "--html", str(html)], tmp_path, capsys)
+    assert f"{cart}: names joints slider, hinge but model 'pendubot' has joint1, joint2" in line
+    assert not html.exists()
 
 
 # --------------------------------------------------------------------------- simulate: outputs

@@ -532,7 +532,7 @@ def test_cli_refuses_bad_runs_in_one_line(
         np.savez(no_time, **{k: npz[k] for k in npz.files if k != "t"})
     html = tmp_path / "out.html"
     cases = [
-        ([str(motion_file), str(other)], "runs of different models cannot share a replay"),
+        ([str(motion_file), str(other)], "names joints shoulder, elbow but model 'pendubot' has joint1, joint2"),
         ([str(motion_file)] * 9, "at most 8 runs"),
         ([str(motion_file), str(no_time)], "no t in it"),
     ]

@@ -266,9 +266,43 @@ def refuse_uncoupled_sizes(robot: Any, *, q0: Any, v0: Any, mimic: bool) -> None
         )
 
 
+NON_FINITE_KEY = "non_finite"
+"""The key a JSON object gains when some of its numbers were NaN or infinite: where each was, and what it was."""
+
+
+def strict_json(obj: Any) -> Any:
+    """``obj`` made fit for strict JSON parsers: every NaN or infinity becomes null.
+
+    JSON has no NaN or Infinity (Python's ``json`` writes them, strict parsers refuse them). A
+    top-level object that had some gains the key :data:`NON_FINITE_KEY`: the place of each
+    (``"energy_drift"``, ``"q_final[1]"``) and what it was (``"nan"``, ``"inf"``, ``"-inf"``), so that a
+    null says why. NumPy arrays and scalars become lists and numbers, paths strings.
+    """
+    found: dict[str, str] = {}
+    clean = _finite_only(obj, "", found)
+    if found and isinstance(clean, dict):
+        clean[NON_FINITE_KEY] = found
+    return clean
+
+
+def _finite_only(obj: Any, where: str, found: dict[str, str]) -> Any:
+    if isinstance(obj, (np.ndarray, np.generic, Path)):
+        obj = _json_default(obj)
+    if isinstance(obj, float):
+        if math.isfinite(obj):
+            return obj
+        found[where or "value"] = repr(obj)
+        return None
+    if isinstance(obj, dict):
+        return {k: _finite_only(v, f"{where}.{k}" if where else str(k), found) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite_only(v, f"{where}[{i}]", found) for i, v in enumerate(obj)]
+    return obj
+
+
 def print_json(obj: Any) -> None:
-    """Print ``obj`` as indented JSON on stdout."""
-    json.dump(obj, sys.stdout, indent=2, default=_json_default)
+    """Print ``obj`` as indented strict JSON on stdout: NaN and infinities as null (:func:`strict_json`)."""
+    json.dump(strict_json(obj), sys.stdout, indent=2, default=_json_default, allow_nan=False)
     sys.stdout.write("\n")
 
 

@@ -113,13 +113,13 @@ def same_entry(a: Path, b: Path) -> bool:
     folders resolve to one and their names are the same (or, both existing, are one file in
     that folder under two spellings).
     """
-    if a.parent.resolve() != b.parent.resolve():
-        return False
-    if a.name == b.name:
-        return True
     try:
+        if a.parent.resolve() != b.parent.resolve():
+            return False
+        if a.name == b.name:
+            return True
         return not a.is_symlink() and not b.is_symlink() and a.exists() and b.exists() and os.path.samefile(a, b)
-    except OSError:
+    except (OSError, RuntimeError):
         return False
 
 

@@ -13,7 +13,14 @@ import json
 from pathlib import Path
 from typing import Any
 
-from robodyn.cli._common import add_passive_argument, add_physics_argument, file_path, unchecked_scene, warn_unchecked
+from robodyn.cli._common import (
+    add_passive_argument,
+    add_physics_argument,
+    file_path,
+    strict_json,
+    unchecked_scene,
+    warn_unchecked,
+)
 from robodyn.cli._interrupts import held
 from robodyn.cli._output import (
     check_output_file,
@@ -49,10 +56,21 @@ def add_parser(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the scene; print one block per part; write the results."""
-    from robodyn.errors import DivergenceError, SimulationInterrupted
     from robodyn.scene import read_scene
 
     scene = unchecked_scene(read_scene(args.scene), args).with_passive(args.passive)
+    if (scene.control or {}).get("kind") == "file":
+        from robodyn.control.supervised import run_supervised
+
+        # A controller file runs in a forked child: os._exit or a hang in it cannot fake a finished run.
+        return run_supervised(lambda: _run_scene(args, scene), source=str(scene.control["path"]))
+    return _run_scene(args, scene)
+
+
+def _run_scene(args: argparse.Namespace, scene: Any) -> int:
+    """Everything after reading the scene: model, check, simulation, closed form, bench, view."""
+    from robodyn.errors import DivergenceError, SimulationInterrupted
+
     out = args.out or scene.output or Path("scene-out") / scene.name
     check_output_folder(out)  # before the model, the check and the exactness proof: a bad folder fails at once
     view = None if args.no_view else scene.view
@@ -167,7 +185,7 @@ def _model_files(urdf: Path | None, srdf: Path | None) -> list[tuple[str, Path |
 
 def _write_summary(out: Path, summary: dict[str, Any]) -> None:
     path = writable_path(out / "summary.json")
-    text = json.dumps(summary, indent=2, default=_jsonable) + "\n"
+    text = json.dumps(strict_json(summary), indent=2, default=_jsonable, allow_nan=False) + "\n"
     write_text_atomically(path, text)
     print(f"summary: {path}")
 

@@ -230,14 +230,16 @@ def run(args: argparse.Namespace) -> int:
     refuse_uncoupled_sizes(robot, q0=args.q0, v0=args.v0, mimic=args.mimic)
     q0 = args.q0 if args.q0 is not None else robot.neutral()
     v0 = args.v0 if args.v0 is not None else np.zeros(robot.nv)
-    torque = args.torque if args.controller is None else _control.build(robot, args.controller, gains)
-
+    from robodyn.control.user import looks_like_file
     from robodyn.errors import DivergenceError, SimulationInterrupted
     from robodyn.sim.simulation import simulate
 
-    trajectory: Any
-    try:
-        trajectory = simulate(
+    built: list[Any] = []  # the controller, for its modes after the run (not filled by a forked child)
+
+    def job() -> Any:
+        torque = args.torque if args.controller is None else _control.build(robot, args.controller, gains)
+        built.append(torque)
+        return simulate(
             robot,
             q0,
             v0,
@@ -252,6 +254,16 @@ def run(args: argparse.Namespace) -> int:
             max_energy_growth=args.max_energy_growth,
             constraints=constraints,
         )
+
+    trajectory: Any
+    try:
+        if args.controller is not None and looks_like_file(args.controller):
+            from robodyn.control.supervised import run_supervised
+
+            # A controller file runs in a forked child: os._exit or a hang in it cannot fake a finished run.
+            trajectory = run_supervised(job, source=args.controller)
+        else:
+            trajectory = job()
         failure: BaseException | None = None
     except DivergenceError as exc:
         trajectory, failure = exc.trajectory, exc
@@ -265,9 +277,9 @@ def run(args: argparse.Namespace) -> int:
     with held(abandoned=lambda: _abandoned(written)) as ctrl_c:  # the run is over: a Ctrl-C must not lose it
         if args.controller is not None:  # the file says what closed the loop (and, when switched, in which mode)
             record: dict[str, Any] = {"name": args.controller, "gains": gains}
-            if hasattr(torque, "modes") and len(trajectory.t):  # a switched controller: swing-up, then balance
+            if built and hasattr(built[0], "modes") and len(trajectory.t):  # switched: swing-up, then balance
                 record["modes"] = ["swing-up", "LQR balance"]
-                record["mode"] = [int(m) for m in torque.modes(trajectory.q, trajectory.v)]
+                record["mode"] = [int(m) for m in built[0].modes(trajectory.q, trajectory.v)]
             trajectory = dataclasses.replace(trajectory, meta={**trajectory.meta, "controller": record})
         # Said after the run, not before it: a refused input stays one line on stderr.
         warn_ignored_mimic(robot, mimic=args.mimic, command="simulate")

@@ -136,6 +136,7 @@ def run(args: argparse.Namespace) -> int:
     """Build the scene, then write the HTML file or serve it until Ctrl-C."""
     from robodyn import viewer
     from robodyn.sim.trajectory import Trajectory
+    from robodyn.sim.trajectory_file import check_fits
 
     if args.html is not None and (args.zmq_url is not None or args.port is not None):
         raise InputError("--html writes a file and starts no server; leave out --zmq-url and --port")
@@ -161,6 +162,8 @@ def run(args: argparse.Namespace) -> int:
     trajectory = loaded if len(loaded) > 1 else (loaded[0] if loaded else None)
     robot = load_robot(args)
     refuse_clobbering([("--html", args.html)], [("the model's URDF", robot.urdf_path), ("its SRDF", robot.srdf_path)])
+    for file, run in zip(files, loaded, strict=True):
+        check_fits(run, robot, file)
     playback = viewer.build(
         robot,
         trajectory,
@@ -252,20 +255,13 @@ def serve_playback(playback: Playback, *, open_browser: bool, zmq_url: str | Non
 
 
 def _note_trajectory(robot: Robot, trajectory: Trajectory, path: Path) -> None:
-    """One line on stderr when the file names another model or ended early (not an error)."""
+    """One line on stderr when the file names another model (its joints are the model's) or ended early."""
     recorded = trajectory.meta.get("model") if isinstance(trajectory.meta, dict) else None
     if isinstance(recorded, dict):
         recorded = recorded.get("name")
     if isinstance(recorded, str) and recorded not in (robot.name, str(robot.urdf_path)):
         print(
             f"robodyn view: note: {path} was simulated with model {recorded!r}, shown on {robot.name!r}",
-            file=sys.stderr,
-        )
-    names = trajectory.meta.get("joint_names") if isinstance(trajectory.meta, dict) else None
-    if isinstance(names, list) and len(names) == robot.nq and tuple(names) != robot.joint_names:
-        print(
-            f"robodyn view: note: {path} names joints {', '.join(map(str, names))}; the model has "
-            f"{', '.join(robot.joint_names)}",
             file=sys.stderr,
         )
     if trajectory.diverged:

@@ -77,9 +77,36 @@ def make(name: str, robot: Robot, **gains: Any) -> Controller:
 
 
 def _check_gains(controller: str, gains: dict[str, Any], allowed: tuple[str, ...]) -> None:
-    for key in gains:
+    """Raise unless every gain is one ``allowed`` and holds numbers (a list of them, a matrix).
+
+    A null would quietly stand for the default and a true for 1 (``{"Q": true}``): each is refused,
+    as are strings and empty lists.
+    """
+    for key, value in gains.items():
         if key not in allowed:
             raise UnknownNameError(f"gain of controller {controller!r}", key, allowed)
+        bad = _not_a_number(value)
+        if bad is not None:
+            raise InputError(
+                f"{controller} gain {key} holds {bad}; expected a number, a list of numbers or a matrix (lists of rows)"
+            )
+
+
+def _not_a_number(value: Any, depth: int = 0) -> str | None:
+    """What in ``value`` is not a number (``"null"``, ``"true"``, ``"a string"``), or None when all are numbers."""
+    if value is None:
+        return "null"
+    if isinstance(value, (bool, np.bool_)):
+        return "true" if value else "false"
+    if isinstance(value, (int, float, np.integer, np.floating)):
+        return None
+    if isinstance(value, (list, tuple)) and depth < 2:
+        if not value:
+            return "an empty list"
+        return next((bad for v in value if (bad := _not_a_number(v, depth + 1)) is not None), None)
+    if isinstance(value, (list, tuple)):
+        return "lists nested more than two deep"
+    return f"a {type(value).__name__}"
 
 
 def _make_lqr(robot: Robot, **gains: Any) -> lqr.LQR:

@@ -124,7 +124,7 @@ def loop_rows(
         UnknownNameError: an independent joint, a frame or a sprung joint the robot does not have.
         FormulaError: the file's functions fail, or ``on_the_loop`` names joints the model has not.
     """
-    independent = _independent_joints(robot, tuple(formula.independent))
+    independent = _independent_joints(robot, tuple(formula.independent), formula.source)
     solver = _solver(robot, loops)
     spring = _springs(robot, springs)
     if params is not None:
@@ -153,14 +153,16 @@ def loop_rows(
     return LoopCheck(tuple(rows), p, notes)
 
 
-def _independent_joints(robot: Robot, names: tuple[str, ...]) -> list[JointInfo]:
+def _independent_joints(robot: Robot, names: tuple[str, ...], source: str) -> list[JointInfo]:
     joints = {j.name: j for j in robot.joints}
     out = []
     for name in names:
         if name not in joints:
-            raise UnknownNameError("independent joint (INDEPENDENT)", name, joints)
+            raise UnknownNameError(f"independent joint (INDEPENDENT of {source})", name, joints)
         if joints[name].nq != 1 or joints[name].nv != 1:
-            raise InputError(f"INDEPENDENT joint {name!r} has {joints[name].nq} coordinates; expected a 1-DoF joint")
+            raise InputError(
+                f"{source}: INDEPENDENT joint {name!r} has {joints[name].nq} coordinates; expected a 1-DoF joint"
+            )
         out.append(joints[name])
     return out
 

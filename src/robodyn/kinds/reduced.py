@@ -150,7 +150,10 @@ def loop_states(
 
 def _number(value: Any, what: str, joint: str, source: str) -> float:
     try:
-        x = float(np.asarray(value, dtype=np.float64).reshape(()))
+        array = np.asarray(value)
+        if array.dtype.kind not in "fiu":  # complex (its imaginary part would be dropped), strings, objects
+            raise TypeError
+        x = float(array.astype(np.float64).reshape(()))
     except (TypeError, ValueError):
         raise FormulaError(
             f"{source}: on_the_loop's {what}[{joint!r}] is {type(value).__name__}; expected a number"

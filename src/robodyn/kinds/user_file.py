@@ -116,13 +116,14 @@ def _shape_checked(
 
     def wrapped(*args: object) -> Array:
         try:
-            out = np.asarray(fn(*args), dtype=np.float64)
+            raw = fn(*args)
         except FormulaError:
             raise
         except SystemExit as exc:  # sys.exit in a formula would end robodyn with the formula's code
             raise FormulaError(f"{source}: {name} called {exit_call(exc)}{at_line(exc, user_file)}") from None
         except Exception as exc:  # a user's function can raise anything
             raise FormulaError(f"{source}: {name} raised {_describe(exc, user_file, args)}") from None
+        out = real_values(raw, f"{source}: {name}")
         if shape == () and out.shape in ((), (1,)):
             out = out.reshape(())
         elif out.shape != shape:
@@ -132,6 +133,34 @@ def _shape_checked(
         return out
 
     return wrapped
+
+
+def real_values(raw: object, where: str) -> Array:
+    """``raw`` as float64, or a FormulaError: only real numbers (floats, integers) convert.
+
+    ``np.asarray(x, dtype=float64)`` would drop a complex value's imaginary part (with a warning on
+    stderr), parse strings, and take an object array of huge integers (``2**70``) to the nearest
+    float; each is refused here in one line instead, saying what came back.
+    """
+    try:
+        array = np.asarray(raw)
+    except Exception as exc:  # a ragged list, an object whose __array__ raises
+        raise FormulaError(
+            f"{where} returned something that is not an array of numbers ({type(exc).__name__})"
+        ) from None
+    kind = array.dtype.kind
+    if kind == "c":
+        raise FormulaError(f"{where} returned complex numbers; expected real ones (float64)")
+    if kind == "O":
+        what = "integers too large for 64 bits" if _big_integers(array) else "Python objects"
+        raise FormulaError(f"{where} returned {what} (an array of dtype object); expected real numbers (float64)")
+    if kind not in "fiu":
+        raise FormulaError(f"{where} returned {array.dtype} values; expected real numbers (float64)")
+    return np.asarray(array, dtype=np.float64)
+
+
+def _big_integers(array: np.ndarray) -> bool:
+    return any(isinstance(x, int) and not isinstance(x, bool) for x in array.reshape(-1)[:1000])
 
 
 def _describe(exc: Exception, user_file: Path, args: tuple[object, ...]) -> str:

@@ -270,6 +270,10 @@ def read_srdf(path: Path) -> SrdfInfo:
     """Read rotor parameters' presence and passive joints from an SRDF file."""
     root = read_xml(path, "SRDF")
     _check_srdf_root(root, path)
+    rotors = [str(el.get("name")) for el in root.iterfind("rotor_params/joint")]
+    twice = sorted({name for name in rotors if rotors.count(name) > 1})
+    if twice:  # Pinocchio adds both rotors' J n^2 to the armature but keeps the last J and n: refuse, not guess
+        raise ModelError(f"<rotor_params> names joint {twice[0]!r} twice (expected one rotor per joint)", path=path)
     passive = tuple(el.get("name", "") for el in root.iter("passive_joint"))
     return SrdfInfo(root.find("rotor_params") is not None, passive)
 

@@ -389,9 +389,18 @@ def _load_rotor_parameters(model: pin.Model, srdf: Path) -> None:
     except (RuntimeError, ValueError) as exc:
         raise ModelError(f"bad <rotor_params>: {str(exc).strip().splitlines()[0]}", path=srdf) from None
     # pin >= 3 sets armature itself; older releases only filled rotorInertia/rotorGearRatio.
-    reflected = np.asarray(model.rotorInertia) * np.square(np.asarray(model.rotorGearRatio))
+    with np.errstate(over="ignore", invalid="ignore"):
+        reflected = np.asarray(model.rotorInertia) * np.square(np.asarray(model.rotorGearRatio))
     armature = np.asarray(model.armature, dtype=np.float64)
-    model.armature = np.where(armature == 0.0, reflected, armature)
+    armature = np.where(armature == 0.0, reflected, armature)
+    if not np.all(np.isfinite(armature)):  # J n^2 overflows (n = 1e308): an infinite inertia, not a model
+        k = int(np.argmax(~np.isfinite(armature)))
+        raise ModelError(
+            f"bad <rotor_params>: the rotor inertia {float(model.rotorInertia[k]):g} kg m^2 times the gear ratio "
+            f"{float(model.rotorGearRatio[k]):g} squared is {armature[k]} (expected a finite armature)",
+            path=srdf,
+        )
+    model.armature = armature
 
 
 PASSIVE_JOINT = "passive joint"

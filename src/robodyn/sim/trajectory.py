@@ -224,9 +224,14 @@ class Trajectory:
     def load(cls, path: str | Path) -> Trajectory:
         """Read a trajectory written by :meth:`save`.
 
+        Every array is checked before and after it is read (:mod:`robodyn.sim.trajectory_file`):
+        declared shapes and dtypes (no object arrays, nothing larger than its stored bytes), one
+        row per sample, ``t`` strictly increasing, every value finite.
+
         Raises:
             InputError: no such file, or one that is not a trajectory .npz (empty, not a
-                zip archive, arrays or metadata missing or malformed); one line, naming what.
+                zip archive, arrays or metadata missing or malformed, of the wrong shape or type,
+                non-finite numbers, times that repeat or go back); one line, naming what.
         """
         path = Path(path)
         expected = "expected an .npz written by robodyn simulate"
@@ -243,32 +248,31 @@ class Trajectory:
             raise InputError(f"{path}: the file is empty, not a robodyn trajectory ({expected})")
         if head != _ZIP_MAGIC:
             raise InputError(f"{path}: not a robodyn trajectory: the file is not an .npz (zip) archive ({expected})")
+        from robodyn.sim import trajectory_file as checks
+
+        names = (*cls._ARRAYS, *cls._OPTIONAL, "metadata")
         try:
+            headers = checks.array_headers(path, names)
+            missing = [name for name in (*cls._ARRAYS, "metadata") if name not in headers]
+            if missing:
+                raise InputError(f"{path}: not a robodyn trajectory: no {', '.join(missing)} in it ({expected})")
+            checks.check_dtypes(path, headers)
             with np.load(path, allow_pickle=False) as npz:
-                missing = [name for name in (*cls._ARRAYS, "metadata") if name not in npz.files]
-                if missing:
-                    raise InputError(f"{path}: not a robodyn trajectory: no {', '.join(missing)} in it ({expected})")
-                arrays = {name: np.array(npz[name], dtype=np.float64) for name in cls._ARRAYS}
-                for name in cls._OPTIONAL:
-                    if name in npz.files:
-                        arrays[name] = np.array(npz[name], dtype=np.float64)
+                arrays = {name: np.array(npz[name], dtype=np.float64) for name in names[:-1] if name in headers}
                 info = json.loads(str(npz["metadata"]))
         except InputError:
             raise
         except json.JSONDecodeError as exc:
             raise InputError(f"{path}: not a robodyn trajectory: its metadata is not JSON ({exc.msg})") from None
-        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
+        except RecursionError:
+            raise InputError(f"{path}: not a robodyn trajectory: its metadata is nested too deeply") from None
+        except MemoryError:
+            raise InputError(f"{path}: its arrays do not fit in memory") from None
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, NotImplementedError) as exc:
             reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-            raise InputError(f"{path}: not a robodyn trajectory: the archive is damaged ({reason})") from None
-        if not isinstance(info, dict):
-            raise InputError(f"{path}: not a robodyn trajectory: its metadata is not a JSON object")
-        n = arrays["t"].shape[0]
-        for name in arrays:
-            if arrays[name].shape[:1] != (n,):
-                raise InputError(f"{path}: array {name!r} has {arrays[name].shape[0]} rows, expected {n} (one per t)")
-        for name in ("q", "v", "a", "tau"):
-            if arrays[name].ndim != 2:
-                raise InputError(f"{path}: array {name!r} must be 2-D (samples x coordinates)")
+            raise InputError(f"{path}: not a robodyn trajectory: the archive is damaged ({reason[:160]})") from None
+        checks.check_metadata(path, info)
+        checks.check_arrays(path, arrays)
         known = {f.name for f in fields(cls)}
         # Metadata never overrides an array: a key such as 't' in a hand-made file is ignored.
         extra = {k: v for k, v in info.items() if k in known and k not in (*cls._ARRAYS, *cls._OPTIONAL)}

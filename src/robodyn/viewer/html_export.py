@@ -18,7 +18,7 @@ from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from robodyn.errors import MissingDependencyError
+from robodyn.errors import InputError, MissingDependencyError
 from robodyn.viewer.backend import INSTALL_HINT, import_meshcat
 from robodyn.viewer.packing import packed_commands
 from robodyn.viewer.panel import panel_info
@@ -53,6 +53,9 @@ def to_html(playback: Playback, *, title: str | None = None) -> str:
     simulation time and the total energy in step with the animation; the chart panel at the
     right shows the curves with a cursor at the animation's time (click a chart to seek). Open the file with
     ``#t=1.5`` appended to its URL to start paused at t = 1.5 s of simulation time.
+
+    Raises:
+        InputError: the playback's times, energies or curves hold NaN or infinities (the page would be blank).
     """
     commands = [base64.b64encode(data).decode("ascii") for _, _, data in packed_commands(playback)]
     info = {
@@ -66,11 +69,18 @@ def to_html(playback: Playback, *, title: str | None = None) -> str:
         "camera": playback.camera_mode,
         "panel": panel_info(playback.charts, playback.runs),
     }
+    try:  # JavaScript's JSON.parse refuses NaN and Infinity: such a page would show nothing at all
+        info_json = json.dumps(info, allow_nan=False)
+    except ValueError:
+        raise InputError(
+            f"robodyn: {playback.robot_name}: the replay's times, energies or charts hold NaN or infinite numbers; "
+            "no page written (a page with them shows nothing)"
+        ) from None
     fields = {
         "TITLE": html.escape(title or f"robodyn: {playback.robot_name}"),
         "MESHCAT_JS": _script_safe(meshcat_javascript()),
         "COMMANDS_JSON": _script_safe(json.dumps(commands)),
-        "INFO_JSON": _script_safe(json.dumps(info)),
+        "INFO_JSON": _script_safe(info_json),
         "REPLAY_JS": _script_safe(_asset("replay.js")),
     }
     # One pass, so that nothing inserted is scanned for placeholders again.

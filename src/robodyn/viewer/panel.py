@@ -208,7 +208,9 @@ def _power(trajectory: Any, n: int) -> Array | None:
     tau = np.asarray(getattr(trajectory, "tau", None), dtype=np.float64)
     v = np.asarray(getattr(trajectory, "v", None), dtype=np.float64)
     if tau.ndim == 2 and tau.shape == v.shape and tau.shape[0] == n:
-        return np.einsum("ni,ni->n", tau, v)
+        with np.errstate(over="ignore", invalid="ignore"):
+            power = np.einsum("ni,ni->n", tau, v)
+        return power if np.all(np.isfinite(power)) else None  # an overflowing tau * v has no curve to draw
     return None
 
 

@@ -34,9 +34,9 @@ from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
-# Every shipped run is cut to this many seconds [s] (and a sweep's grids to 3 points): one case, about a second.
+# Every shipped run is cut to this many seconds [s] (and each axis of a sweep to 2 points): one case, a second or so.
 MAX_DURATION = 0.1
-MAX_POINTS = 3
+MAX_POINTS = 2
 
 HOSTILE: list[Any] = [
     10**400, -(10**400), 2**63, 2**64, -(2**63) - 1, 1e308, -1e308, 1e-320, 0, -1, 0.0, -0.0, 1e9, 1.5,
@@ -306,7 +306,7 @@ class Families:
                           oracle=_sweep_oracle)  # fmt: skip
 
     def scheduler(self) -> str:
-        """The address of the campaign's Dask scheduler (one single-threaded worker), started on first use."""
+        """The address of the campaign's Dask scheduler (two single-threaded workers), started on first use."""
         if self._scheduler is None:
             self._scheduler = start_cluster()
         return self._scheduler
@@ -369,7 +369,7 @@ def _sweep_oracle(code: int) -> list[str]:
 
 
 def start_cluster() -> str:
-    """Start ``dask scheduler`` and one ``dask worker`` (single-threaded) as processes of their own; the address.
+    """Start ``dask scheduler`` and two single-threaded workers as processes of their own; the scheduler's address.
 
     They are stopped when the campaign ends. Processes, not threads of the campaign: it forks its cases.
     """
@@ -383,7 +383,7 @@ def start_cluster() -> str:
     scheduler = subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"],
                                  env=env, **quiet)  # type: ignore[call-overload]  # fmt: skip
     time.sleep(3)
-    worker = subprocess.Popen([dask, "worker", address, "--nthreads", "1", "--nworkers", "1", "--no-dashboard"],
+    worker = subprocess.Popen([dask, "worker", address, "--nthreads", "1", "--nworkers", "2", "--no-dashboard"],
                               env=env, **quiet)  # type: ignore[call-overload]  # fmt: skip
     time.sleep(5)
     for process in (worker, scheduler):

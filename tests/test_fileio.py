@@ -163,3 +163,10 @@ def test_a_400_digit_number_in_a_constraints_file_is_one_line(tmp_path):
     path.write_text(json.dumps({"restitution": 0}).replace("0", HUGE))
     with pytest.raises(InputError, match="finite number"):
         read_constraints(path)
+
+
+def test_a_sweep_nested_too_deeply_is_one_line(tmp_path):
+    path = tmp_path / "sweep.toml"
+    path.write_text("model = 'pendubot'\ndt = " + "[" * 5000 + "]" * 5000 + "\n")
+    with pytest.raises(InputError, match="nested too deeply"):
+        sweep_spec.load(path)

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import robodyn.errors
 import robodyn.sweep as sweep
 from robodyn.cli import main
 from robodyn.errors import InputError
@@ -226,3 +227,10 @@ def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return int(s.getsockname()[1])
+
+
+def test_an_unknown_parameter_names_the_sweep_file_and_its_table(tmp_path):
+    path = tmp_path / "sweep.toml"
+    path.write_text(_toml({"model": "pendubot", "duration": 0.1, "params": {"dt": [1.0]}}))
+    with pytest.raises(robodyn.errors.UnknownNameError, match=r"sweep.toml: \[params\] unknown pendubot parameter"):
+        sweep.prepare(path, tmp_path / "out")

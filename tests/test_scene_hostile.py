@@ -24,6 +24,7 @@ BAD_SECTIONS = {
         "[model]\nname = 'pendubot'\n[constraints]\nloops = [{ frame_a = 'no_such_frame', frame_b = 'link2' }]\n",
         "[constraints] loops[0].frame_a: unknown frame",
     ),
+    "NUL in the output folder": ("[model]\nname = 'pendubot'\n" + SIM + '[output]\ndir = "a\\u0000b"\n', "NUL"),
     "spring on no joint, no [simulate]": (
         "[model]\nname = 'pendubot'\n[springs]\nnope = { stiffness = 1.0, rest = 0.0 }\n",
         "nope",

@@ -222,7 +222,17 @@ def constraint_bases() -> list[tuple[str, dict[str, Any], dict[str, bytes]]]:
     return out
 
 
-PARAMS = {"m1": 1.336, "m2": 0.5, "l1": 0.15, "lc1": 0.1, "lc2": 0.126, "I1": 6.19e-3, "I2": 2.65e-3, "g": 9.81}
+def params_printed() -> dict[str, Any]:
+    """What ``robodyn params pendubot`` prints (the file ``check --params`` reads back)."""
+    import contextlib
+    import io
+
+    from robodyn.cli import main
+
+    text = io.StringIO()
+    with contextlib.redirect_stdout(text):
+        main(["params", "pendubot"])
+    return dict(json.loads(text.getvalue()))
 
 
 def _family(special: str, done: list[str]) -> str:
@@ -264,6 +274,7 @@ class Families:
         self.sweeps = sweep_bases()
         self.constraints = constraint_bases()
         self._scheduler: str | None = None
+        self.shipped_params = params_printed()
 
     # ------------------------------------------------------------------ shared
     def _case(self, index: int, family: str, label: str, command: str, files: dict[str, bytes], argv: list[str],
@@ -313,12 +324,13 @@ class Families:
 
     # ------------------------------------------------------------------ parameters
     def params(self, index: int, pick: Any, inputs: Any) -> Any:
-        doc: dict[str, Any] = {"params": dict(PARAMS)} if pick.integer(0, 1) else dict(PARAMS)
+        shipped = self.shipped_params
+        doc: dict[str, Any] = shipped if pick.integer(0, 1) else dict(shipped["params"])
         doc, done = edit(doc, pick, ["m1", "params", "nope"])
         text = json.dumps(doc, allow_nan=True).encode()
         data, setup, special = self._file(pick, "p.json", text)
         label = f"{_family(special, done)}: params: {special or ', '.join(done)}"
-        argv = ["check", "pendubot", "--params", "p.json", "--samples", "2"]
+        argv = ["check", "pendubot", "--formula", "pendubot", "--params", "p.json", "--samples", "2"]
         return self._case(index, "params file", label, "check", {"p.json": data}, argv, setup=setup)
 
     # ------------------------------------------------------------------ constraints

@@ -72,7 +72,7 @@ ALLOWED_EXITS = {
     "view": {0, 2},
     "check": {0, 1, 2},
     "simulate": {0, 2, 3},
-    "run": {0, 2, 3},
+    "run": {0, 1, 2, 3},  # 1: a [check] or closed form found a mismatch
     "sweep": {0, 2},
     "params": {0, 2},
 }

@@ -170,3 +170,21 @@ def test_a_sweep_nested_too_deeply_is_one_line(tmp_path):
     path.write_text("model = 'pendubot'\ndt = " + "[" * 5000 + "]" * 5000 + "\n")
     with pytest.raises(InputError, match="nested too deeply"):
         sweep_spec.load(path)
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["check", "pendubot", "--formula", "pendubot", "--params", "p.json", "--samples", "2"],
+        ["simulate", "pendubot", "--controller", "swing_up", "--gains", "g.json", "--duration", "0.1"],
+    ],
+    ids=["params", "swing_up gain"],
+)
+def test_a_400_digit_number_in_a_json_file_is_one_line(argv, tmp_path, capsys, monkeypatch):
+    params = {"m1": 1.336, "m2": 0.5, "l1": 0.15, "lc1": 0.1, "lc2": 0.126, "I1": 6.19e-3, "I2": 2.65e-3, "g": 9.81}
+    (tmp_path / "p.json").write_text(json.dumps(params).replace("1.336", HUGE))
+    (tmp_path / "g.json").write_text('{"k_energy": ' + HUGE + "}")
+    monkeypatch.chdir(tmp_path)
+    code = main(argv)
+    err = capsys.readouterr().err
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "Traceback" not in err, err

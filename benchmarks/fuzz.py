@@ -72,7 +72,7 @@ ALLOWED_EXITS = {
     "view": {0, 2},
     "check": {0, 1, 2},
     "simulate": {0, 2, 3},
-    "run": {0, 2, 3},
+    "run": {0, 1, 2, 3},  # 1: a [check] or closed form found a mismatch
     "sweep": {0, 2},
     "params": {0, 2},
 }
@@ -941,6 +941,9 @@ class Case:
     # On exit 0 (called in the child, in the case's folder, with the exit code): what is wrong with the result
     # (empty: right). A family's own oracle: a sweep's rows against simulate's verdict, say.
     oracle: Callable[[int], list[str]] | None = None
+    # Called with the case's work folder once its files are written, before the child starts: what bytes cannot
+    # say (a FIFO, a folder, a link to a device where a file is expected).
+    setup: Callable[[Path], None] | None = None
 
 
 @dataclass(frozen=True)
@@ -1017,18 +1020,28 @@ FAMILIES: list[Family] = [
 ]
 
 
+# Modules beside this file whose ``families(fuzz)`` adds families: scene, sweep, params and constraint files;
+# trajectory, controller, gains and formula files.
+FAMILY_MODULES = ("_fuzz_scenes", "_fuzz_files")
+
+
 def _more_families() -> list[Family]:
-    """The families of ``benchmarks/_fuzz_files.py`` (trajectory, controller, gains and formula files), if present."""
+    """The families of the :data:`FAMILY_MODULES` present (each given this module)."""
+    import importlib
+
     here = str(Path(__file__).resolve().parent)
     if here not in sys.path:
         sys.path.insert(0, here)
-    try:
-        import _fuzz_files  # type: ignore[import-not-found]
-    except ModuleNotFoundError as exc:
-        if exc.name != "_fuzz_files":
-            raise
-        return []
-    return list(_fuzz_files.families(sys.modules[__name__]))
+    out: list[Family] = []
+    for name in FAMILY_MODULES:
+        try:
+            module = importlib.import_module(name)
+        except ModuleNotFoundError as exc:
+            if exc.name != name:
+                raise
+            continue
+        out += module.families(sys.modules[__name__])
+    return out
 
 
 def families(names: str | None = None) -> list[Family]:
@@ -1119,7 +1132,7 @@ def _execute(case: Case) -> tuple[int, list[str]]:
         code = main(list(case.argv))
     except SystemExit as exc:
         code = exc.code if isinstance(exc.code, int) else 2
-    if code == 0 and case.oracle is not None:
+    if code in (0, 1) and case.oracle is not None:
         sys.stdout.flush()
         return code, case.oracle(code)
     if code != 0 or not case.compare:
@@ -1226,6 +1239,9 @@ def start(case: Case, root: Path, time_limit: int, memory: int) -> tuple[int, Ru
         path = folder / "work" / name
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_bytes(data)
+    (folder / "work").mkdir(parents=True, exist_ok=True)
+    if case.setup is not None:
+        case.setup(folder / "work")
     before = snapshot(folder / "work")
     sys.stdout.flush()
     sys.stderr.flush()
@@ -1267,6 +1283,7 @@ def classify(run: Running, status: int) -> dict[str, Any]:
     elif code not in ALLOWED_EXITS[case.command]:
         problems.append(f"unexpected exit {code}")
     lines = err.splitlines()
+    outcome["line"] = lines[0][:300] if lines else ""  # what a refusal said (the table's clean refusals, by reason)
     if code in (2, 3) and len(lines) != 1:
         problems.append("one-line violation")
     if case.argv is None and code == 0 and err:

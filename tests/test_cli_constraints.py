@@ -240,7 +240,7 @@ def test_a_loop_whose_frames_cannot_meet_is_one_line_with_metres(
     [
         (["--restitution", "1.5"], r"argument --restitution: expected a restitution from 0 to 1, got '1.5'"),
         (["--restitution", "-0.5"], r"argument --restitution: expected a restitution from 0 to 1"),
-        (["--constraints", "/nonexistent/c.json"], r"--constraints /nonexistent/c.json: cannot read it"),
+        (["--constraints", "/nonexistent/c.json"], r"--constraints /nonexistent/c.json: no such constraints file"),
     ],
 )
 def test_bad_flags_are_one_line_exit_2(argv: list[str], message: str, capsys: pytest.CaptureFixture[str]) -> None:

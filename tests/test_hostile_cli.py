@@ -326,7 +326,7 @@ def test_a_non_utf8_or_huge_scene_is_one_line(tmp_path: Path, capsys: pytest.Cap
     assert f"{scene}: not UTF-8 text: byte 0xe9 on line 3" in line
     huge = tmp_path / "huge.toml"
     huge.write_text(BASE + "# " + "x" * 2_000_000 + "\n")
-    assert f"{huge}: larger than 1024 KiB" in refused(["run", str(huge)], tmp_path, capsys)
+    assert f"{huge}: larger than 1 MiB" in refused(["run", str(huge)], tmp_path, capsys)
 
 
 def test_a_file_name_with_a_newline_stays_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -135,7 +135,7 @@ def test_example_swing_up_sweep_over_a_scene(client, tmp_path):
 @pytest.mark.parametrize(
     ("text", "expected"),
     [
-        ('scene = "../scenes/nowhere.toml"\n', r"nowhere.toml: no such scene file \(expected a .toml file\)"),
+        ('scene = "../scenes/nowhere.toml"\n', r"nowhere.toml: no such scene file \(expected a .toml scene file\)"),
         ('scene = "../scenes/pendubot.toml"\n[q0]\njoint1 = [0.0, 1.0]\n', r"unknown joint in \[q0\] 'joint1'"),
         ('scene = "../scenes/pendubot.toml"\n[v0]\njoint9 = 1.0\n', r"unknown joint in \[v0\] 'joint9'"),
         ('scene = "../scenes/pendubot.toml"\nmodel = "pendubot"\n', "give exactly one of 'model'"),

@@ -45,7 +45,7 @@ def compare(
     rtol = float(scene.check.get("closed_form_rtol", DEFAULT_CLOSED_FORM_RTOL))
     module = load(scene, path) if module is None else module
     q, v = joint_series(robot, trajectory, scene.constraints)
-    params = _call(scene, path, "parameters", module.parameters, scene.path)
+    params = read_parameters(scene, path, module)
     expected = _quantities(
         scene, path, "closed_form", _call(scene, path, "closed_form", module.closed_form, trajectory.t, q, v, params)
     )
@@ -74,6 +74,11 @@ def compare(
         "tolerance": rtol,
     }
     return EXIT_OK if passed else EXIT_MISMATCH
+
+
+def read_parameters(scene: Scene, path: Path, module: ModuleType) -> Any:
+    """``parameters(scene_path)`` of the closed-form file: what it reads from the scene (SceneError if it fails)."""
+    return _call(scene, path, "parameters", module.parameters, scene.path)
 
 
 def _refuse_overflow(

@@ -142,9 +142,12 @@ def _closed_form_module(scene: Any) -> Any:
     """The scene's ``[check] closed_form`` module, imported and its functions checked; None without one."""
     if scene.check is None or "closed_form" not in scene.check:
         return None
-    from robodyn.cli._closed_form import load
+    from robodyn.cli._closed_form import load, read_parameters
 
-    return load(scene, Path(scene.check["closed_form"]))
+    path = Path(scene.check["closed_form"])
+    module = load(scene, path)
+    read_parameters(scene, path, module)  # the file's reading of the scene, before the run it is compared with
+    return module
 
 
 def _control_record(scene: Any) -> dict[str, Any] | None:

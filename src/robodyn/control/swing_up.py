@@ -42,6 +42,7 @@ from robodyn import dynamics
 from robodyn.control.pfl import Collocated, collocated
 from robodyn.control.plant import Plant, wrap
 from robodyn.errors import InputError
+from robodyn.fileio import is_number
 from robodyn.kinds import params
 
 Array = NDArray[np.float64]
@@ -183,6 +184,9 @@ def pendubot(
 
     ``energy_offset`` [J] shifts the target E_up (for experiments; the upright needs 0).
     """
+    _positive(k_energy=k_energy, k_p=k_p, k_v=k_v)  # before any arithmetic on them
+    if not is_number(energy_offset):
+        raise InputError(f"swing_up gain energy_offset must be a finite number, got {energy_offset!r:.40}")
     robot = plant.robot
     up, down = plant.upright(), plant.hanging()
     energy_up = robot.potential_energy(up) + energy_offset
@@ -219,11 +223,11 @@ _Q2_GRID = np.linspace(-np.pi, np.pi, 73)
 
 def _positive(**gains: float) -> None:
     for name, value in gains.items():
-        if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
+        if not (is_number(value) and value > 0):
             raise InputError(f"swing_up gain {name} must be a positive number, got {value!r}")
 
 
 def _non_negative(**gains: float) -> None:
     for name, value in gains.items():
-        if not (isinstance(value, (int, float)) and np.isfinite(value) and value >= 0):
+        if not (is_number(value) and value >= 0):
             raise InputError(f"swing_up gain {name} must be a number >= 0, got {value!r}")

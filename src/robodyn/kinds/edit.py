@@ -27,8 +27,8 @@ unchanged, to :data:`VERIFY_RTOL`, or nothing is written.
 from __future__ import annotations
 
 import difflib
-import math
 import os
+import reprlib
 import tempfile
 import xml.etree.ElementTree as ET
 from collections.abc import Callable, Iterable, Mapping
@@ -41,7 +41,7 @@ from numpy.typing import NDArray
 
 from robodyn import dynamics
 from robodyn.errors import AssumptionError, InputError, ModelError, UnknownNameError
-from robodyn.fileio import write_text_atomically
+from robodyn.fileio import is_number, write_text_atomically
 from robodyn.kinds.params import EX, EXTRACTORS, EY, EZ, Params, extract
 from robodyn.model.files import find_srdf
 from robodyn.model.load import load
@@ -89,8 +89,8 @@ def check_changes(kind: str, assignments: Iterable[tuple[str, float]]) -> dict[s
             raise _unknown(kind, name)
         if name in changes:
             raise InputError(f"{name} is set twice ({changes[name]!r} and {value!r}); set it once")
-        if not math.isfinite(value):
-            raise InputError(f"{name} must be a finite number, got {value!r}")
+        if not is_number(value):
+            raise InputError(f"{name} must be a finite number, got {reprlib.repr(value)}")
         if name in _NON_NEGATIVE and value < 0:
             raise InputError(f"{name} is {_NON_NEGATIVE[name]} and must be >= 0, got {value!r}")
         if value == 0 and name in _COM_OF[kind]:

@@ -12,6 +12,7 @@ at q = 0 with a horizontal axis.
 
 from __future__ import annotations
 
+import reprlib
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 
@@ -20,6 +21,7 @@ from numpy.typing import NDArray
 
 from robodyn import dynamics
 from robodyn.errors import AssumptionError, InputError
+from robodyn.fileio import is_number
 from robodyn.kinds.formulas import closed_form
 from robodyn.registry import Registry
 from robodyn.robot import Robot
@@ -266,9 +268,9 @@ def from_mapping(kind: str, values: Mapping[str, object]) -> Params:
     out: dict[str, float] = {}
     for n in names:
         value = values[n]
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
-            raise InputError(f"parameter {n} must be a finite number, got {value!r}")
-        out[n] = float(value)
+        if not is_number(value):  # an integer of 400 digits too: it has no float
+            raise InputError(f"parameter {n} must be a finite number, got {reprlib.repr(value)}")
+        out[n] = float(value)  # type: ignore[arg-type]  # is_number: a finite int or float
     return Params(kind, out)
 
 

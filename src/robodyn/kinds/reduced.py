@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from robodyn.errors import FormulaError
+from robodyn.fileio import is_number
 from robodyn.kinds.formula import Array, Formula, Params
 from robodyn.userfile import at_line, exit_call
 
@@ -96,7 +97,7 @@ def checked_parameters(raw: object, source: str) -> dict[str, float]:
             raise FormulaError(f"{source}: parameters() returned the key {key!r}; expected names (strings)")
         if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
             raise FormulaError(f"{source}: parameters()[{key!r}] is {type(value).__name__}; expected a number")
-        if not math.isfinite(float(value)):
+        if not is_number(value):
             raise FormulaError(f"{source}: parameters()[{key!r}] = {value!r}; expected a finite number")
         out[key] = float(value)
     return out

@@ -24,6 +24,7 @@ A fixed-step explicit method too coarse for the regularised Coulomb friction of 
 
 from __future__ import annotations
 
+import reprlib
 import time
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
@@ -33,6 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from robodyn import dynamics, integrators
 from robodyn.errors import DivergenceError, InputError, ModelError, SimulationInterrupted
+from robodyn.fileio import is_number
 from robodyn.integrators import Integrator
 from robodyn.robot import as_vector
 from robodyn.sim import energy, whole_run
@@ -312,8 +314,8 @@ def _refuse_singular_mass(robot: Robot, system: RobotSystem, q: Array) -> None:
 
 def _check_times(duration: float, dt: float) -> tuple[float, float]:
     for name, value in (("duration", duration), ("dt", dt)):
-        if not isinstance(value, (int, float, np.floating)) or not np.isfinite(value) or value <= 0:
-            raise InputError(f"{name} must be a positive number of seconds, got {value!r}")
+        if not is_number(value) or value <= 0:
+            raise InputError(f"{name} must be a positive number of seconds, got {reprlib.repr(value)}")
     if dt > duration:
         raise InputError(f"dt must not exceed duration ({duration:g} s), got {dt:g} s")
     if duration / dt > MAX_STEPS:

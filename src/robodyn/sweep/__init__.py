@@ -262,7 +262,11 @@ def _check_params(spec: SweepSpec, robot: Any) -> str | None:
         raise InputError(f"{spec.source}: [params] needs a model of a built-in kind (pendubot, cart_pole, geared_arm)")
     for name, values in spec.params.items():
         for value in values:
-            check_changes(kind, [(name, value)])
+            try:
+                check_changes(kind, [(name, value)])
+            except (InputError, UnknownNameError) as exc:  # named with the file and table it comes from
+                exc.args = (f"{spec.source}: [params] {exc.args[0]}",)
+                raise
     return kind
 
 

@@ -144,6 +144,8 @@ def load(source: str | Path | Mapping[str, Any]) -> SweepSpec:
         data = toml.loads(text)
     except toml.TOMLDecodeError as exc:
         raise InputError(f"{path}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise InputError(f"{path}: arrays or tables nested too deeply to read (a sweep file nests a few)") from None
     return parse(data, name=str(path), base=path.resolve().parent)
 
 

@@ -184,7 +184,8 @@ def pendubot(
 
     ``energy_offset`` [J] shifts the target E_up (for experiments; the upright needs 0).
     """
-    _positive(k_energy=k_energy, k_p=k_p, k_v=k_v)  # before any arithmetic on them
+    given = {name: value for name, value in (("k_d", k_d), ("k_p", k_p), ("k_v", k_v)) if value is not None}
+    _positive(k_energy=k_energy, **given)  # before any arithmetic on them (the defaults come from the model)
     if not is_number(energy_offset):
         raise InputError(f"swing_up gain energy_offset must be a finite number, got {energy_offset!r:.40}")
     robot = plant.robot

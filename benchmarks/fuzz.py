@@ -73,6 +73,8 @@ ALLOWED_EXITS = {
     "check": {0, 1, 2},
     "simulate": {0, 2, 3},
     "run": {0, 2, 3},
+    "sweep": {0, 2},
+    "params": {0, 2},
 }
 # Pinocchio sums the links welded to a body with a few products per link, robodyn's loader and this
 # oracle place them by other products: they agree to ~1e-15 of the body's scale; 1e-9 leaves room
@@ -920,13 +922,16 @@ class Case:
     """One fuzz case: the files of its folder, and what runs there."""
 
     index: int
-    kind: str  # api, info, check, cli, scene
+    kind: str  # the family's name (a row of the table): api, info, check, cli, scene, ...
     family: str  # what was done: number, structure, inertia, xml, valid, twice, big; cli <command>; scene ...
     label: str
     command: str  # api, info, check, simulate, view, run
     files: dict[str, bytes]
     argv: list[str] | None  # None: robodyn.load("model.urdf")
     compare: bool  # on exit 0, model.urdf must load as the file says
+    # On exit 0 (called in the child, in the case's folder, with the exit code): what is wrong with the result
+    # (empty: right). A family's own oracle: a sweep's rows against simulate's verdict, say.
+    oracle: Callable[[int], list[str]] | None = None
 
 
 @dataclass(frozen=True)
@@ -938,11 +943,10 @@ class Inputs:
     options: dict[str, list[tuple[str, Any]]]
 
 
-def make_case(index: int, seed: int, inputs: Inputs) -> Case:
-    """Case ``index`` of the campaign ``seed`` (the same pair gives the same case)."""
-    pick = RandomChooser(f"{seed}:{index}")
-    kind = pick.choice(["api"] * 9 + ["info"] * 3 + ["check"] * 2 + ["cli"] * 4 + ["scene"] * 2)
-    if kind in ("api", "info", "check"):
+def _urdf_case(kind: str) -> Callable[[int, Chooser, Inputs], Case]:
+    """Cases of ``kind`` api, info or check: a mutated URDF through robodyn.load, ``info`` or ``check``."""
+
+    def make(index: int, pick: Chooser, inputs: Inputs) -> Case:
         base, text = pick.choice(inputs.bases)
         if pick.integer(0, 199) == 0:
             label, links, every = pick.choice(BIG)
@@ -956,18 +960,86 @@ def make_case(index: int, seed: int, inputs: Inputs) -> Case:
         elif kind == "check":
             argv = ["check", "model.urdf", "--samples", "2", *pick.choice([[], [], ["--formula", "auto"], ["--mimic"]])]
         return Case(index, kind, family, label, kind, {"model.urdf": data}, argv, compare=True)
+
+    return make
+
+
+def _scene_case(index: int, pick: Chooser, inputs: Inputs) -> Case:
+    """A random TOML scene (or unreadable bytes) through ``robodyn run --no-view``."""
     files = dict(inputs.fixtures)
-    if kind == "scene":
-        label, files["scene.toml"] = scene_text(pick)
-        argv = ["run", "scene.toml", "--no-view", *pick.choice([[], [], ["--out", "out"], ["--out", "model.urdf"]])]
-        what = label.removeprefix("scene: ")
-        family = "scene " + (what if what == "valid" else "unreadable" if what in dict(UNREADABLE_SCENES) else "edited")
-        return Case(index, kind, family, label, "run", files, argv, compare=False)
+    label, files["scene.toml"] = scene_text(pick)
+    argv = ["run", "scene.toml", "--no-view", *pick.choice([[], [], ["--out", "out"], ["--out", "model.urdf"]])]
+    what = label.removeprefix("scene: ")
+    family = "scene " + (what if what == "valid" else "unreadable" if what in dict(UNREADABLE_SCENES) else "edited")
+    return Case(index, "scene", family, label, "run", files, argv, compare=False)
+
+
+def _cli_case(index: int, pick: Chooser, inputs: Inputs) -> Case:
+    """A hostile or valid command line (:func:`command_line`)."""
+    files = dict(inputs.fixtures)
     command, argv = command_line(pick, inputs.options)
     if command == "run":
         files["scene.toml"] = scene_text(pick)[1]
     compare = argv[1:2] == ["model.urdf"] and not {"--lock", "--keep"} & set(argv)
-    return Case(index, kind, f"cli {command}", f"cli: {command}", command, files, argv, compare)
+    return Case(index, "cli", f"cli {command}", f"cli: {command}", command, files, argv, compare)
+
+
+@dataclass(frozen=True)
+class Family:
+    """A kind of case, one row of the table: its name, how often it is drawn (a weight) and how one is made.
+
+    ``make(index, pick, inputs)`` returns the :class:`Case` (its ``kind`` is the family's name), drawing every
+    decision from ``pick``; ``inputs.fixtures`` holds the files a case may put beside its own.
+    """
+
+    name: str
+    weight: int
+    make: Callable[[int, Chooser, Inputs], Case]
+
+
+# Every family of cases. A new file kind appends one Family here (or in benchmarks/_fuzz_files.py,
+# whose ``families(fuzz)`` returns its own list, given this module). ``--families`` picks some by name.
+FAMILIES: list[Family] = [
+    Family("api", 9, _urdf_case("api")),
+    Family("info", 3, _urdf_case("info")),
+    Family("check", 2, _urdf_case("check")),
+    Family("cli", 4, _cli_case),
+    Family("scene", 2, _scene_case),
+]
+
+
+def _more_families() -> list[Family]:
+    """The families of ``benchmarks/_fuzz_files.py`` (trajectory, controller, gains and formula files), if present."""
+    here = str(Path(__file__).resolve().parent)
+    if here not in sys.path:
+        sys.path.insert(0, here)
+    try:
+        import _fuzz_files  # type: ignore[import-not-found]
+    except ModuleNotFoundError as exc:
+        if exc.name != "_fuzz_files":
+            raise
+        return []
+    return list(_fuzz_files.families(sys.modules[__name__]))
+
+
+def families(names: str | None = None) -> list[Family]:
+    """Every registered family, or those named in the comma-separated ``names``."""
+    known = [*FAMILIES, *_more_families()]
+    if not names:
+        return known
+    wanted = [n.strip() for n in names.split(",") if n.strip()]
+    missing = [n for n in wanted if n not in {f.name for f in known}]
+    if missing:
+        expected = ", ".join(f.name for f in known)
+        raise SystemExit(f"fuzz.py: unknown family {missing[0]!r}; expected some of: {expected}")
+    return [f for f in known if f.name in wanted]
+
+
+def make_case(index: int, seed: int, inputs: Inputs, chosen: Sequence[Family] | None = None) -> Case:
+    """Case ``index`` of the campaign ``seed`` over the families ``chosen`` (default: all; the same gives the same)."""
+    pick = RandomChooser(f"{seed}:{index}")
+    pool = [f for f in (chosen if chosen is not None else families()) for _ in range(f.weight)]
+    return pick.choice(pool).make(index, pick, inputs)
 
 
 def base_models(*, library: bool = True) -> list[tuple[str, str]]:
@@ -979,6 +1051,11 @@ def base_models(*, library: bool = True) -> list[tuple[str, str]]:
         table = sources.sources()
         out += [(name, table[name].urdf.read_text(encoding="utf-8")) for name in sources.distinct_robots()]
     return out
+
+
+# The names of the files :func:`fixtures` puts in every command-line case's folder (not saved with a failure).
+FIXTURE_NAMES = ("model.urdf", "t.npz", "shadow.npz", "bad.npz", "p.json", "zero.json", "deep.json", "bad.json",
+                 "x.srdf", "sub/.keep")  # fmt: skip
 
 
 def fixtures(folder: Path) -> dict[str, bytes]:
@@ -1030,6 +1107,9 @@ def _execute(case: Case) -> tuple[int, list[str]]:
         code = main(list(case.argv))
     except SystemExit as exc:
         code = exc.code if isinstance(exc.code, int) else 2
+    if code == 0 and case.oracle is not None:
+        sys.stdout.flush()
+        return code, case.oracle(code)
     if code != 0 or not case.compare:
         return code, []
     sys.stdout.flush()
@@ -1206,6 +1286,24 @@ COLUMNS = ("one-line violation", "refusal names no input", "files changed on ref
            "unexpected exit", "exit 1 without a mismatch", "accepted-but-wrong")  # fmt: skip
 
 
+# The table per family: each case counts in one column, the first of these that applies.
+TABLE_COLUMNS = ("clean refusal", "accepted and right", "traceback", "hang", "silently wrong", "multi-line refusal",
+                 "refusal that left files", "other problem")  # fmt: skip
+
+
+def verdict(outcome: dict[str, Any]) -> str:
+    """The column of the table that ``outcome`` counts in."""
+    problems = outcome["problems"]
+    for column, problem in (("traceback", "traceback"), ("hang", "hang"), ("silently wrong", "accepted-but-wrong"),
+                            ("multi-line refusal", "one-line violation"),
+                            ("refusal that left files", "files changed on refusal")):  # fmt: skip
+        if problem in problems:
+            return column
+    if problems:
+        return "other problem"
+    return "accepted and right" if outcome["exit"] == 0 else "clean refusal"
+
+
 def table(outcomes: list[dict[str, Any]], wall: float) -> dict[str, Any]:
     """The summary: exit codes, and each kind of violation (signals by name), in total and per case kind."""
     exits = Counter(str(o["exit"]) for o in outcomes)
@@ -1217,8 +1315,11 @@ def table(outcomes: list[dict[str, Any]], wall: float) -> dict[str, Any]:
             "exits": dict(Counter(str(o["exit"]) for o in outcomes if o["kind"] == kind)),
             "problems": sum(bool(o["problems"]) for o in outcomes if o["kind"] == kind),
         }
-        for kind in ("api", "info", "check", "cli", "scene")
+        for kind in dict.fromkeys(o["kind"] for o in outcomes)
     }
+    rows: dict[str, Counter[str]] = {}
+    for o in outcomes:
+        rows.setdefault(o["kind"], Counter())[verdict(o)] += 1
     families = Counter((o["kind"], o["family"], str(o["exit"])) for o in outcomes)
     by_family: dict[str, dict[str, int]] = {}
     for (kind, name, code), n in sorted(families.items()):
@@ -1238,6 +1339,7 @@ def table(outcomes: list[dict[str, Any]], wall: float) -> dict[str, Any]:
         "violations": {c: found.get(c, 0) for c in COLUMNS},
         "signals": dict(signals),
         "by_kind": kinds,
+        "table": {kind: {c: row.get(c, 0) for c in TABLE_COLUMNS} for kind, row in rows.items()},
     }
 
 
@@ -1258,6 +1360,11 @@ def print_table(summary: dict[str, Any]) -> None:
     )
     print("by kind: " + "; ".join(f"{k} {v['cases']} (exits {v['exits']}, {v['problems']} with problems)"
                                   for k, v in summary["by_kind"].items()))  # fmt: skip
+    width = max([len("family"), *(len(k) for k in summary["table"])])
+    print(f"| {'family':<{width}} | " + " | ".join(TABLE_COLUMNS) + " |")
+    print(f"|{'-' * (width + 2)}|" + "|".join("-" * (len(c) + 1) + ":" for c in TABLE_COLUMNS) + "|")
+    for kind, row in summary["table"].items():
+        print(f"| {kind:<{width}} | " + " | ".join(f"{row[c]:>{len(c)}}" for c in TABLE_COLUMNS) + " |")
 
 
 def save_failure(run: Running, outcome: dict[str, Any], out: Path) -> None:
@@ -1267,7 +1374,8 @@ def save_failure(run: Running, outcome: dict[str, Any], out: Path) -> None:
     inputs = target / "inputs"
     inputs.mkdir(exist_ok=True)
     for name, data in run.case.files.items():
-        if name in ("model.urdf", "scene.toml") or run.case.kind not in ("cli", "scene"):
+        own = run.case.kind not in ("cli", "scene") and name not in FIXTURE_NAMES
+        if name in ("model.urdf", "scene.toml") or own:
             (inputs / name.replace("/", "_")).write_bytes(data)
     for name in ("stdout.txt", "stderr.txt"):
         if (run.folder / name).exists():
@@ -1309,6 +1417,7 @@ def campaign(args: argparse.Namespace) -> dict[str, Any]:
             main(argv)  # warm every lazy import before the first fork
     print(f"fuzz: {args.cases} cases, seed {args.seed}, {args.jobs} jobs, {len(inputs.bases)} base URDFs, "
           f"limits {args.time_limit} s and {args.memory_gib} GiB per case; output in {out}", flush=True)  # fmt: skip
+    chosen = families(args.families)
     indices = [args.only] if args.only is not None else list(range(args.cases))
     running: dict[int, Running] = {}
     outcomes: list[dict[str, Any]] = []
@@ -1331,7 +1440,8 @@ def campaign(args: argparse.Namespace) -> dict[str, Any]:
             if index is None:
                 pending = False
                 break
-            pid, run = start(make_case(index, args.seed, inputs), cases_dir, args.time_limit, args.memory_gib * 2**30)
+            case = make_case(index, args.seed, inputs, chosen)
+            pid, run = start(case, cases_dir, args.time_limit, args.memory_gib * 2**30)
             running[pid] = run
         if not running:
             break
@@ -1370,6 +1480,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--time-limit", type=int, default=60, help="seconds per case before it counts as a hang")
     parser.add_argument("--memory-gib", type=int, default=4, help="address-space cap per case [GiB]")
     parser.add_argument("--only", type=int, default=None, help="run only case INDEX (to reproduce it)")
+    parser.add_argument(
+        "--families",
+        default=None,
+        help="comma-separated families to draw from (default: all): " + ", ".join(f.name for f in families()),
+    )
     parser.add_argument("--builtins-only", action="store_true", help="mutate the built-in models only")
     parser.add_argument("--progress", type=int, default=250, help="a progress line every this many cases")
     args = parser.parse_args(argv)

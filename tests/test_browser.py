@@ -452,6 +452,7 @@ def test_constraint_drift_is_charted_in_metres_on_a_log_axis(artifacts: Path, tm
         assert "Constraint drift [m], log scale" == str(
             browser.evaluate(f"{box}.querySelector('.robodyn-title').textContent")
         )
+        browser.evaluate(f"{box}.scrollIntoView()")  # the panel scrolls when its charts outgrow the window
         rect = browser.evaluate(
             f"(function () {{ var r = {box}.querySelector('canvas').getBoundingClientRect();"
             " return [r.left, r.top, r.width, r.height]; })()"

@@ -142,11 +142,12 @@ def test_the_panel_charts_energy_ledger_power_and_torques_with_units(
 ) -> None:
     playback = viewer.build(pendubot, motion)
     charts = {chart.key: chart for chart in playback.charts}
-    assert list(charts) == ["energy", "ledger", "power", "torque"]  # no drift: the trajectory has none
+    assert list(charts) == ["energy", "ledger", "power", "position", "torque"]  # no drift: the trajectory has none
     assert {key: chart.unit for key, chart in charts.items()} == {
         "energy": "J",
         "ledger": "J",
         "power": "W",
+        "position": "rad",
         "torque": "N m",
     }
     index = playback.sample_index
@@ -174,7 +175,9 @@ def test_a_constraint_drift_is_charted_when_the_trajectory_has_one(pendubot: rob
     np.testing.assert_array_equal(chart.series[0].values, drift[playback.sample_index])
     info = json.loads(re.search(r'id="robodyn-info">(.*?)</script>', viewer.to_html(playback), re.S).group(1))
     scales = {c["key"]: c["scale"] for c in info["panel"]["charts"]}
-    assert scales == {"energy": "linear", "ledger": "linear", "power": "linear", "torque": "linear", "drift": "log"}
+    assert scales == {
+        "energy": "linear", "ledger": "linear", "power": "linear", "position": "linear", "torque": "linear", "drift": "log"
+    }  # fmt: skip
     still = viewer.build(pendubot, dataclasses.replace(motion, constraint_drift=np.zeros(len(motion.t))))
     assert {c.key: c.scale for c in still.charts}["drift"] == "linear"  # no decade to show: zeros on a plain axis
 
@@ -388,7 +391,7 @@ def test_cli_writes_the_html_file(
 
 # --------------------------------------------------------------------------- notebooks
 def test_show_renders_inline_without_a_server(pendubot: robodyn.Robot, motion: Trajectory) -> None:
-    replay = pendubot.view(motion)
+    replay = viewer.show(pendubot, motion)
     assert isinstance(replay, viewer.Replay) and replay.url is None
     html_cell = replay._repr_html_()
     assert html_cell.startswith("<div") and 'srcdoc="&lt;!DOCTYPE html&gt;' in html_cell
@@ -538,3 +541,62 @@ def test_cli_refuses_bad_runs_in_one_line(
         err = capsys.readouterr().err
         assert message in err and len(err.splitlines()) == 1 and "Traceback" not in err, err
     assert not html.exists()
+
+
+def test_joint_positions_show_their_limits_and_the_impacts_on_the_stops() -> None:
+    """The cart runs into the rail's end: its position chart has the rail's limits and one mark per impact."""
+    cart_pole = robodyn.load("cart_pole")
+    motion = robodyn.simulate(cart_pole, [2.3, 0.0], [2.0, 0.0], duration=0.5, dt=1e-3, integrator="rk4")
+    impacts = int(np.count_nonzero(np.diff(motion.work_limits) < 0))
+    assert impacts >= 1
+    playback = viewer.build(cart_pole, motion)
+    charts = {chart.key: chart for chart in playback.charts}
+    position = charts["position"]
+    assert sorted(v for _, v, _ in position.limits if abs(v) < 100) == [
+        -2.4,
+        2.4,
+    ]  # the rail; the hinge's +-1000 left out
+    assert len(position.markers) == impacts
+    first = int(np.flatnonzero(np.diff(motion.work_limits) < 0)[0]) + 1
+    assert motion.t[playback.sample_index[int(np.ceil(position.markers[0]))]] >= motion.t[first] - 1e-12
+    # a model mixing a slider and a hinge: each legend entry has its unit, the ticks none
+    assert position.unit == "rad or m" and not position.tick_unit
+    assert {s.label for s in position.series} == {"slider [m]", "hinge [rad]"}
+    assert {s.label for s in charts["torque"].series} == {"slider [N]", "hinge [N m]"}
+    info = json.loads(re.search(r'id="robodyn-info">(.*?)</script>', viewer.to_html(playback), re.S).group(1))
+    chart = next(c for c in info["panel"]["charts"] if c["key"] == "position")
+    assert chart["markers"] == list(position.markers) and chart["tickUnit"] is False
+
+
+def test_springs_split_the_potential_and_their_couples_join_the_torques(
+    pendubot: robodyn.Robot, motion: Trajectory
+) -> None:
+    """V gravity + V spring = V; the spring's curve is 1/2 k (q - rest)^2, its couple -k (q - rest)."""
+    k, rest = 2.5, 0.1  # [N m/rad], [rad]
+    sprung = dataclasses.replace(motion, meta={**motion.meta, "springs": {"joint2": {"stiffness": k, "rest": rest}}})
+    playback = viewer.build(pendubot, sprung)
+    charts = {chart.key: chart for chart in playback.charts}
+    energy = {s.label: s.values for s in charts["energy"].series}
+    index = playback.sample_index
+    stretch = motion.q[index, 1] - rest
+    np.testing.assert_allclose(energy["V spring"], 0.5 * k * stretch**2, rtol=1e-15)
+    np.testing.assert_allclose(energy["V gravity"] + energy["V spring"], motion.potential[index], rtol=1e-12)
+    assert "V potential" not in energy
+    torque = {s.label: s.values for s in charts["torque"].series}
+    np.testing.assert_allclose(torque["spring at joint2"], -k * stretch, rtol=1e-15)
+
+
+def test_a_switched_controller_records_its_mode_and_the_replay_charts_it(tmp_path: Path) -> None:
+    out = tmp_path / "swing.npz"
+    argv = ["simulate", "cart_pole", "--q0", "0,3.14159", "--controller", "swing_up", "--duration", "4", "--out"]
+    assert main([*argv, str(out)]) == 0
+    motion = Trajectory.load(out)
+    mode = motion.meta["controller"]["mode"]
+    assert len(mode) == len(motion.t) and mode[0] == 0 and mode[-1] == 1  # pumping, then the LQR holds it
+    handover = mode.index(1)
+    controller = robodyn.control.make("swing_up", robodyn.load("cart_pole"))
+    assert controller.mode(motion.q[handover], motion.v[handover]) == 1
+    assert controller.mode(motion.q[handover - 1], motion.v[handover - 1]) == 0
+    playback = viewer.build(robodyn.load("cart_pole"), motion)
+    chart = next(c for c in playback.charts if c.key == "mode")
+    np.testing.assert_array_equal(chart.series[0].values, np.asarray(mode, dtype=float)[playback.sample_index])

@@ -1,4 +1,12 @@
-"""Writing a file safely: it appears complete or not at all, and never through a planted link.
+"""Files a user hands robodyn and files robodyn writes: read bounded, written whole.
+
+:func:`read_user_file` is the one way to read a file a user names (a scene, a sweep, parameters,
+constraints): it looks at the path first (``os.stat``, which opens nothing) and refuses, in one
+line, anything but a regular file (a FIFO, a device, a socket would block or never end; a folder
+is no file), then reads at most a stated number of bytes. :func:`is_number` is the one test of a
+number read from such a file: a float that is finite, or a whole number that fits 64 bits (what
+TOML allows; Python would read 400 digits and overflow the first float conversion), within the
+caller's bounds.
 
 :func:`write_atomically` writes to a fresh temporary file in the target's folder, created with
 ``tempfile.mkstemp`` (``O_CREAT | O_EXCL``, an unpredictable name, so an existing file or a
@@ -8,11 +16,95 @@ rename replaces a link at the target itself, not the file the link points to.
 
 from __future__ import annotations
 
+import math
+import numbers
 import os
+import stat
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
-from typing import IO
+from typing import IO, Any
+
+from robodyn.errors import InputError, RobodynError
+
+# The whole numbers a file may give: signed 64-bit, TOML's own range.
+MIN_WHOLE, MAX_WHOLE = -(2**63), 2**63 - 1
+
+
+def is_number(value: Any, *, integer: bool = False, low: float = -math.inf, high: float = math.inf) -> bool:
+    """True when ``value`` is a number a file may give, within ``low <= value <= high``; never raises.
+
+    A number is a finite float (not with ``integer``) or a whole number of 64 bits; ``bool`` is neither.
+    """
+    if isinstance(value, bool) or type(value).__name__ == "bool_":  # numpy's bool is no Integral, but say so
+        return False
+    if isinstance(value, numbers.Integral):  # int, numpy's integers
+        return MIN_WHOLE <= int(value) <= MAX_WHOLE and low <= int(value) <= high
+    if isinstance(value, numbers.Real) and not integer:  # float, numpy's floats
+        return math.isfinite(float(value)) and low <= float(value) <= high
+    return False
+
+
+_KINDS = (
+    (stat.S_ISFIFO, "a FIFO (named pipe)"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def read_user_file(
+    path: Path, *, what: str, expected: str, limit: int, error: type[RobodynError] = InputError
+) -> bytes:
+    """The bytes of the file ``path`` that a user named, refused in one line unless it is a regular file.
+
+    The path is looked at before it is opened, so a FIFO, a device or a socket is never opened for reading
+    (it could block for ever or never end); the file is then opened without blocking and checked again.
+
+    Args:
+        path: the file.
+        what: what it is, for messages ("scene", "sweep", "parameter", "constraints").
+        expected: what was expected, for messages ("a .toml scene file").
+        limit: the most bytes such a file may hold.
+        error: the exception class raised (its constructor takes the one-line message).
+
+    Raises:
+        ``error``: no such file, a folder or another non-regular file, unreadable, or larger than ``limit``.
+    """
+    try:
+        info = os.stat(path)
+    except (FileNotFoundError, NotADirectoryError):
+        raise error(f"{path}: no such {what} file (expected {expected})") from None
+    except (OSError, ValueError) as exc:  # a name too long, a NUL byte in it, no permission
+        raise error(f"{path}: cannot read the {what} file: {getattr(exc, 'strerror', None) or exc}") from None
+    _regular(path, info.st_mode, what, expected, error)
+    if info.st_size > limit:
+        raise error(f"{path}: larger than {_size(limit)} (expected {expected})")
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
+    except OSError as exc:
+        raise error(f"{path}: cannot read the {what} file: {exc.strerror or exc}") from None
+    with os.fdopen(fd, "rb") as fh:
+        _regular(path, os.fstat(fh.fileno()).st_mode, what, expected, error)  # replaced since the look: look again
+        try:
+            raw = fh.read(limit + 1)
+        except OSError as exc:
+            raise error(f"{path}: cannot read the {what} file: {exc.strerror or exc}") from None
+    if len(raw) > limit:
+        raise error(f"{path}: larger than {_size(limit)} (expected {expected})")
+    return raw
+
+
+def _regular(path: Path, mode: int, what: str, expected: str, error: type[RobodynError]) -> None:
+    if stat.S_ISDIR(mode):
+        raise error(f"{path}: is a folder (expected {expected})")
+    if not stat.S_ISREG(mode):
+        kind = next((name for test, name in _KINDS if test(mode)), "not a regular file")
+        raise error(f"{path}: is {kind}, not a regular file (expected {expected}); robodyn reads {what} files only")
+
+
+def _size(limit: int) -> str:
+    return f"{limit // 2**20} MiB" if limit % 2**20 == 0 else f"{limit // 1024} KiB"
 
 
 def write_atomically(path: Path, write: Callable[[IO[bytes]], None]) -> Path:

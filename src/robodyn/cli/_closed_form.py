@@ -8,6 +8,7 @@ where ``t`` is (n,) [s] and ``q``, ``v`` map each one-coordinate joint's name to
 (a coupled joint's from its leader: ratio q_leader + offset). :func:`compare` computes the worst
 deviation of each quantity along the whole motion, max |closed form - simulated| / max |closed form|
 (:func:`robodyn.kinds.deviation.worst_deviation`), prints it and fails (exit 1) above ``closed_form_rtol``.
+A quantity that is inf or NaN is an overflow of the run, not a mismatch: one line, exit 3.
 A file that cannot be imported or breaks its interface is one line naming it (exit 2).
 """
 
@@ -20,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from robodyn.errors import EXIT_MISMATCH, EXIT_OK, InputError, SceneError
+from robodyn.errors import EXIT_MISMATCH, EXIT_OK, DivergenceError, InputError, SceneError
 from robodyn.kinds.deviation import worst_deviation
 from robodyn.scene import DEFAULT_CLOSED_FORM_RTOL, Scene
 from robodyn.userfile import at_line, import_user_file
@@ -29,17 +30,20 @@ from robodyn.wording import count
 FUNCTIONS = ("parameters", "closed_form", "simulated")
 
 
-def compare(scene: Scene, robot: Any, trajectory: Any, summary: dict[str, Any]) -> int:
+def compare(
+    scene: Scene, robot: Any, trajectory: Any, summary: dict[str, Any], module: ModuleType | None = None
+) -> int:
     """Print and record the worst deviation of ``trajectory`` from the scene's closed form; 0 within tolerance, 1 not.
 
     Raises:
         SceneError: the closed-form file fails to import, lacks a function, raises, or returns
             something other than {name: number}; one line naming the scene, ``[check] closed_form`` and the file.
+        DivergenceError: a quantity is inf or NaN (the run overflowed).
     """
     assert scene.check is not None  # the caller's condition
     path = Path(scene.check["closed_form"])
     rtol = float(scene.check.get("closed_form_rtol", DEFAULT_CLOSED_FORM_RTOL))
-    module = load(scene, path)
+    module = load(scene, path) if module is None else module
     q, v = joint_series(robot, trajectory, scene.constraints)
     params = _call(scene, path, "parameters", module.parameters, scene.path)
     expected = _quantities(
@@ -48,6 +52,7 @@ def compare(scene: Scene, robot: Any, trajectory: Any, summary: dict[str, Any]) 
     got = _quantities(
         scene, path, "simulated", _call(scene, path, "simulated", module.simulated, trajectory.t, q, v, params)
     )
+    _refuse_overflow(scene, path, trajectory, {"simulated": got, "closed_form": expected}, summary)
     try:
         deviation = worst_deviation(expected, got)
     except ValueError as exc:
@@ -69,6 +74,34 @@ def compare(scene: Scene, robot: Any, trajectory: Any, summary: dict[str, Any]) 
         "tolerance": rtol,
     }
     return EXIT_OK if passed else EXIT_MISMATCH
+
+
+def _refuse_overflow(
+    scene: Scene, path: Path, trajectory: Any, results: dict[str, dict[str, Any]], summary: dict[str, Any]
+) -> None:
+    """A quantity that is not finite (the run's numbers left float64) is an overflow, not a mismatch.
+
+    Raises:
+        DivergenceError: naming the function, the quantity and the first sample where it is inf or NaN.
+    """
+    for function, quantities in results.items():
+        for name, values in quantities.items():
+            x = np.asarray(values, dtype=np.float64)
+            rows = x.reshape(len(x), -1) if x.ndim else x.reshape(1, 1)
+            bad = np.flatnonzero(~np.isfinite(rows).all(axis=1))
+            if not bad.size:
+                continue
+            k = int(bad[0])
+            value = rows[k][~np.isfinite(rows[k])][0]
+            t = float(trajectory.t[min(k, len(trajectory.t) - 1)])
+            summary["closed_form"] = {"file": str(path), "passed": None, "overflowed": f"{function}() {name}"}
+            raise DivergenceError(
+                f"{scene.path}: [check] closed_form: the run overflowed: {function}() of {path.name} gives "
+                f"{name} = {value} from t = {t:g} s (numbers beyond float64, nothing to compare; "
+                "check the scene's torques and initial state)",
+                step=k,
+                time=t,
+            )
 
 
 def load(scene: Scene, path: Path) -> ModuleType:

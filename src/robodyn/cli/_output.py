@@ -97,11 +97,11 @@ def same_file(a: Path, b: Path) -> bool:
     The same resolved path (links followed), or, when both exist, the same inode (a hard
     link, another spelling of the name on a case-insensitive disk).
     """
-    if a.resolve() == b.resolve():
-        return True
     try:
+        if a.resolve() == b.resolve():
+            return True
         return a.exists() and b.exists() and os.path.samefile(a, b)
-    except OSError:
+    except (OSError, ValueError, RuntimeError):  # a NUL byte in a name, a loop of links: no file to share
         return False
 
 

@@ -21,6 +21,7 @@ from robodyn.cli._common import (
     warn_unchecked,
 )
 from robodyn.errors import EXIT_MISMATCH, EXIT_OK, InputError
+from robodyn.fileio import read_user_file
 from robodyn.kinds.sandbox import DEFAULT_TIMEOUT, MAX_TIMEOUT
 from robodyn.wording import count
 
@@ -46,8 +47,8 @@ def add_parser(sub: Any) -> None:
         "--formula",
         metavar="KIND_OR_FILE",
         help="built-in kind (geared_arm, cart_pole, pendubot), 'auto' (the kind each model meets, if any) or a "
-        ".py file with your own derivation; without it only the structural properties and Pinocchio's "
-        "identities are checked",
+        ".py file with your own derivation (KIND = a built-in kind, or 'any': any tree robot in your own joints "
+        "and coordinates); without it only the structural properties and Pinocchio's identities are checked",
     )
     p.add_argument("--samples", type=_samples, default=100, help="number of random states, 1 to 100,000 (default 100)")
     p.add_argument("--seed", type=seed_number, default=0, help="seed of the random states (default 0)")
@@ -69,6 +70,12 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument(
         "--mimic", action="store_true", help="keep URDF <mimic> couplings as mimic joints (checked with CRBA)"
+    )
+    p.add_argument(
+        "--explain",
+        action="store_true",
+        help="name the wrong term of each mismatching entry in the formula's own symbols (its difference from "
+        "Pinocchio fitted over the samples, its coefficient named by the file's parameters)",
     )
     p.add_argument("--json", action="store_true", help="print the report as JSON")
     p.set_defaults(handler=run)
@@ -119,6 +126,7 @@ def _check_all(args: argparse.Namespace, given: dict[str, Any] | None, process: 
             rtol=args.rtol,
             params=given,
             params_source=source,
+            explain=args.explain,
             **where,
         )
         reports.append(report)
@@ -179,13 +187,7 @@ def read_params(path: Path) -> dict[str, Any]:
         InputError: the file cannot be read, is larger than :data:`MAX_PARAMS_BYTES`, is not UTF-8,
             not JSON, nested too deeply for the parser, or not an object; the message names the file.
     """
-    try:
-        with path.open("rb") as stream:
-            raw = stream.read(MAX_PARAMS_BYTES + 1)
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read parameters: {exc.strerror or exc}") from None
-    if len(raw) > MAX_PARAMS_BYTES:
-        raise InputError(f"{path}: larger than {MAX_PARAMS_BYTES // 2**20} MiB (expected a short JSON object)")
+    raw = read_user_file(path, what="parameter", expected="a short JSON object", limit=MAX_PARAMS_BYTES)
     try:
         data = json.loads(raw.decode("utf-8"))
     except UnicodeDecodeError as exc:
@@ -211,6 +213,20 @@ PARAM_UNITS = {
 }  # fmt: skip
 
 
+_DIMENSION_UNITS = {(1, 0, 0): "kg", (0, 1, 0): "m", (1, 2, 0): "kg m^2", (0, 1, -2): "m/s^2"}
+
+
+def _unit(name: str, kind: str | None) -> str:
+    """`` kg`` for a parameter: a built-in kind's table, or (KIND = "any") guessed from the name as --explain does."""
+    unit = PARAM_UNITS.get(name, "")
+    if not unit and kind == "any":
+        from robodyn.kinds.explain_names import parameter_dimension
+
+        dim = parameter_dimension(name)
+        unit = _DIMENSION_UNITS.get(dim, "") if dim is not None else ""
+    return f" {unit}" if unit else ""
+
+
 def _vector(x: Any) -> str:
     return "[" + ", ".join(f"{v:.4g}" for v in x) + "]"
 
@@ -223,10 +239,7 @@ def format_report(report: Any, robot: Any) -> str:
         f"   samples: {report.samples}   seed: {report.seed}   rtol: {report.rtol:g}",
     ]
     if report.params:
-        params = ", ".join(
-            f"{k} = {v:.6g}{' ' + PARAM_UNITS.get(k, '') if PARAM_UNITS.get(k) else ''}"
-            for k, v in report.params.items()
-        )
+        params = ", ".join(f"{k} = {v:.6g}{_unit(k, report.kind)}" for k, v in report.params.items())
         origin = "given with --params" if report.params_given else _origin(report)
         lines.append(f"parameters {origin}: {params}")
     if report.formula is None:
@@ -256,16 +269,12 @@ def format_report(report: Any, robot: Any) -> str:
                 f"{r.floor:.3g} {r.unit} that the magnitudes of the terms it is computed from allow"
             )
     for r in report.failures + report.gaps:
-        label = "MISMATCH" if r.counts else "PINOCCHIO GAP"
-        ref = "Pinocchio" if r.group == "formula" else "expected"
-        got = "formula" if r.group == "formula" else "got"
-        lines.append(
-            f"{label} {r.entry_name()} ({r.quantity}): {got} {r.got:.10g}, {ref} {r.expected:.10g}, "
-            f"difference {r.got - r.expected:.3g} {r.unit} at sample {r.worst_sample}: "
-            f"q = {_vector(r.worst_q)}, v = {_vector(r.worst_v)}"
-        )
+        lines.extend(_mismatch_lines(r))
         if r.note:
             lines.append(f"    {r.note}")
+    if report.explanation:
+        lines.append("")
+        lines.extend(report.explanation)
     verdict = (
         "PASS: everything agrees within tolerance"
         if report.passed
@@ -276,8 +285,26 @@ def format_report(report: Any, robot: Any) -> str:
     return "\n".join(lines)
 
 
+def _mismatch_lines(r: Any) -> list[str]:
+    """``MISMATCH M[0,1] (M): formula .., Pinocchio ..``: the worst entry, then every other one out of tolerance."""
+    label = "MISMATCH" if r.counts else "PINOCCHIO GAP"
+    ref = "Pinocchio" if r.group == "formula" else "expected"
+    got = "formula" if r.group == "formula" else "got"
+    worst = (r.entry, r.got, r.expected, r.worst_sample, r.worst_q, r.worst_v)
+    others = [
+        (m.entry, m.got, m.expected, m.worst_sample, m.worst_q, m.worst_v) for m in r.mismatches if m.entry != r.entry
+    ]
+    return [
+        f"{label} {r.entry_label(entry)} ({r.quantity}): {got} {value:.10g}, {ref} {expected:.10g}, "
+        f"difference {value - expected:.3g} {r.unit} at sample {k}: q = {_vector(q)}, v = {_vector(v)}"
+        for entry, value, expected, k, q, v in (worst, *others)
+    ]
+
+
 def _origin(report: Any) -> str:
     """Where the parameters of a report came from, when the user did not give them."""
+    if report.kind == "any":
+        return "from the formula file"
     return "from the formula file's parameters(scene)" if report.kind == "constrained" else "read from the model"
 
 

@@ -67,6 +67,7 @@ def run(args: argparse.Namespace) -> int:
         what = f"{scene.path}: [simulate] duration (played back by [view])"
         hint = "shorten [simulate] duration, or run with --no-view"
         check_frame_count(float(scene.simulate["duration"]), speed=1.0, fps=None, what=what, hint=hint)
+    closed_form = _closed_form_module(scene)  # a bad file is refused before any work, not after the run
     robot, reduction = scene.build()
     if scene.model.get("physics_check") is False:
         warn_unchecked(robot, command="run")
@@ -83,6 +84,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"model: {robot.name}, {robot.nv} DoF (nothing locked)")
     q0, v0 = scene.initial_state(robot, reduction)
     torque = scene.torque(robot, reduction)
+    _check_system(scene, robot, torque)
     control = _control_record(scene)
     if control is not None:
         summary["control"] = control
@@ -97,10 +99,14 @@ def run(args: argparse.Namespace) -> int:
         except (DivergenceError, SimulationInterrupted):
             _write_summary(out, summary)  # the divergence is in it, next to the partial trajectory
             raise
-    if scene.check is not None and "closed_form" in scene.check:
+    if closed_form is not None:
         from robodyn.cli._closed_form import compare
 
-        status = max(status, compare(scene, robot, trajectory, summary))
+        try:
+            status = max(status, compare(scene, robot, trajectory, summary, closed_form))
+        except DivergenceError:
+            _write_summary(out, summary)  # the overflow is in it, next to the trajectory
+            raise
     if scene.bench is not None:
         _bench(scene, robot, reduction, summary)
     playback = _view(view, _simulated_robot(scene, robot), trajectory, summary) if view is not None else None
@@ -111,6 +117,15 @@ def run(args: argparse.Namespace) -> int:
         served = serve_playback(playback, open_browser=bool(view.get("open")), zmq_url=None, port=view.get("port"))
         status = max(status, served)
     return status
+
+
+def _closed_form_module(scene: Any) -> Any:
+    """The scene's ``[check] closed_form`` module, imported and its functions checked; None without one."""
+    if scene.check is None or "closed_form" not in scene.check:
+        return None
+    from robodyn.cli._closed_form import load
+
+    return load(scene, Path(scene.check["closed_form"]))
 
 
 def _control_record(scene: Any) -> dict[str, Any] | None:
@@ -266,7 +281,7 @@ def _simulate(
 ) -> Any:
     import dataclasses
 
-    from robodyn.errors import DivergenceError, InputError, ModelError, SimulationInterrupted, UnknownNameError
+    from robodyn.errors import DivergenceError, InputError, SimulationInterrupted, UnknownNameError
     from robodyn.sim.simulation import simulate
 
     duration, dt, integrator = _timing(scene)
@@ -285,17 +300,8 @@ def _simulate(
         )
     except (DivergenceError, SimulationInterrupted) as exc:
         raise _stopped_early(exc, path, summary) from None
-    except UnknownNameError as exc:  # a frame or joint of [constraints] or [springs]
-        raise scene.error(*_constraint_key(exc), str(exc)) from None
-    except InputError as exc:
-        if str(exc).startswith(("loops[", "couplings[")):  # frames that cannot meet, a joint already coupled
-            raise scene.error("constraints", str(exc).split(" ")[0].split(":")[0], str(exc)) from None
-        raise
-    except RuntimeError as exc:  # Pinocchio refusing the model (e.g. ABA and mimic joints)
-        from robodyn.model.load import pinocchio_message
-
-        hint = ' (mimic joints: try [simulate] backend = "crba")' if scene.model.get("mimic") else ""
-        raise ModelError(f"simulate: Pinocchio refused the model: {pinocchio_message(exc)}{hint}") from None
+    except (InputError, UnknownNameError, RuntimeError) as exc:
+        raise _system_error(scene, exc) from None
     if reduction is not None:
         meta = dict(trajectory.meta)
         meta["reduction"] = {
@@ -366,6 +372,37 @@ def _stopped_early(exc: BaseException, path: Path, summary: dict[str, Any]) -> B
     if isinstance(exc, DivergenceError):
         return DivergenceError(message, step=exc.step, time=exc.time, trajectory=trajectory)
     return SimulationInterrupted(message, trajectory=trajectory)
+
+
+def _system_error(scene: Any, exc: Exception) -> Exception:
+    """The one-line error for what assembling the scene's system refused: its constraints, its backend, its model."""
+    from robodyn.errors import InputError, ModelError, UnknownNameError
+
+    if isinstance(exc, UnknownNameError):  # a frame or joint of [constraints] or [springs]
+        return scene.error(*_constraint_key(exc), str(exc))
+    if isinstance(exc, InputError):
+        if str(exc).startswith(("loops[", "couplings[")):  # frames that cannot meet, a joint already coupled
+            return scene.error("constraints", str(exc).split(" ")[0].split(":")[0], str(exc))
+        return exc
+    from robodyn.model.load import pinocchio_message  # RuntimeError: Pinocchio refusing the model (ABA and mimic)
+
+    hint = ' (mimic joints: try [simulate] backend = "crba")' if scene.model.get("mimic") else ""
+    return ModelError(f"simulate: Pinocchio refused the model: {pinocchio_message(exc)}{hint}")
+
+
+def _check_system(scene: Any, robot: Any, torque: Any) -> None:
+    """Assemble what [simulate] would integrate (constraints, springs, backend, torque) and drop it.
+
+    Every section is checked against the model before any work, whether or not the scene simulates.
+    """
+    from robodyn.errors import InputError, UnknownNameError
+    from robodyn.sim.system import robot_system
+
+    backend = scene.simulate.get("backend") if scene.simulate is not None else None
+    try:
+        robot_system(robot, backend=backend, torque=torque, constraints=scene.constraints)
+    except (InputError, UnknownNameError, RuntimeError) as exc:
+        raise _system_error(scene, exc) from None
 
 
 def _simulated_robot(scene: Any, robot: Any) -> Any:

@@ -45,6 +45,7 @@ from robodyn.cli._common import (
 )
 from robodyn.cli._output import partial_path, refuse_clobbering, writable_path
 from robodyn.errors import EXIT_DIVERGED, EXIT_OK, InputError, UnknownNameError
+from robodyn.fileio import read_user_file
 from robodyn.registry import BACKENDS
 from robodyn.wording import count
 
@@ -259,9 +260,12 @@ def run(args: argparse.Namespace) -> int:
         if args.constraints is None:
             raise
         raise InputError(f"--constraints {args.constraints}: {exc}") from None
-    if args.controller is not None:  # the trajectory file says what closed the loop
-        meta = {**trajectory.meta, "controller": {"name": args.controller, "gains": gains}}
-        trajectory = dataclasses.replace(trajectory, meta=meta)
+    if args.controller is not None:  # the trajectory file says what closed the loop (and in which mode, when)
+        record: dict[str, Any] = {"name": args.controller, "gains": gains}
+        if hasattr(torque, "modes") and len(trajectory.t):  # a switched controller: swing-up, then balance
+            record["modes"] = ["swing-up", "LQR balance"]
+            record["mode"] = [int(m) for m in torque.modes(trajectory.q, trajectory.v)]
+        trajectory = dataclasses.replace(trajectory, meta={**trajectory.meta, "controller": record})
     # Said after the run, not before it: a refused input stays one line on stderr.
     warn_ignored_mimic(robot, mimic=args.mimic, command="simulate")
     note_clamped_q0(trajectory, command="simulate")
@@ -313,12 +317,9 @@ def read_constraints(path: Path) -> Any:
     from robodyn.sim.constraints import Constraints
 
     try:
-        with path.open("rb") as stream:
-            raw = stream.read(MAX_CONSTRAINTS_BYTES + 1)
-    except OSError as exc:
-        raise InputError(f"--constraints {path}: cannot read it: {exc.strerror or exc}") from None
-    if len(raw) > MAX_CONSTRAINTS_BYTES:
-        raise InputError(f"--constraints {path}: larger than 1 MiB (expected a short JSON object)")
+        raw = read_user_file(path, what="constraints", expected="a short JSON object", limit=MAX_CONSTRAINTS_BYTES)
+    except InputError as exc:
+        raise InputError(f"--constraints {exc}") from None
     try:
         data = json.loads(raw.decode("utf-8"))
     except UnicodeDecodeError as exc:

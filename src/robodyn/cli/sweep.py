@@ -3,9 +3,10 @@
 A sweep file that names a scene is read with :func:`robodyn.scene.read_scene`, handed down to
 :func:`robodyn.sweep.run` (the scene package sits above the sweep in robodyn's layers).
 
-Exit codes: 0 every chunk is written; 2 bad input (a bad sweep file, an unknown name, an
-unwritable --out); 4 Dask or pyarrow missing; 5 no scheduler at --scheduler; 130 interrupted
-(the chunks written so far stay, and the same command resumes from them).
+Exit codes: 0 every chunk is written; 2 bad input (a bad sweep file, an unknown name, a sweep past
+the bounds, an unwritable --out) or a run that failed in its worker; 4 Dask or pyarrow missing; 5 no
+scheduler at --scheduler, or the scheduler went away mid-sweep; 130 interrupted (in both last cases
+the chunks written so far stay, and the same command resumes from them).
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ def add_parser(sub: Any) -> None:
         "run each chunk as one Dask task (a local cluster, or --scheduler), and "
         "write each finished chunk to DIR/results/ as Parquet with DIR/manifest.json. Run again to resume: "
         "chunks already written are skipped. Exit 0: done; 2: bad input; 4: Dask or pyarrow missing; 5: no "
-        "scheduler there; 130: interrupted.",
+        "scheduler there, or it went away mid-sweep (run again to resume); 130: interrupted.",
     )
     p.add_argument(
         "sweep",
@@ -40,7 +41,9 @@ def add_parser(sub: Any) -> None:
         "--out", type=file_path, required=True, metavar="DIR", help="results folder (created; reused to resume)"
     )
     p.add_argument("--scheduler", metavar="ADDRESS", help="a running Dask scheduler, e.g. tcp://127.0.0.1:8786")
-    p.add_argument("--workers", type=positive_int, help="local worker processes (default: one per CPU)")
+    p.add_argument(
+        "--workers", type=positive_int, help="local worker processes (default: one per CPU; at most 4 per CPU)"
+    )
     p.add_argument("--plots", action="store_true", help="also draw maps and sensitivity charts into DIR/plots/")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     add_physics_argument(p)
@@ -51,11 +54,15 @@ def add_parser(sub: Any) -> None:
 def run(args: Any) -> int:
     """Run the sweep and print one summary line."""
     import dataclasses
+    import logging
 
     import robodyn.sweep as sweep
     from robodyn.scene import read_scene
     from robodyn.sweep.spec import load
 
+    # Dask's loggers (the client's reconnection tracebacks, a worker's "Compute Failed") never reach stderr, even
+    # from its threads after the sweep gave up: what went wrong is robodyn's one line.
+    logging.disable(logging.CRITICAL)
     check_output_folder(args.out)
     spec = load(args.sweep)
     if not physics_checked(args):

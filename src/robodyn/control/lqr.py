@@ -17,6 +17,7 @@ V(e) = e^T P e is its Lyapunov function.
 
 from __future__ import annotations
 
+import reprlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -222,8 +223,8 @@ def _weight(value: ArrayLike | None, size: int, name: str, *, default: Array) ->
         return np.diag(default)
     try:
         arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InputError(f"lqr weight {name} must be numbers, got {value!r}") from None
+    except (TypeError, ValueError, OverflowError, RecursionError):  # an integer of 400 digits overflows float64
+        raise InputError(f"lqr weight {name} must be numbers, got {reprlib.repr(value)}") from None
     if arr.ndim == 0:
         arr = np.full(size, float(arr))
     if arr.shape == (size,):

@@ -26,6 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from robodyn import dynamics
 from robodyn.control.lqr import LQR
+from robodyn.errors import InputError
 from robodyn.wording import count
 
 Array = NDArray[np.float64]
@@ -66,6 +67,12 @@ def estimate(lqr: LQR, *, samples: int = DEFAULT_SAMPLES, seed: int = 0) -> Regi
     """Estimate the region of attraction of ``lqr`` as an ellipsoid of its Lyapunov function (see the module)."""
     p = lqr.plant
     n = p.n
+    smallest = float(np.min(np.linalg.eigvalsh(lqr.P))) if np.all(np.isfinite(lqr.P)) else np.nan
+    if not smallest > 0.0:  # no ellipsoid: V = e^T P e does not grow in every direction (NaN too)
+        raise InputError(
+            f"the LQR's cost-to-go P is not positive definite (smallest eigenvalue {smallest:.3g}), so it bounds "
+            "no region of attraction: give a weight Q > 0 on every state (and R > 0)"
+        )
     Pinv = np.linalg.inv(lqr.P)
     extents = np.diag(Pinv)[:n]
     c_max = float(np.min(np.pi**2 / extents[p.angular])) if np.any(p.angular) else 1e6

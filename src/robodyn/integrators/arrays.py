@@ -7,15 +7,20 @@ Also :func:`step_count`, which turns a duration and a step into a whole number o
 
 from __future__ import annotations
 
+import reprlib
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
 from robodyn.errors import InputError
+from robodyn.fileio import is_number
 from robodyn.integrators.base import Integrator
 from robodyn.integrators.problem import Array, ArrayProblem, SecondOrderProblem
 from robodyn.integrators.registry import get
+
+# Past 2^53 steps, k dt no longer names each step's time exactly (and 1e300 / 1e-300 is inf, no count at all).
+MAX_STEP_COUNT = 2.0**53
 
 
 def step_count(duration: float, dt: float) -> int:
@@ -26,9 +31,12 @@ def step_count(duration: float, dt: float) -> int:
             is not a whole number of steps of ``dt``.
     """
     for name, value in (("dt", dt), ("duration", duration)):
-        if not (np.isfinite(value) and value > 0):
-            raise InputError(f"{name} must be a positive number of seconds, got {value!r}")
-    n = round(duration / dt)
+        if not (is_number(value) and value > 0):
+            raise InputError(f"{name} must be a positive number of seconds, got {reprlib.repr(value)}")
+    ratio = float(duration) / float(dt)
+    if not ratio <= MAX_STEP_COUNT:  # inf too: 1e300 s in steps of 1e-300 s
+        raise InputError(f"duration {duration:g} s in steps of dt = {dt:g} s is {ratio:.3g} steps; at most 2^53")
+    n = round(ratio)
     if n < 1 or abs(n * dt - duration) > 1e-9 * duration:
         raise InputError(f"duration {duration} s is not a whole number of steps of dt = {dt} s")
     return n

@@ -41,25 +41,26 @@ from numpy.typing import NDArray
 
 from robodyn import dynamics
 from robodyn.errors import AssumptionError, InputError
+from robodyn.kinds import any_check
+from robodyn.kinds.any_file import KIND as ANY
 from robodyn.kinds.check_rows import (
     DEFAULT_RTOL,
-    EPS,
     FD_STEP,
     FD_TOL,
     GROUP_ORDER,
-    ROUNDOFF,
     Accumulator,
     CheckReport,
     CheckRow,
     formula_points,
     formula_values,
-    rescale,
     skew_scale,
 )
+from robodyn.kinds.check_scales import scales
 from robodyn.kinds.formula import Formula
 from robodyn.kinds.loop_check import loop_rows
 from robodyn.kinds.params import Params, extract, from_mapping
 from robodyn.kinds.reduced import KIND as CONSTRAINED
+from robodyn.kinds.reference import Reference
 from robodyn.kinds.sandbox import DEFAULT_TIMEOUT
 from robodyn.kinds.user import UserFormula, resolve
 from robodyn.robot import Robot
@@ -90,55 +91,6 @@ def _draw_samples(robot: Robot, samples: int, seed: int) -> list[_Sample]:
         q, v = robot.random_state(rng, speed=SPEED)
         out.append(_Sample(q, v, rng.uniform(-SPEED, SPEED, robot.nv), rng.uniform(-TORQUE, TORQUE, robot.nv)))
     return out
-
-
-@dataclass(frozen=True)
-class _Scales:
-    """The magnitudes of the terms one sample's quantities are computed from: their round-off scale.
-
-    Each ``*_floor`` is ROUNDOFF eps times such a magnitude, in the unit of the rows it serves.
-    """
-
-    mass: float  # max |M_ij| [kg m^2]
-    cond: float  # lambda_max / lambda_min of M (inf when M is not positive definite)
-    inverse: float  # 1 / lambda_min of M [1/(kg m^2)]
-    energy: float  # |g| sum_i m_i |c_i| [J]: the potential energy's terms, and the gravity torques' scale
-    speed: float  # max |v| [rad/s | m/s]
-    accel: float  # max |a| [rad/s^2 | m/s^2]
-    torque: float  # max |tau| [N m | N]
-
-    @property
-    def torque_terms(self) -> float:
-        """|M| (|a| + |v|^2) + the energy scale + |tau| [N m]: the terms of M a + C v + G and of tau."""
-        return self.mass * (self.accel + self.speed**2) + self.energy + self.torque
-
-    @property
-    def coriolis_terms(self) -> float:
-        """|M| |v| + the energy scale / |v| [kg m^2/s]: C is built from RNEA(q, v, 0) - G, divided by |v|."""
-        return self.mass * self.speed + (self.energy / self.speed if self.speed > 0 else 0.0)
-
-    def floor(self, terms: float) -> float:
-        """The round-off ROUNDOFF eps ``terms`` of a quantity summed from terms of magnitude ``terms``."""
-        return ROUNDOFF * EPS * terms
-
-    def forward_floor(self, a: Array) -> float:
-        """Round-off of a = M^-1 (tau - C v - G) [rad/s^2]: cond(M) |a| + |M^-1| |the right side's terms|."""
-        return self.floor(self.cond * float(np.abs(a).max(initial=0.0)) + self.inverse * self.torque_terms)
-
-
-def _scales(robot: Robot, s: _Sample, M: Array) -> _Scales:
-    """The round-off scales of sample ``s`` whose mass matrix is ``M``."""
-    eig = np.linalg.eigvalsh(0.5 * (M + M.T)) if np.all(np.isfinite(M)) else np.full(1, np.nan)
-    positive = bool(eig[0] > 0)
-    return _Scales(
-        mass=float(np.abs(M).max()),
-        cond=float(eig[-1] / eig[0]) if positive else np.inf,
-        inverse=float(1.0 / eig[0]) if positive else np.inf,
-        energy=dynamics.gravity_scale(robot.model, robot.data, s.q),
-        speed=float(np.abs(s.v).max()),
-        accel=float(np.abs(s.a).max()),
-        torque=float(np.abs(s.tau).max()),
-    )
 
 
 def _mdot(mass: Callable[[Array], Array], integrate: Callable[[Array, Array], Array], q: Array, v: Array) -> Array:
@@ -193,10 +145,21 @@ def _solve(M: Array, b: Array) -> Array:
 
 
 def _formula_rows(
-    robot: Robot, formula: Formula, p: Params, samples: list[_Sample], rtol: float, given: str | None
+    robot: Robot,
+    formula: Formula,
+    p: Params,
+    samples: list[_Sample],
+    rtol: float,
+    given: str | None,
+    reference: Reference | None = None,
+    keep: dict[str, Accumulator] | None = None,
 ) -> list[CheckRow]:
-    """The rows; ``given``: None, or the parameters were given (their refusals start with it) and M must be SPD."""
-    model, data = robot.model, robot.data
+    """The rows; ``given``: None, or the parameters were given (their refusals start with it) and M must be SPD.
+
+    ``reference`` is Pinocchio in the formula's coordinates (``samples`` are in them too; default: Pinocchio's
+    own); ``keep``, when given, receives the accumulators (what ``--explain`` fits).
+    """
+    ref = reference if reference is not None else Reference.identity(robot)
     fd_tol = max(rtol, FD_TOL)
     acc = {
         "M": Accumulator("M", "formula", "kg m^2 (kg on slides)", rtol),
@@ -207,46 +170,53 @@ def _formula_rows(
         "fd": Accumulator("a (forward dynamics)", "formula", "rad/s^2 (m/s^2 on slides)", rtol),
         "T": Accumulator("T = 1/2 v^T M v", "formula", "J", rtol),
         "skew": Accumulator("N = dM/dt - 2C skew (formula)", "structure", "kg m^2/s", fd_tol),
+        "sym": Accumulator("M = M^T (formula)", "structure", "kg m^2 (kg on slides)", rtol),
     }
     if formula.potential_energy is not None:
         acc["V"] = Accumulator("V - V(q0)", "formula", "J", rtol)
         acc["dV"] = Accumulator("G = dV/dq (formula)", "structure", "N m", fd_tol)
-    q_anchor = dynamics.neutral(model)
+    q_anchor = ref.anchor()
     n, nv = len(samples), robot.nv
     values = formula_values(formula, p, formula_points(formula, samples, q_anchor, nv))
     M_all, C_all, G_all, V_all = values.mass_matrix, values.coriolis_matrix, values.gravity, values.potential_energy
     if given is not None:
         _refuse_singular(p, M_all[:n], samples, given)
     n_scale = 0.0  # dM/dt - 2C has no reference of its own: see skew_scale
+    m_scale = 0.0  # nor has M - M^T: the formula's largest |M| entry
     for k, s in enumerate(samples):
-        M_p = dynamics.mass_matrix(model, data, s.q)
+        M_p = ref.mass_matrix(s.q)
         M_f, C_f, G_f = M_all[k], C_all[k], G_all[k]
-        sc = _scales(robot, s, M_p)
-        a_p = dynamics.aba(model, data, s.q, s.v, s.tau)
+        sc = scales(robot, s, M_p, energy=ref.gravity_scale(s.q))
+        a_p = ref.aba(s.q, s.v, s.tau)
         acc["M"].add(M_p, M_f, sc.floor(sc.mass))
-        acc["C"].add(dynamics.coriolis_matrix(model, data, s.q, s.v), C_f, sc.floor(sc.coriolis_terms))
-        acc["G"].add(dynamics.gravity(model, data, s.q), G_f, sc.floor(sc.energy))
+        acc["C"].add(ref.coriolis_matrix(s.q, s.v), C_f, sc.floor(sc.coriolis_terms))
+        acc["G"].add(ref.gravity(s.q), G_f, sc.floor(sc.energy))
         nle_terms = sc.mass * sc.speed**2 + sc.energy
-        acc["nle"].add(dynamics.nonlinear_effects(model, data, s.q, s.v), C_f @ s.v + G_f, sc.floor(nle_terms))
-        acc["id"].add(dynamics.rnea(model, data, s.q, s.v, s.a), M_f @ s.a + C_f @ s.v + G_f, sc.floor(sc.torque_terms))
+        acc["nle"].add(ref.nonlinear_effects(s.q, s.v), C_f @ s.v + G_f, sc.floor(nle_terms))
+        acc["id"].add(ref.rnea(s.q, s.v, s.a), M_f @ s.a + C_f @ s.v + G_f, sc.floor(sc.torque_terms))
         acc["fd"].add(a_p, _solve(M_f, s.tau - C_f @ s.v - G_f), sc.forward_floor(a_p))
         acc["T"].add(0.5 * float(s.v @ M_p @ s.v), 0.5 * float(s.v @ M_f @ s.v), sc.floor(sc.mass * sc.speed**2))
         Mdot = (M_all[n + k] - M_all[2 * n + k]) / (2 * FD_STEP)  # central difference along v
         N = Mdot - 2 * C_f
         acc["skew"].add(np.zeros_like(N), N + N.T, sc.floor(sc.mass * sc.speed / FD_STEP))
+        acc["sym"].add(np.zeros_like(M_f), M_f - M_f.T, sc.floor(sc.mass))
+        m_scale = max(m_scale, float(np.abs(M_f).max()))
         n_scale = max(n_scale, skew_scale(Mdot, C_f, M_f, s.v))
         if formula.potential_energy is not None:
             acc["V"].add(
-                dynamics.potential_energy(model, data, s.q) - dynamics.potential_energy(model, data, q_anchor),
+                ref.potential_energy(s.q) - ref.potential_energy(q_anchor),
                 float(V_all[k]) - float(V_all[n]),
-                sc.floor(sc.energy + dynamics.gravity_scale(model, data, q_anchor)),
+                sc.floor(sc.energy + ref.gravity_scale(q_anchor)),
             )
             plus = V_all[n + 1 + k : n + 1 + nv * n : n]  # V(q + h e_i), i = 0 .. nv-1
             minus = V_all[n + 1 + nv * n + k :: n]  # V(q - h e_i)
             acc["dV"].add(G_f, (plus - minus) / (2 * FD_STEP), sc.floor(sc.energy / FD_STEP))
+    if keep is not None:
+        keep.update(acc)
     scalars = {"T", "V"}
     rows = [a.row(samples, scalar=k in scalars) for k, a in acc.items()]
-    rows[list(acc).index("skew")] = rescale(acc["skew"].row(samples), n_scale)
+    rows[list(acc).index("skew")] = acc["skew"].row(samples, zero_reference_scale=n_scale)
+    rows[list(acc).index("sym")] = acc["sym"].row(samples, zero_reference_scale=m_scale)
     return rows
 
 
@@ -280,7 +250,7 @@ def _structure_rows(robot: Robot, samples: list[_Sample], rtol: float) -> list[C
         raw = np.array(M)
         eig = np.linalg.eigvalsh(raw) if np.all(np.isfinite(raw)) else np.full(robot.nv, np.nan)
         min_eig_ratio = min(min_eig_ratio, eig[0] / eig[-1])
-        sc = _scales(robot, s, raw)
+        sc = scales(robot, s, raw)
         # Positive definiteness: a non-positive eigenvalue shows as an error of its size. An eigenvalue
         # within round-off of zero (a body without inertia: icub) is still singular, so no floor here.
         spd.add(np.zeros(1), np.array([max(0.0, -eig[0]) + (eig[-1] if eig[0] <= 0 else 0.0)]))
@@ -335,7 +305,7 @@ def _structure_rows(robot: Robot, samples: list[_Sample], rtol: float) -> list[C
         )
     rows = [
         spd.row(samples),
-        rescale(skew.row(samples), n_scale),
+        skew.row(samples, zero_reference_scale=n_scale),
         grad.row(samples),
         nle_row,
         columns.row(samples),
@@ -390,6 +360,7 @@ def check(
     loops: Iterable[Any] = (),
     springs: Any = None,
     scene: str | Path | None = None,
+    explain: bool = False,
 ) -> CheckReport:
     """Compare ``robot``'s Pinocchio dynamics with ``formula`` and with its own identities.
 
@@ -420,6 +391,9 @@ def check(
         springs: a constrained formula's joint springs: joint -> ``{"stiffness", "rest"}`` (or
             a Spring, or ``(k, rest)``), or (joint, spring) pairs.
         scene: the scene file a constrained formula's ``parameters(scene)`` reads.
+        explain: name the wrong term of each mismatching entry of M, C, G and V in the formula's own
+            symbols, and say what the knock-on rows follow from (:mod:`robodyn.kinds.explain`); the lines
+            are the report's ``explanation``.
 
     Raises:
         AssumptionError: the model is not of the formula's kind.
@@ -444,6 +418,8 @@ def check(
     kind = None
     source = None
     notes: tuple[str, ...] = ()
+    kept: dict[str, Accumulator] = {}  # the formula rows' accumulators, for --explain
+    explained: tuple[list[_Sample], Reference] | None = None  # and the states they were taken at
     if formula is not None:
         resolved = resolve(formula, timeout=formula_timeout) if isinstance(formula, str) else formula
         try:
@@ -454,6 +430,17 @@ def check(
                     params=params, samples=samples, seed=seed, rtol=rtol,
                 )  # fmt: skip
                 rows, used, notes = list(found.rows), found.params, found.notes
+            elif kind == ANY:
+                setup = any_check.prepare(robot, resolved, None if params is None else dict(params))
+                ref = setup.reference
+                mapped = [
+                    _Sample(ref.formula_q(s.q), ref.formula_v(s.v), ref.formula_v(s.a), ref.formula_v(s.tau))
+                    for s in _draw_samples(setup.robot, samples, seed)
+                ]
+                used, notes = setup.params, setup.notes
+                p_any = Params(ANY, used)
+                rows += _formula_rows(setup.robot, resolved, p_any, mapped, rtol, None, reference=ref, keep=kept)
+                explained = (mapped, ref)
             else:
                 try:
                     p = extract(robot, resolved.kind)
@@ -463,12 +450,18 @@ def check(
                 if params is not None and given is not None:
                     p = _given_params(resolved.kind, params, given)
                 used = p.as_dict()
-                rows += _formula_rows(robot, resolved, p, states, rtol, given)
+                rows += _formula_rows(robot, resolved, p, states, rtol, given, keep=kept)
+                explained = (states, Reference.identity(robot))
         finally:
             if isinstance(formula, str) and isinstance(resolved, UserFormula):
                 resolved.close()  # the file's process was this check's own
     rows += _structure_rows(robot, states, rtol)
     rows.sort(key=lambda r: GROUP_ORDER.index(r.group))  # stable: keeps the order within a group
+    explanation: tuple[str, ...] = ()
+    if explain and explained is not None:
+        explanation = any_check.explain_rows(rows, kept, *explained, used)
+    elif explain and kind == CONSTRAINED:
+        explanation = ("explain: not available for a KIND = 'constrained' formula (its rows are on the loop)",)
     if kind != CONSTRAINED and (tuple(loops) or springs):
         notes += ("the loops and springs are not checked: only a KIND = 'constrained' formula lives on them",)
     return CheckReport(
@@ -484,4 +477,5 @@ def check(
         wall_time_s=time.perf_counter() - start,
         notes=notes,
         params_given=params is not None,
+        explanation=explanation,
     )

@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodyn.errors import SceneError
+from robodyn.fileio import is_number, read_user_file
 from robodyn.sim.constraints import Constraints
 
 if TYPE_CHECKING:
@@ -51,13 +52,11 @@ def _number(
 
     The range is ``low <= value <= high``, and ``value > 0`` with ``positive``; the message states it.
     """
-    ok_type = isinstance(value, int) if integer else isinstance(value, (int, float))
     word = "whole number" if integer else "number"
     expected = f"a {word} > 0" if positive else f"a {word} >= {_shown(low)}" if low > -math.inf else f"a {word}"
     if low > -math.inf and high < math.inf:
         expected = f"a {word} from {_shown(low)} to {_shown(high)}"
-    inside = ok_type and not isinstance(value, bool) and math.isfinite(value) and low <= value <= high
-    if not inside or (positive and value <= 0):
+    if not is_number(value, integer=integer, low=low, high=high) or (positive and value <= 0):
         raise _fail(path, f"[{table}] {key}", f"expected {expected}, got {reprlib.repr(value)}")
     return value
 
@@ -99,6 +98,8 @@ def _bool(path: Path, table: str, key: str, value: Any) -> bool:
 def _string(path: Path, table: str, key: str, value: Any) -> str:
     if not isinstance(value, str) or not value:
         raise _fail(path, f"[{table}] {key}", f"expected a non-empty string, got {reprlib.repr(value)}")
+    if "\x00" in value:  # no file or name has one; os.stat would raise ValueError on it
+        raise _fail(path, f"[{table}] {key}", f"expected a name without NUL characters, got {reprlib.repr(value)}")
     return value
 
 
@@ -285,17 +286,7 @@ def _read_constraints(path: Path, data: dict[str, Any]) -> Constraints:
 
 def _read_text(path: Path) -> str:
     """The scene file's text: UTF-8 and at most :data:`MAX_SCENE_BYTES`, or one line saying what is wrong."""
-    try:
-        with path.open("rb") as fh:
-            raw = fh.read(MAX_SCENE_BYTES + 1)
-    except FileNotFoundError:
-        raise SceneError(f"{path}: no such scene file (expected a .toml file)") from None
-    except IsADirectoryError:
-        raise SceneError(f"{path}: is a folder (expected a .toml scene file)") from None
-    except OSError as exc:
-        raise SceneError(f"{path}: cannot read the scene file: {exc.strerror}") from None
-    if len(raw) > MAX_SCENE_BYTES:
-        raise SceneError(f"{path}: larger than {MAX_SCENE_BYTES // 1024} KiB; a scene file is a few lines of TOML")
+    raw = read_user_file(path, what="scene", expected="a .toml scene file", limit=MAX_SCENE_BYTES, error=SceneError)
     try:
         return raw.decode("utf-8")
     except UnicodeDecodeError as exc:

@@ -17,12 +17,13 @@ where the close matches are known.
 
 from __future__ import annotations
 
-import math
+import reprlib
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 from robodyn.errors import InputError
+from robodyn.fileio import is_number
 
 LOOP_KINDS = ("point", "6d")
 _LOOP_KEYS = ("frame_a", "frame_b", "kind")
@@ -31,9 +32,14 @@ _SPRING_KEYS = ("stiffness", "rest")
 _TABLE_KEYS = ("limits", "restitution", "effort_limits", "loops", "couplings", "springs")
 
 
+# The largest |ratio| of a coupling: the follower's armature and damping enter the leader's times ratio^2, and a
+# gear train of a million to one is already past any real one (1e200 would overflow that product).
+MAX_COUPLING_RATIO = 1e6
+
+
 def _number(value: Any, what: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(float(value)):
-        raise InputError(f"{what} must be a finite number, got {value!r}")
+    if not is_number(value):
+        raise InputError(f"{what} must be a finite number, got {reprlib.repr(value)}")
     return float(value)
 
 
@@ -92,6 +98,10 @@ class Coupling:
         _name(self.joint, "coupling joint")
         _name(self.leader, "coupling leader")
         ratio = _number(self.ratio, f"coupling {self.joint!r} ratio")
+        if abs(ratio) > MAX_COUPLING_RATIO:
+            raise InputError(
+                f"coupling {self.joint!r}: ratio must be at most {MAX_COUPLING_RATIO:g} in magnitude, got {ratio:g}"
+            )
         _number(self.offset, f"coupling {self.joint!r} offset")
         if ratio == 0.0:
             raise InputError(f"coupling {self.joint!r}: ratio must be non-zero (a zero ratio locks the joint)")

@@ -314,6 +314,13 @@ class FastDynamics:
         _kernels()["energy_series"](KINDS[self.kind][0], self.param_vector, Q, V, K, P)
         return float(K[0]), float(P[0]) + self.potential_offset
 
+    def energies_batch(self, Q: ArrayLike, V: ArrayLike) -> tuple[Array, Array]:
+        """(kinetic (n,), potential (n,)) [J] of a batch of states Q, V (n, nv); the potential on Pinocchio's zero."""
+        Q_, V_ = _pad2(np.asarray(Q, dtype=np.float64)), _pad2(np.asarray(V, dtype=np.float64))
+        K, P = np.zeros(Q_.shape[0]), np.zeros(Q_.shape[0])
+        _kernels()["energy_series"](KINDS[self.kind][0], self.param_vector, Q_, V_, K, P)
+        return K, P + self.potential_offset
+
     def simulate(
         self,
         q0: ArrayLike,

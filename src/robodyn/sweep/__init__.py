@@ -38,7 +38,7 @@ from robodyn.model.load import PASSIVE_JOINT
 from robodyn.model.load import load as load_model
 from robodyn.sweep import measures
 from robodyn.sweep.chunk import Job, controller_of, upright_of
-from robodyn.sweep.engine import run_chunks
+from robodyn.sweep.engine import check_cluster, run_chunks
 from robodyn.sweep.plan import Chunk, Plan, Setting, make_plan, settings
 from robodyn.sweep.source import (
     AsWritten,
@@ -55,6 +55,7 @@ from robodyn.sweep.spec import (
     SCENE_CONTROLLER,
     SweepSpec,
     check_against,
+    check_bounds,
     load,
     resolve,
     with_digest,
@@ -109,6 +110,8 @@ def prepare(
     model_name = ""
     if scene is not None:
         spec = _with_scene_defaults(spec, scene)
+    check_bounds(spec)  # before loading anything: a grid or a duration past the bounds is a typo
+    if scene is not None:
         scene = scene.with_passive(spec.passive)
         robot, reduction = scene.build()
         model: Model = scene
@@ -190,6 +193,8 @@ def run(
     existing ``distributed.Client`` to use instead. ``progress`` is a stream for the progress bar.
     ``read_scene`` reads the scene file a sweep may name (default :func:`robodyn.scene.read_scene`).
     """
+    if client is None:
+        check_cluster(scheduler=scheduler, workers=workers)  # before reading anything, let alone submitting
     prepared = prepare(source, out, read_scene=read_scene)
     store = Store(prepared.out, prepared.spec.digest, prepared.spec.source)
     computed = run_chunks(

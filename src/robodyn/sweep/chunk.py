@@ -18,6 +18,12 @@ The path is chosen per chunk (all its runs share a setting):
   scene's constant torque or PD law, a scene with constraints or springs beyond the URDF's stops
   and efforts, or a scene that picks its dynamics backend.
 
+Every path applies :func:`robodyn.simulate`'s divergence test: a run whose energy error
+|E - E0 - W| (W the work of its torques and damping) passes ``max_energy_growth`` (1) times its
+energy scale, or whose state is not finite, is ``diverged``. The ``fast`` and ``closed_loop`` paths
+test every step (``batch``, which keeps final states only, tests the last) and hand such a run to
+``simulate``, whose row (status, measures up to the failing step) is then the run's.
+
 Every operation in the vectorised paths acts on each run's row alone (no matrix product across
 runs), so a run's numbers do not depend on its chunk: a chunk of one gives the same bits.
 Workers keep the loaded robot, compiled dynamics and controllers of the last few settings.
@@ -43,8 +49,9 @@ from robodyn.integrators.stability import lyapunov
 from robodyn.model.load import load
 from robodyn.robot import Robot
 from robodyn.sim import batch
+from robodyn.sim.energy import reference_energy
 from robodyn.sim.fast import KINDS, METHODS, FastDynamics
-from robodyn.sim.simulation import simulate
+from robodyn.sim.simulation import DEFAULT_MAX_ENERGY_GROWTH, simulate
 from robodyn.sim.trajectory import Trajectory
 from robodyn.sweep import measures as ms
 from robodyn.sweep.plan import Chunk
@@ -218,6 +225,8 @@ def _one(chunk: Chunk, job: Job, k: int, path: str) -> dict[str, Any]:
         finite = trajectory.q[np.isfinite(trajectory.q).all(axis=1)]
         if finite.size and stopped(robot, finite.min(axis=0)[None, :], finite.max(axis=0)[None, :]).size:
             return {**_one(chunk, job, k, "simulate"), "path": "simulate"}
+        if trajectory.status != "ok" or _diverges(robot, trajectory):  # simulate says where, as it does alone
+            return {**_one(chunk, job, k, "simulate"), "path": "simulate"}
     user = {m: ms.load_user_measure(m) for m in job.measures if ms.is_user(m)}
     row: dict[str, Any] = {"status": "diverged" if trajectory is None else trajectory.status}
     if trajectory is not None:
@@ -230,6 +239,21 @@ def _one(chunk: Chunk, job: Job, k: int, path: str) -> dict[str, Any]:
     if "wall_time" in job.measures:
         row["wall_time"] = wall
     return row
+
+
+def energy_bounds(robot: Robot, kinetic0: Array, potential0: Array) -> Array:
+    """The bound of simulate on |E - E0 - W| [J] for runs starting with these energies (n,): growth x energy scale."""
+    scale = np.maximum(kinetic0 + np.abs(potential0), reference_energy(robot))
+    return np.asarray(DEFAULT_MAX_ENERGY_GROWTH * scale, dtype=np.float64)
+
+
+def _diverges(robot: Robot, trajectory: Trajectory) -> bool:
+    """True when the run's energy error |E - E0 - W_input - W_damping| passes simulate's bound at some sample."""
+    energy = trajectory.kinetic + trajectory.potential
+    with np.errstate(all="ignore"):
+        residual = energy - energy[0] - trajectory.work_input - trajectory.work_damping
+        bound = energy_bounds(robot, trajectory.kinetic[:1], trajectory.potential[:1])[0]
+        return bool(np.any(~(np.abs(residual) <= bound)))
 
 
 def stopped(robot: Robot, q_min: Array, q_max: Array) -> NDArray[np.intp]:
@@ -267,16 +291,23 @@ def _lyapunov(run: Any, q0: Array, v0: Array, job: Job, run_index: int) -> float
 
 def _energies(chunk: Chunk, Q: Array, V: Array) -> Array:
     """E = K + V [J] of each state (n,), the closed form when compiled, else Pinocchio's."""
+    kinetic, potential = _energy_parts(chunk, Q, V)
+    return kinetic + potential
+
+
+def _energy_parts(chunk: Chunk, Q: Array, V: Array) -> tuple[Array, Array]:
+    """(K (n,), V (n,)) [J] of each state, NaN where the state is not finite; the closed form when compiled."""
     fast = fast_of(chunk.model)
+    finite = np.isfinite(Q).all(axis=1) & np.isfinite(V).all(axis=1)
+    if fast is not None:
+        with np.errstate(all="ignore"):
+            kinetic, potential = fast.energies_batch(Q, V)
+        return np.where(finite, kinetic, np.nan), np.where(finite, potential, np.nan)
     robot = robot_of(chunk.model)
-    out = np.full(Q.shape[0], np.nan)
-    for k in range(Q.shape[0]):
-        if np.isfinite(Q[k]).all() and np.isfinite(V[k]).all():
-            if fast is not None:
-                out[k] = sum(fast.energies(Q[k], V[k]))
-            else:
-                out[k] = robot.kinetic_energy(Q[k], V[k]) + robot.potential_energy(Q[k])
-    return out
+    kinetic, potential = np.full(Q.shape[0], np.nan), np.full(Q.shape[0], np.nan)
+    for k in np.flatnonzero(finite):
+        kinetic[k], potential[k] = robot.kinetic_energy(Q[k], V[k]), robot.potential_energy(Q[k])
+    return kinetic, potential
 
 
 def _rows(chunk: Chunk, job: Job, Q: Array, V: Array, balance: Array | None, wall: float) -> list[dict[str, Any]]:
@@ -306,7 +337,14 @@ def _batch(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
     result = batch.rollout(
         robot_of(chunk.model), chunk.q0, chunk.v0, duration=job.duration, dt=s.dt, integrator=s.integrator, threads=1
     )
-    return _rows(chunk, job, result.q, result.v, None, result.wall_time_s)
+    rows = _rows(chunk, job, result.q, result.v, None, result.wall_time_s)
+    robot = robot_of(chunk.model)
+    K0, P0 = _energy_parts(chunk, chunk.q0, chunk.v0)
+    with np.errstate(all="ignore"):  # torque-free and lossless: W = 0, E(T) - E0 is the error (its last sample)
+        over = ~(np.abs(_energies(chunk, result.q, result.v) - (K0 + P0)) <= energy_bounds(robot, K0, P0))
+    for k in np.flatnonzero(over):
+        rows[k] = {**_one(chunk, job, int(k), "simulate"), "path": "simulate"}
+    return rows
 
 
 def _closed_loop(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
@@ -332,34 +370,43 @@ def _closed_loop(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
                 out[k] = dynamics.aba(robot.model, robot.data, q[k], v[k], tau[k] - robot.damping * v[k])
         return out
 
-    def rates(q: Array, v: Array) -> Array:
+    def rates(q: Array, v: Array) -> tuple[Array, Array]:
+        """(accelerations (n, nv), power of the torques and damping (n,) [W])."""
         tau = np.zeros_like(v)
         tau[:, actuated] = policy(q, v)
-        return accel(q, v, tau)
+        return accel(q, v, tau), np.sum((tau - robot.damping * v) * v, axis=1)
 
     Q, V = chunk.q0.copy(), chunk.v0.copy()
-    last_out = np.full(Q.shape[0], -1, dtype=np.int64)
+    K0, P0 = _energy_parts(chunk, Q, V)
+    bound = energy_bounds(robot, K0, P0)
+    W = np.zeros(Q.shape[0])  # work of the torques and damping [J], integrated with the state (simulate's ledger)
+    diverged = np.zeros(Q.shape[0], dtype=bool)
     q_min, q_max = Q.copy(), Q.copy()
     start = time.perf_counter()
+    last_out = np.full(Q.shape[0], -1, dtype=np.int64)
     with np.errstate(all="ignore"):  # a state that blows up is kept as NaN, not raised on
         for step in range(steps + 1):
             if upright is not None:
                 last_out[~ms.inside_upright(Q, *upright)] = step
             if step == steps:
                 break
-            k1q, k1v = V, rates(Q, V)
-            k2q, k2v = V + 0.5 * dt * k1v, rates(Q + 0.5 * dt * k1q, V + 0.5 * dt * k1v)
-            k3q, k3v = V + 0.5 * dt * k2v, rates(Q + 0.5 * dt * k2q, V + 0.5 * dt * k2v)
-            k4q, k4v = V + dt * k3v, rates(Q + dt * k3q, V + dt * k3v)
+            (k1v, p1), k1q = rates(Q, V), V
+            (k2v, p2), k2q = rates(Q + 0.5 * dt * k1q, V + 0.5 * dt * k1v), V + 0.5 * dt * k1v
+            (k3v, p3), k3q = rates(Q + 0.5 * dt * k2q, V + 0.5 * dt * k2v), V + 0.5 * dt * k2v
+            (k4v, p4), k4q = rates(Q + dt * k3q, V + dt * k3v), V + dt * k3v
             Q = Q + dt / 6.0 * (k1q + 2.0 * k2q + 2.0 * k3q + k4q)
             V = V + dt / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v)
+            W = W + dt / 6.0 * (p1 + 2.0 * p2 + 2.0 * p3 + p4)
             bad = ~np.isfinite(Q).all(axis=1) | ~np.isfinite(V).all(axis=1)
             Q[bad], V[bad] = np.nan, np.nan
+            K, P = _energy_parts(chunk, Q, V)
+            diverged |= ~(np.abs(K + P - (K0 + P0) - W) <= bound)  # NaN (a blown-up state) counts
             np.fmin(q_min, Q, out=q_min)
             np.fmax(q_max, Q, out=q_max)
     wall = time.perf_counter() - start
     balance = np.where(last_out == steps, np.nan, (last_out + 1) * dt) if upright is not None else None
     rows = _rows(chunk, job, Q, V, balance, wall)
-    for k in stopped(robot, q_min, q_max):  # the stop changes the motion: simulate applies it
+    again = np.union1d(stopped(robot, q_min, q_max), np.flatnonzero(diverged))
+    for k in again:  # a stop changes the motion, a divergence ends it: simulate applies either
         rows[k] = {**_one(chunk, job, int(k), "simulate"), "path": "simulate"}
     return rows

@@ -7,17 +7,23 @@ with it and the scheduler runs it again elsewhere; nothing here retries or queue
 
 The default cluster is ``LocalCluster(n_workers=N, threads_per_worker=1, processes=True)`` on
 127.0.0.1 without a dashboard: one process per core, since each chunk is single-threaded numerics.
+Its log lines are silenced (``silence_logs``): what goes wrong is robodyn's one line. A run that
+raises in a worker ends the sweep with that error (a robodyn error as it is, anything else named
+with its chunk); a scheduler that goes away mid-sweep ends it with :class:`UnavailableError`
+(exit 5) saying how many chunks are written and that the same command resumes from them.
 """
 
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
+import re
 import uuid
 from collections.abc import Callable, Iterator
 from typing import Any, TextIO
 
-from robodyn.errors import MissingDependencyError, UnavailableError
+from robodyn.errors import InputError, MissingDependencyError, RobodynError, UnavailableError
 from robodyn.sweep.chunk import Job, execute
 from robodyn.sweep.plan import Chunk, Plan
 from robodyn.sweep.progress import Progress
@@ -25,6 +31,36 @@ from robodyn.sweep.store import Store
 
 # Seconds to wait for a scheduler given by address before giving up.
 CONNECT_TIMEOUT_S = 20
+# Local worker processes at most, per CPU core: each holds a Python with numpy, Pinocchio and its models
+# (~150 MB), and a chunk is single-threaded numerics, so more processes than this only share the cores.
+WORKERS_PER_CORE = 4
+# A scheduler's address: PROTOCOL://HOST:PORT (an IPv6 host in brackets).
+_ADDRESS = re.compile(r"(tcp|tls|ws|wss)://(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9._-]+):([0-9]{1,5})/?")
+
+
+def max_workers() -> int:
+    """The most local worker processes a sweep starts on this machine: :data:`WORKERS_PER_CORE` per CPU core."""
+    return WORKERS_PER_CORE * (os.cpu_count() or 1)
+
+
+def check_cluster(*, scheduler: str | None, workers: int | None) -> None:
+    """Refuse a malformed scheduler address or more local workers than :func:`max_workers`, before any work.
+
+    Raises:
+        InputError: naming the address or the number, and what is expected.
+    """
+    if scheduler is not None:
+        m = _ADDRESS.fullmatch(scheduler) if isinstance(scheduler, str) else None
+        if m is None or not 1 <= int(m.group(3)) <= 65535:
+            raise InputError(
+                f"--scheduler {scheduler!r}: not a Dask scheduler address (expected PROTOCOL://HOST:PORT, "
+                "e.g. tcp://127.0.0.1:8786)"
+            )
+    if workers is not None and not 1 <= workers <= max_workers():
+        raise InputError(
+            f"--workers {workers}: at most {max_workers()} local worker processes on this machine "
+            f"({WORKERS_PER_CORE} per CPU core, {os.cpu_count() or 1} cores)"
+        )
 
 
 def distributed() -> Any:
@@ -41,19 +77,56 @@ def client_for(*, scheduler: str | None, workers: int | None) -> Iterator[Any]:
     """A Client on ``scheduler`` (an address), or on a new LocalCluster of ``workers`` processes."""
     dd = distributed()
     if scheduler is not None:
+        check_cluster(scheduler=scheduler, workers=None)
         try:
             client = dd.Client(scheduler, timeout=CONNECT_TIMEOUT_S)
-        except (OSError, TimeoutError) as exc:
+        except (OSError, TimeoutError, ValueError, AssertionError) as exc:
             raise UnavailableError(f"--scheduler {scheduler}: cannot reach a Dask scheduler there ({exc})") from None
         with client:
             yield client
         return
     n = workers or os.cpu_count() or 1
+    check_cluster(scheduler=None, workers=n)
     cluster = dd.LocalCluster(
-        n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address="127.0.0.1:0"
+        n_workers=n,
+        threads_per_worker=1,
+        processes=True,
+        host="127.0.0.1",
+        dashboard_address="127.0.0.1:0",
+        silence_logs=logging.CRITICAL + 1,  # the workers' and scheduler's logs: nothing reaches stderr
     )
     with cluster, dd.Client(cluster) as client:
         yield client
+
+
+@contextlib.contextmanager
+def quiet_dask() -> Iterator[None]:
+    """Silence distributed's loggers in this process while a sweep runs; robodyn says what went wrong.
+
+    A client reconnecting to a dead scheduler logs tracebacks, and a Client that failed to connect complains
+    as the garbage collector takes it: both are silenced.
+    """
+    import gc
+    import sys
+
+    loggers = [
+        logging.getLogger(name) for name in list(logging.root.manager.loggerDict) if name.startswith("distributed")
+    ]
+    loggers.append(logging.getLogger("distributed"))
+    levels = [logger.level for logger in loggers]
+    for logger in loggers:
+        logger.setLevel(logging.CRITICAL + 1)
+    try:
+        yield
+    finally:
+        hook = sys.unraisablehook
+        sys.unraisablehook = lambda unraisable: None
+        try:
+            gc.collect()
+        finally:
+            sys.unraisablehook = hook
+        for logger, level in zip(loggers, levels, strict=True):
+            logger.setLevel(level)
 
 
 def run_chunks(
@@ -83,7 +156,7 @@ def run_chunks(
     )
     try:
         if pending:
-            with contextlib.ExitStack() as stack:
+            with quiet_dask(), contextlib.ExitStack() as stack:
                 if client is None:
                     client = stack.enter_context(client_for(scheduler=scheduler, workers=workers))
                 _submit_and_collect(client, pending, job, store, bar, on_chunk)
@@ -106,12 +179,49 @@ def _submit_and_collect(
     try:
         for future in dd.as_completed(futures):
             chunk = by_key[future.key]
-            columns = future.result()
+            columns = _result(dd, future, chunk, store)
             store.write(chunk.id, columns)
             future.release()
             bar.update(chunk.runs.size)
             if on_chunk is not None:
                 on_chunk(chunk)
+    except (OSError, TimeoutError, dd.client.FutureCancelledError, dd.CancelledError) as exc:
+        raise _lost(exc, store) from None
     finally:
         for future in futures:
-            future.cancel()
+            with contextlib.suppress(Exception):  # a client whose scheduler is gone cannot cancel: nothing runs
+                future.cancel()
+
+
+def _result(dd: Any, future: Any, chunk: Chunk, store: Store) -> Any:
+    """The chunk's columns; an error raised in its worker becomes robodyn's one line."""
+    try:
+        return future.result()
+    except RobodynError:
+        raise  # robodyn's own line, from the worker
+    except (OSError, TimeoutError, dd.client.FutureCancelledError, dd.CancelledError) as exc:
+        raise _lost(exc, store) from None
+    except MemoryError:
+        raise UnavailableError(
+            f"chunk {chunk.index} (runs {chunk.runs[0]}-{chunk.runs[-1]}) ran out of memory in its worker; "
+            f"{_kept(store)}; fewer runs a chunk (chunk = ...) or fewer workers"
+        ) from None
+    except Exception as exc:  # anything else a worker raised: named with its chunk, as one line
+        first = str(exc).strip().splitlines()[0][:300] if str(exc).strip() else ""
+        raise RobodynError(
+            f"chunk {chunk.index} (runs {chunk.runs[0]}-{chunk.runs[-1]}) failed in its worker: "
+            f"{type(exc).__name__}{': ' + first if first else ''}; {_kept(store)}"
+        ) from None
+
+
+def _lost(exc: BaseException, store: Store) -> UnavailableError:
+    """The error for a scheduler (or its connection) that went away mid-sweep."""
+    return UnavailableError(
+        f"the Dask scheduler went away mid-sweep ({type(exc).__name__}); {_kept(store)}; "
+        "run the same command again to resume from them"
+    )
+
+
+def _kept(store: Store) -> str:
+    n = len(store.chunks)
+    return f"{n} chunk{'s' if n != 1 else ''} written in {store.results} are kept"

@@ -19,6 +19,7 @@ name the file and its line.
 from __future__ import annotations
 
 import math
+import reprlib
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -106,8 +107,8 @@ def _user_values(name: str, fn: UserMeasure, trajectory: Trajectory) -> dict[str
         column = f"{label}.{key}" if key else label
         try:
             out[column] = float(x)
-        except (TypeError, ValueError):
-            raise InputError(f"{name}: returned {x!r} for {column!r}; expected a number") from None
+        except Exception:  # TypeError, ValueError, OverflowError (400 digits), or a __float__ of the user's
+            raise InputError(f"{name}: returned {reprlib.repr(x)} for {column!r}; expected a number") from None
     return out
 
 

@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import reprlib
 import sys
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -51,6 +52,7 @@ from typing import Any
 import numpy as np
 
 from robodyn.errors import InputError, UnknownNameError
+from robodyn.fileio import is_number, read_user_file
 
 TOP_KEYS = (
     "chunk",
@@ -72,6 +74,13 @@ TOP_KEYS = (
 # A grid of more than this many points on one axis is a typo, not a sweep.
 MAX_AXIS_POINTS = 10_000_000
 MAX_CHUNK = 1_000_000
+# The most runs in one sweep: a hundred times the basin example; the plan holds every run's state in memory.
+MAX_RUNS = 1_000_000
+# The most steps of all runs together: 10^11 is hours on a 16-core machine on the compiled paths, and more than a
+# day on the simulate path (~20 us a step); a sweep past it is a typo in duration, dt or a grid, not a plan.
+MAX_TOTAL_STEPS = 10**11
+# A sweep file is a few lines of TOML, like a scene file.
+MAX_SWEEP_BYTES = 2**20
 DEFAULT_CHUNK = 1000
 NO_CONTROLLER = "none"
 # The controller name that means the scene's own [control].
@@ -125,12 +134,9 @@ def load(source: str | Path | Mapping[str, Any]) -> SweepSpec:
     if isinstance(source, Mapping):
         return parse(source, name="sweep", base=Path.cwd())
     path = Path(source)
+    raw = read_user_file(path, what="sweep", expected="a .toml sweep file", limit=MAX_SWEEP_BYTES)
     try:
-        text = path.read_bytes().decode("utf-8")
-    except FileNotFoundError:
-        raise InputError(f"{path}: no such sweep file (expected a .toml file)") from None
-    except IsADirectoryError:
-        raise InputError(f"{path}: is a folder (expected a .toml sweep file)") from None
+        text = raw.decode("utf-8")
     except UnicodeDecodeError:
         raise InputError(f"{path}: is not UTF-8 text (expected a .toml sweep file)") from None
     toml = _toml()
@@ -156,10 +162,10 @@ def parse(data: Mapping[str, Any], *, name: str, base: Path) -> SweepSpec:
     if scene and not scene.endswith(".toml"):
         raise InputError(f"{name}: scene must be a scene file NAME.toml, got {scene!r}")
     duration = _positive(data.get("duration", DEFAULT_DURATION), f"{name}: duration [s]")
-    dts = tuple(_positive(x, f"{name}: dt [s]") for x in _listed(data.get("dt", DEFAULT_DT)))
-    integrators = tuple(_text(x, f"{name}: integrator") for x in _listed(data.get("integrator", DEFAULT_INTEGRATOR)))
-    controllers = tuple(_text(x, f"{name}: controller") for x in _listed(data.get("controller", NO_CONTROLLER)))
-    measures = tuple(_text(x, f"{name}: measure") for x in _listed(data.get("measure", "final_state")))
+    dts = tuple(_positive(x, f"{name}: dt [s]") for x in _given(data, "dt", DEFAULT_DT, name))
+    integrators = tuple(_text(x, f"{name}: integrator") for x in _given(data, "integrator", DEFAULT_INTEGRATOR, name))
+    controllers = tuple(_text(x, f"{name}: controller") for x in _given(data, "controller", NO_CONTROLLER, name))
+    measures = tuple(_text(x, f"{name}: measure") for x in _given(data, "measure", "final_state", name))
     gains = _table(data.get("gains", {}), f"{name}: gains")
     for controller, table in gains.items():
         if controller not in controllers:
@@ -262,6 +268,53 @@ def _unknown(what: str, name: str, choices: tuple[str, ...] | Any, source: str =
     return error
 
 
+def _given(data: Mapping[str, Any], key: str, default: Any, name: str) -> list[Any]:
+    """The values of ``key`` (one, or a list: an axis), ``default`` when left out; an empty list is refused."""
+    values = _listed(data.get(key, default))
+    if not values:
+        raise InputError(f"{name}: {key} lists no value (expected one value, or a list of them: an axis)")
+    return values
+
+
+def check_bounds(spec: SweepSpec) -> int:
+    """Refuse a sweep past the documented bounds before anything is submitted; return its number of runs.
+
+    Each dt must cut the duration into a whole number of at most :data:`MAX_STEPS` steps (``robodyn simulate``'s
+    bound), the grid must hold at most :data:`MAX_RUNS` runs, and all of them at most :data:`MAX_TOTAL_STEPS` steps.
+
+    Raises:
+        InputError: naming the sweep file, the key and the bound.
+    """
+    from robodyn.integrators import step_count
+    from robodyn.sim.simulation import MAX_STEPS
+
+    steps = 0
+    for dt in spec.dts:
+        if dt > spec.duration:
+            raise InputError(f"{spec.source}: dt {dt:g} s is longer than the duration {spec.duration:g} s")
+        if spec.duration / dt > MAX_STEPS:
+            raise InputError(
+                f"{spec.source}: duration {spec.duration:g} s in steps of dt = {dt:g} s is "
+                f"{spec.duration / dt:.3g} steps a run; at most {MAX_STEPS:.0e} (as robodyn simulate)"
+            )
+        try:
+            steps = max(steps, step_count(spec.duration, dt))
+        except InputError as exc:
+            raise InputError(f"{spec.source}: {exc} (every run of a sweep takes whole steps)") from None
+    sizes = [len(v) for v in (*spec.q0.values(), *spec.v0.values(), *spec.params.values())]
+    sizes += [len(spec.dts), len(spec.integrators), len(spec.controllers)]
+    runs = math.prod(sizes)
+    if runs > MAX_RUNS:
+        shown = " x ".join(str(n) for n in sizes if n > 1)
+        raise InputError(f"{spec.source}: the grid has {shown} = {runs:.3g} runs; at most {MAX_RUNS:.0e}")
+    if runs * steps > MAX_TOTAL_STEPS:
+        raise InputError(
+            f"{spec.source}: {runs:,} runs of up to {steps:,} steps are {runs * steps:.3g} steps; at most "
+            f"{MAX_TOTAL_STEPS:.0e} in one sweep (fewer runs, a shorter duration or a larger dt)"
+        )
+    return runs
+
+
 def _listed(value: Any) -> list[Any]:
     return list(value) if isinstance(value, list) else [value]
 
@@ -273,8 +326,8 @@ def _text(value: Any, label: str) -> str:
 
 
 def _number(value: Any, label: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise InputError(f"{label} must be a finite number, got {value!r}")
+    if not is_number(value):
+        raise InputError(f"{label} must be a finite number, got {reprlib.repr(value)}")
     return float(value)
 
 
@@ -286,8 +339,8 @@ def _positive(value: Any, label: str) -> float:
 
 
 def _whole(value: Any, label: str, low: int, high: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
-        raise InputError(f"{label} must be a whole number in [{low}, {high}], got {value!r}")
+    if not is_number(value, integer=True, low=low, high=high):
+        raise InputError(f"{label} must be a whole number in [{low}, {high}], got {reprlib.repr(value)}")
     return value
 
 

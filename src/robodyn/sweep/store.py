@@ -22,6 +22,27 @@ MANIFEST = "manifest.json"
 RESULTS = "results"
 
 
+def _read_manifest(path: Path) -> dict[str, Any]:
+    """The manifest: {"digest": str, "chunks": {id: {"file": NAME.parquet, "runs": n}}}, or one line saying why not."""
+    fix = "remove the folder or choose another --out"
+    try:
+        manifest = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError, RecursionError) as exc:
+        raise InputError(f"{path}: unreadable sweep manifest ({type(exc).__name__}); {fix}") from None
+    chunks = manifest.get("chunks", {}) if isinstance(manifest, dict) else None
+    entries_ok = isinstance(chunks, dict) and all(
+        isinstance(k, str)
+        and isinstance(e, dict)
+        and isinstance(e.get("file"), str)
+        and Path(e["file"]).name == e["file"]
+        and isinstance(e.get("runs"), int)
+        for k, e in chunks.items()
+    )
+    if not isinstance(manifest, dict) or not isinstance(manifest.get("digest"), str) or not entries_ok:
+        raise InputError(f"{path}: not a sweep manifest (expected a digest and the chunks written); {fix}")
+    return manifest
+
+
 class Store:
     """The results folder of one sweep (``digest``); created if missing."""
 
@@ -29,21 +50,19 @@ class Store:
         self.folder = Path(folder)
         self.results = self.folder / RESULTS
         self.digest = digest
-        self.results.mkdir(parents=True, exist_ok=True)
+        try:
+            self.results.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise InputError(f"{self.results}: cannot be made a results folder ({exc.strerror or exc})") from None
         path = self.folder / MANIFEST
         if path.is_file():
-            try:
-                manifest = json.loads(path.read_text(encoding="utf-8"))
-            except (OSError, ValueError) as exc:
-                raise InputError(
-                    f"{path}: unreadable sweep manifest ({exc}); remove the folder or choose another --out"
-                ) from None
-            if manifest.get("digest") != digest:
+            manifest = _read_manifest(path)
+            if manifest["digest"] != digest:
                 raise InputError(
                     f"{self.folder} holds the results of another sweep (manifest digest differs): "
                     "choose another --out, or remove it to start again"
                 )
-            self.chunks: dict[str, dict[str, Any]] = dict(manifest.get("chunks", {}))
+            self.chunks: dict[str, dict[str, Any]] = dict(manifest["chunks"])
         else:
             self.chunks = {}
             self._write_manifest(source)

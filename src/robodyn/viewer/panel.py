@@ -5,11 +5,17 @@ The page (``assets/replay.js``) draws the charts on canvases in a panel of
 the animation's time) that moves with playback; clicking a chart seeks the animation there.
 This module computes what they plot, from each run's trajectory at its rendered rows:
 
-* energy: T, V and E = T + V [J];
+* energy: T, V and E = T + V [J]; with springs (the trajectory's ``meta["springs"]``), V is
+  charted as its two parts, gravity's and the springs' ½ k (q - rest)^2;
 * the ledger: the cumulative works W_input, W_damping, W_limits and what is left over,
   E - E(0) - W [J];
 * power: tau . v, the rate of the input work [W] (the trajectory's ``power`` when it has one);
-* joint torques [N m, or N on a prismatic joint], with the model's effort limits dashed;
+* joint positions [rad, or m on a prismatic joint], with the model's position limits dashed and
+  the impacts on the stops marked on the time axis (the samples where W_limits steps down);
+* joint torques [N m, or N on a prismatic joint], with the model's effort limits dashed; a model
+  that mixes both has its unit in each legend entry, and none on the ticks;
+* the controller's mode, when a switched controller recorded it (``meta["controller"]["mode"]``:
+  0 swing-up, 1 balance), as a step curve under the other charts;
 * constraint drift [m], when the trajectory carries one sample by sample, on a log scale:
   a closed loop held by a solver drifts by 1e-12 m to 1e-9 m, decades a linear axis would
   flatten (a zero sits on the axis floor).
@@ -40,7 +46,10 @@ PLOT_MARGINS_PX = {"left": 70, "right": 14, "top": 8, "bottom": 30}
 """Plotting area inside each chart's canvas [px]: room for the value ticks (left) and the time ticks (below)."""
 CURSOR_COLOR = 0xFF00FF
 """The time cursor: magenta, a hue no curve and no link has."""
-ENERGY_COLORS = {"E": 0x7B1FA2, "T": 0x1E88E5, "V": 0xD81B60}
+ENERGY_COLORS = {"E": 0x212121, "T": 0x1E88E5, "V": 0xD81B60, "spring": 0x00897B}
+"""E near black, so that it never hides a potential drawn in a neighbouring hue; the spring's potential teal."""
+SPRING = ENERGY_COLORS["spring"]
+MODE_COLOR = 0x6A1B9A
 WORK_COLORS = {"input": 0x2E7D32, "damping": 0x6D4C41, "limits": 0x455A64, "residual": 0x9E9E9E}
 POWER_COLOR = 0xEF6C00
 DRIFT_COLOR = 0x5E35B1
@@ -73,6 +82,8 @@ class Chart:
     series: tuple[Series, ...]
     limits: tuple[tuple[str, float, int], ...] = ()  # (label, value, colour)
     scale: str = "linear"
+    markers: tuple[float, ...] = ()  # playback-frame indices of events (impacts), drawn as ticks on the time axis
+    tick_unit: bool = True  # False: the curves have different units, given in the legend
 
 
 LOG_SCALE = frozenset({"drift"})
@@ -96,12 +107,19 @@ def _run_quantities(robot: Robot, run: Run) -> dict[str, list[tuple[str, Array, 
     out: dict[str, list[tuple[str, Array, int]]] = {}
     kinetic = _rows(getattr(trajectory, "kinetic", None), n, index)
     potential = _rows(getattr(trajectory, "potential", None), n, index)
+    spring_energy, spring_torque = _springs(robot, trajectory, n)
     if kinetic is not None and potential is not None:
         out["energy"] = [
             ("E = T + V", kinetic + potential, ENERGY_COLORS["E"]),
             ("T kinetic", kinetic, ENERGY_COLORS["T"]),
-            ("V potential", potential, ENERGY_COLORS["V"]),
         ]
+        if spring_energy is None:
+            out["energy"].append(("V potential", potential, ENERGY_COLORS["V"]))
+        else:
+            out["energy"] += [
+                ("V gravity", potential - spring_energy[index], ENERGY_COLORS["V"]),
+                ("V spring", spring_energy[index], ENERGY_COLORS["spring"]),
+            ]
         energy_all = np.asarray(trajectory.kinetic, dtype=np.float64) + np.asarray(trajectory.potential)
         works = []
         total = np.zeros(n)
@@ -116,14 +134,66 @@ def _run_quantities(robot: Robot, run: Run) -> dict[str, list[tuple[str, Array, 
     power = _power(trajectory, n)
     if power is not None:
         out["power"] = [("tau . v", power[index], POWER_COLOR)]
+    q = np.asarray(getattr(trajectory, "q", np.zeros((n, 0))), dtype=np.float64)
+    if q.ndim == 2 and q.shape == (n, robot.nq) and robot.nq == robot.nv and np.all(np.isfinite(q)):
+        names = _dof_names(robot)
+        out["position"] = [
+            (_with_unit(robot, names[j], j, "position"), q[index, j], LINK_COLORS[j % len(LINK_COLORS)])
+            for j in range(robot.nq)
+        ]
     tau = np.asarray(getattr(trajectory, "tau", np.zeros((n, 0))), dtype=np.float64)
     if tau.ndim == 2 and tau.shape[0] == n and tau.shape[1] == robot.nv and np.all(np.isfinite(tau)):
         names = _dof_names(robot)
-        out["torque"] = [(names[j], tau[index, j], LINK_COLORS[j % len(LINK_COLORS)]) for j in range(robot.nv)]
+        out["torque"] = [
+            (_with_unit(robot, names[j], j, "torque"), tau[index, j], LINK_COLORS[j % len(LINK_COLORS)])
+            for j in range(robot.nv)
+        ]
+        if spring_torque is not None:  # the springs' couples, beside the applied torques
+            out["torque"] += [
+                (f"spring at {_with_unit(robot, names[j], j, 'torque')}", spring_torque[index, j], SPRING)
+                for j in range(robot.nv)
+                if np.any(spring_torque[:, j] != 0)
+            ]
+    mode = _modes(trajectory, n)
+    if mode is not None:
+        out["mode"] = [("mode: 0 swing-up, 1 LQR balance", mode[index], MODE_COLOR)]
     drift = _rows(getattr(trajectory, "constraint_drift", None), n, index)
     if drift is not None:
         out["drift"] = [("drift", drift, DRIFT_COLOR)]
     return out
+
+
+def _springs(robot: Robot, trajectory: Any, n: int) -> tuple[Array | None, Array | None]:
+    """The springs' potential ½ k (q - rest)^2 (n,) [J] and couples -k (q - rest) (n, nv), from ``meta["springs"]``."""
+    springs = (getattr(trajectory, "meta", None) or {}).get("springs") or {}
+    q = np.asarray(getattr(trajectory, "q", np.zeros((n, 0))), dtype=np.float64)
+    if not isinstance(springs, dict) or not springs or q.shape != (n, robot.nq):
+        return None, None
+    energy, torque = np.zeros(n), np.zeros((n, robot.nv))
+    names = set(robot.joint_names)
+    for joint, spring in springs.items():
+        if joint not in names or not isinstance(spring, dict):
+            return None, None  # a spring on a joint this model does not have: chart V whole
+        info = robot.joint(joint)
+        k, rest = float(spring.get("stiffness", 0.0)), float(spring.get("rest", 0.0))
+        if info.nq != 1 or not (np.isfinite(k) and np.isfinite(rest)):
+            return None, None
+        stretch = q[:, info.idx_q] - rest
+        energy += 0.5 * k * stretch**2
+        torque[:, info.idx_v] -= k * stretch
+    if not np.any(energy) or not np.all(np.isfinite(energy)):
+        return None, None
+    return energy, torque
+
+
+def _modes(trajectory: Any, n: int) -> Array | None:
+    """The recorded controller mode per sample (0 swing-up, 1 balance) as floats (n,), or None."""
+    controller = (getattr(trajectory, "meta", None) or {}).get("controller")
+    mode = controller.get("mode") if isinstance(controller, dict) else None
+    if not isinstance(mode, list) or len(mode) != n:
+        return None
+    values = np.asarray(mode, dtype=np.float64)
+    return values if np.all(np.isin(values, (0.0, 1.0))) else None
 
 
 def _power(trajectory: Any, n: int) -> Array | None:
@@ -152,13 +222,48 @@ def _dof_names(robot: Robot) -> list[str]:
     return names
 
 
-def _torque_unit(robot: Robot) -> str:
-    """N m for rotations, N for translations; both when the model has both."""
-    kinds = set()
+def _prismatic(robot: Robot) -> list[bool]:
+    """One flag per velocity coordinate: True on a prismatic joint (PX, PY, PZ, PrismaticUnaligned)."""
+    flags: list[bool] = []
     for j in range(1, robot.model.njoints):
         shortname = str(robot.model.joints[j].shortname()).removeprefix("JointModel")
-        kinds.add("N" if shortname.startswith("P") else "N m")  # PX, PY, PZ, PrismaticUnaligned
-    return " | ".join(sorted(kinds, reverse=True)) if kinds else "N m"
+        flags += [shortname.startswith("P")] * int(robot.model.joints[j].nv)
+    return flags
+
+
+_UNITS = {"position": ("rad", "m"), "torque": ("N m", "N")}
+
+
+def _units(robot: Robot, quantity: str) -> list[str]:
+    rotation, translation = _UNITS[quantity]
+    return [translation if p else rotation for p in _prismatic(robot)]
+
+
+def _unit(robot: Robot, quantity: str) -> str:
+    """The chart's unit: the one every coordinate shares, or both (then each legend entry carries its own)."""
+    units = sorted(set(_units(robot, quantity)), reverse=True)
+    return units[0] if len(units) == 1 else " or ".join(units)
+
+
+def _with_unit(robot: Robot, name: str, j: int, quantity: str) -> str:
+    """``name``, with its unit in brackets when the model mixes revolute and prismatic coordinates."""
+    units = _units(robot, quantity)
+    return name if len(set(units)) <= 1 else f"{name} [{units[j]}]"
+
+
+def _impact_frames(runs: Sequence[Run]) -> tuple[float, ...]:
+    """Rendered-frame positions (fractional) of the impacts: where a run's W_limits steps down."""
+    marks: list[float] = []
+    for run in runs:
+        work = getattr(run.trajectory, "work_limits", None)
+        if work is None:
+            continue
+        w = np.asarray(work, dtype=np.float64)
+        if w.ndim != 1 or not np.all(np.isfinite(w)):
+            continue
+        steps = np.flatnonzero(np.diff(w) < 0) + 1  # sample indices just after an impact
+        marks += [float(np.searchsorted(run.index, k)) for k in steps]
+    return tuple(sorted(set(marks)))
 
 
 def panel_charts(robot: Robot, runs: Sequence[Run]) -> list[Chart]:
@@ -167,7 +272,9 @@ def panel_charts(robot: Robot, runs: Sequence[Run]) -> list[Chart]:
         "energy": ("Energy", "J"),
         "ledger": ("Energy ledger: works", "J"),
         "power": ("Power", "W"),
-        "torque": ("Joint torques", _torque_unit(robot)),
+        "position": ("Joint positions", _unit(robot, "position")),
+        "torque": ("Joint torques", _unit(robot, "torque")),
+        "mode": ("Controller mode", ""),
         "drift": ("Constraint drift", "m"),
     }
     per_run = [_run_quantities(robot, run) for run in runs]
@@ -183,6 +290,14 @@ def panel_charts(robot: Robot, runs: Sequence[Run]) -> list[Chart]:
         if not series:
             continue
         limits: list[tuple[str, float, int]] = []
+        if key == "position":
+            names = _dof_names(robot)
+            lower, upper = robot.model.lowerPositionLimit, robot.model.upperPositionLimit
+            for j in range(robot.nq):
+                lo, hi = float(lower[j]), float(upper[j])
+                if np.isfinite(lo) and np.isfinite(hi) and lo < hi and max(abs(lo), abs(hi)) < 1e3:
+                    color = LINK_COLORS[j % len(LINK_COLORS)]
+                    limits += [(f"{names[j]} limits", lo, color), ("", hi, color)]
         if key == "torque":
             names = _dof_names(robot)
             effort = np.asarray(robot.model.effortLimit, dtype=np.float64)
@@ -191,7 +306,9 @@ def panel_charts(robot: Robot, runs: Sequence[Run]) -> list[Chart]:
                     color = LINK_COLORS[j % len(LINK_COLORS)]
                     limits += [(f"{names[j]} limit", float(value), color), ("", -float(value), color)]
         scale = "log" if key in LOG_SCALE and any(np.any(s.values > 0) for s in series) else "linear"
-        charts.append(Chart(key, title, unit, tuple(series), tuple(limits), scale))
+        markers = _impact_frames(runs) if key == "position" else ()
+        tick_unit = bool(unit) and " or " not in unit
+        charts.append(Chart(key, title, unit, tuple(series), tuple(limits), scale, markers, tick_unit))
     return charts
 
 
@@ -219,6 +336,8 @@ def panel_info(charts: Sequence[Chart], runs: Sequence[Run]) -> dict[str, Any]:
                     for s in chart.series
                 ],
                 "limits": [{"label": lb, "value": v, "color": f"#{c:06x}"} for lb, v, c in chart.limits],
+                "markers": list(chart.markers),
+                "tickUnit": chart.tick_unit,
             }
             for chart in charts
         ],

@@ -66,7 +66,7 @@
   function fmt(x) {
     if (x === 0) { return "0"; }
     var a = Math.abs(x);
-    return (a >= 1e4 || a < 1e-3) ? x.toExponential(2) : String(parseFloat(x.toPrecision(3)));
+    return (a >= 1e4 || a < 1e-3) ? x.toExponential(2).replace(/\.?0+e/, "e") : String(parseFloat(x.toPrecision(3)));
   }
 
   function svgKey(color, dash) {
@@ -109,10 +109,11 @@
       box.setAttribute("data-chart", chart.key);
       var title = document.createElement("div");
       title.className = "robodyn-title";
-      title.textContent = chart.title + " [" + chart.unit + "]" + (chart.scale === "log" ? ", log scale" : "");
+      title.textContent = chart.title + (chart.unit ? " [" + chart.unit + "]" : "") + (chart.scale === "log" ? ", log scale" : "");
       box.appendChild(title);
       var legend = document.createElement("div");
       legend.className = "robodyn-legend";
+      if ((chart.markers || []).length) { addKey(legend, "#c62828", [], "impact (tick on the time axis)"); }
       var seen = {};
       chart.series.forEach(function (s) {
         if (runs.length > 1) {
@@ -182,30 +183,39 @@
     };
   }
 
-  function linearAxis(chart) {
+  // The smallest step of 1, 2 or 5 times a power of ten that gives at most maxTicks ticks over span:
+  // tick labels read as round numbers, and never crowd a short chart.
+  function niceStep(span, maxTicks) {
+    var raw = span / Math.max(1, maxTicks - 1), power = Math.pow(10, Math.floor(Math.log10(raw))), m = raw / power;
+    return power * (m <= 1 ? 1 : m <= 2 ? 2 : m <= 5 ? 5 : 10);
+  }
+
+  function linearAxis(chart, maxTicks) {
     var lo = Infinity, hi = -Infinity;
     chart.series.forEach(function (s) {
       s.values.forEach(function (v) { lo = Math.min(lo, v); hi = Math.max(hi, v); });
     });
     chart.limits.forEach(function (l) { lo = Math.min(lo, l.value); hi = Math.max(hi, l.value); });
-    if (!(hi > lo)) { var c = isFinite(lo) ? lo : 0; lo = c - 1; hi = c + 1; }
-    var pad = 0.05 * (hi - lo), ends = [lo, hi];
+    if (!(hi > lo)) { var c = isFinite(lo) ? lo : 0; var half = c === 0 ? 1 : Math.abs(c) * 0.1; lo = c - half; hi = c + half; }
+    var pad = 0.05 * (hi - lo);
     lo -= pad; hi += pad;
     function frac(v) { return (v - lo) / (hi - lo); }
-    var values = ends.slice();
-    if (lo < 0 && hi > 0 && Math.min(Math.abs(frac(0) - frac(ends[0])), Math.abs(frac(0) - frac(ends[1]))) > 0.12) {
-      values.push(0);
-    }
+    var step = niceStep(hi - lo, maxTicks), values = [];
+    for (var k = Math.ceil(lo / step); k * step <= hi + 1e-9 * step; k++) { values.push(k * step); }
     return {
       scale: "linear",
       frac: frac,
-      ticks: values.map(function (v) { return { value: v, label: fmt(v) }; })
+      ticks: values.map(function (v) {
+        var r = Math.abs(v) < 1e-9 * step ? 0 : v;
+        return { value: r, label: fmt(parseFloat(r.toPrecision(6))) };
+      })
     };
   }
 
   function drawChart(entry) {
     var chart = entry.chart, ctx = entry.plot.getContext("2d"), b = plotBox(entry);
-    var axis = (chart.scale === "log" && logAxis(chart)) || linearAxis(chart);
+    var maxTicks = Math.max(2, Math.min(5, Math.floor((b.bottom - b.top) / 16)));  // a label per 16 px at most
+    var axis = (chart.scale === "log" && logAxis(chart)) || linearAxis(chart, maxTicks);
     function y(v) { return b.bottom - axis.frac(v) * (b.bottom - b.top); }
     ctx.fillStyle = "#fff";
     ctx.fillRect(0, 0, entry.width, entry.height);
@@ -218,7 +228,7 @@
     ctx.textAlign = "right"; ctx.textBaseline = "middle";
     var labels = [];
     axis.ticks.forEach(function (tick) {
-      var text = tick.label + " " + chart.unit;
+      var text = chart.tickUnit === false ? tick.label : tick.label + " " + chart.unit;
       labels.push(text);
       ctx.fillText(text, b.left - 4, y(tick.value));
       ctx.strokeStyle = "#e3e3e3"; ctx.beginPath(); ctx.moveTo(b.left + 1, y(tick.value)); ctx.lineTo(b.right, y(tick.value)); ctx.stroke();
@@ -238,6 +248,15 @@
       ctx.strokeStyle = l.color; ctx.lineWidth = 1; ctx.setLineDash([5, 4]);
       ctx.beginPath(); ctx.moveTo(b.left, y(l.value)); ctx.lineTo(b.right, y(l.value)); ctx.stroke();
     });
+    // events (impacts on the stops): short red ticks on the time axis
+    (chart.markers || []).forEach(function (frame) {
+      var k = Math.floor(frame), s = frame - k;
+      var tau = k + 1 < info.tau.length ? (1 - s) * info.tau[k] + s * info.tau[k + 1] : info.tau[info.tau.length - 1];
+      var x = xOfTau(entry, tau);
+      ctx.strokeStyle = "#c62828"; ctx.lineWidth = 2; ctx.setLineDash([]);
+      ctx.beginPath(); ctx.moveTo(x, b.bottom); ctx.lineTo(x, b.bottom - 8); ctx.stroke();
+    });
+    entry.box.setAttribute("data-markers", String((chart.markers || []).length));
     // curves
     chart.series.forEach(function (s) {
       ctx.strokeStyle = s.color; ctx.lineWidth = 1.6; ctx.setLineDash(s.dash);
@@ -269,6 +288,7 @@
     var text = info.robot + "   t = " + (info.t0 + tau * info.speed).toFixed(3) + " s";
     if (info.energy.length) {
       text += "   E = " + energyAt(tau).toPrecision(6) + " J";
+      if (panelInfo && panelInfo.runs.length > 1) { text += " (" + panelInfo.runs[0].name + ")"; }
     }
     if (info.speed !== 1) {
       text += "   (x" + info.speed + ")";

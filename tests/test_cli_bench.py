@@ -244,12 +244,13 @@ def test_an_interrupted_bench_leaves_the_last_complete_run_untouched(tiny_plan, 
     assert {r["model"] for r in json.loads((stage / "bench.json").read_text())} == {"geared_arm"}
 
 
-def test_ctrl_c_while_the_results_move_in_is_held_until_the_folder_agrees(tiny_plan, tmp_path, capsys):
+def test_ctrl_c_while_the_results_move_in_undoes_the_moves(tiny_plan, tmp_path, capsys):
     import os
     import signal
 
     out = tmp_path / "out"
     assert main(["bench", "pendubot", "--no-stability", "--no-progress", "--out", str(out)]) == 0
+    before = _files(out)
     real, pressed = os.replace, []
 
     def replace(src, dst):  # Ctrl-C as the first result moves from the private folder into --out
@@ -260,11 +261,16 @@ def test_ctrl_c_while_the_results_move_in_is_held_until_the_folder_agrees(tiny_p
 
     tiny_plan.setattr(os, "replace", replace)
     assert main(["bench", "cart_pole", "--no-stability", "--no-progress", "--out", str(out)]) == 130
-    assert pressed and "holds them all" in capsys.readouterr().err
-    assert not [p for p in out.iterdir() if p.is_dir()]  # the private folder was emptied and removed
-    assert {r["model"] for r in json.loads((out / "bench.json").read_text())} == {"cart_pole"}
-    report = (out / "report.md").read_text()
-    assert "cart_pole" in report and "pendubot" not in report
+    err = capsys.readouterr().err
+    assert pressed
+    assert _files(out) == before  # --out as it was: the pendubot's report and results
+    (stage,) = [p for p in out.iterdir() if p.is_dir()]
+    assert err == (
+        f"robodyn bench: interrupted while the results were being moved in; they are in {stage} "
+        f"({out} is left as it was)\n"
+    )
+    assert {r["model"] for r in json.loads((stage / "bench.json").read_text())} == {"cart_pole"}
+    assert "cart_pole" in (stage / "report.md").read_text()  # the new run whole, report included
 
 
 def test_a_failed_move_leaves_no_report_beside_results_it_does_not_describe(tiny_plan, tmp_path, capsys):

@@ -415,7 +415,7 @@ def test_a_bench_interrupted_before_any_result_leaves_no_partial_folder(
     monkeypatch.setattr(bench, "sweep", ctrl_c)
     out = tmp_path / "bench"
     assert main(["bench", "geared_arm", "--quick", "--no-progress", "--out", str(out)]) == INTERRUPTED
-    assert one_line(capsys) == "robodyn bench: interrupted"
+    assert one_line(capsys) == f"robodyn bench: interrupted before any result; {out} is left as it was"
     assert list(out.iterdir()) == []
 
 

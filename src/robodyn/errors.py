@@ -111,6 +111,24 @@ class SimulationInterrupted(KeyboardInterrupt):
         super().__init__(message)
 
 
+class SweepInterrupted(KeyboardInterrupt):
+    """A sweep stopped by Ctrl-C: ``written`` of its ``chunks`` chunks are in ``folder``; running it again resumes."""
+
+    def __init__(self, message: str, *, written: int, chunks: int, folder: Any) -> None:
+        self.written = written
+        self.chunks = chunks
+        self.folder = folder
+        super().__init__(message)
+
+
+class BenchInterrupted(KeyboardInterrupt):
+    """A work-precision sweep stopped by Ctrl-C; ``sweep`` holds the runs it finished (None before the first)."""
+
+    def __init__(self, message: str, *, sweep: Any) -> None:
+        self.sweep = sweep
+        super().__init__(message)
+
+
 class SceneError(InputError):
     """A scene file is missing, malformed or says something impossible."""
 

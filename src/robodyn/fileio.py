@@ -12,6 +12,11 @@ caller's bounds.
 ``tempfile.mkstemp`` (``O_CREAT | O_EXCL``, an unpredictable name, so an existing file or a
 symbolic link planted under that name is never followed), then renames it over the target. A
 rename replaces a link at the target itself, not the file the link points to.
+
+:func:`pause_for_test` is the one test hook of the package: with ``ROBODYN_TEST_PAUSE_AT=WINDOW:FILE``
+in the environment, the command stops at the named window (``write``: a temporary file written and
+not yet renamed; ``publish``, ``chunk``: see their callers) until ``FILE`` exists, having created
+``FILE.waiting``. A test then sends its signal inside that window, deterministically.
 """
 
 from __future__ import annotations
@@ -21,6 +26,7 @@ import numbers
 import os
 import stat
 import tempfile
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import IO, Any
@@ -118,6 +124,7 @@ def write_atomically(path: Path, write: Callable[[IO[bytes]], None]) -> Path:
     try:
         with os.fdopen(fd, "wb") as fh:
             write(fh)
+        pause_for_test("write")
         os.chmod(tmp, 0o666 & ~_umask())
         os.replace(tmp, path)
     except BaseException:
@@ -134,6 +141,26 @@ def write_text_atomically(path: Path, text: str) -> Path:
         fh.write(data)
 
     return write_atomically(path, write)
+
+
+PAUSE_VARIABLE = "ROBODYN_TEST_PAUSE_AT"
+# A paused command gives up waiting after this many seconds [s] (a test that died leaves no process).
+PAUSE_LIMIT_S = 120.0
+
+
+def pause_for_test(window: str) -> None:
+    """Test hook: wait at ``window`` while ``ROBODYN_TEST_PAUSE_AT=window:FILE`` is set and FILE does not exist.
+
+    Creates ``FILE.waiting`` first (the test's cue to send its signal), then polls every 10 ms.
+    Without the variable, or for another window, it returns at once.
+    """
+    where, _, go = os.environ.get(PAUSE_VARIABLE, "").partition(":")
+    if where != window or not go:
+        return
+    Path(f"{go}.waiting").touch()
+    deadline = time.monotonic() + PAUSE_LIMIT_S
+    while not os.path.exists(go) and time.monotonic() < deadline:
+        time.sleep(0.01)
 
 
 def _umask() -> int:

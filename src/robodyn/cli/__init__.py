@@ -30,6 +30,8 @@ from robodyn.errors import EXIT_BAD_INPUT, ModelWarning, RobodynError
 DESCRIPTION = "robodyn: rigid-body robot dynamics checked against Pinocchio, simulated and replayed."
 """What ``robodyn --help`` says first: plain text (the module docstring's reST markup would show as written)."""
 
+EXIT_INTERRUPTED = 130
+
 
 class _Parser(argparse.ArgumentParser):
     """argparse whose usage errors are one line on stderr, exit code 2, like every other bad input."""
@@ -68,13 +70,29 @@ def _attach_negative_values(argv: Sequence[str]) -> list[str]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line; return the process exit code."""
-    parser = get_argument_parser()
-    args = parser.parse_args(_attach_negative_values(sys.argv[1:] if argv is None else argv))
+    """Run the command line; return the process exit code.
+
+    As the ``robodyn`` program (``argv`` None), Ctrl-C is held off finalizers and ignored once the
+    command has returned (:mod:`robodyn.cli._interrupts`): the interpreter's exit prints nothing.
+    """
+    from robodyn.cli import _interrupts
+
+    if argv is None:
+        _interrupts.install()
+    try:
+        parser = get_argument_parser()
+        args = parser.parse_args(_attach_negative_values(sys.argv[1:] if argv is None else argv))
+    except KeyboardInterrupt:  # while the subcommands' modules load: nothing began
+        print("robodyn: interrupted", file=sys.stderr)
+        if argv is None:
+            _interrupts.quiet_exit()
+        return EXIT_INTERRUPTED
     with _numeric_warnings(args.command) as counts:
         code = _run(args)
     if counts and code in (0, 1):  # a refusal or a failure says what went wrong in its own one line
         print(f"robodyn {args.command}: note: {_describe_warnings(counts)}", file=sys.stderr)
+    if argv is None:
+        _interrupts.quiet_exit()
     return code
 
 
@@ -97,7 +115,7 @@ def _run(args: argparse.Namespace) -> int:
         return EXIT_BAD_INPUT
     except KeyboardInterrupt as exc:
         print(f"robodyn {args.command}: {str(exc) or 'interrupted'}", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
     except BrokenPipeError:
         # The reader of our output went away (e.g. `robodyn info talos | head`): not an error.
         # Point stdout at /dev/null so that the interpreter's final flush stays quiet.

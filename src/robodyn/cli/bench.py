@@ -17,17 +17,13 @@ meets it, or every run does, one line says so and the one run that exists is rep
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import math
 import os
 import shutil
-import signal
 import sys
 import tempfile
-import threading
 import time
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -39,9 +35,10 @@ from robodyn.cli._common import (
     physics_checked,
     warn_unchecked,
 )
+from robodyn.cli._interrupts import held
 from robodyn.cli.view import port_number
 from robodyn.errors import InputError
-from robodyn.fileio import write_text_atomically
+from robodyn.fileio import pause_for_test, write_text_atomically
 from robodyn.wording import count
 
 BUILTINS = ("pendubot", "cart_pole", "geared_arm")
@@ -132,6 +129,13 @@ class ProgressBar:
             sys.stderr.write("\n")
             self.last = ""
 
+    def end_line(self) -> None:
+        """End a bar left mid-line (a Ctrl-C), so that the next line starts on a line of its own."""
+        if self.enabled and self.last:
+            sys.stderr.write("\n")
+            sys.stderr.flush()
+            self.last = ""
+
     def note(self, text: str) -> None:
         """A line of status (e.g. the stage starting)."""
         if self.enabled:
@@ -185,24 +189,29 @@ def run(args: argparse.Namespace) -> int:
         inputs = [(f"the URDF of {robot.name}", robot.urdf_path), (f"the SRDF of {robot.name}", robot.srdf_path)]
         refuse_clobbering(written, inputs)
     stage = Path(tempfile.mkdtemp(prefix="bench.partial.", dir=out))
+    progress = ProgressBar(not args.no_progress)
     try:
-        sweeps = _bench(args, robots, stage)
+        sweeps = _bench(args, robots, stage, progress)
     except KeyboardInterrupt:
-        if any(stage.iterdir()):
-            raise KeyboardInterrupt(
-                f"interrupted; the results so far are in {stage} ({out} is left as it was)"
-            ) from None
-        stage.rmdir()
-        raise
+        progress.end_line()  # the one line below on a line of its own
+        raise KeyboardInterrupt(_kept(stage, out)) from None
     except BaseException:
         shutil.rmtree(stage, ignore_errors=True)
         raise
-    with _interrupt_held() as held:
-        _publish(stage, out)
+    abandoned = (
+        f"interrupted twice while the results were being moved in; the moves were abandoned: the new files are "
+        f"in {stage} or {out}, the earlier ones in {stage / '.old'} or {out}"
+    )
+    with held(abandoned=lambda: abandoned) as ctrl_c:
+        published = _publish(stage, out, ctrl_c)
+    if not published:  # a Ctrl-C during the moves: they were undone
+        raise KeyboardInterrupt(
+            f"interrupted while the results were being moved in; they are in {stage} ({out} is left as it was)"
+        )
     runs = sum(len(s.results) for s in sweeps)
     print(f"wrote {out / 'bench.json'} ({count(runs, 'run')}), charts and {out / REPORT}")
-    if held:
-        raise KeyboardInterrupt(f"interrupted while the results were being moved; {out} holds them all")
+    if ctrl_c:  # after the last move: the folder holds the new run whole
+        raise KeyboardInterrupt(f"interrupted after the results were moved in; {out} holds them all")
     if args.view:
         return _replay(args, robots[0], sweeps[0])
     return 0
@@ -230,18 +239,12 @@ def _check_view_options(args: argparse.Namespace) -> None:
                 raise InputError(f"{flag} is an option of the replay; add --view (or --html OUT.html)")
 
 
-@contextlib.contextmanager
-def _interrupt_held() -> Iterator[list[int]]:
-    """Hold Ctrl-C (SIGINT) for the block: the list it yields is non-empty when one came meanwhile."""
-    held: list[int] = []
-    if threading.current_thread() is not threading.main_thread():
-        yield held
-        return
-    previous = signal.signal(signal.SIGINT, lambda signum, frame: held.append(signum))
-    try:
-        yield held
-    finally:
-        signal.signal(signal.SIGINT, previous)
+def _kept(stage: Path, out: Path) -> str:
+    """``interrupted; the results so far are in STAGE (OUT is left as it was)``; the stage goes if it is empty."""
+    if stage.is_dir() and any(stage.iterdir()):
+        return f"interrupted; the results so far are in {stage} ({out} is left as it was)"
+    shutil.rmtree(stage, ignore_errors=True)
+    return f"interrupted before any result; {out} is left as it was"
 
 
 def _replay(args: argparse.Namespace, robot: Any, sweep: Any) -> int:
@@ -282,19 +285,29 @@ def _replay(args: argparse.Namespace, robot: Any, sweep: Any) -> int:
     return serve_playback(playback, open_browser=args.open, zmq_url=None, port=args.port)
 
 
-def _bench(args: argparse.Namespace, robots: list[Any], out: Path) -> list[Any]:
-    """Write the results of the sweeps, the stability study and the report into ``out``; return the sweeps."""
+def _bench(args: argparse.Namespace, robots: list[Any], out: Path, progress: ProgressBar) -> list[Any]:
+    """Write the results of the sweeps, the stability study and the report into ``out``; return the sweeps.
+
+    A Ctrl-C during a sweep first writes the runs finished so far to ``out``/bench.json.
+    """
     from robodyn import charts
+    from robodyn.errors import BenchInterrupted
     from robodyn.studies import bench, report
 
-    progress = ProgressBar(not args.no_progress)
     plan = bench.default_plan(quick=args.quick)
     sweeps: list[bench.Sweep] = []
     figures: dict[str, list[str]] = {}
     started = time.perf_counter()
     for robot in robots:
         progress.note(f"robodyn bench: work-precision sweep of {robot.name}")
-        result = bench.sweep(robot, plan=plan, progress=progress)
+        try:
+            result = bench.sweep(robot, plan=plan, progress=progress)
+        except BenchInterrupted as exc:
+            finished = [*sweeps, exc.sweep] if exc.sweep.results else sweeps
+            if finished:
+                with held():
+                    _write_json(out / "bench.json", bench.records(finished))
+            raise
         sweeps.append(result)
         _write_json(out / "bench.json", bench.records(sweeps))  # partial results first
         figures[robot.name] = _sweep_charts(result, out, charts)
@@ -307,22 +320,42 @@ def _bench(args: argparse.Namespace, robots: list[Any], out: Path) -> list[Any]:
     return sweeps
 
 
-def _publish(stage: Path, out: Path) -> None:
-    """Move the files of ``stage`` into ``out``: the old report out first, the new one in last.
+def _publish(stage: Path, out: Path, ctrl_c: list[int]) -> bool:
+    """Move the files of ``stage`` into ``out``, or, if a Ctrl-C came meanwhile, none: True when moved.
 
-    The fixed-name results of an earlier run that this one did not write go too. Should the
-    moves be cut short, ``out`` holds no report rather than one that describes other files.
+    The old files this run replaces, and the fixed-name results of an earlier run that it did not
+    write, first go into ``stage``/.old; the new report comes last. A Ctrl-C noted in ``ctrl_c``
+    (the list of :func:`robodyn.cli._interrupts.held`) before the last move undoes the moves:
+    ``out`` is as it was and ``stage`` holds the new results. Only then is .old removed.
     """
-    produced = {path.name for path in stage.iterdir()}
-    for name in (REPORT, *(x for x in FIXED_OUTPUTS if x not in produced)):
+    produced = sorted(path.name for path in stage.iterdir())
+    new = [name for name in produced if name != REPORT] + [REPORT]
+    old_names = [REPORT, *(x for x in FIXED_OUTPUTS if x not in produced), *new[:-1]]
+    backup = stage / ".old"
+    backup.mkdir()
+    moved_out: list[str] = []
+    moved_in: list[str] = []
+    for name in dict.fromkeys(old_names):
         old = out / name
         if old.is_symlink() or old.is_file():
-            old.unlink()
-    for path in sorted(stage.iterdir()):
-        if path.name != REPORT:
-            os.replace(path, out / path.name)
-    os.replace(stage / REPORT, out / REPORT)
+            os.replace(old, backup / name)
+            moved_out.append(name)
+    for name in new:
+        if ctrl_c:
+            break
+        os.replace(stage / name, out / name)
+        moved_in.append(name)
+        pause_for_test("publish")
+    if ctrl_c:  # undo: the new files back into the stage, the old ones back into out
+        for name in moved_in:
+            os.replace(out / name, stage / name)
+        for name in moved_out:
+            os.replace(backup / name, out / name)
+        backup.rmdir()
+        return False
+    shutil.rmtree(backup, ignore_errors=True)
     stage.rmdir()
+    return True
 
 
 def _sweep_charts(result: Any, out: Path, charts: Any) -> list[str]:
@@ -347,22 +380,29 @@ def _sweep_charts(result: Any, out: Path, charts: Any) -> list[str]:
 
 
 def _stability(robots: list[Any], out: Path, *, quick: bool, progress: ProgressBar) -> Any:
-    """Run the stability study, write stability.json and its charts; return its findings for the report."""
+    """Run the stability study, write stability.json and its charts; return its findings for the report.
+
+    The limits are measured on the benched robots. The built-in models' own studies (the stiff
+    arm, which also gets its limits, the Pendubot's chaos and the light-tip Pendubot's near-singular
+    mass matrix) run only in a bench of at least one built-in kind: a report about other robots
+    says nothing of robots it did not bench.
+    """
     import numpy as np
 
     from robodyn import charts
     from robodyn.errors import RobodynError
+    from robodyn.kinds.params import detect_kind
     from robodyn.model.load import load
     from robodyn.studies import stability
-    from robodyn.studies.bench import start_state
-    from robodyn.studies.report import StabilityFindings, time_constants
+    from robodyn.studies.report import StabilityFindings
 
     methods = stability.QUICK_FIXED_METHODS if quick else stability.FIXED_METHODS
     steps = 300 if quick else 2000
-    stiff = load(stability.variant_path(stability.STIFF_VARIANT))
-    light = load(stability.variant_path(stability.LIGHT_VARIANT))
-    cases = [stiff, *(robots[:1] if quick else robots)]
-    if not quick:
+    builtin = any(detect_kind(robot) is not None for robot in robots)
+    stiff = load(stability.variant_path(stability.STIFF_VARIANT)) if builtin else None
+    light = load(stability.variant_path(stability.LIGHT_VARIANT)) if builtin else None
+    cases = [*([stiff] if stiff is not None else []), *(robots[:1] if quick else robots)]
+    if light is not None and not quick:
         cases.append(light)
     summary: dict[str, Any] = {"quick": quick, "steps_per_trial": steps, "limits": [], "notes": []}
     limits: list[Any] = []
@@ -377,6 +417,39 @@ def _stability(robots: list[Any], out: Path, *, quick: bool, progress: ProgressB
         summary["limits"] += [{**_clean(x), "ratio": _clean(x.ratio)} for x in found]
         _write_json(out / "stability.json", summary)
     progress(len(cases), len(cases), "limits done")
+    studies: dict[str, Any] = {}
+    if stiff is not None and light is not None:
+        studies = _builtin_studies(stiff, light, summary, quick=quick, progress=progress)
+    n = 31 if quick else 71
+    re = np.linspace(-3.5, 1.0, n)
+    im = np.linspace(-3.5, 3.5, n)
+    regions = {m: (re, im, stability.region_grid(m, re, im)) for m in methods}
+    summary["regions"] = {
+        m: {
+            "real_axis_limit": _clean(stability.region_radius(m, np.pi)),
+            "imaginary_axis_limit": _clean(stability.region_radius(m, np.pi / 2)),
+        }
+        for m in methods
+    }
+    _write_json(out / "stability.json", summary)
+    files = list(charts.stability(summary["limits"], regions, out / "stability"))
+    chaos = studies.get("chaos")
+    if chaos is not None:
+        lyap = chaos.lyapunov
+        t_run = lyap.interval * np.arange(1, lyap.renormalisations + 1)
+        files += charts.lyapunov(t_run, lyap.running, chaos.gap_t, chaos.gap, out / "lyapunov")
+    summary["figures"] = [Path(f).name for f in files]
+    _write_json(out / "stability.json", summary)
+    return StabilityFindings(limits=tuple(limits), steps_per_trial=steps, notes=tuple(summary["notes"]), **studies)
+
+
+def _builtin_studies(stiff: Any, light: Any, summary: dict[str, Any], *, quick: bool, progress: ProgressBar) -> Any:
+    """The stiff arm's runs, the Pendubot's chaos, the light tip's conditioning: StabilityFindings' fields."""
+    from robodyn.model.load import load
+    from robodyn.studies import stability
+    from robodyn.studies.bench import start_state
+    from robodyn.studies.report import time_constants
+
     progress.note("robodyn bench: stiff runs, chaos, near-singular mass matrix")
     eigenvalues = stability.linearise(stiff, stability.hanging_equilibrium(stiff)).eigenvalues
     runs = stability.stiff_runs(stiff, dt=0.01, duration=0.2 if quick else 1.0, quick=quick)
@@ -393,35 +466,14 @@ def _stability(robots: list[Any], out: Path, *, quick: bool, progress: ProgressB
     summary["chaos"] = _clean(found_chaos)
     near = stability.near_singular(light, pendubot, duration=1.0 if quick else 2.0)
     summary["near_singular"] = _clean(near)
-    n = 31 if quick else 71
-    re = np.linspace(-3.5, 1.0, n)
-    im = np.linspace(-3.5, 3.5, n)
-    regions = {m: (re, im, stability.region_grid(m, re, im)) for m in methods}
-    summary["regions"] = {
-        m: {
-            "real_axis_limit": _clean(stability.region_radius(m, np.pi)),
-            "imaginary_axis_limit": _clean(stability.region_radius(m, np.pi / 2)),
-        }
-        for m in methods
+    return {
+        "stiff_model": stiff.name,
+        "stiff_eigenvalues": eigenvalues,
+        "stiff_runs": tuple(runs),
+        "chaos": found_chaos,
+        "near_singular": near,
+        "tip_masses": {r.name: _distal_mass(r) for r in (light, pendubot)},
     }
-    _write_json(out / "stability.json", summary)
-    files = list(charts.stability(summary["limits"], regions, out / "stability"))
-    lyap = found_chaos.lyapunov
-    t_run = lyap.interval * np.arange(1, lyap.renormalisations + 1)
-    files += charts.lyapunov(t_run, lyap.running, found_chaos.gap_t, found_chaos.gap, out / "lyapunov")
-    summary["figures"] = [Path(f).name for f in files]
-    _write_json(out / "stability.json", summary)
-    return StabilityFindings(
-        limits=tuple(limits),
-        steps_per_trial=steps,
-        stiff_model=stiff.name,
-        stiff_eigenvalues=eigenvalues,
-        stiff_runs=tuple(runs),
-        chaos=found_chaos,
-        near_singular=near,
-        tip_masses={r.name: _distal_mass(r) for r in (light, pendubot)},
-        notes=tuple(summary["notes"]),
-    )
 
 
 def _distal_mass(robot: Any) -> float:

@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from robodyn.cli._common import add_passive_argument, add_physics_argument, file_path, unchecked_scene, warn_unchecked
+from robodyn.cli._interrupts import held
 from robodyn.cli._output import (
     check_output_file,
     check_output_folder,
@@ -302,15 +303,17 @@ def _simulate(
         raise _stopped_early(exc, path, summary) from None
     except (InputError, UnknownNameError, RuntimeError) as exc:
         raise _system_error(scene, exc) from None
-    if reduction is not None:
-        meta = dict(trajectory.meta)
-        meta["reduction"] = {
-            "full_nv": reduction.full.nv,
-            "locked": {k: v.tolist() for k, v in reduction.lock_values().items()},
-        }
-        trajectory = dataclasses.replace(trajectory, meta=meta)
-    trajectory.save(writable_path(path))
-    note_clamped_q0(trajectory, command="run")
+    abandoned = f"interrupted twice while the finished run was being written; {path} not written"
+    with held(abandoned=lambda: abandoned) as ctrl_c:  # the run is over: a Ctrl-C must not lose it
+        if reduction is not None:
+            meta = dict(trajectory.meta)
+            meta["reduction"] = {
+                "full_nv": reduction.full.nv,
+                "locked": {k: v.tolist() for k, v in reduction.lock_values().items()},
+            }
+            trajectory = dataclasses.replace(trajectory, meta=meta)
+        trajectory.save(writable_path(path))
+        note_clamped_q0(trajectory, command="run")
     print(
         f"simulate: {count(trajectory.n_steps, 'step')} of {scene.simulate['dt']} s with {integrator} in "
         f"{trajectory.wall_time_s:.3f} s wall; energy ledger residual {abs(trajectory.ledger_residual).max():.2e} J; "
@@ -327,6 +330,11 @@ def _simulate(
         "trajectory": str(path),
         **{key: s[key] for key in CONSTRAINT_FIGURES},
     }
+    if ctrl_c:  # written whole: the one line says where, and the scene's later parts are not run
+        summary["simulate"]["interrupted"] = True
+        raise SimulationInterrupted(
+            f"interrupted after the simulation had finished; its trajectory is written to {path}", trajectory=trajectory
+        )
     return trajectory
 
 
@@ -364,7 +372,8 @@ def _stopped_early(exc: BaseException, path: Path, summary: dict[str, Any]) -> B
     message = str(exc)
     if trajectory is not None:
         partial = writable_path(partial_path(path))
-        trajectory.save(partial)
+        with held(abandoned=lambda: f"interrupted twice while {partial} was being written; not written"):
+            trajectory.save(partial)
         record["trajectory"] = str(partial)
         kept = f" ({path} left as it was)" if path.exists() else ""
         message += f"; partial trajectory written to {partial}{kept}"

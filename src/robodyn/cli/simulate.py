@@ -43,6 +43,7 @@ from robodyn.cli._common import (
     refuse_uncoupled_sizes,
     warn_ignored_mimic,
 )
+from robodyn.cli._interrupts import held
 from robodyn.cli._output import partial_path, refuse_clobbering, writable_path
 from robodyn.errors import EXIT_DIVERGED, EXIT_OK, InputError, UnknownNameError
 from robodyn.fileio import read_user_file
@@ -260,24 +261,31 @@ def run(args: argparse.Namespace) -> int:
         if args.constraints is None:
             raise
         raise InputError(f"--constraints {args.constraints}: {exc}") from None
-    if args.controller is not None:  # the trajectory file says what closed the loop (and in which mode, when)
-        record: dict[str, Any] = {"name": args.controller, "gains": gains}
-        if hasattr(torque, "modes") and len(trajectory.t):  # a switched controller: swing-up, then balance
-            record["modes"] = ["swing-up", "LQR balance"]
-            record["mode"] = [int(m) for m in torque.modes(trajectory.q, trajectory.v)]
-        trajectory = dataclasses.replace(trajectory, meta={**trajectory.meta, "controller": record})
-    # Said after the run, not before it: a refused input stays one line on stderr.
-    warn_ignored_mimic(robot, mimic=args.mimic, command="simulate")
-    note_clamped_q0(trajectory, command="simulate")
-    kept: list[Path] = []
-    if failure is not None:  # what was computed goes beside, never over, an earlier complete run
-        kept = [p for p in (out, csv) if p is not None and p.exists()]
-        out, csv = (None if p is None else partial_path(p) for p in (out, csv))
-    _write(trajectory, out, csv)
-    _report(trajectory, out, csv, as_json=args.json, effort=robot.model.effortLimit)
+    written: list[Path] = []
+    with held(abandoned=lambda: _abandoned(written)) as ctrl_c:  # the run is over: a Ctrl-C must not lose it
+        if args.controller is not None:  # the file says what closed the loop (and, when switched, in which mode)
+            record: dict[str, Any] = {"name": args.controller, "gains": gains}
+            if hasattr(torque, "modes") and len(trajectory.t):  # a switched controller: swing-up, then balance
+                record["modes"] = ["swing-up", "LQR balance"]
+                record["mode"] = [int(m) for m in torque.modes(trajectory.q, trajectory.v)]
+            trajectory = dataclasses.replace(trajectory, meta={**trajectory.meta, "controller": record})
+        # Said after the run, not before it: a refused input stays one line on stderr.
+        warn_ignored_mimic(robot, mimic=args.mimic, command="simulate")
+        note_clamped_q0(trajectory, command="simulate")
+        kept: list[Path] = []
+        if failure is not None:  # what was computed goes beside, never over, an earlier complete run
+            kept = [p for p in (out, csv) if p is not None and p.exists()]
+            out, csv = (None if p is None else partial_path(p) for p in (out, csv))
+        _write(trajectory, out, csv, written)
+        _report(trajectory, out, csv, as_json=args.json, effort=robot.model.effortLimit)
     if failure is not None:
         print(f"robodyn simulate: {failure}{_partial_note(out, csv, kept)}", file=sys.stderr)
         return EXIT_INTERRUPTED if isinstance(failure, SimulationInterrupted) else EXIT_DIVERGED
+    if ctrl_c:  # the whole run is written: say where, and stop there (no --view)
+        where = " and ".join(map(str, written))
+        said = f"its trajectory is written to {where}" if written else "no --out or --csv, nothing to write"
+        print(f"robodyn simulate: interrupted after the run had finished; {said}", file=sys.stderr)
+        return EXIT_INTERRUPTED
     if args.view:
         from robodyn.cli.view import serve_and_play
 
@@ -359,11 +367,18 @@ def _partial_note(out: Path | None, csv: Path | None, kept: list[Path]) -> str:
     return f"; partial trajectory written to {' and '.join(map(str, written))}{left}"
 
 
-def _write(trajectory: Any, out: Path | None, csv: Path | None) -> None:
+def _write(trajectory: Any, out: Path | None, csv: Path | None, written: list[Path]) -> None:
+    """Write the .npz, then the CSV; ``written`` gets each path once its file is whole."""
     if out is not None:
-        trajectory.save(out)
+        written.append(trajectory.save(out))
     if csv is not None:
-        trajectory.save_csv(csv)
+        written.append(trajectory.save_csv(csv))
+
+
+def _abandoned(written: list[Path]) -> str:
+    """The line of a second Ctrl-C during the writes: what was written before it."""
+    done = f"only {' and '.join(map(str, written))} written" if written else "nothing written"
+    return f"interrupted twice while the finished run was being written; the writes were abandoned ({done})"
 
 
 def _print_integrators(integrators: Any, *, as_json: bool) -> None:

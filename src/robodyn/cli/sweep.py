@@ -16,6 +16,7 @@ from typing import Any
 
 from robodyn.cli._common import add_passive_argument, add_physics_argument, file_path, physics_checked, positive_int
 from robodyn.cli._output import check_output_folder
+from robodyn.errors import SweepInterrupted
 from robodyn.wording import count
 
 
@@ -78,14 +79,17 @@ def run(args: Any) -> int:
             print(_as_written(str(scene.model.get("urdf") or scene.model.get("name"))), file=sys.stderr)
         return scene
 
-    result = sweep.run(
-        spec,
-        out=args.out,
-        scheduler=args.scheduler,
-        workers=args.workers,
-        progress=None if args.quiet else sys.stderr,
-        read_scene=reader,
-    )
+    try:
+        result = sweep.run(
+            spec,
+            out=args.out,
+            scheduler=args.scheduler,
+            workers=args.workers,
+            progress=None if args.quiet else sys.stderr,
+            read_scene=reader,
+        )
+    except SweepInterrupted as exc:
+        raise KeyboardInterrupt(f"{exc}; run the same command again to resume from them") from None
     table = result.table()
     print(
         f"{count(table.num_rows, 'run')} in {count(len(result.plan.chunks), 'chunk')} ({result.computed} computed, "

@@ -206,7 +206,15 @@ def simulate(
     if outcome is None or not outcome.ran:
         run.integrate()
     meta = _meta(robot, system, method, run, dt, duration, check) | notes | _loop_meta(system, outcome)
-    trajectory = run.trajectory(time.perf_counter() - start, meta)
+    wall = time.perf_counter() - start
+    try:
+        trajectory = run.trajectory(wall, meta)
+    except KeyboardInterrupt:  # the run is computed: keep it, then answer the Ctrl-C
+        trajectory = run.trajectory(wall, meta)
+        if run.failure is None and not run.interrupted:
+            raise SimulationInterrupted(
+                f"interrupted after the last step (t = {float(trajectory.t[-1]):.6g} s)", trajectory=trajectory
+            ) from None
     if run.failure is not None:
         step, t_fail, message = run.failure
         raise DivergenceError(message, step=step, time=t_fail, trajectory=trajectory)

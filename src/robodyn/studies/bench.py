@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodyn import integrators
-from robodyn.errors import AssumptionError, DivergenceError, InputError, RobodynError
+from robodyn.errors import AssumptionError, BenchInterrupted, DivergenceError, InputError, RobodynError
 
 if TYPE_CHECKING:
     from robodyn.robot import Robot
@@ -228,15 +228,34 @@ class Sweep:
     skipped: tuple[str, ...] = field(default=())
 
 
+# Where a start offset would pass a joint's limit, the joint starts this fraction of its range
+# inside that limit instead (a start outside would be moved onto the stop by simulate).
+INSIDE_RANGE = 0.1
+
+
 def start_state(robot: Robot) -> tuple[Array, Array]:
     """The bench's start: 0.5 rad (or m) from neutral on the first joint, -0.3 on the others, at rest.
 
     Away from any equilibrium, so that every joint moves, and torque-free, so that the energy
-    ledger reduces to E - E0 - W_damping.
+    ledger reduces to E - E0 - W_damping. A joint of one coordinate whose offset would pass its
+    URDF limit starts ``INSIDE_RANGE`` of its range inside that limit (a prismatic joint of range
+    [0, 0.2] m starts at 0.02 m, not at -0.3 m).
     """
     offsets = np.full(robot.nv, -0.3)
     offsets[0] = 0.5
-    return robot.integrate(robot.neutral(), offsets), np.zeros(robot.nv)
+    q = robot.integrate(robot.neutral(), offsets)
+    lower = np.asarray(robot.model.lowerPositionLimit, dtype=np.float64)
+    upper = np.asarray(robot.model.upperPositionLimit, dtype=np.float64)
+    for joint in robot.joints:
+        if joint.nq != 1 or joint.nv != 1:
+            continue
+        lo, hi = lower[joint.idx_q], upper[joint.idx_q]
+        if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi and hi - lo < 1e300):
+            continue  # no range (Pinocchio's unbounded default is +-max float)
+        margin = INSIDE_RANGE * (hi - lo)
+        if not lo <= q[joint.idx_q] <= hi:
+            q[joint.idx_q] = min(max(q[joint.idx_q], lo + margin), hi - margin)
+    return q, np.zeros(robot.nv)
 
 
 def reference(
@@ -307,7 +326,9 @@ def run_one(
     """
     from robodyn.sim.simulation import DEFAULT_MAX_ENERGY_GROWTH, simulate
 
-    if backend == "fast":
+    if backend == "fast" and fast is None:  # not a built-in kind: the compiled loop simulate runs by default
+        backend = "numba"
+    elif backend == "fast":
         traj = fast.simulate(q0, v0, duration=duration, dt=dt, method=name)
         over = not np.all(np.abs(traj.ledger_residual) <= DEFAULT_MAX_ENERGY_GROWTH * scale)
         return traj, bool(traj.diverged or over)
@@ -349,9 +370,12 @@ def sweep(
 ) -> Sweep:
     """Run the work--precision sweep of ``plan`` on ``robot`` (see the module docstring).
 
-    Backends that do not apply are skipped and named in ``Sweep.skipped``: ``formula`` and
-    ``fast`` need a built-in kind (Pendubot, cart-pole, geared arm), ``fast`` also no Coulomb
-    friction. ``progress(done, total, label)`` is called after every run.
+    Backends that do not apply are skipped and named in ``Sweep.skipped``: ``formula`` needs a
+    built-in kind (Pendubot, cart-pole, geared arm). ``fast`` is the compiled closed form of a
+    built-in kind (no Coulomb friction), and on any other robot the compiled whole-run loop that
+    ``simulate`` runs by default (backend ``numba``), skipped only where that loop does not apply.
+    ``progress(done, total, label)`` is called after every run. A Ctrl-C raises
+    :class:`~robodyn.errors.BenchInterrupted` holding the runs finished so far.
     """
     from robodyn.kinds.params import detect_kind
     from robodyn.sim import energy
@@ -365,10 +389,15 @@ def sweep(
     skipped: list[str] = []
     fast = None
     for backend in plan.backends:
-        if backend in ("formula", "fast") and kind is None:
+        if backend == "formula" and kind is None:
             skipped.append(f"{backend}: {robot.name} is not a built-in kind (pendubot, cart_pole, geared_arm)")
             continue
-        if backend == "fast":
+        if backend == "fast" and kind is None:
+            why = _compiled_loop_refusal(robot, q0, v0, plan)
+            if why is not None:
+                skipped.append(f"fast: {why}")
+                continue
+        elif backend == "fast":
             from robodyn.sim.fast import FastDynamics
 
             try:
@@ -384,6 +413,48 @@ def sweep(
     jobs = _jobs(plan, backends)
     results: list[BenchResult] = []
     series: list[EnergySeries] = []
+    try:
+        _run_jobs(robot, fast, plan, jobs, q0, v0, ref, scale, results, series, progress)
+    except KeyboardInterrupt:
+        partial = Sweep(robot.name, kind, q0, v0, plan, ref, tuple(results), tuple(series), tuple(skipped))
+        raise BenchInterrupted(
+            f"interrupted after {len(results)} of {len(jobs)} runs of {robot.name}", sweep=partial
+        ) from None
+    return Sweep(robot.name, kind, q0, v0, plan, ref, tuple(results), tuple(series), tuple(skipped))
+
+
+def _compiled_loop_refusal(robot: Robot, q0: Array, v0: Array, plan: SweepPlan) -> str | None:
+    """Why simulate's compiled whole-run loop does not run ``robot`` (a two-step trial run), or None."""
+    from robodyn.sim.fast import METHODS as FAST_METHODS
+    from robodyn.sim.simulation import simulate
+
+    names = [m for m in (*plan.fixed, *plan.adaptive) if m in FAST_METHODS]
+    if not names:
+        return None
+    dt = plan.dts[0] if plan.dts else plan.sample_interval
+    try:
+        trial = simulate(robot, q0, v0, duration=2 * dt, dt=dt, integrator=names[0], backend="numba")
+    except RobodynError as exc:
+        return f"the compiled loop refused {robot.name}: {exc}"
+    if trial.meta.get("loop") != "compiled":
+        return f"{robot.name}: compiled loop {trial.meta.get('compiled_loop')}"
+    return None
+
+
+def _run_jobs(
+    robot: Robot,
+    fast: Any,
+    plan: SweepPlan,
+    jobs: list[tuple[str, str, float | None, float | None]],
+    q0: Array,
+    v0: Array,
+    ref: Reference,
+    scale: float,
+    results: list[BenchResult],
+    series: list[EnergySeries],
+    progress: Progress | None,
+) -> None:
+    """Run ``jobs`` in order, appending each result to ``results`` (and energy series to ``series``)."""
     energy_dt = plan.dts[len(plan.dts) // 2] if plan.dts else None
     for done, (name, backend, dt, rtol) in enumerate(jobs, start=1):
         method = integrators.get(name)
@@ -415,7 +486,6 @@ def sweep(
             series.append(EnergySeries(name, backend, dt, traj.t.copy(), residual.copy()))
         if progress is not None:
             progress(done, len(jobs), f"{robot.name} {name}/{backend} " + (f"dt={dt:g}" if dt else f"rtol={rtol:g}"))
-    return Sweep(robot.name, kind, q0, v0, plan, ref, tuple(results), tuple(series), tuple(skipped))
 
 
 def measured_order(results: Sequence[BenchResult], integrator: str, backend: str = "aba") -> float | None:

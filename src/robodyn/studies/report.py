@@ -50,16 +50,17 @@ class StabilityFindings:
 
     ``stiff_eigenvalues`` [1/s] are those of the stiff case linearised about its hanging
     equilibrium; ``tip_masses`` maps the near-singular models to their distal link mass [kg];
-    ``notes`` name the cases that gave no limits.
+    ``notes`` name the cases that gave no limits. The stiff, chaos and near-singular studies are
+    the built-in models' (None in a bench of other robots, and left out of its report).
     """
 
     limits: tuple[Limit, ...]
     steps_per_trial: int
-    stiff_model: str
-    stiff_eigenvalues: NDArray[np.complex128]
-    stiff_runs: tuple[StiffRun, ...]
-    chaos: Chaos
-    near_singular: NearSingular
+    stiff_model: str | None = None
+    stiff_eigenvalues: NDArray[np.complex128] | None = None
+    stiff_runs: tuple[StiffRun, ...] = ()
+    chaos: Chaos | None = None
+    near_singular: NearSingular | None = None
     tip_masses: Mapping[str, float] = field(default_factory=dict)
     notes: tuple[str, ...] = ()
 
@@ -448,9 +449,12 @@ def stability_section(found: StabilityFindings, rtol: float = LIMIT_RTOL) -> lis
             f"{_cell(x, rtol)} |"
         )
     lines += ["", *limits_summary(found.limits, rtol), ""]
-    lines += stiff_section(found.stiff_model, found.stiff_eigenvalues, found.stiff_runs)
-    lines += ["", chaos_paragraph(found.chaos), "", "![lyapunov](lyapunov.png)", ""]
-    lines += near_singular_section(found.near_singular, found.tip_masses)
+    if found.stiff_model is not None and found.stiff_eigenvalues is not None:
+        lines += stiff_section(found.stiff_model, found.stiff_eigenvalues, found.stiff_runs)
+    if found.chaos is not None:
+        lines += ["", chaos_paragraph(found.chaos), "", "![lyapunov](lyapunov.png)", ""]
+    if found.near_singular is not None:
+        lines += near_singular_section(found.near_singular, found.tip_masses)
     if found.notes:
         lines += ["", "Notes: " + "; ".join(found.notes)]
     return lines

@@ -23,7 +23,9 @@ import uuid
 from collections.abc import Callable, Iterator
 from typing import Any, TextIO
 
-from robodyn.errors import InputError, MissingDependencyError, RobodynError, UnavailableError
+from robodyn.errors import InputError, MissingDependencyError, RobodynError, SweepInterrupted, UnavailableError
+from robodyn.fileio import pause_for_test
+from robodyn.sweep import lifetime
 from robodyn.sweep.chunk import Job, execute
 from robodyn.sweep.plan import Chunk, Plan
 from robodyn.sweep.progress import Progress
@@ -87,16 +89,29 @@ def client_for(*, scheduler: str | None, workers: int | None) -> Iterator[Any]:
         return
     n = workers or os.cpu_count() or 1
     check_cluster(scheduler=None, workers=n)
-    cluster = dd.LocalCluster(
-        n_workers=n,
-        threads_per_worker=1,
-        processes=True,
-        host="127.0.0.1",
-        dashboard_address="127.0.0.1:0",
-        silence_logs=logging.CRITICAL + 1,  # the workers' and scheduler's logs: nothing reaches stderr
-    )
-    with cluster, dd.Client(cluster) as client:
-        yield client
+    lifetime.quiet_resource_tracker()
+    cluster = None
+    try:
+        with lifetime.sigint_blocked():  # the workers start deaf to Ctrl-C: the sweep ends them itself
+            cluster = dd.LocalCluster(
+                n_workers=n,
+                threads_per_worker=1,
+                processes=True,
+                host="127.0.0.1",
+                dashboard_address="127.0.0.1:0",
+                preload=[lifetime.__name__],  # each worker dies with this process (lifetime.tie_to_parent)
+                env={lifetime.PARENT_VARIABLE: str(os.getpid())},
+                silence_logs=logging.CRITICAL + 1,  # the workers' and scheduler's logs: nothing reaches stderr
+            )
+        with dd.Client(cluster) as client:
+            yield client
+    except BaseException:  # Ctrl-C included: kill the workers, then close without a word
+        with lifetime.sigint_ignored(), lifetime.logging_off():
+            lifetime.kill_local_workers()
+            if cluster is not None:
+                cluster.close()
+        raise
+    cluster.close()
 
 
 @contextlib.contextmanager
@@ -145,6 +160,7 @@ def run_chunks(
     ``client`` (a ``distributed.Client``) takes precedence over ``scheduler`` and ``workers``.
     ``on_chunk`` is called after each chunk is written (tests use it to kill a worker).
     """
+    local = client is None and scheduler is None  # a cluster of this process's own: killed on any exception
     pending = [c for c in plan.chunks if not store.done(c.id)]
     skipped = [c for c in plan.chunks if store.done(c.id)]
     bar = Progress(
@@ -159,15 +175,35 @@ def run_chunks(
             with quiet_dask(), contextlib.ExitStack() as stack:
                 if client is None:
                     client = stack.enter_context(client_for(scheduler=scheduler, workers=workers))
-                _submit_and_collect(client, pending, job, store, bar, on_chunk)
+                _submit_and_collect(client, pending, job, store, bar, on_chunk, local=local)
+    except KeyboardInterrupt:
+        written = sum(store.done(c.id) for c in plan.chunks)
+        raise SweepInterrupted(
+            f"interrupted; {written} of {len(plan.chunks)} chunks are written in {store.results}",
+            written=written,
+            chunks=len(plan.chunks),
+            folder=store.folder,
+        ) from None
     finally:
         bar.close()
     return len(pending)
 
 
 def _submit_and_collect(
-    client: Any, pending: list[Chunk], job: Job, store: Store, bar: Progress, on_chunk: Callable[[Chunk], None] | None
+    client: Any,
+    pending: list[Chunk],
+    job: Job,
+    store: Store,
+    bar: Progress,
+    on_chunk: Callable[[Chunk], None] | None,
+    *,
+    local: bool,
 ) -> None:
+    """Submit every pending chunk and write each as it finishes.
+
+    On any exception (Ctrl-C included) a ``local`` cluster's workers are killed first, before the
+    futures are cancelled: a worker told of a cancelled task logs it, a killed one says nothing.
+    """
     dd = distributed()
     run_tag = uuid.uuid4().hex[:8]  # a key of its own per submission: a cancelled earlier one cannot hit it
     by_key = {}
@@ -185,8 +221,16 @@ def _submit_and_collect(
             bar.update(chunk.runs.size)
             if on_chunk is not None:
                 on_chunk(chunk)
+            pause_for_test("chunk")
     except (OSError, TimeoutError, dd.client.FutureCancelledError, dd.CancelledError) as exc:
         raise _lost(exc, store) from None
+    except BaseException:
+        if local:
+            with lifetime.sigint_ignored(), lifetime.logging_off():
+                lifetime.kill_local_workers()
+                for future in futures:
+                    future.cancel()
+        raise
     finally:
         for future in futures:
             with contextlib.suppress(Exception):  # a client whose scheduler is gone cannot cancel: nothing runs

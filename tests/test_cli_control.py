@@ -67,7 +67,8 @@ def test_swing_up_through_the_cli_reaches_upright_and_stays(tmp_path: Path, caps
     text = capsys.readouterr().out
     assert code == 0 and traj is not None
     assert "controller: swing_up (default gains)" in text
-    assert traj.meta["controller"] == {"name": "swing_up", "gains": {}}
+    assert {k: traj.meta["controller"][k] for k in ("name", "gains")} == {"name": "swing_up", "gains": {}}
+    assert traj.meta["controller"]["mode"][-1] == 1  # the LQR holds it at the end
     last_second = traj.t >= traj.t[-1] - 1.0
     assert np.max(np.abs(wrapped(traj.q[last_second, 1]))) < UPRIGHT_TOL
     assert np.max(np.abs(wrapped(traj.q[:, 1]))) > 3.0  # it started hanging: the CLI did not start it upright

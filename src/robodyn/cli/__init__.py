@@ -33,6 +33,7 @@ SUBCOMMANDS = {
     "info": "info",
     "params": "params",
     "check": "check",
+    "derive": "derive",
     "simulate": "simulate",
     "view": "view",
     "bench": "bench",

@@ -49,3 +49,10 @@ def test_locked_joint_is_welded_into_its_parent_link():
 def test_free_flyer_is_refused_by_name():
     with pytest.raises(InputError, match="root_joint.*revolute, continuous and prismatic"):
         link_table(robodyn.load("pendubot", free_flyer=True))
+
+
+def test_continuous_joint_off_a_canonical_axis_reads_its_axis():
+    table = link_table(robodyn.load("examples/urdf/double_pendulum.urdf"))
+    assert table["shoulder"].joint_type == "continuous"
+    np.testing.assert_allclose(table["shoulder"].axis, [0.0, -1.0, 0.0], atol=EXACT)
+    np.testing.assert_allclose(table["elbow"].axis, [0.0, 1.0, 0.0], atol=EXACT)

@@ -65,6 +65,12 @@ def add_parser(sub: Any) -> None:
     p.add_argument(
         "--mimic", action="store_true", help="keep URDF <mimic> couplings as mimic joints (checked with CRBA)"
     )
+    p.add_argument(
+        "--explain",
+        action="store_true",
+        help="name the wrong term of each mismatching entry in the formula's own symbols (its difference from "
+        "Pinocchio fitted over the samples, its coefficient named by the file's parameters)",
+    )
     p.add_argument("--json", action="store_true", help="print the report as JSON")
     p.set_defaults(handler=run)
 
@@ -114,6 +120,7 @@ def _check_all(args: argparse.Namespace, given: dict[str, Any] | None, process: 
             rtol=args.rtol,
             params=given,
             params_source=source,
+            explain=args.explain,
             **where,
         )
         reports.append(report)
@@ -243,16 +250,12 @@ def format_report(report: Any, robot: Any) -> str:
             lines.append(f"n/a: {r.quantity}: {r.note}")
     lines.extend(f"note: {note}" for note in report.notes)
     for r in report.failures + report.gaps:
-        label = "MISMATCH" if r.counts else "PINOCCHIO GAP"
-        ref = "Pinocchio" if r.group == "formula" else "expected"
-        got = "formula" if r.group == "formula" else "got"
-        lines.append(
-            f"{label} {r.entry_name()} ({r.quantity}): {got} {r.got:.10g}, {ref} {r.expected:.10g}, "
-            f"difference {r.got - r.expected:.3g} {r.unit} at sample {r.worst_sample}: "
-            f"q = {_vector(r.worst_q)}, v = {_vector(r.worst_v)}"
-        )
+        lines.extend(_mismatch_lines(r))
         if r.note:
             lines.append(f"    {r.note}")
+    if report.explanation:
+        lines.append("")
+        lines.extend(report.explanation)
     verdict = (
         "PASS: everything agrees within tolerance" if report.passed else f"FAIL: {len(report.failures)} mismatch(es)"
     )
@@ -261,8 +264,26 @@ def format_report(report: Any, robot: Any) -> str:
     return "\n".join(lines)
 
 
+def _mismatch_lines(r: Any) -> list[str]:
+    """``MISMATCH M[0,1] (M): formula .., Pinocchio ..``: the worst entry, then every other one out of tolerance."""
+    label = "MISMATCH" if r.counts else "PINOCCHIO GAP"
+    ref = "Pinocchio" if r.group == "formula" else "expected"
+    got = "formula" if r.group == "formula" else "got"
+    worst = (r.entry, r.got, r.expected, r.worst_sample, r.worst_q, r.worst_v)
+    others = [
+        (m.entry, m.got, m.expected, m.worst_sample, m.worst_q, m.worst_v) for m in r.mismatches if m.entry != r.entry
+    ]
+    return [
+        f"{label} {r.entry_label(entry)} ({r.quantity}): {got} {value:.10g}, {ref} {expected:.10g}, "
+        f"difference {value - expected:.3g} {r.unit} at sample {k}: q = {_vector(q)}, v = {_vector(v)}"
+        for entry, value, expected, k, q, v in (worst, *others)
+    ]
+
+
 def _origin(report: Any) -> str:
     """Where the parameters of a report came from, when the user did not give them."""
+    if report.kind == "any":
+        return "from the formula file (PARAMETERS or parameters(robot) of the link table)"
     return "from the formula file's parameters(scene)" if report.kind == "constrained" else "read from the model"
 
 

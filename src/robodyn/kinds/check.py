@@ -33,6 +33,8 @@ from numpy.typing import NDArray
 
 from robodyn import dynamics
 from robodyn.errors import AssumptionError, InputError
+from robodyn.kinds import any_check
+from robodyn.kinds.any_file import KIND as ANY
 from robodyn.kinds.check_rows import (
     DEFAULT_RTOL,
     FD_STEP,
@@ -43,15 +45,17 @@ from robodyn.kinds.check_rows import (
     CheckRow,
     formula_points,
     formula_values,
-    rescale,
     skew_scale,
 )
+from robodyn.kinds.explain import explain
 from robodyn.kinds.formula import Formula
 from robodyn.kinds.loop_check import loop_rows
 from robodyn.kinds.params import Params, extract, from_mapping
 from robodyn.kinds.reduced import KIND as CONSTRAINED
+from robodyn.kinds.reference import Reference
 from robodyn.kinds.sandbox import DEFAULT_TIMEOUT
 from robodyn.kinds.user import UserFormula, resolve
+from robodyn.model.links import JOINT_TYPES
 from robodyn.robot import Robot
 
 Array = NDArray[np.float64]
@@ -134,10 +138,21 @@ def _solve(M: Array, b: Array) -> Array:
 
 
 def _formula_rows(
-    robot: Robot, formula: Formula, p: Params, samples: list[_Sample], rtol: float, given: str | None
+    robot: Robot,
+    formula: Formula,
+    p: Params,
+    samples: list[_Sample],
+    rtol: float,
+    given: str | None,
+    reference: Reference | None = None,
+    keep: dict[str, Accumulator] | None = None,
 ) -> list[CheckRow]:
-    """The rows; ``given``: None, or the parameters were given (their refusals start with it) and M must be SPD."""
-    model, data = robot.model, robot.data
+    """The rows; ``given``: None, or the parameters were given (their refusals start with it) and M must be SPD.
+
+    ``reference`` is Pinocchio in the formula's coordinates (``samples`` are in them too; default: Pinocchio's
+    own); ``keep``, when given, receives the accumulators (what ``--explain`` fits).
+    """
+    ref = reference if reference is not None else Reference.identity(robot)
     fd_tol = max(rtol, FD_TOL)
     acc = {
         "M": Accumulator("M", "formula", "kg m^2 (kg on slides)", rtol),
@@ -148,42 +163,49 @@ def _formula_rows(
         "fd": Accumulator("a (forward dynamics)", "formula", "rad/s^2 (m/s^2 on slides)", rtol),
         "T": Accumulator("T = 1/2 v^T M v", "formula", "J", rtol),
         "skew": Accumulator("N = dM/dt - 2C skew (formula)", "structure", "kg m^2/s", fd_tol),
+        "sym": Accumulator("M = M^T (formula)", "structure", "kg m^2 (kg on slides)", rtol),
     }
     if formula.potential_energy is not None:
         acc["V"] = Accumulator("V - V(q0)", "formula", "J", rtol)
         acc["dV"] = Accumulator("G = dV/dq (formula)", "structure", "N m", fd_tol)
-    q_anchor = dynamics.neutral(model)
+    q_anchor = ref.anchor()
     n, nv = len(samples), robot.nv
     values = formula_values(formula, p, formula_points(formula, samples, q_anchor, nv))
     M_all, C_all, G_all, V_all = values.mass_matrix, values.coriolis_matrix, values.gravity, values.potential_energy
     if given is not None:
         _refuse_singular(p, M_all[:n], samples, given)
     n_scale = 0.0  # dM/dt - 2C has no reference of its own: see skew_scale
+    m_scale = 0.0  # nor has M - M^T: the formula's largest |M| entry
     for k, s in enumerate(samples):
-        M_p = dynamics.mass_matrix(model, data, s.q)
+        M_p = ref.mass_matrix(s.q)
         M_f, C_f, G_f = M_all[k], C_all[k], G_all[k]
         acc["M"].add(M_p, M_f)
-        acc["C"].add(dynamics.coriolis_matrix(model, data, s.q, s.v), C_f)
-        acc["G"].add(dynamics.gravity(model, data, s.q), G_f)
-        acc["nle"].add(dynamics.nonlinear_effects(model, data, s.q, s.v), C_f @ s.v + G_f)
-        acc["id"].add(dynamics.rnea(model, data, s.q, s.v, s.a), M_f @ s.a + C_f @ s.v + G_f)
-        acc["fd"].add(dynamics.aba(model, data, s.q, s.v, s.tau), _solve(M_f, s.tau - C_f @ s.v - G_f))
+        acc["C"].add(ref.coriolis_matrix(s.q, s.v), C_f)
+        acc["G"].add(ref.gravity(s.q), G_f)
+        acc["nle"].add(ref.nonlinear_effects(s.q, s.v), C_f @ s.v + G_f)
+        acc["id"].add(ref.rnea(s.q, s.v, s.a), M_f @ s.a + C_f @ s.v + G_f)
+        acc["fd"].add(ref.aba(s.q, s.v, s.tau), _solve(M_f, s.tau - C_f @ s.v - G_f))
         acc["T"].add(0.5 * float(s.v @ M_p @ s.v), 0.5 * float(s.v @ M_f @ s.v))
         Mdot = (M_all[n + k] - M_all[2 * n + k]) / (2 * FD_STEP)  # central difference along v
         N = Mdot - 2 * C_f
         acc["skew"].add(np.zeros_like(N), N + N.T)
+        acc["sym"].add(np.zeros_like(M_f), M_f - M_f.T)
+        m_scale = max(m_scale, float(np.abs(M_f).max()))
         n_scale = max(n_scale, skew_scale(Mdot, C_f, M_f, s.v))
         if formula.potential_energy is not None:
             acc["V"].add(
-                dynamics.potential_energy(model, data, s.q) - dynamics.potential_energy(model, data, q_anchor),
+                ref.potential_energy(s.q) - ref.potential_energy(q_anchor),
                 float(V_all[k]) - float(V_all[n]),
             )
             plus = V_all[n + 1 + k : n + 1 + nv * n : n]  # V(q + h e_i), i = 0 .. nv-1
             minus = V_all[n + 1 + nv * n + k :: n]  # V(q - h e_i)
             acc["dV"].add(G_f, (plus - minus) / (2 * FD_STEP))
+    if keep is not None:
+        keep.update(acc)
     scalars = {"T", "V"}
     rows = [a.row(samples, scalar=k in scalars) for k, a in acc.items()]
-    rows[list(acc).index("skew")] = rescale(acc["skew"].row(samples), n_scale)
+    rows[list(acc).index("skew")] = acc["skew"].row(samples, zero_reference_scale=n_scale)
+    rows[list(acc).index("sym")] = acc["sym"].row(samples, zero_reference_scale=m_scale)
     return rows
 
 
@@ -261,7 +283,7 @@ def _structure_rows(robot: Robot, samples: list[_Sample], rtol: float) -> list[C
         )
     rows = [
         spd.row(samples),
-        rescale(skew.row(samples), n_scale),
+        skew.row(samples, zero_reference_scale=n_scale),
         grad.row(samples),
         nle_row,
         columns.row(samples),
@@ -316,6 +338,7 @@ def check(
     loops: Iterable[Any] = (),
     springs: Any = None,
     scene: str | Path | None = None,
+    explain: bool = False,
 ) -> CheckReport:
     """Compare ``robot``'s Pinocchio dynamics with ``formula`` and with its own identities.
 
@@ -346,6 +369,9 @@ def check(
         springs: a constrained formula's joint springs: joint -> ``{"stiffness", "rest"}`` (or
             a Spring, or ``(k, rest)``), or (joint, spring) pairs.
         scene: the scene file a constrained formula's ``parameters(scene)`` reads.
+        explain: name the wrong term of each mismatching entry of M, C, G and V in the formula's own
+            symbols, and say what the knock-on rows follow from (:mod:`robodyn.kinds.explain`); the lines
+            are the report's ``explanation``.
 
     Raises:
         AssumptionError: the model is not of the formula's kind.
@@ -370,6 +396,8 @@ def check(
     kind = None
     source = None
     notes: tuple[str, ...] = ()
+    kept: dict[str, Accumulator] = {}  # the formula rows' accumulators, for --explain
+    explained: tuple[list[_Sample], Reference] | None = None  # and the states they were taken at
     if formula is not None:
         resolved = resolve(formula, timeout=formula_timeout) if isinstance(formula, str) else formula
         try:
@@ -380,6 +408,17 @@ def check(
                     params=params, samples=samples, seed=seed, rtol=rtol,
                 )  # fmt: skip
                 rows, used, notes = list(found.rows), found.params, found.notes
+            elif kind == ANY:
+                setup = any_check.prepare(robot, resolved, None if params is None else dict(params))
+                ref = setup.reference
+                mapped = [
+                    _Sample(ref.formula_q(s.q), ref.formula_v(s.v), ref.formula_v(s.a), ref.formula_v(s.tau))
+                    for s in _draw_samples(setup.robot, samples, seed)
+                ]
+                used, notes = setup.params, setup.notes
+                p_any = Params(ANY, used)
+                rows += _formula_rows(setup.robot, resolved, p_any, mapped, rtol, None, reference=ref, keep=kept)
+                explained = (mapped, ref)
             else:
                 try:
                     p = extract(robot, resolved.kind)
@@ -389,12 +428,16 @@ def check(
                 if params is not None and given is not None:
                     p = _given_params(resolved.kind, params, given)
                 used = p.as_dict()
-                rows += _formula_rows(robot, resolved, p, states, rtol, given)
+                rows += _formula_rows(robot, resolved, p, states, rtol, given, keep=kept)
+                explained = (states, Reference.identity(robot))
         finally:
             if isinstance(formula, str) and isinstance(resolved, UserFormula):
                 resolved.close()  # the file's process was this check's own
     rows += _structure_rows(robot, states, rtol)
     rows.sort(key=lambda r: GROUP_ORDER.index(r.group))  # stable: keeps the order within a group
+    explanation: tuple[str, ...] = ()
+    if explain and explained is not None:
+        explanation = explain_rows(rows, kept, *explained, used)
     if kind != CONSTRAINED and (tuple(loops) or springs):
         notes += ("the loops and springs are not checked: only a KIND = 'constrained' formula lives on them",)
     return CheckReport(
@@ -410,4 +453,15 @@ def check(
         wall_time_s=time.perf_counter() - start,
         notes=notes,
         params_given=params is not None,
+        explanation=explanation,
     )
+
+
+def explain_rows(
+    rows: list[CheckRow], kept: dict[str, Accumulator], states: list[_Sample], ref: Reference, used: Mapping[str, float]
+) -> tuple[str, ...]:
+    """``--explain``'s lines (:func:`robodyn.kinds.explain.explain`), the coordinates' kinds read from ``ref``."""
+    joints = [next(j for j in ref.robot.joints if j.idx_v == column) for column in ref.columns]
+    prismatic = [JOINT_TYPES.get(j.kind) == "prismatic" for j in joints]
+    g = float(np.linalg.norm(dynamics.gravity_vector(ref.robot.model)))
+    return explain(rows, kept, states, used, prismatic=prismatic, g=g)

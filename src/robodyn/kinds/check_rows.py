@@ -31,6 +31,26 @@ FD_TOL = 1e-6  # what the finite-difference rows are held to (above their error,
 
 
 @dataclass(frozen=True)
+class EntryMismatch:
+    """One entry of a compared quantity that is out of tolerance: its worst error over the samples, and where."""
+
+    entry: tuple[int, ...]
+    max_abs_error: float
+    max_rel_error: float  # relative to the row's scale (the largest magnitude of the whole quantity)
+    worst_sample: int
+    worst_q: Array
+    worst_v: Array
+    expected: float
+    got: float
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready dict."""
+        out = {f.name: getattr(self, f.name) for f in fields(self)}
+        out.update(worst_q=self.worst_q.tolist(), worst_v=self.worst_v.tolist(), entry=list(self.entry))
+        return out
+
+
+@dataclass(frozen=True)
 class CheckRow:
     """One compared quantity: the worst error over the samples, and where it happened."""
 
@@ -49,6 +69,9 @@ class CheckRow:
     counts: bool = True  # False: reported, but does not fail the check (Pinocchio's own gaps)
     note: str = ""
     applicable: bool = True  # False: Pinocchio refuses the routine on this model (mimic joints)
+    # Every entry out of tolerance, worst first (the row's own worst entry included); of a symmetric
+    # quantity only the upper triangle. Empty for a row within tolerance.
+    mismatches: tuple[EntryMismatch, ...] = ()
 
     @property
     def passed(self) -> bool:
@@ -73,7 +96,12 @@ class CheckRow:
         """JSON-ready dict: every field (arrays as lists) and the status."""
         out = {f.name: getattr(self, f.name) for f in fields(self)}
         out.update(worst_q=self.worst_q.tolist(), worst_v=self.worst_v.tolist(), entry=list(self.entry))
+        out.update(mismatches=[m.as_dict() for m in self.mismatches])
         return {**out, "status": self.status}
+
+    def entry_label(self, entry: tuple[int, ...]) -> str:
+        """``M[0,1]`` for any ``entry`` of this row's quantity."""
+        return replace(self, entry=entry).entry_name()
 
 
 @dataclass(frozen=True)
@@ -92,6 +120,7 @@ class CheckReport:
     wall_time_s: float
     notes: tuple[str, ...] = field(default_factory=tuple)
     params_given: bool = False  # True: the parameters were given by the user, not read from the model
+    explanation: tuple[str, ...] = ()  # --explain: the lines naming each mismatching entry's wrong term
 
     @property
     def passed(self) -> bool:
@@ -118,7 +147,7 @@ class CheckReport:
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready dict: every field (rows as dicts) and the verdict."""
         out = {f.name: getattr(self, f.name) for f in fields(self)}
-        out.update(notes=list(self.notes), rows=[r.as_dict() for r in self.rows])
+        out.update(notes=list(self.notes), rows=[r.as_dict() for r in self.rows], explanation=list(self.explanation))
         return {**out, "passed": self.passed}
 
 
@@ -136,8 +165,11 @@ class Accumulator:
             (np.atleast_1d(np.asarray(reference, dtype=np.float64)), np.atleast_1d(np.asarray(value, dtype=np.float64)))
         )
 
-    def row(self, samples: list[Any], scalar: bool = False) -> CheckRow:
-        """The worst error over the pairs, relative to the largest reference; ``samples[k]`` has q and v."""
+    def row(self, samples: list[Any], scalar: bool = False, zero_reference_scale: float | None = None) -> CheckRow:
+        """The worst error over the pairs, relative to the largest reference; ``samples[k]`` has q and v.
+
+        ``zero_reference_scale``: what a quantity whose reference is zero is measured against (:func:`rescale`).
+        """
         scale = max(float(np.max(np.abs(ref))) for ref, _ in self.pairs)
         errors = [np.abs(val - ref) for ref, val in self.pairs]
         worst = int(np.argmax([e.max() for e in errors]))
@@ -147,12 +179,56 @@ class Accumulator:
         rel_err = 0.0 if abs_err == 0.0 else (abs_err / scale if scale > 0 else abs_err)
         ref, val = self.pairs[worst]
         entry = np.unravel_index(int(np.argmax(errors[worst])), errors[worst].shape)
-        return CheckRow(
+        row = CheckRow(
             self.quantity, self.group, self.unit, abs_err, rel_err, self.tolerance, worst,
             samples[worst].q.copy(), samples[worst].v.copy(),
             () if scalar else tuple(int(i) for i in entry),
             float(ref[entry]), float(val[entry]), self.counts, self.note,
         )  # fmt: skip
+        if zero_reference_scale is not None:
+            row = rescale(row, zero_reference_scale)
+        return with_mismatches(row, self.pairs, samples, scalar=scalar)
+
+
+def with_mismatches(
+    row: CheckRow, pairs: list[tuple[Array, Array]], samples: list[Any], *, scalar: bool = False
+) -> CheckRow:
+    """``row`` with every entry out of tolerance listed (:attr:`CheckRow.mismatches`).
+
+    An entry's relative error is its worst absolute error over the samples divided by the row's own
+    ratio of absolute to relative error.
+    """
+    if row.passed or not pairs or any(ref.shape != pairs[0][0].shape for ref, _ in pairs):
+        return replace(row, mismatches=())
+    refs = np.array([ref for ref, _ in pairs])
+    vals = np.array([val for _, val in pairs])
+    errors = np.abs(vals - refs)  # (k, *shape)
+    scale = row.max_abs_error / row.max_rel_error if row.max_rel_error > 0 else 1.0
+    per_entry = errors.max(axis=0)
+    symmetric = (
+        per_entry.ndim == 2
+        and per_entry.shape[0] == per_entry.shape[1]
+        and np.array_equal(errors, errors.transpose(0, 2, 1))
+    )
+    found = []
+    for entry in zip(*np.nonzero(per_entry / scale > row.tolerance), strict=True):
+        if symmetric and entry[0] > entry[1]:
+            continue
+        k = int(np.argmax(errors[(slice(None), *entry)]))
+        found.append(
+            EntryMismatch(
+                () if scalar else tuple(int(i) for i in entry),
+                float(per_entry[entry]),
+                float(per_entry[entry] / scale),
+                k,
+                samples[k].q.copy(),
+                samples[k].v.copy(),
+                float(refs[(k, *entry)]),
+                float(vals[(k, *entry)]),
+            )
+        )
+    found.sort(key=lambda m: -m.max_abs_error)
+    return replace(row, mismatches=tuple(found))
 
 
 def formula_points(formula: Formula, samples: list[Any], q_anchor: Array, nv: int) -> Points:
@@ -196,4 +272,5 @@ def rescale(row: CheckRow, scale: float) -> CheckRow:
     can be left, so the error is measured against 1 in the row's unit.
     """
     error = row.max_abs_error
-    return replace(row, max_rel_error=0.0 if error == 0.0 else error / scale if scale > 0 else error)
+    ratio = scale if scale > 0 else 1.0
+    return replace(row, max_rel_error=0.0 if error == 0.0 else error / ratio)

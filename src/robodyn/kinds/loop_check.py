@@ -45,7 +45,6 @@ from robodyn.kinds.check_rows import (
     CheckRow,
     formula_points,
     formula_values,
-    rescale,
     skew_scale,
 )
 from robodyn.kinds.formula import Formula
@@ -339,7 +338,7 @@ def _rows(
             minus = V_all[n + 1 + dof * n + k :: n]
             acc["dV"].add(G_f, (plus - minus) / (2 * FD_STEP))
     rows = [a.row(samples, scalar=key == "V") for key, a in acc.items()]
-    rows[list(acc).index("skew")] = rescale(acc["skew"].row(samples), n_scale)
+    rows[list(acc).index("skew")] = acc["skew"].row(samples, zero_reference_scale=n_scale)
     return rows
 
 

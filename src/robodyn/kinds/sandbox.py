@@ -41,7 +41,7 @@ from typing import IO, Any
 import numpy as np
 
 from robodyn.errors import FormulaError, InputError
-from robodyn.kinds import reduced
+from robodyn.kinds import any_file, reduced
 from robodyn.kinds.evaluation import FUNCTIONS, Points, Values, evaluate, value_shape
 from robodyn.kinds.formula import Array, Formula
 from robodyn.kinds.user_file import load_in_process
@@ -202,6 +202,7 @@ class _Child:
                         "param_names": list(formula.param_names),
                         "potential": formula.potential_energy is not None,
                         "independent": list(getattr(formula, "independent", ())),
+                        **any_file.loaded_header(formula),
                     }
                 )
             elif header["op"] == "evaluate" and self.formula is not None:
@@ -212,7 +213,8 @@ class _Child:
                 self.send({"op": "values"}, {name: values.of(name) for name in FUNCTIONS})
             elif header["op"] == "call" and self.formula is not None:  # a constrained file's parameters, on_the_loop
                 formula, self.running = self.formula, str(header.get("function"))
-                self.send(*_limited(self.timeout, lambda: reduced.serve(formula, header, arrays)))
+                serve_call = any_file.serve if formula.kind == any_file.KIND else reduced.serve
+                self.send(*_limited(self.timeout, lambda: serve_call(formula, header, arrays)))
             else:
                 self.send({"op": "error", "message": f"{self.source}: robodyn sent a request out of order"})
         except FormulaError as exc:

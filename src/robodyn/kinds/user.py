@@ -51,6 +51,10 @@ class UserFormula(Formula):
     path: Path = field(default=Path(), kw_only=True)
     process: FormulaProcess | None = field(default=None, kw_only=True, compare=False, repr=False)
     independent: tuple[str, ...] = field(default=(), kw_only=True)  # KIND = "constrained": its coordinates' joints
+    # KIND = "any" (robodyn.kinds.any_file): independent is JOINTS; q_formula = sign * q_urdf + offset; LOCKED
+    signs: tuple[float, ...] = field(default=(), kw_only=True)
+    offsets: tuple[float, ...] = field(default=(), kw_only=True)
+    locked: tuple[tuple[str, float], ...] = field(default=(), kw_only=True)
 
     def evaluate(self, p: Mapping[str, float], points: Points) -> Values:
         """The file's functions at every point of ``points``, in one round trip to its process."""
@@ -59,6 +63,11 @@ class UserFormula(Formula):
     def parameters(self, scene: str | None) -> dict[str, float]:
         """A constrained file's ``parameters(scene)`` (``scene``: the scene file's path), run in its process."""
         header, _ = self._process().call({"function": "parameters", "scene": scene})
+        return checked_parameters(header.get("params"), self.source)
+
+    def link_parameters(self, table: Any) -> dict[str, float]:
+        """A ``KIND = "any"`` file's PARAMETERS or ``parameters(robot)`` of the per-link ``table``, in its process."""
+        header, _ = self._process().call({"function": "parameters", "robot": table.as_dict()})
         return checked_parameters(header.get("params"), self.source)
 
     def loop_states(self, q: Array, v: Array, p: Mapping[str, float]) -> LoopStates:
@@ -137,6 +146,9 @@ def load_user_formula(
         path=Path(path),
         process=process,
         independent=tuple(str(name) for name in info.get("independent", ())),
+        signs=tuple(float(x) for x in info.get("signs", ())),
+        offsets=tuple(float(x) for x in info.get("offsets", ())),
+        locked=tuple((str(name), float(x)) for name, x in info.get("locked", ())),
     )
 
 

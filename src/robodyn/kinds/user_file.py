@@ -21,6 +21,8 @@ from types import ModuleType
 import numpy as np
 
 from robodyn.errors import FormulaError
+from robodyn.kinds.any_file import KIND as ANY
+from robodyn.kinds.any_file import load_any
 from robodyn.kinds.formula import Array, Formula
 from robodyn.kinds.formulas import KINDS, get
 from robodyn.kinds.geared_arm import from_motor_coordinates
@@ -48,10 +50,12 @@ def load_in_process(path: Path, source: str) -> Formula:
     )
     kind = getattr(module, "KIND", None)
     kinds = ", ".join(KINDS.names())
-    closed = f"; or {CONSTRAINED!r}: a closed chain's reduced Lagrangian"
+    closed = (
+        f"; or {ANY!r}: any tree robot in your own coordinates; or {CONSTRAINED!r}: a closed chain's reduced Lagrangian"
+    )
     if not isinstance(kind, str):
         raise FormulaError(f"{source}: define KIND as one of {kinds} (found {kind!r}){closed}")
-    if kind not in KINDS and kind != CONSTRAINED:
+    if kind not in KINDS and kind not in (CONSTRAINED, ANY):
         raise FormulaError(f"{source}: KIND = {kind!r} is not a known kind; expected one of {kinds}{closed}")
     missing = [f for f in REQUIRED_FUNCTIONS if not callable(getattr(module, f, None))]
     if missing:
@@ -61,6 +65,8 @@ def load_in_process(path: Path, source: str) -> Formula:
         )
     if kind == CONSTRAINED:
         return _constrained(module, source, path)
+    if kind == ANY:
+        return load_any(module, source, path, _shape_checked)
     builtin = get(kind)
     n = builtin.dof
     M = _shape_checked(module.mass_matrix, "mass_matrix", (n, n), source, path)

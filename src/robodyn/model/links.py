@@ -26,15 +26,12 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from robodyn.errors import InputError
-
-if TYPE_CHECKING:
-    from robodyn.robot import Robot
 
 Array = NDArray[np.float64]
 
@@ -157,8 +154,19 @@ class LinkTable(Mapping[str, Link]):
         return cls(str(data["name"]), tuple(Link(**link) for link in data["links"]), np.array(data["gravity"]))
 
 
-def link_table(robot: Robot) -> LinkTable:
-    """The per-link table of ``robot`` (lock joints first, :func:`robodyn.model.reduce.reduce`, to weld them).
+def _axis(joint_model: Any, q: Array, prismatic: bool) -> Array:
+    """The unit axis of a 1-DoF joint in its own frame: its motion subspace S (linear; angular), at ``q``."""
+    data = joint_model.createData()
+    joint_model.calc(data, q)
+    S = np.array(data.S, dtype=np.float64).reshape(6)
+    return S[:3] if prismatic else S[3:]
+
+
+def link_table(robot: Any) -> LinkTable:
+    """The per-link table of a :class:`robodyn.Robot` (lock joints first, :func:`robodyn.model.reduce.reduce`).
+
+    Reads the Pinocchio model's numbers only (no dynamics is computed), so this module never loads
+    Pinocchio itself and a formula's process can rebuild a table (:meth:`LinkTable.from_dict`).
 
     Raises:
         InputError: a moving joint is not revolute, continuous or prismatic (a free flyer, a
@@ -166,9 +174,6 @@ def link_table(robot: Robot) -> LinkTable:
     """
     model = robot.model
     neutral = robot.neutral()
-    from robodyn import dynamics
-
-    frames = dynamics.joint_frames(model, robot.data, neutral)
     links = []
     for j, info in enumerate(robot.joints, start=1):
         joint_type = JOINT_TYPES.get(info.kind)
@@ -177,8 +182,6 @@ def link_table(robot: Robot) -> LinkTable:
                 f"{robot.name}: joint {info.name!r} is a {info.kind}; the link table covers revolute, continuous "
                 "and prismatic joints (lock the others)"
             )
-        placement, linear, angular = frames[j - 1]
-        world_axis = linear if joint_type == "prismatic" else angular
         inertia = model.inertias[j]
         parent = int(model.parents[j])
         links.append(
@@ -191,7 +194,7 @@ def link_table(robot: Robot) -> LinkTable:
                 inertia=np.array(inertia.inertia),
                 origin=np.array(model.jointPlacements[j].translation),
                 rotation=np.array(model.jointPlacements[j].rotation),
-                axis=placement[:3, :3].T @ world_axis,
+                axis=_axis(model.joints[j], neutral, joint_type == "prismatic"),
                 armature=float(model.armature[info.idx_v]),
             )
         )

@@ -1,0 +1,98 @@
+"""A ``KIND = "any"`` formula against Pinocchio: the model it describes, and Pinocchio in its coordinates.
+
+The file (:mod:`robodyn.kinds.any_file`) names the joints its q1, q2, ... stand for. The model it
+describes is the robot with every other joint locked at ``LOCKED`` (default: the neutral pose) and
+welded to its parent, by the same reduction as ``--lock`` (:func:`robodyn.model.reduce.reduce`).
+Its parameters are the file's ``PARAMETERS`` or its ``parameters(robot)`` of that model's per-link
+table (:func:`robodyn.model.links.link_table`). Pinocchio's M, C, G, RNEA and ABA are then mapped to
+the formula's coordinates exactly (:class:`robodyn.kinds.reference.Reference`), and
+:mod:`robodyn.kinds.check` compares them row by row as for a built-in kind.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from robodyn.errors import FormulaError
+from robodyn.kinds.formula import Formula
+from robodyn.kinds.reduced import checked_parameters
+from robodyn.kinds.reference import Reference
+from robodyn.model.links import JOINT_TYPES, LinkTable, link_table
+from robodyn.model.reduce import reduce
+from robodyn.robot import Robot
+
+
+@dataclass(frozen=True, eq=False)
+class AnySetup:
+    """What a check of a ``KIND = "any"`` formula needs: the model it describes, Pinocchio on it, the parameters."""
+
+    robot: Robot  # the model the formula describes: its JOINTS moving, the rest locked
+    reference: Reference  # Pinocchio on ``robot``, in the formula's coordinates
+    table: LinkTable  # the per-link table parameters(robot) read
+    params: dict[str, float]
+    notes: tuple[str, ...]
+
+
+def prepare(robot: Robot, formula: Formula, params: dict[str, float] | None = None) -> AnySetup:
+    """Reduce ``robot`` to the formula's joints, map Pinocchio to its coordinates and read its parameters.
+
+    ``params``: the parameters given by the user (``--params``), in place of the file's.
+
+    Raises:
+        FormulaError: JOINTS or LOCKED names a joint the robot lacks, or a joint that is not revolute,
+            continuous or prismatic; the file's parameters(robot) fails.
+    """
+    joints: tuple[str, ...] = getattr(formula, "independent", ())
+    signs: tuple[float, ...] = getattr(formula, "signs", ())
+    offsets: tuple[float, ...] = getattr(formula, "offsets", ())
+    locked: dict[str, float] = dict(getattr(formula, "locked", ()))
+    names = robot.joint_names
+    for joint in (*joints, *locked):
+        if joint not in names:
+            where = "JOINTS" if joint in joints else "LOCKED"
+            raise FormulaError(
+                f"{formula.source}: {where} names {joint!r}, which is not a moving joint of {robot.name}; "
+                f"its moving joints are {', '.join(names)}"
+            )
+    for joint in joints:
+        kind = robot.joint(joint).kind
+        if kind not in JOINT_TYPES:
+            raise FormulaError(
+                f"{formula.source}: JOINTS names {joint!r}, a {kind}; KIND = 'any' takes revolute, continuous "
+                "and prismatic joints (leave it out to lock it)"
+            )
+    rest = tuple(n for n in names if n not in joints)
+    model = robot if not rest else reduce(robot, keep=joints, lock=locked).reduced
+    reference = Reference.mapped(model, joints, signs, offsets)
+    table = link_table(model)
+    if params is None:
+        read = getattr(formula, "link_parameters", None)
+        if read is None:
+            raise FormulaError(f"{formula.source}: KIND = 'any' needs PARAMETERS or parameters(robot)")
+        used = read(table)
+    else:
+        used = checked_parameters(params, formula.source)
+    return AnySetup(model, reference, table, used, _notes(joints, signs, offsets, rest, locked, model))
+
+
+def _notes(
+    joints: tuple[str, ...],
+    signs: tuple[float, ...],
+    offsets: tuple[float, ...],
+    rest: tuple[str, ...],
+    locked: dict[str, float],
+    model: Robot,
+) -> tuple[str, ...]:
+    """``coordinates: q1 = joint1 + 1.5708 rad, q2 = -joint2`` and the locked joints."""
+    parts = []
+    for i, (joint, sign, offset) in enumerate(zip(joints, signs, offsets, strict=True), start=1):
+        unit = "m" if JOINT_TYPES.get(model.joint(joint).kind) == "prismatic" else "rad"
+        term = f"{'-' if sign < 0 else ''}{joint}"
+        if offset:
+            term += f" {'+' if offset > 0 else '-'} {abs(offset):.6g} {unit}"
+        parts.append(f"q{i} = {term}")
+    notes = [f"coordinates: {', '.join(parts)} (the q, v of a mismatch are the formula's)"]
+    if rest:
+        held = ", ".join(f"{name} at {locked[name]:.6g}" if name in locked else f"{name} at neutral" for name in rest)
+        notes.append(f"locked (welded to their parents): {held}")
+    return tuple(notes)

@@ -232,6 +232,36 @@ def test_cli_python_output_is_written_atomically(tmp_path, capsys):
     assert f"wrote {out}" in capsys.readouterr().out
 
 
+CHECKED = [
+    ("pendubot", None),
+    ("cart_pole", None),
+    ("geared_arm", None),
+    ("ur5", None),
+    ("examples/urdf/double_pendulum.urdf", "examples/formulas/double_pendulum.py"),
+    ("spatial_arm", None),
+    ("cart_double_pendulum", None),
+    ("panda", "locked"),
+]
+
+
+@pytest.mark.parametrize(("model", "coordinates"), CHECKED, ids=[m.split("/")[-1] for m, _ in CHECKED])
+def test_python_output_passes_robodyn_check(model, coordinates, tmp_path, capsys):
+    if model in SYSTEMS:
+        model = str(SYSTEMS[model](tmp_path / f"{model}.urdf"))
+    args = ["--samples", "5"]
+    if coordinates == "locked":
+        coordinates = tmp_path / "locked.py"
+        coordinates.write_text('JOINTS = ["panda_joint4", "panda_joint2"]\nLOCKED = {"panda_joint3": 0.4}\n')
+    if coordinates is not None:
+        args += ["--coordinates", str(ROOT / coordinates)]
+    out = tmp_path / "derived.py"
+    model_arg = str(ROOT / model) if model.startswith("examples/") else model
+    assert main(["derive", model_arg, "--format", "python", "--out", str(out), *args]) == 0
+    capsys.readouterr()
+    assert main(["check", model_arg, "--formula", str(out), "--samples", "20"]) == 0, capsys.readouterr().out
+    assert "PASS: everything agrees within tolerance" in capsys.readouterr().out
+
+
 def test_cli_refuses_more_than_six_joints_in_one_line(capsys):
     assert main(["derive", "talos_arm"]) == 2
     err = capsys.readouterr().err
@@ -257,8 +287,9 @@ def test_read_coordinates_takes_pi_and_arithmetic(tmp_path):
     f.write_text(
         'import numpy as np\nJOINTS = ("a", "b")\nCOORDINATES = {"a": (-1, -np.pi / 2 + 0.5), "b": (1.0, 2 * pi)}\n'
     )
-    joints, maps = read_coordinates(f)
+    joints, maps, locked = read_coordinates(f)
     assert joints == ["a", "b"] and maps == {"a": (-1.0, -math.pi / 2 + 0.5), "b": (1.0, 2 * math.pi)}
+    assert locked == {}
     f.write_text("X = 1\n")
     with pytest.raises(InputError, match="no JOINTS"):
         read_coordinates(f)

@@ -100,7 +100,7 @@ def run(args: argparse.Namespace) -> int:
     if args.out is not None:
         refuse_clobbering([("--out", args.out)], [("the coordinates file", args.coordinates)])
         writable_path(args.out)
-    robot, table, coordinates = _model(args)
+    robot, table, coordinates, locked = _model(args)
     if args.out is not None:
         refuse_clobbering([("--out", args.out)], [("the model's URDF", robot.urdf_path), ("its SRDF", robot.srdf_path)])
     from robodyn.lagrange.derivation import derive
@@ -125,12 +125,13 @@ def run(args: argparse.Namespace) -> int:
             model=args.model,
             out=out,
             coordinates_file=str(args.coordinates) if args.coordinates else None,
+            locked=locked,
             version=__version__,
         )
     elif args.format == "latex":
         text = render.latex(expressions) + "\n"
     else:
-        body = render.steps(expressions) if args.steps else render.text(expressions, model=args.model)
+        body = render.steps(expressions) if args.steps else render.text(expressions)
         verdict = (
             f"self-check: M, C, C v and G agree with Pinocchio at {check.samples} seeded states "
             f"(seed {check.seed}; largest relative difference {check.max_relative:.1e}, tolerance {check.rtol:g})"
@@ -149,7 +150,7 @@ def run(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _model(args: argparse.Namespace) -> tuple[Any, Any, Any]:
+def _model(args: argparse.Namespace) -> tuple[Any, Any, Any, dict[str, float]]:
     """(robot the derivation describes, its link table, the coordinates): joints outside JOINTS locked at neutral."""
     from robodyn.errors import InputError
     from robodyn.lagrange.coordinates import read_coordinates
@@ -157,7 +158,7 @@ def _model(args: argparse.Namespace) -> tuple[Any, Any, Any]:
     from robodyn.model.links import link_table
     from robodyn.model.load import load
 
-    joints, maps = read_coordinates(args.coordinates) if args.coordinates is not None else (None, {})
+    joints, maps, locked = read_coordinates(args.coordinates) if args.coordinates is not None else (None, {}, {})
     robot = load(args.model, srdf=args.srdf)
     if joints is None and len(robot.joints) > MAX_JOINTS:
         raise InputError(
@@ -177,12 +178,12 @@ def _model(args: argparse.Namespace) -> tuple[Any, Any, Any]:
         if set(joints) != set(robot.joint_names):
             from robodyn.model.reduce import reduce
 
-            robot = reduce(robot, keep=joints).reduced
+            robot = reduce(robot, keep=joints, lock=locked).reduced
     table = link_table(robot)
     kinds = {link.joint: link.joint_type for link in table.links}
     order = joints if joints is not None else list(table.joints)
     coordinates = [Coordinate(j, kinds[j], *maps.get(j, (1.0, 0.0))) for j in order]
-    return robot, table, coordinates
+    return robot, table, coordinates, locked
 
 
 def _vector(x: Any) -> str:

@@ -4,6 +4,7 @@
 
     JOINTS = ["shoulder", "elbow"]                                  # q1, q2 stand for these joints
     COORDINATES = {"shoulder": (1.0, math.pi / 2), "elbow": (-1, 0)}   # q = sign * q_urdf + offset
+    LOCKED = {"wrist": 0.3}                                         # the joints not in JOINTS, held there
 
 The file is parsed, not imported (a derivation never runs a user's code): each value must be
 a literal, and a number may be written with ``pi`` (``math.pi``, ``np.pi``, ``numpy.pi``) and
@@ -24,8 +25,8 @@ MAX_BYTES = 2**20  # a formula file is a few kB; this one is only parsed
 _PI_NAMES = {"pi", "math.pi", "np.pi", "numpy.pi"}
 
 
-def read_coordinates(path: Path) -> tuple[list[str], dict[str, tuple[float, float]]]:
-    """(JOINTS, COORDINATES) of a formula file; COORDINATES is ``{}`` when the file has none.
+def read_coordinates(path: Path) -> tuple[list[str], dict[str, tuple[float, float]], dict[str, float]]:
+    """(JOINTS, COORDINATES, LOCKED) of a formula file; COORDINATES and LOCKED are ``{}`` when the file has none.
 
     Raises:
         InputError: the file cannot be read or parsed, has no ``JOINTS`` list of names, or a
@@ -74,7 +75,18 @@ def read_coordinates(path: Path) -> tuple[list[str], dict[str, tuple[float, floa
                     f"{path}: COORDINATES[{joint!r}] = {tuple(pair)!r}: the sign must be 1 or -1 and the offset finite"
                 )
             maps[str(joint)] = (sign, offset)
-    return [str(j) for j in joints], maps
+    locked: dict[str, float] = {}
+    if "LOCKED" in found:
+        raw_locked = _value(found["LOCKED"], path, "LOCKED")
+        if not isinstance(raw_locked, dict):
+            raise InputError(f"{path}: LOCKED must be a dict joint -> value [rad | m] for joints not in JOINTS")
+        for joint, x in raw_locked.items():
+            if joint in joints or not isinstance(x, int | float) or not math.isfinite(float(x)):
+                raise InputError(
+                    f"{path}: LOCKED[{joint!r}] = {x!r}: expected a finite value of a joint that is not in JOINTS"
+                )
+            locked[str(joint)] = float(x)
+    return [str(j) for j in joints], maps, locked
 
 
 def _value(node: ast.expr, path: Path, name: str) -> Any:

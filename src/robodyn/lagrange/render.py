@@ -21,7 +21,8 @@ def _coordinates(d: Derivation) -> str:
         unit = "rad" if c.angular else "m"
         urdf = c.joint if c.sign > 0 else f"-{c.joint}"
         if c.offset:
-            urdf = f"{urdf} + {c.offset:.6g}"
+            offset = _float(c.offset).replace("np.", "")
+            urdf = f"{urdf} - {offset.lstrip('-')}" if offset.startswith("-") else f"{urdf} + {offset}"
         parts.append(f"q{i} = {urdf} [{unit}]")
     return ", ".join(parts) + "; v = dq/dt"
 
@@ -33,7 +34,7 @@ def _param_lines(d: Derivation) -> list[str]:
     return [f"  {p.name:<{width}} = {v:<{room}}  {p.meaning}" for p, v in zip(d.params, values, strict=True)]
 
 
-def text(s: Symbolic, *, model: str) -> str:
+def text(s: Symbolic) -> str:
     """M, C, G, T and V as a textbook prints them, with the parameters' values."""
     sp = sympy()
     d = s.derivation
@@ -42,7 +43,7 @@ def text(s: Symbolic, *, model: str) -> str:
         f"{d.robot}: the Lagrangian of {n} joint{'s' if n > 1 else ''} ({', '.join(c.joint for c in d.coordinates)}), "
         f"derived symbolically in {d.wall_time_s:.2f} s",
         f"coordinates: {_coordinates(d)}",
-        f"parameters, read from the model (robodyn derive {model} --format python writes them as parameters(robot)):",
+        "parameters, read from the model (--format python writes them as parameters(robot)):",
         *_param_lines(d),
         "",
         "T = 1/2 v^T M(q) v",
@@ -137,7 +138,15 @@ def steps(s: Symbolic) -> str:
     return "\n".join(out)
 
 
-def python(s: Symbolic, *, model: str, out: str, coordinates_file: str | None, version: str) -> str:
+def python(
+    s: Symbolic,
+    *,
+    model: str,
+    out: str,
+    coordinates_file: str | None,
+    version: str,
+    locked: dict[str, float] | None = None,
+) -> str:
     """A ``KIND = "any"`` formula file that ``robodyn check MODEL --formula FILE`` passes."""
     sp = sympy()
     from sympy.printing.numpy import NumPyPrinter
@@ -165,6 +174,9 @@ def python(s: Symbolic, *, model: str, out: str, coordinates_file: str | None, v
     if any(c.sign != 1.0 or c.offset != 0.0 for c in d.coordinates):
         entries = ", ".join(f"{c.joint!r}: ({c.sign:g}, {_float(c.offset)})" for c in d.coordinates)
         lines.append(f"COORDINATES = {{{entries}}}  # q = sign * q_urdf + offset")
+    if locked:
+        held = ", ".join(f"{joint!r}: {_float(x)}" for joint, x in locked.items())
+        lines.append(f"LOCKED = {{{held}}}  # the other joints are held at the neutral pose")
     lines += [
         "",
         "",

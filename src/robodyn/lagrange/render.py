@@ -36,7 +36,6 @@ def _param_lines(d: Derivation) -> list[str]:
 
 def text(s: Symbolic) -> str:
     """M, C, G, T and V as a textbook prints them, with the parameters' values."""
-    sp = sympy()
     d = s.derivation
     n = d.n
     lines = [
@@ -47,24 +46,24 @@ def text(s: Symbolic) -> str:
         *_param_lines(d),
         "",
         "T = 1/2 v^T M(q) v",
-        f"V = {sp.sstr(s.V)}",
+        f"V = {s.sstr(s.V)}",
         "",
     ]
     for i in range(n):
         for j in range(i, n):
             name = f"M[{i},{j}]" if i == j else f"M[{i},{j}] = M[{j},{i}]"
-            lines.append(f"{name} = {sp.sstr(s.M[i, j])}")
+            lines.append(f"{name} = {s.sstr(s.M[i, j])}")
     lines.append("")
     lines.append("C (Christoffel: C[i,j] = sum_k Gamma_ijk v_k, so dM/dt - 2C is skew):")
     zero = [f"C[{i},{j}]" for i in range(n) for j in range(n) if s.C[i, j] == 0]
     for i in range(n):
         for j in range(n):
             if s.C[i, j] != 0:
-                lines.append(f"C[{i},{j}] = {sp.sstr(s.C[i, j])}")
+                lines.append(f"C[{i},{j}] = {s.sstr(s.C[i, j])}")
     if zero:
         lines.append(f"{', '.join(zero) if len(zero) <= 6 else f'the other {len(zero)} entries'} = 0")
     lines.append("")
-    lines.extend(f"G[{i}] = {sp.sstr(s.G[i, 0])}" for i in range(n))
+    lines.extend(f"G[{i}] = {s.sstr(s.G[i, 0])}" for i in range(n))
     return "\n".join(lines)
 
 
@@ -93,33 +92,32 @@ def latex(s: Symbolic) -> str:
 
 def steps(s: Symbolic) -> str:
     """The derivation step by step: centres of mass, their velocities, T, V, the Christoffel symbols, C and G."""
-    sp = sympy()
     d = s.derivation
     n = d.n
     out = [f"coordinates: {_coordinates(d)}", "", "1. The centres of mass in the base frame:"]
     for b in range(n):
         r = [s.expression(x) for x in d.com[b]]
-        out.append(f"   r{b + 1} = [{', '.join(sp.sstr(x) for x in r)}]")
+        out.append(f"   r{b + 1} = [{', '.join(s.sstr(x) for x in r)}]")
     out.append("")
     out.append("2. Their velocities, dr/dt = sum_k (dr/dq_k) v_k:")
     for b in range(n):
         vel = [s.expression(Trig(d.n_angles), [(d.d(x, k), s.v[k]) for k in range(n)]) for x in d.com[b]]
-        out.append(f"   dr{b + 1}/dt = [{', '.join(sp.sstr(x) for x in vel)}]")
+        out.append(f"   dr{b + 1}/dt = [{', '.join(s.sstr(x) for x in vel)}]")
     out.append("")
     out.append("3. The angular velocities, in each link's own axes:")
     for b in range(n):
         w = [
             s.expression(Trig(d.n_angles), [(d.angular_velocity[b][k][a], s.v[k]) for k in range(n)]) for a in range(3)
         ]
-        out.append(f"   w{b + 1} = [{', '.join(sp.sstr(x) for x in w)}]")
+        out.append(f"   w{b + 1} = [{', '.join(s.sstr(x) for x in w)}]")
     out.append("")
     out.append("4. The kinetic energy T = sum_b 1/2 m_b |dr_b/dt|^2 + 1/2 w_b^T I_b w_b = 1/2 v^T M(q) v:")
     for i in range(n):
         for j in range(i, n):
-            out.append(f"   M[{i},{j}] = {sp.sstr(s.M[i, j])}")
+            out.append(f"   M[{i},{j}] = {s.sstr(s.M[i, j])}")
     out.append("")
     out.append("5. The potential energy V = -sum_b m_b (g . r_b):")
-    out.append(f"   V = {sp.sstr(s.V)}")
+    out.append(f"   V = {s.sstr(s.V)}")
     out.append("")
     out.append(
         "6. The Christoffel symbols Gamma_ijk = 1/2 (dM_ij/dq_k + dM_ik/dq_j - dM_jk/dq_i) (Gamma_ikj = Gamma_ijk):"
@@ -127,14 +125,14 @@ def steps(s: Symbolic) -> str:
     if not s.gamma:
         out.append("   all zero: M does not depend on q")
     for (i, j, k), g in s.gamma.items():
-        out.append(f"   Gamma_{i + 1}{j + 1}{k + 1} = {sp.sstr(g)}")
+        out.append(f"   Gamma_{i + 1}{j + 1}{k + 1} = {s.sstr(g)}")
     out.append("")
     out.append("7. C[i,j] = sum_k Gamma_ijk v_k and G = dV/dq:")
     for i in range(n):
         for j in range(n):
             if s.C[i, j] != 0:
-                out.append(f"   C[{i},{j}] = {sp.sstr(s.C[i, j])}")
-    out.extend(f"   G[{i}] = {sp.sstr(s.G[i, 0])}" for i in range(n))
+                out.append(f"   C[{i},{j}] = {s.sstr(s.C[i, j])}")
+    out.extend(f"   G[{i}] = {s.sstr(s.G[i, 0])}" for i in range(n))
     return "\n".join(out)
 
 
@@ -151,7 +149,7 @@ def python(
     sp = sympy()
     from sympy.printing.numpy import NumPyPrinter
 
-    printer = NumPyPrinter({"fully_qualified_modules": False, "allow_unknown_functions": False})
+    printer = NumPyPrinter({"fully_qualified_modules": False, **s.printer_settings()})
     d = s.derivation
     n = d.n
     given = f" --coordinates {coordinates_file}" if coordinates_file else ""

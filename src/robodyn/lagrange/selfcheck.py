@@ -70,11 +70,14 @@ class SelfCheck:
 def compiled(s: Symbolic) -> tuple[Any, Any, Any]:
     """(M(q, p), C(q, v, p), G(q, p)) as NumPy functions of the printed expressions."""
     sp = sympy()
+    from sympy.printing.numpy import NumPyPrinter
+
     args_q, args_qv = (s.q, s.params), (s.q, s.v, s.params)
+    options: dict[str, Any] = {"modules": "numpy", "docstring_limit": 0, "printer": NumPyPrinter(s.printer_settings())}
     return (
-        sp.lambdify(args_q, s.M, modules="numpy", cse=True),
-        sp.lambdify(args_qv, s.C, modules="numpy", cse=True),
-        sp.lambdify(args_q, s.G, modules="numpy", cse=True),
+        sp.lambdify(args_q, s.M, **options),
+        sp.lambdify(args_qv, s.C, **options),
+        sp.lambdify(args_q, s.G, **options),
     )
 
 

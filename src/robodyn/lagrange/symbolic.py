@@ -23,6 +23,11 @@ from robodyn.lagrange.trig import Trig
 
 INERTIAL = ("m", "I", "J", "g")  # the stems of the parameters an entry is grouped by
 
+# Past this many terms in M, G and the Christoffel symbols together, expressions are printed in the
+# order sympy holds their terms rather than sorted: sorting is half the printing time of a spatial
+# 6-joint arm's ~10^5 terms, which nobody reads in order anyway.
+LARGE = 5000
+
 # A float coefficient this close to a fraction of denominator <= 1000 is that fraction.
 FRACTION_TOL = 1e-12
 
@@ -40,7 +45,7 @@ def sympy() -> Any:
 
 @dataclass(frozen=True)
 class Symbolic:
-    """The derivation's expressions: q, v and parameter symbols; M, C (Christoffel), G, V, T and the Gammas."""
+    """The derivation's expressions: q, v and parameter symbols; M, C (Christoffel), G, V; the Gammas on demand."""
 
     derivation: Derivation
     q: tuple[Any, ...]
@@ -50,8 +55,35 @@ class Symbolic:
     C: Any  # sympy Matrix (n, n)
     G: Any  # sympy Matrix (n, 1)
     V: Any
-    T: Any
-    gamma: dict[tuple[int, int, int], Any]  # (i, j, k) -> Gamma_ijk, non-zero ones, j <= k
+
+    @property
+    def large(self) -> bool:
+        """Whether the expressions are long enough to print unsorted (see :data:`LARGE`)."""
+        d = self.derivation
+        count = sum(len(x.terms) for row in d.M for x in row) + sum(len(x.terms) for x in d.G)
+        count += sum(len(x.terms) for plane in d.christoffel for row in plane for x in row)
+        return count > LARGE
+
+    def sstr(self, expr: Any) -> str:
+        """``expr`` as text: sorted as sympy prints it, unsorted when :attr:`large`."""
+        return str(sympy().sstr(expr, order="none" if self.large else None))
+
+    def printer_settings(self) -> dict[str, Any]:
+        """NumPyPrinter settings: unsorted when :attr:`large`."""
+        return {"order": "none"} if self.large else {}
+
+    @property
+    def gamma(self) -> dict[tuple[int, int, int], Any]:
+        """(i, j, k) -> Gamma_ijk, the non-zero Christoffel symbols with j <= k (built on demand: they are long)."""
+        d = self.derivation
+        out = {}
+        for i in range(d.n):
+            for j in range(d.n):
+                for k in range(j, d.n):
+                    g = d.christoffel[i][j][k]
+                    if not g.is_zero():
+                        out[(i, j, k)] = self.expression(g)
+        return out
 
     def expression(self, trig: Trig, rates: Iterable[tuple[Trig, Any]] | None = None) -> Any:
         """A Trig (or ``sum_k trig_k * v_k`` given as pairs) as a grouped sympy expression."""
@@ -59,21 +91,15 @@ class Symbolic:
 
 
 def symbolic(derivation: Derivation) -> Symbolic:
-    """The derivation's M, C, G, V, T and Christoffel symbols as grouped sympy expressions."""
+    """The derivation's M, C, G and V as grouped sympy expressions."""
     sp = sympy()
     n = derivation.n
     q = tuple(sp.Symbol(f"q{i + 1}", real=True) for i in range(n))
     v = tuple(sp.Symbol(f"v{i + 1}", real=True) for i in range(n))
     params = tuple(sp.Symbol(p.name, real=True) for p in derivation.params)
-    partial = Symbolic(derivation, q, v, params, None, None, None, None, None, {})
-    M = sp.Matrix(n, n, lambda i, j: partial.expression(derivation.M[i][j]))
-    gamma = {}
-    for i in range(n):
-        for j in range(n):
-            for k in range(j, n):
-                g = derivation.christoffel[i][j][k]
-                if not g.is_zero():
-                    gamma[(i, j, k)] = partial.expression(g)
+    partial = Symbolic(derivation, q, v, params, None, None, None, None)
+    M = sp.Matrix(n, n, lambda i, j: partial.expression(derivation.M[i][j]) if i <= j else 0)
+    M = M + M.T - sp.diag(*(M[i, i] for i in range(n)))
     C = sp.Matrix(
         n,
         n,
@@ -81,10 +107,7 @@ def symbolic(derivation: Derivation) -> Symbolic:
     )
     G = sp.Matrix(n, 1, lambda i, _: partial.expression(derivation.G[i]))
     V = partial.expression(derivation.V)
-    T = sp.Rational(1, 2) * sum(
-        (M[i, j] * v[i] * v[j] for i in range(n) for j in range(n) if M[i, j] != 0), sp.Integer(0)
-    )
-    return Symbolic(derivation, q, v, params, M, C, G, V, T, gamma)
+    return Symbolic(derivation, q, v, params, M, C, G, V)
 
 
 def number(c: float) -> Any:
@@ -97,32 +120,38 @@ def number(c: float) -> Any:
 
 
 def _grouped(s: Symbolic, pieces: list[tuple[Trig, Any]]) -> Any:
-    """The sum over pieces of trig * rate, grouped by inertial factor (see the module docstring)."""
+    """The sum over pieces of trig * rate, grouped by inertial factor (see the module docstring).
+
+    Terms are gathered as plain Python keys first (inertial monomial -> geometric monomial and
+    trigonometric term -> rate -> coefficient), so that each sympy object is built once.
+    """
     sp = sympy()
     d = s.derivation
     first = sum(1 for x in d.variable_of if x is not None)
+    inertial = {k for k, p in enumerate(d.params) if p.name.startswith(INERTIAL)}
+    groups: dict[tuple[tuple[int, int], ...], dict[tuple[Any, ...], dict[int, float]]] = {}
+    for r, (trig, _) in enumerate(pieces):
+        for kind, freqs, powers, c in trig:
+            key = tuple((v, e) for v, e in powers.items() if v >= first and v - first in inertial)
+            geometry = tuple((v, e) for v, e in powers.items() if not (v >= first and v - first in inertial))
+            rates = groups.setdefault(key, {}).setdefault((kind, freqs, geometry), {})
+            rates[r] = rates.get(r, 0.0) + c
     coordinate_of = {var: i for i, var in enumerate(d.variable_of) if var is not None}
     angles = [s.q[i] for i, a in enumerate(d.angle_of) if a is not None]
-    # groups[inertial factor][the rest but the rate] = the sum of the rates it multiplies
-    groups: dict[Any, dict[Any, Any]] = {}
-    for trig, rate in pieces:
-        for kind, freqs, powers, c in trig:
-            key, rest = sp.Integer(1), [number(c)]
-            for var, e in powers.items():
-                if var < first:
-                    rest.append(s.q[coordinate_of[var]] ** e)
-                    continue
-                name = d.params[var - first].name
-                symbol = s.params[var - first] ** e
-                if name.startswith(INERTIAL):
-                    key = key * symbol
-                else:
-                    rest.append(symbol)
+
+    def power(var: int, e: int) -> Any:
+        base = s.q[coordinate_of[var]] if var < first else s.params[var - first]
+        return base**e
+
+    terms = []
+    for key, shapes in groups.items():
+        inner = []
+        for (kind, freqs, geometry), rates in shapes.items():
+            factors = [power(v, e) for v, e in geometry]
             if any(freqs):
                 arg = sp.Add(*(n * a for n, a in zip(freqs, angles, strict=True)))
-                rest.append(sp.sin(arg) if kind else sp.cos(arg))
-            term = sp.Mul(*rest)
-            coefficient, shape = term.as_coeff_Mul()
-            inner = groups.setdefault(key, {})
-            inner[shape] = inner.get(shape, sp.Integer(0)) + coefficient * rate
-    return sp.Add(*(key * sp.Add(*(shape * rates for shape, rates in inner.items())) for key, inner in groups.items()))
+                factors.append(sp.sin(arg) if kind else sp.cos(arg))
+            rate = sp.Add(*(number(c) * pieces[r][1] for r, c in rates.items() if c != 0))
+            inner.append(sp.Mul(rate, *factors))
+        terms.append(sp.Mul(*(power(v, e) for v, e in key)) * sp.Add(*inner))
+    return sp.Add(*terms)

@@ -94,7 +94,14 @@ def steps(s: Symbolic) -> str:
     """The derivation step by step: centres of mass, their velocities, T, V, the Christoffel symbols, C and G."""
     d = s.derivation
     n = d.n
-    out = [f"coordinates: {_coordinates(d)}", "", "1. The centres of mass in the base frame:"]
+    out = [
+        f"{d.robot}: the Lagrangian of {n} joint{'s' if n > 1 else ''}, step by step",
+        f"coordinates: {_coordinates(d)}",
+        "parameters, read from the model:",
+        *_param_lines(d),
+        "",
+        "1. The centres of mass in the base frame:",
+    ]
     for b in range(n):
         r = [s.expression(x) for x in d.com[b]]
         out.append(f"   r{b + 1} = [{', '.join(s.sstr(x) for x in r)}]")

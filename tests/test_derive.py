@@ -340,3 +340,19 @@ def test_real_subprocess():
     )
     assert done.returncode == 0, done.stderr
     assert "M[0,0] = I1 + Ja1 + lc1**2*m1" in done.stdout
+
+
+def test_cli_time_limit_covers_writing_out(monkeypatch, capsys):
+    import time
+
+    from robodyn.lagrange import symbolic as module
+
+    real = module.symbolic
+
+    def slow(derivation):
+        time.sleep(1.0)
+        return real(derivation)
+
+    monkeypatch.setattr(module, "symbolic", slow)
+    assert main(["derive", "pendubot", "--time-limit", "0.5"]) == 2
+    assert "took longer than its limit of 0.5 s (at writing it out with sympy)" in capsys.readouterr().err

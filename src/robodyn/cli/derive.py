@@ -64,7 +64,8 @@ def add_parser(sub: Any) -> None:
         type=_time_limit,
         default=DEFAULT_TIME_LIMIT,
         metavar="SECONDS",
-        help=f"stop a derivation that takes longer (default {DEFAULT_TIME_LIMIT:g} s; a 6-joint arm takes seconds)",
+        help=f"stop when the derivation, its writing out and its self-check take longer, exit 2 (default "
+        f"{DEFAULT_TIME_LIMIT:g} s)",
     )
     p.set_defaults(handler=run)
 
@@ -105,9 +106,12 @@ def run(args: argparse.Namespace) -> int:
         refuse_clobbering([("--out", args.out)], [("the model's URDF", robot.urdf_path), ("its SRDF", robot.srdf_path)])
     from robodyn.lagrange.derivation import derive
 
+    begun = time.monotonic()  # the time limit covers the derivation, its writing out and its self-check
     derivation = derive(table, coordinates, time_limit=args.time_limit)
     expressions = symbolic(derivation)
+    _within(args.time_limit, begun, "writing it out with sympy")
     check = self_check(expressions, robot, samples=args.samples, seed=args.seed)
+    _within(args.time_limit, begun, "the self-check")
     elapsed = time.monotonic() - started
     if not check.passed:
         for d in check.failures():
@@ -184,6 +188,17 @@ def _model(args: argparse.Namespace) -> tuple[Any, Any, Any, dict[str, float]]:
     order = joints if joints is not None else list(table.joints)
     coordinates = [Coordinate(j, kinds[j], *maps.get(j, (1.0, 0.0))) for j in order]
     return robot, table, coordinates, locked
+
+
+def _within(limit: float, started: float, stage: str) -> None:
+    """Stop (exit 2) once ``limit`` seconds have passed since ``started``, naming the stage that ran past it."""
+    from robodyn.errors import InputError
+
+    if time.monotonic() - started > limit:
+        raise InputError(
+            f"the derivation took longer than its limit of {limit:g} s (at {stage}); "
+            "lock joints with --coordinates or raise --time-limit"
+        )
 
 
 def _vector(x: Any) -> str:

@@ -13,7 +13,7 @@ which extra to install.
 from __future__ import annotations
 
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
@@ -55,14 +55,17 @@ class Symbolic:
     C: Any  # sympy Matrix (n, n)
     G: Any  # sympy Matrix (n, 1)
     V: Any
+    cache: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
 
     @property
     def large(self) -> bool:
         """Whether the expressions are long enough to print unsorted (see :data:`LARGE`)."""
-        d = self.derivation
-        count = sum(len(x.terms) for row in d.M for x in row) + sum(len(x.terms) for x in d.G)
-        count += sum(len(x.terms) for plane in d.christoffel for row in plane for x in row)
-        return count > LARGE
+        if "large" not in self.cache:
+            d = self.derivation
+            count = sum(len(x.terms) for row in d.M for x in row) + sum(len(x.terms) for x in d.G)
+            count += sum(len(x.terms) for plane in d.christoffel for row in plane for x in row)
+            self.cache["large"] = count > LARGE
+        return bool(self.cache["large"])
 
     def sstr(self, expr: Any) -> str:
         """``expr`` as text: sorted as sympy prints it, unsorted when :attr:`large`."""
@@ -143,15 +146,21 @@ def _grouped(s: Symbolic, pieces: list[tuple[Trig, Any]]) -> Any:
         base = s.q[coordinate_of[var]] if var < first else s.params[var - first]
         return base**e
 
+    # A long expression is assembled unevaluated: its terms are distinct by construction, and
+    # sympy's flattening and sorting of 10^4-term sums is most of the time it would take.
+    evaluate = not s.large
+    trig_of = s.cache.setdefault("trig", {})
     terms = []
     for key, shapes in groups.items():
         inner = []
         for (kind, freqs, geometry), rates in shapes.items():
             factors = [power(v, e) for v, e in geometry]
             if any(freqs):
-                arg = sp.Add(*(n * a for n, a in zip(freqs, angles, strict=True)))
-                factors.append(sp.sin(arg) if kind else sp.cos(arg))
+                if (kind, freqs) not in trig_of:
+                    arg = sp.Add(*(n * a for n, a in zip(freqs, angles, strict=True)))
+                    trig_of[(kind, freqs)] = sp.sin(arg) if kind else sp.cos(arg)
+                factors.append(trig_of[(kind, freqs)])
             rate = sp.Add(*(number(c) * pieces[r][1] for r, c in rates.items() if c != 0))
-            inner.append(sp.Mul(rate, *factors))
-        terms.append(sp.Mul(*(power(v, e) for v, e in key)) * sp.Add(*inner))
-    return sp.Add(*terms)
+            inner.append(sp.Mul(rate, *factors, evaluate=evaluate))
+        terms.append(sp.Mul(*(power(v, e) for v, e in key)) * sp.Add(*inner, evaluate=evaluate))
+    return sp.Add(*terms, evaluate=evaluate)

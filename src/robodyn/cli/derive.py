@@ -109,8 +109,20 @@ def run(args: argparse.Namespace) -> int:
     begun = time.monotonic()  # the time limit covers the derivation, its writing out and its self-check
     derivation = derive(table, coordinates, time_limit=args.time_limit)
     expressions = symbolic(derivation)
+    source, formula = None, None
+    if args.format == "python":  # the file is checked itself, and printed once
+        source = render.python(
+            expressions,
+            model=args.model,
+            out=str(args.out) if args.out is not None else "FILE.py",
+            coordinates_file=str(args.coordinates) if args.coordinates else None,
+            version=__version__,
+            locked=locked,
+        )
+        formula = {"table": table}
+        exec(compile(source, "<robodyn derive --format python>", "exec"), formula)  # our own output, not a user's
     _within(args.time_limit, begun, "writing it out with sympy")
-    check = self_check(expressions, robot, samples=args.samples, seed=args.seed)
+    check = self_check(expressions, robot, samples=args.samples, seed=args.seed, formula=formula)
     _within(args.time_limit, begun, "the self-check")
     elapsed = time.monotonic() - started
     if not check.passed:
@@ -122,16 +134,8 @@ def run(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
         return EXIT_MISMATCH
-    if args.format == "python":
-        out = str(args.out) if args.out is not None else "FILE.py"
-        text = render.python(
-            expressions,
-            model=args.model,
-            out=out,
-            coordinates_file=str(args.coordinates) if args.coordinates else None,
-            locked=locked,
-            version=__version__,
-        )
+    if source is not None:
+        text = source
     elif args.format == "latex":
         text = render.latex(expressions) + "\n"
     else:

@@ -12,6 +12,7 @@ imports neither Pinocchio nor the Robot.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -82,16 +83,30 @@ def compiled(s: Symbolic) -> tuple[Any, Any, Any]:
 
 
 def self_check(
-    s: Symbolic, robot: Any, *, samples: int = DEFAULT_SAMPLES, seed: int = 0, rtol: float = RTOL
+    s: Symbolic,
+    robot: Any,
+    *,
+    samples: int = DEFAULT_SAMPLES,
+    seed: int = 0,
+    rtol: float = RTOL,
+    formula: Mapping[str, Any] | None = None,
 ) -> SelfCheck:
     """Compare the derivation's M, C, C v and G with ``robot``'s (Pinocchio) at seeded random states.
 
     ``robot`` is the model the derivation describes (its moving joints are the coordinates'
-    joints, the others locked); its joints are found by name.
+    joints, the others locked); its joints are found by name. The expressions are compiled with
+    ``lambdify``; or, given ``formula`` (the namespace of the ``--format python`` file about to be
+    written, and ``"table"``, the per-link table), that file's own ``mass_matrix``,
+    ``coriolis_matrix`` and ``gravity`` are evaluated, with the parameters its
+    ``parameters(robot)`` reads: the check then holds for the very file written.
     """
     d = s.derivation
-    fM, fC, fG = compiled(s)
-    p = tuple(x.value for x in d.params)
+    if formula is None:
+        fM, fC, fG = compiled(s)
+        p: Any = tuple(x.value for x in d.params)
+    else:
+        fM, fC, fG = formula["mass_matrix"], formula["coriolis_matrix"], formula["gravity"]
+        p = formula["parameters"](formula["table"])
     rng = np.random.default_rng(seed)
     n = d.n
     S = np.zeros((robot.nv, n))

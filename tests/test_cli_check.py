@@ -111,3 +111,15 @@ def test_real_subprocess_exit_codes():
         check=False,
     )
     assert bad.returncode == 1 and "MISMATCH M[0,0]" in bad.stdout
+
+
+def test_explain_prints_the_named_terms_and_json_carries_them(capsys):
+    seed = str(ROOT / "examples/formulas/pendubot_seed.py")
+    assert main(["check", "pendubot", "--formula", seed, "--samples", "40", "--explain"]) == 1
+    out = capsys.readouterr().out
+    assert "M[0,1]: formula - Pinocchio = m2*l1*lc2*cos(q2)   (coefficient 0.00945, = m2*l1*lc2 to" in out
+    assert "MISMATCH tau[1] (tau (inverse dynamics))" in out and "MISMATCH tau[0] (tau (inverse dynamics))" in out
+    assert main(["check", "pendubot", "--formula", seed, "--samples", "40", "--explain", "--json"]) == 1
+    report = json.loads(capsys.readouterr().out)
+    assert any(line.startswith("C[1,0]: formula - Pinocchio = ") for line in report["explanation"])
+    assert [m["entry"] for m in next(r for r in report["rows"] if r["quantity"] == "M")["mismatches"]] == [[0, 1]]

@@ -140,7 +140,7 @@ def test_effort_limits_clamp_the_torque_and_the_summary_counts_it(
     free = robodyn.Trajectory.load(tmp_path / "b.npz")
     assert code == 0 and np.all(free.tau == 30.0) and free.meta["effort_clamped_samples"] == 0
     assert free.q[-1, 0] == pytest.approx(0.5 * (30.0 / MASS - G) * 0.2**2, rel=NO_STOP_RTOL)
-    assert "tau never clamped (effort limits off" in text
+    assert "robodyn never clamped tau (effort limits off" in text
 
 
 def test_json_summary_carries_the_constraint_figures(slider: Path, capsys: pytest.CaptureFixture[str]) -> None:

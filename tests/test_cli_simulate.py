@@ -256,3 +256,20 @@ def test_real_subprocess_run(tmp_path: Path) -> None:
         timeout=120,
     )
     assert bad.returncode == 2 and bad.stderr.count("\n") == 1
+
+
+def test_a_controlled_run_says_the_controller_saturates_and_measures_accuracy_by_the_ledger(capsys):
+    """An LQR started outside its linear range clips its own command: robodyn never clamps, and says who did."""
+    code = main(["simulate", "pendubot", "--q0", "1.6708,0.1", "--controller", "lqr", "--duration", "0.2"])
+    out = capsys.readouterr().out
+    assert code == 0
+    efforts = next(line for line in out.splitlines() if line.startswith("efforts:"))
+    assert "robodyn never clamped tau" in efforts and "was at its effort limit in" in efforts
+    energy = next(line for line in out.splitlines() if line.startswith("energy:"))
+    assert "change E(t) - E0" in energy and "ledger's residual" in energy and "drift max" not in energy
+
+
+def test_a_torque_free_run_reports_its_energy_drift(capsys):
+    assert main(["simulate", "pendubot", "--q0", "0.3,-0.2", "--duration", "0.1"]) == 0
+    out = capsys.readouterr().out
+    assert "drift max|E - E0|" in out and "at its effort limit" not in out

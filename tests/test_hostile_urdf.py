@@ -268,20 +268,29 @@ def test_a_negative_mass_is_refused_on_the_root_and_on_a_welded_link(tmp_path, c
     assert f"{message} (expected 0 or a mass between 1e-12 and 1e+06 kg)" in line, line
 
 
-def test_an_impossible_inertia_hidden_by_the_merge_or_on_the_root_is_refused(tmp_path, capfd):
-    """Pinocchio's body 'link2' (link2 + tip) is positive definite; the tip alone is not. The root is no joint's body."""
+def test_an_impossible_inertia_hidden_by_the_merge_or_on_a_moving_root_is_refused(tmp_path, capfd):
+    """Pinocchio's body 'link2' (link2 + tip) is positive definite; the tip alone is not. The root is no joint's body.
+
+    On a fixed base the root is welded to the world: its inertia never enters the dynamics, so it is
+    a note there (issue 21: anymal's placeholder ``base``), and refused once a free flyer moves it.
+    """
     hidden = mutated(tmp_path, TIP, f'<link name="tip">{inertial("0.01", ixx="-1e-6", iyy="1e-6", izz="1e-6")}</link>')
     root = mutated(tmp_path, BASE, f"{BASE}{inertial('1', ixx='1e-3', iyy='1e-3', izz='3e-3')}", "root.urdf")
-    for path, message in (
-        (hidden, "tip: inertia not positive semi-definite"),
-        (root, "base: principal moments of inertia 0.001, 0.001, 0.003 kg m^2 break the triangle inequality"),
+    triangle = "base: principal moments of inertia 0.001, 0.001, 0.003 kg m^2 break the triangle inequality"
+    for path, message, options in (
+        (hidden, "tip: inertia not positive semi-definite", {}),
+        (root, triangle, {"free_flyer": True}),
     ):
         with pytest.raises(ModelError, match="physically impossible model: " + message.replace("^", r"\^")):
-            robodyn.load(path)
-        line = refused(path, capfd, command="check")
-        assert message in line, line
-        assert main(["info", str(path)]) == 0  # info reports what check refuses
+            robodyn.load(path, **options)
+        if not options:
+            line = refused(path, capfd, command="check")
+            assert message in line and "--no-physics-check" in line, line
+        assert main(["info", str(path), *(["--free-flyer"] if options else [])]) == 0  # info reports what is refused
         assert message in capfd.readouterr().out
+    robodyn.load(root)  # fixed base: the root is the world
+    assert main(["info", str(root)]) == 0
+    assert f"welded_root       {triangle}" in capfd.readouterr().out
 
 
 # --------------------------------------------------------------------------- 3. physics

@@ -615,6 +615,62 @@ def _fuzz(data: dict[str, Any]) -> str:
     return "\n".join(out) + "\n"
 
 
+_WORLD_SETS = {
+    "erd-file": "example-robot-data, every URDF file by path",
+    "erd-name": "example-robot-data, every name robodyn's model sources give (loader names with their SRDF)",
+    "pybullet": "pybullet_data, every URDF outside random_urdfs/",
+    "pybullet-random": "pybullet_data, the generated random_urdfs/",
+}
+
+
+def _exits(counts: dict[str, int]) -> str:
+    return ", ".join(f"{code}: {n}" for code, n in counts.items()) or "–"
+
+
+def _arrow(old: int | None, new: int) -> str:
+    """``"1 → 0"`` when the exit code changed, else ``"0"``."""
+    return f"{old} → {new}" if old is not None and old != new else f"{new}"
+
+
+def _world_urdfs(data: dict[str, Any]) -> str:
+    """Per set: exit codes of info and check before and after; then every file's, with the reason of a refusal."""
+    before = data.get("before", {}).get("summary", {})
+    out = [
+        "| set | files | info exits before | info exits after | check exits before | check exits after | "
+        "tracebacks after | check FAIL after |",
+        "|---|---:|---|---|---|---|---:|---:|",
+    ]
+    for name, s in data["summary"].items():
+        b = before.get(name, {})
+        out.append(
+            f"| {_WORLD_SETS.get(name, name)} | {s['files']} | {_exits(b.get('info_exits', {}))} | "
+            f"{_exits(s['info_exits'])} | {_exits(b.get('check_exits', {}))} | {_exits(s['check_exits'])} | "
+            f"{s['tracebacks']} | {s['check_fail']} |"
+        )
+    out += [
+        "",
+        "Every file of the first three sets (exit codes before → after; the reason is the first line "
+        "`robodyn check` wrote on stderr after, when it did not exit 0):",
+        "",
+        "| set | file or name | info | check | why check did not exit 0 |",
+        "|---|---|---|---|---|",
+    ]
+    for row in data["rows"]:
+        if row["set"] == "pybullet-random":
+            continue
+        b = row.get("before") or {}
+        info, check = row["info"], row["check"]
+        why = check["stderr_first"].split("error: ", 1)[-1] if check["exit"] != 0 else ""
+        if b.get("fail_rows") and check["exit"] == 0:
+            why = f"before: {b['fail_rows'][0]}"
+        why = why.replace("|", "\\|")
+        out.append(
+            f"| {row['set']} | `{row['target']}` | {_arrow(b.get('info'), info['exit'])} | "
+            f"{_arrow(b.get('check'), check['exit'])} | {why} |"
+        )
+    return "\n".join(out) + "\n"
+
+
 RENDERERS: dict[str, Callable[[dict[str, Any]], str]] = {
     "scaling": _scaling,
     "fidelity": _fidelity,
@@ -625,6 +681,7 @@ RENDERERS: dict[str, Callable[[dict[str, Any]], str]] = {
     "sweep": _sweep,
     "textbook": _textbook,
     "fuzz": _fuzz,
+    "world_urdfs": _world_urdfs,
 }
 
 

@@ -21,6 +21,7 @@ from robodyn.fileio import write_atomically
 
 if TYPE_CHECKING:
     from robodyn.studies.bench import BenchResult, EnergySeries
+    from robodyn.studies.portrait import Portrait
 
 # One colour per integrator, one marker per backend: the same run looks the same on every chart.
 _COLOURS = {
@@ -270,4 +271,47 @@ def speed_bars(
     ax.set_xlabel(unit)
     ax.set_title(title)
     ax.grid(True, axis="x", which="both", alpha=0.3)
+    return _save(fig, stem)
+
+
+def portrait(p: Portrait, stem: Path, *, title: str = "", levels: int = 24) -> tuple[Path, Path]:
+    """A phase portrait (:mod:`robodyn.studies.portrait`): energy contours, equilibria, separatrix, runs, region.
+
+    Stable equilibria are filled circles, unstable ones open; the separatrix is the thick black
+    level set; each trajectory is a line from a square (its start); the LQR region is a dashed ellipse.
+    """
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(8, 6))
+    filled = ax.contourf(p.q, p.v, p.energy, levels=levels, cmap="viridis", alpha=0.55)
+    ax.contour(p.q, p.v, p.energy, levels=levels, colors="0.35", linewidths=0.4)
+    fig.colorbar(filled, ax=ax, label="E = 1/2 M_jj v^2 + V [J]")
+    if p.separatrix_energy is not None:
+        ax.contour(p.q, p.v, p.energy, levels=[p.separatrix_energy], colors="black", linewidths=2.0)
+        ax.plot([], [], color="black", lw=2.0, label=f"separatrix, E = {p.separatrix_energy:.4g} J")
+    for kind, marker in ((True, "o"), (False, "o")):
+        points = [e for e in p.equilibria if e.stable is kind]
+        if points:
+            ax.plot(
+                [e.q for e in points],
+                [0.0] * len(points),
+                marker,
+                markersize=9,
+                markerfacecolor="white" if not kind else "black",
+                markeredgecolor="black",
+                linestyle="none",
+                label="stable equilibrium" if kind else "unstable equilibrium",
+            )
+    for label, q, v in p.trajectories:
+        (line,) = ax.plot(q, v, lw=1.2, label=label)
+        ax.plot(q[:1], v[:1], "s", color=line.get_color(), markersize=6)
+    if p.region is not None:
+        eq, ev = p.region.outline()
+        ax.plot(eq, ev, "--", color="#d62728", lw=1.8, label=f"LQR region slice, e^T P e < {p.region.rho:.3g}")
+    ax.set_xlim(p.q[0], p.q[-1])
+    ax.set_ylim(p.v[0], p.v[-1])
+    ax.set_xlabel(f"{p.joint} [{p.q_unit}]")
+    ax.set_ylabel(f"{p.joint} velocity [{p.v_unit}]")
+    ax.set_title(title or f"{p.model}: phase portrait of {p.joint} (other joints held)")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8, loc="upper right")
     return _save(fig, stem)

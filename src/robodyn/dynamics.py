@@ -311,6 +311,22 @@ def potential_energy_com(model: pin.Model, data: pin.Data, q: Array) -> float:
     return -float(data.mass[0]) * float(gravity_vector(model) @ com)
 
 
+def gravity_scale(model: pin.Model, data: pin.Data, q: Array) -> float:
+    """The energy scale |g| sum_i m_i |c_i(q)| [J]: each body's weight times its centre's distance from the origin.
+
+    It bounds the terms that the potential energy and the gravity torques are summed from, so
+    their round-off is a few eps times it, even where V or G is zero (``robodyn check``'s floor).
+    """
+    pin.forwardKinematics(model, data, q)
+    g = float(np.linalg.norm(gravity_vector(model)))
+    total = 0.0
+    for j in range(1, model.njoints):
+        inertia = model.inertias[j]
+        c = np.array(data.oMi[j].act(np.array(inertia.lever)))
+        total += abs(float(inertia.mass)) * float(np.linalg.norm(c))
+    return g * total
+
+
 def potential_energy_bodies(model: pin.Model, data: pin.Data, q: Array) -> float:
     """Gravitational potential energy -sum_i m_i g . c_i(q) [J], body by body from forward kinematics.
 

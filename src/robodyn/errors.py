@@ -41,6 +41,14 @@ class ModelError(RobodynError):
         super().__init__(f"{path}: {message}" if path is not None else message)
 
 
+class ModelWarning(UserWarning):
+    """A file robodyn reads, but not quite as written: the message says what it skipped or read how.
+
+    Only what cannot touch the dynamics is read this way (a blank line before the XML declaration,
+    a visual mesh scale with a fourth number 1); the command line prints it as one warning line.
+    """
+
+
 class InputError(RobodynError, ValueError):
     """A value given by the user has the wrong shape, sign or type."""
 

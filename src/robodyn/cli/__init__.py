@@ -26,7 +26,7 @@ from collections.abc import Iterator, Sequence
 from typing import TextIO
 
 from robodyn import __version__
-from robodyn.errors import EXIT_BAD_INPUT, RobodynError
+from robodyn.errors import EXIT_BAD_INPUT, ModelWarning, RobodynError
 
 # Subcommand -> module in robodyn.cli, in the order shown by --help.
 SUBCOMMANDS = {
@@ -36,6 +36,7 @@ SUBCOMMANDS = {
     "derive": "derive",
     "simulate": "simulate",
     "view": "view",
+    "portrait": "portrait",
     "bench": "bench",
     "run": "run",
     "sweep": "sweep",
@@ -84,7 +85,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the process exit code."""
     parser = get_argument_parser()
     args = parser.parse_args(_attach_negative_values(sys.argv[1:] if argv is None else argv))
-    with _numeric_warnings() as counts:
+    with _numeric_warnings(args.command) as counts:
         code = _run(args)
     if counts and code in (0, 1):  # a refusal or a failure says what went wrong in its own one line
         print(f"robodyn {args.command}: note: {_describe_warnings(counts)}", file=sys.stderr)
@@ -129,15 +130,19 @@ def _run(args: argparse.Namespace) -> int:
 
 
 @contextlib.contextmanager
-def _numeric_warnings() -> Iterator[Counter[str]]:
+def _numeric_warnings(command: str) -> Iterator[Counter[str]]:
     """Count numpy's floating-point RuntimeWarnings (overflow, invalid value...) instead of printing them.
 
     They would break the one-line promise (a warning and its source line in the middle of a
-    progress bar); :func:`main` folds their count into one note. Other warnings pass through.
+    progress bar); :func:`main` folds their count into one note. robodyn's own
+    :class:`~robodyn.errors.ModelWarning` is one line ``robodyn COMMAND: warning: ...`` (each
+    message once). Other warnings pass through.
     """
     counts: Counter[str] = Counter()
+    shown_once: set[str] = set()
     with warnings.catch_warnings():
         warnings.simplefilter("always", RuntimeWarning)
+        warnings.simplefilter("always", ModelWarning)  # deduplicated below, by message
         show = warnings.showwarning
 
         def count(
@@ -150,6 +155,10 @@ def _numeric_warnings() -> Iterator[Counter[str]]:
         ) -> None:
             if issubclass(category, RuntimeWarning):
                 counts[str(message)] += 1
+            elif issubclass(category, ModelWarning):
+                if str(message) not in shown_once:  # the file is read more than once by some commands
+                    shown_once.add(str(message))
+                    print(f"robodyn {command}: warning: {message}", file=sys.stderr)
             else:
                 show(message, category, filename, lineno, file, line)
 

@@ -116,13 +116,69 @@ def add_model_arguments(parser: argparse.ArgumentParser, *, many: bool = False) 
     )
     parser.add_argument("--srdf", type=file_path, default=None, help="SRDF file (default: same stem as the URDF)")
     parser.add_argument("--free-flyer", action="store_true", help="mount the root on a free-flyer joint")
+    add_physics_argument(parser)
+
+
+def add_physics_argument(parser: argparse.ArgumentParser) -> None:
+    """``--no-physics-check``: load a model's masses and inertias as written, even impossible ones."""
+    parser.add_argument(
+        "--no-physics-check",
+        dest="physics_check",
+        action="store_false",
+        help="load the file's masses and inertias as written, even physically impossible ones (a negative "
+        "mass, an inertia breaking the triangle inequality), saying so in one warning line; by default such a "
+        "model is refused (exit 2)",
+    )
+
+
+def physics_checked(args: argparse.Namespace) -> bool:
+    """False when ``--no-physics-check`` was given (True for a parser without the option)."""
+    return bool(getattr(args, "physics_check", True))
+
+
+def warn_unchecked(robot: Any, *, command: str) -> None:
+    """The one warning line of a model loaded with ``--no-physics-check``: what it let through."""
+    from robodyn.model.consistency import all_findings
+
+    errors = [f for f in all_findings(robot.model, urdf=robot.urdf_path) if f.severity == "error"]
+    found = (
+        f"{len(errors)} physically impossible finding(s) among them, the first {errors[0]} (robodyn info lists them)"
+        if errors
+        else "none of them physically impossible"
+    )
+    print(
+        f"robodyn {command}: warning: --no-physics-check: {robot.name} is loaded with its file's masses and "
+        f"inertias as written, {found}",
+        file=sys.stderr,
+    )
+
+
+def unchecked_scene(scene: Any, args: argparse.Namespace) -> Any:
+    """``scene`` with ``[model] physics_check = false`` when ``--no-physics-check`` was given."""
+    if physics_checked(args):
+        return scene
+    import dataclasses
+
+    return dataclasses.replace(scene, model={**scene.model, "physics_check": False})
 
 
 def load_robot(args: argparse.Namespace, model: str | None = None, **options: Any) -> Any:
-    """Load the robot named by ``model`` (default ``args.model``) with the common options."""
+    """Load the robot named by ``model`` (default ``args.model``) with the common options.
+
+    With ``--no-physics-check`` the file's numbers are loaded as written, and one warning line says so.
+    """
     from robodyn.model.load import load
 
-    return load(args.model if model is None else model, srdf=args.srdf, free_flyer=args.free_flyer, **options)
+    checked = physics_checked(args)
+    robot = load(
+        args.model if model is None else model,
+        srdf=args.srdf,
+        free_flyer=args.free_flyer,
+        **{"check_physics": checked, **options},
+    )
+    if not checked:
+        warn_unchecked(robot, command=str(getattr(args, "command", "")))
+    return robot
 
 
 def urdf_mimic_joints(urdf: Path | None) -> list[str]:
@@ -153,6 +209,30 @@ def warn_ignored_mimic(robot: Any, *, mimic: bool, command: str) -> None:
             f"robodyn {command}: warning: {robot.name}'s URDF couples {listed} by <mimic>; "
             "the coupling is ignored and those joints move on their own (pass --mimic to keep it)",
             file=sys.stderr,
+        )
+
+
+def refuse_uncoupled_sizes(robot: Any, *, q0: Any, v0: Any, mimic: bool) -> None:
+    """Refuse a ``--q0`` / ``--v0`` sized for the coupled robot when ``--mimic`` was left out (one line, with the hint).
+
+    Without ``--mimic`` every ``<mimic>`` joint of the URDF moves on its own and has its own
+    coordinate, so a state written for the coupled robot is short by one entry per follower.
+    """
+    if mimic:
+        return
+    followers = urdf_mimic_joints(getattr(robot, "urdf_path", None))
+    if not followers:
+        return
+    for name, value, sizes in (("q0", q0, (robot.nq, robot.nv)), ("v0", v0, (robot.nv,))):
+        if value is None or np.size(value) in sizes:
+            continue
+        from robodyn.errors import InputError
+
+        listed = ", ".join(followers[:3]) + (f" and {len(followers) - 3} more" if len(followers) > 3 else "")
+        raise InputError(
+            f"{name} must have {sizes[0]} entries for {robot.name}, got {np.size(value)}: without --mimic the "
+            f"<mimic> coupling of {listed} is dropped and each of those joints has a coordinate of its own "
+            "(pass --mimic to keep the coupling, or give one entry per joint)"
         )
 
 

@@ -31,7 +31,14 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from robodyn.cli._common import _json_default, file_path, number_in
+from robodyn.cli._common import (
+    _json_default,
+    add_physics_argument,
+    file_path,
+    number_in,
+    physics_checked,
+    warn_unchecked,
+)
 from robodyn.cli.view import port_number
 from robodyn.errors import InputError
 from robodyn.fileio import write_text_atomically
@@ -67,6 +74,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--quick", action="store_true", help="a CI-sized subset (under a minute)")
     p.add_argument("--no-stability", action="store_true", help="skip the stability study (stability.json)")
     p.add_argument("--no-progress", action="store_true", help="do not draw the progress bar on stderr")
+    add_physics_argument(p)
     view = p.add_argument_group("replay of two runs (one model)")
     view.add_argument(
         "--view",
@@ -166,7 +174,9 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(
             f"--view replays the runs of one model; {len(names)} given ({', '.join(names)}): name one MODEL"
         )
-    robots = [load(name) for name in names]  # bad names fail here, before any work
+    robots = [load(name, check_physics=physics_checked(args)) for name in names]  # bad names fail here, before any work
+    for robot in robots if not physics_checked(args) else ():
+        warn_unchecked(robot, command="bench")
     written = [("the output", out / name) for name in (*FIXED_OUTPUTS, REPORT)]
     written += [("the output", out / f"{stem}_{r.name}.{ext}") for r in robots for stem, ext in _CHART_FILES]
     written.append(("--html", args.html))

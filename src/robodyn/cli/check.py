@@ -15,7 +15,9 @@ from robodyn.cli._common import (
     positive_int,
     print_json,
     seed_number,
+    unchecked_scene,
     warn_ignored_mimic,
+    warn_unchecked,
 )
 from robodyn.errors import EXIT_MISMATCH, EXIT_OK, InputError
 from robodyn.kinds.sandbox import DEFAULT_TIMEOUT, MAX_TIMEOUT
@@ -41,8 +43,8 @@ def add_parser(sub: Any) -> None:
         "--formula",
         metavar="KIND_OR_FILE",
         help="built-in kind (geared_arm, cart_pole, pendubot), 'auto' (the kind each model meets, if any) or a "
-        ".py file with your own derivation; without it only the structural properties and Pinocchio's "
-        "identities are checked",
+        ".py file with your own derivation (KIND = a built-in kind, or 'any': any tree robot in your own joints "
+        "and coordinates); without it only the structural properties and Pinocchio's identities are checked",
     )
     p.add_argument("--samples", type=_samples, default=100, help="number of random states, 1 to 100,000 (default 100)")
     p.add_argument("--seed", type=seed_number, default=0, help="seed of the random states (default 0)")
@@ -145,8 +147,10 @@ def _target(args: argparse.Namespace, name: str) -> tuple[Any, Any]:
         raise InputError(
             f"{name}: --srdf, --free-flyer and --mimic are a model's options; a scene sets them in [model]"
         )
-    scene = read_scene(Path(name))
+    scene = unchecked_scene(read_scene(Path(name)), args)
     robot, _ = scene.build()
+    if scene.model.get("physics_check") is False:
+        warn_unchecked(robot, command="check")
     return robot, scene
 
 
@@ -211,6 +215,20 @@ PARAM_UNITS = {
 }  # fmt: skip
 
 
+_DIMENSION_UNITS = {(1, 0, 0): "kg", (0, 1, 0): "m", (1, 2, 0): "kg m^2", (0, 1, -2): "m/s^2"}
+
+
+def _unit(name: str, kind: str | None) -> str:
+    """`` kg`` for a parameter: a built-in kind's table, or (KIND = "any") guessed from the name as --explain does."""
+    unit = PARAM_UNITS.get(name, "")
+    if not unit and kind == "any":
+        from robodyn.kinds.explain_names import parameter_dimension
+
+        dim = parameter_dimension(name)
+        unit = _DIMENSION_UNITS.get(dim, "") if dim is not None else ""
+    return f" {unit}" if unit else ""
+
+
 def _vector(x: Any) -> str:
     return "[" + ", ".join(f"{v:.4g}" for v in x) + "]"
 
@@ -223,10 +241,7 @@ def format_report(report: Any, robot: Any) -> str:
         f"   samples: {report.samples}   seed: {report.seed}   rtol: {report.rtol:g}",
     ]
     if report.params:
-        params = ", ".join(
-            f"{k} = {v:.6g}{' ' + PARAM_UNITS.get(k, '') if PARAM_UNITS.get(k) else ''}"
-            for k, v in report.params.items()
-        )
+        params = ", ".join(f"{k} = {v:.6g}{_unit(k, report.kind)}" for k, v in report.params.items())
         origin = "given with --params" if report.params_given else _origin(report)
         lines.append(f"parameters {origin}: {params}")
     if report.formula is None:
@@ -249,6 +264,12 @@ def format_report(report: Any, robot: Any) -> str:
         if not r.applicable:
             lines.append(f"n/a: {r.quantity}: {r.note}")
     lines.extend(f"note: {note}" for note in report.notes)
+    for r in report.rows:
+        if r.applicable and r.within_floor_only:
+            lines.append(
+                f"note: {r.quantity}: the error {r.max_abs_error:.3g} {r.unit} is round-off, within the floor "
+                f"{r.floor:.3g} {r.unit} that the magnitudes of the terms it is computed from allow"
+            )
     for r in report.failures + report.gaps:
         lines.extend(_mismatch_lines(r))
         if r.note:
@@ -283,7 +304,7 @@ def _mismatch_lines(r: Any) -> list[str]:
 def _origin(report: Any) -> str:
     """Where the parameters of a report came from, when the user did not give them."""
     if report.kind == "any":
-        return "from the formula file (PARAMETERS or parameters(robot) of the link table)"
+        return "from the formula file"
     return "from the formula file's parameters(scene)" if report.kind == "constrained" else "read from the model"
 
 

@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from robodyn.cli._common import file_path, print_json
+from robodyn.cli._common import add_physics_argument, file_path, physics_checked, print_json, warn_unchecked
 from robodyn.cli._parse import parse_keep, parse_lock
 from robodyn.errors import InputError
 
@@ -35,6 +35,7 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument("--srdf", type=file_path, default=None, help="SRDF file (default: same stem as the URDF)")
     p.add_argument("--free-flyer", action="store_true", help="mount the root on a free-flyer joint")
+    add_physics_argument(p)  # info never refuses a model for its physics: it lists the findings
     p.add_argument(
         "--list", action="store_true", help="list every model reachable by name (built-in, example-robot-data)"
     )
@@ -93,6 +94,8 @@ def run(args: argparse.Namespace) -> int:
     if args.model is None:
         raise InputError("robodyn info needs a model (a name or a .urdf path), or --list to name them all")
     robot = load_reduced(args, mimic=args.mimic, check_physics=False)
+    if not physics_checked(args):
+        warn_unchecked(robot, command="info")
     hint = False if looks_like_path(args.model) else resolve(args.model).free_flyer_hint
     summary = summarize(robot, geometry=args.geometry, free_flyer_hint=hint)
     if args.json:

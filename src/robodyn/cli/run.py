@@ -13,7 +13,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from robodyn.cli._common import file_path
+from robodyn.cli._common import add_physics_argument, file_path, unchecked_scene, warn_unchecked
 from robodyn.cli._output import (
     check_output_file,
     check_output_folder,
@@ -40,6 +40,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("scene", type=file_path, metavar="SCENE.toml", help="the scene file")
     p.add_argument("--out", type=file_path, default=None, help="output folder (overrides the scene's [output] dir)")
     p.add_argument("--no-view", action="store_true", help="skip the [view] part")
+    add_physics_argument(p)
     p.set_defaults(handler=run)
 
 
@@ -48,7 +49,7 @@ def run(args: argparse.Namespace) -> int:
     from robodyn.errors import DivergenceError, SimulationInterrupted
     from robodyn.scene import read_scene
 
-    scene = read_scene(args.scene)
+    scene = unchecked_scene(read_scene(args.scene), args)
     out = args.out or scene.output or Path("scene-out") / scene.name
     check_output_folder(out)  # before the model, the check and the exactness proof: a bad folder fails at once
     view = None if args.no_view else scene.view
@@ -65,6 +66,8 @@ def run(args: argparse.Namespace) -> int:
         hint = "shorten [simulate] duration, or run with --no-view"
         check_frame_count(float(scene.simulate["duration"]), speed=1.0, fps=None, what=what, hint=hint)
     robot, reduction = scene.build()
+    if scene.model.get("physics_check") is False:
+        warn_unchecked(robot, command="run")
     refuse_clobbering(outputs, _model_files(robot.urdf_path, robot.srdf_path))
     summary: dict[str, Any] = {"scene": str(scene.path), "model": robot.name, "nq": robot.nq, "nv": robot.nv}
     if reduction is not None:
@@ -287,7 +290,7 @@ def _simulate(
         f"written to {path}"
     )
     print(f"  power: average {trajectory.average_power:.6g} W (W_input {float(trajectory.work_input[-1]):.6g} J)")
-    for line in constraint_lines(trajectory):
+    for line in constraint_lines(trajectory, robot.model.effortLimit):
         print(f"  {line}")
     s = trajectory.summary()
     summary["simulate"] = {

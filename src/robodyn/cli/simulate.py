@@ -32,12 +32,14 @@ import numpy as np
 
 from robodyn.cli import _control
 from robodyn.cli._common import (
+    add_physics_argument,
     file_path,
     float_list,
     load_robot,
     number_in,
     positive_float,
     print_json,
+    refuse_uncoupled_sizes,
     warn_ignored_mimic,
 )
 from robodyn.cli._output import partial_path, refuse_clobbering, writable_path
@@ -75,6 +77,7 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument("--srdf", type=file_path, default=None, help="SRDF file (default: same stem as the URDF)")
     p.add_argument("--free-flyer", action="store_true", help="mount the root on a free-flyer joint")
+    add_physics_argument(p)
     p.add_argument(
         "--mimic",
         action="store_true",
@@ -219,6 +222,7 @@ def run(args: argparse.Namespace) -> int:
         check_frame_count(args.duration, speed=1.0, fps=None, what="--view of --duration", hint=hint)
     robot = load_robot(args, mimic=args.mimic)
     refuse_clobbering(outputs, [("the model's URDF", robot.urdf_path), ("the model's SRDF", robot.srdf_path)])
+    refuse_uncoupled_sizes(robot, q0=args.q0, v0=args.v0, mimic=args.mimic)
     q0 = args.q0 if args.q0 is not None else robot.neutral()
     v0 = args.v0 if args.v0 is not None else np.zeros(robot.nv)
     torque = args.torque if args.controller is None else _control.build(robot, args.controller, gains)
@@ -262,7 +266,7 @@ def run(args: argparse.Namespace) -> int:
         kept = [p for p in (out, csv) if p is not None and p.exists()]
         out, csv = (None if p is None else partial_path(p) for p in (out, csv))
     _write(trajectory, out, csv)
-    _report(trajectory, out, csv, as_json=args.json)
+    _report(trajectory, out, csv, as_json=args.json, effort=robot.model.effortLimit)
     if failure is not None:
         print(f"robodyn simulate: {failure}{_partial_note(out, csv, kept)}", file=sys.stderr)
         return EXIT_INTERRUPTED if isinstance(failure, SimulationInterrupted) else EXIT_DIVERGED
@@ -376,8 +380,12 @@ def _vec(x: Any, units: list[str] | None) -> str:
     return "[" + ", ".join(f"{v:.7g} {u}" if u else f"{v:.7g}" for v, u in zip(values, units, strict=True)) + "]"
 
 
-def constraint_lines(trajectory: Any) -> list[str]:
-    """What the constraints did, one line each: clamped torques, impacts, the worst violation and loop drift."""
+def constraint_lines(trajectory: Any, effort: Any = None) -> list[str]:
+    """What the constraints did, one line each: clamped torques, impacts, the worst violation and loop drift.
+
+    ``effort`` (nv,) [N m | N], the model's effort limits, lets the first line say when the
+    commanded torque itself sat at a limit: a controller that saturates its own command.
+    """
     s, meta = trajectory.summary(), trajectory.meta
     samples = len(trajectory.t)
     clamped = int(s["effort_clamped_samples"] or 0)
@@ -385,9 +393,12 @@ def constraint_lines(trajectory: Any) -> list[str]:
     if clamped:
         lines = [f"efforts: tau clamped at the effort limit in {clamped:,} of {samples:,} samples"]
     else:
-        lines = [
-            f"efforts: tau never clamped (effort limits {efforts}; {samples:,} sample{'s' if samples != 1 else ''})"
-        ]
+        at_limit = _samples_at_limit(trajectory.tau, effort)
+        line = f"efforts: robodyn never clamped tau (effort limits {efforts}; {_count(samples, 'sample')})"
+        saturated = "the commanded tau itself was at its effort limit"
+        if at_limit:
+            line += f"; {saturated} in {at_limit:,} of them (saturated at its source)"
+        lines = [line]
     limits = (meta.get("constraints") or {}).get("limits", True)
     if not limits:
         lines.append("stops: off (--no-limits): the joints pass through their limits")
@@ -423,7 +434,38 @@ def _loop_phrase(meta: dict[str, Any]) -> str:
     return f"Python loop: {why}" if why else "Python loop"
 
 
-def _report(trajectory: Any, out: Path | None, csv: Path | None, *, as_json: bool) -> None:
+def _count(n: int, noun: str) -> str:
+    """``1 sample``, ``1,000 samples``."""
+    return f"{n:,} {noun}{'' if n == 1 else 's'}"
+
+
+def _samples_at_limit(tau: Any, effort: Any) -> int:
+    """Samples where some joint's |tau| reached its (positive, finite) effort limit, to 1e-9 relative."""
+    if effort is None:
+        return 0
+    tau = np.asarray(tau, dtype=np.float64)
+    limit = np.asarray(effort, dtype=np.float64).reshape(-1)
+    if tau.ndim != 2 or tau.shape[1] != limit.size:
+        return 0
+    bounded = np.isfinite(limit) & (limit > 0)
+    hit = np.abs(tau[:, bounded]) >= limit[bounded] * (1 - 1e-9)
+    return int(np.count_nonzero(hit.any(axis=1)))
+
+
+def energy_line(s: dict[str, Any]) -> str:
+    """The energy line: drift from E0 when no work is exchanged, else the change the works account for."""
+    head = f"energy: E0 = {s['energy_initial']:.9g} J, E(t) = {s['energy_final']:.9g} J, "
+    worked = any(abs(float(s[k] or 0.0)) > 0.0 for k in ("work_input", "work_damping", "work_limits"))
+    if not worked:
+        return head + f"drift max|E - E0| = {s['energy_drift']:.3e} J (relative {s['relative_energy_drift']:.3e})"
+    change = float(s["energy_final"]) - float(s["energy_initial"])
+    return head + (
+        f"change E(t) - E0 = {change:.6g} J: work was exchanged, so the drift from E0 is no error measure here; "
+        "the ledger's residual below is"
+    )
+
+
+def _report(trajectory: Any, out: Path | None, csv: Path | None, *, as_json: bool, effort: Any = None) -> None:
     s = trajectory.summary()
     if out is not None:
         s["out"] = str(out)
@@ -450,10 +492,7 @@ def _report(trajectory: Any, out: Path | None, csv: Path | None, *, as_json: boo
     if controller is not None:
         print(f"controller: {_control.describe(controller['name'], controller['gains'])}")
     print(f"final state: q = {_vec(s['q_final'], s['q_units'])}, v = {_vec(s['v_final'], s['v_units'])}")
-    print(
-        f"energy: E0 = {s['energy_initial']:.9g} J, E(t) = {s['energy_final']:.9g} J, "
-        f"drift max|E - E0| = {s['energy_drift']:.3e} J (relative {s['relative_energy_drift']:.3e})"
-    )
+    print(energy_line(s))
     print(
         f"ledger: W_input = {s['work_input']:.9g} J, W_damping = {s['work_damping']:.9g} J, "
         f"W_limits = {s['work_limits']:.9g} J, "
@@ -464,7 +503,7 @@ def _report(trajectory: Any, out: Path | None, csv: Path | None, *, as_json: boo
 
         print(warning_line(meta["stiff_friction"]))
     print(f"power: average {s['average_power']:.6g} W (W_input over {s['t_final'] - float(trajectory.t[0]):g} s)")
-    for line in constraint_lines(trajectory):
+    for line in constraint_lines(trajectory, effort):
         print(line)
     for label, path in (("trajectory", out), ("CSV", csv)):
         if path is not None:

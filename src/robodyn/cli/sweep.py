@@ -13,7 +13,7 @@ from __future__ import annotations
 import sys
 from typing import Any
 
-from robodyn.cli._common import file_path, positive_int
+from robodyn.cli._common import add_physics_argument, file_path, physics_checked, positive_int
 from robodyn.cli._output import check_output_folder
 
 
@@ -42,22 +42,38 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--workers", type=positive_int, help="local worker processes (default: one per CPU)")
     p.add_argument("--plots", action="store_true", help="also draw maps and sensitivity charts into DIR/plots/")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_physics_argument(p)
     p.set_defaults(handler=run)
 
 
 def run(args: Any) -> int:
     """Run the sweep and print one summary line."""
+    import dataclasses
+
     import robodyn.sweep as sweep
     from robodyn.scene import read_scene
+    from robodyn.sweep.spec import load
 
     check_output_folder(args.out)
+    spec = load(args.sweep)
+    if not physics_checked(args):
+        spec = dataclasses.replace(spec, physics_check=False)
+    if not spec.physics_check:
+        print(_as_written(spec.model or spec.scene), file=sys.stderr)
+
+    def reader(path: Any) -> Any:
+        scene = read_scene(path)
+        if spec.physics_check and scene.model.get("physics_check") is False:  # the scene's own [model] setting
+            print(_as_written(str(scene.model.get("urdf") or scene.model.get("name"))), file=sys.stderr)
+        return scene
+
     result = sweep.run(
-        args.sweep,
+        spec,
         out=args.out,
         scheduler=args.scheduler,
         workers=args.workers,
         progress=None if args.quiet else sys.stderr,
-        read_scene=read_scene,
+        read_scene=reader,
     )
     table = result.table()
     print(
@@ -70,3 +86,11 @@ def run(args: Any) -> int:
         written = plots.draw(table, result.plan.axes, args.out / "plots")
         print(f"{len(written)} picture files -> {args.out / 'plots'}")
     return 0
+
+
+def _as_written(model: str) -> str:
+    """The one warning line of a sweep whose model is loaded with its file's numbers as written."""
+    return (
+        f"robodyn sweep: warning: physics check off (--no-physics-check or physics_check = false): {model} is "
+        "loaded with its file's masses and inertias as written (robodyn info lists any physically impossible ones)"
+    )

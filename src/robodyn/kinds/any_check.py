@@ -6,14 +6,22 @@ welded to its parent, by the same reduction as ``--lock`` (:func:`robodyn.model.
 Its parameters are the file's ``PARAMETERS`` or its ``parameters(robot)`` of that model's per-link
 table (:func:`robodyn.model.links.link_table`). Pinocchio's M, C, G, RNEA and ABA are then mapped to
 the formula's coordinates exactly (:class:`robodyn.kinds.reference.Reference`), and
-:mod:`robodyn.kinds.check` compares them row by row as for a built-in kind.
+:mod:`robodyn.kinds.check` compares them row by row as for a built-in kind. :func:`explain_rows` hands
+``--explain`` (:mod:`robodyn.kinds.explain`) what it fits, with the coordinates' kinds (angle or length).
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
+import numpy as np
+
+from robodyn import dynamics
 from robodyn.errors import FormulaError
+from robodyn.kinds.check_rows import Accumulator, CheckRow
+from robodyn.kinds.explain import explain
 from robodyn.kinds.formula import Formula
 from robodyn.kinds.reduced import checked_parameters
 from robodyn.kinds.reference import Reference
@@ -96,3 +104,17 @@ def _notes(
         held = ", ".join(f"{name} at {locked[name]:.6g}" if name in locked else f"{name} at neutral" for name in rest)
         notes.append(f"locked (welded to their parents): {held}")
     return tuple(notes)
+
+
+def explain_rows(
+    rows: Sequence[CheckRow],
+    kept: Mapping[str, Accumulator],
+    states: Sequence[Any],
+    ref: Reference,
+    used: Mapping[str, float],
+) -> tuple[str, ...]:
+    """``--explain``'s lines (:func:`robodyn.kinds.explain.explain`), the coordinates' kinds read from ``ref``."""
+    joints = [next(j for j in ref.robot.joints if j.idx_v == column) for column in ref.columns]
+    prismatic = [JOINT_TYPES.get(j.kind) == "prismatic" for j in joints]
+    g = float(np.linalg.norm(dynamics.gravity_vector(ref.robot.model)))
+    return explain(rows, kept, states, used, prismatic=prismatic, g=g)

@@ -18,6 +18,14 @@ rows by those of :mod:`robodyn.kinds.loop_check`. Errors are relative to the lar
 the quantity takes over the sampled states.
 Finite differences (dM/dt, dV/dq) use a central step of ``FD_STEP`` and are held to
 ``FD_TOL``.
+
+A row also passes when its absolute error is within its round-off floor: ``ROUNDOFF`` eps times
+the magnitude of the terms the quantity is computed from, from the model's own scales (the norm
+of M, the speeds and accelerations of the sample, the energy scale |g| sum m_i |c_i|); the
+round trips through M are held to the same times |M| |a| (cond(M) on an ill-conditioned M), and
+the finite differences to it divided by their step. A quantity that is zero by the robot's
+symmetry, or tiny against its terms, then passes on round-off; an error of 1e-6 relative still
+fails.
 """
 
 from __future__ import annotations
@@ -47,7 +55,7 @@ from robodyn.kinds.check_rows import (
     formula_values,
     skew_scale,
 )
-from robodyn.kinds.explain import explain
+from robodyn.kinds.check_scales import scales
 from robodyn.kinds.formula import Formula
 from robodyn.kinds.loop_check import loop_rows
 from robodyn.kinds.params import Params, extract, from_mapping
@@ -55,7 +63,6 @@ from robodyn.kinds.reduced import KIND as CONSTRAINED
 from robodyn.kinds.reference import Reference
 from robodyn.kinds.sandbox import DEFAULT_TIMEOUT
 from robodyn.kinds.user import UserFormula, resolve
-from robodyn.model.links import JOINT_TYPES
 from robodyn.robot import Robot
 
 Array = NDArray[np.float64]
@@ -179,27 +186,31 @@ def _formula_rows(
     for k, s in enumerate(samples):
         M_p = ref.mass_matrix(s.q)
         M_f, C_f, G_f = M_all[k], C_all[k], G_all[k]
-        acc["M"].add(M_p, M_f)
-        acc["C"].add(ref.coriolis_matrix(s.q, s.v), C_f)
-        acc["G"].add(ref.gravity(s.q), G_f)
-        acc["nle"].add(ref.nonlinear_effects(s.q, s.v), C_f @ s.v + G_f)
-        acc["id"].add(ref.rnea(s.q, s.v, s.a), M_f @ s.a + C_f @ s.v + G_f)
-        acc["fd"].add(ref.aba(s.q, s.v, s.tau), _solve(M_f, s.tau - C_f @ s.v - G_f))
-        acc["T"].add(0.5 * float(s.v @ M_p @ s.v), 0.5 * float(s.v @ M_f @ s.v))
+        sc = scales(robot, s, M_p, energy=ref.gravity_scale(s.q))
+        a_p = ref.aba(s.q, s.v, s.tau)
+        acc["M"].add(M_p, M_f, sc.floor(sc.mass))
+        acc["C"].add(ref.coriolis_matrix(s.q, s.v), C_f, sc.floor(sc.coriolis_terms))
+        acc["G"].add(ref.gravity(s.q), G_f, sc.floor(sc.energy))
+        nle_terms = sc.mass * sc.speed**2 + sc.energy
+        acc["nle"].add(ref.nonlinear_effects(s.q, s.v), C_f @ s.v + G_f, sc.floor(nle_terms))
+        acc["id"].add(ref.rnea(s.q, s.v, s.a), M_f @ s.a + C_f @ s.v + G_f, sc.floor(sc.torque_terms))
+        acc["fd"].add(a_p, _solve(M_f, s.tau - C_f @ s.v - G_f), sc.forward_floor(a_p))
+        acc["T"].add(0.5 * float(s.v @ M_p @ s.v), 0.5 * float(s.v @ M_f @ s.v), sc.floor(sc.mass * sc.speed**2))
         Mdot = (M_all[n + k] - M_all[2 * n + k]) / (2 * FD_STEP)  # central difference along v
         N = Mdot - 2 * C_f
-        acc["skew"].add(np.zeros_like(N), N + N.T)
-        acc["sym"].add(np.zeros_like(M_f), M_f - M_f.T)
+        acc["skew"].add(np.zeros_like(N), N + N.T, sc.floor(sc.mass * sc.speed / FD_STEP))
+        acc["sym"].add(np.zeros_like(M_f), M_f - M_f.T, sc.floor(sc.mass))
         m_scale = max(m_scale, float(np.abs(M_f).max()))
         n_scale = max(n_scale, skew_scale(Mdot, C_f, M_f, s.v))
         if formula.potential_energy is not None:
             acc["V"].add(
                 ref.potential_energy(s.q) - ref.potential_energy(q_anchor),
                 float(V_all[k]) - float(V_all[n]),
+                sc.floor(sc.energy + ref.gravity_scale(q_anchor)),
             )
             plus = V_all[n + 1 + k : n + 1 + nv * n : n]  # V(q + h e_i), i = 0 .. nv-1
             minus = V_all[n + 1 + nv * n + k :: n]  # V(q - h e_i)
-            acc["dV"].add(G_f, (plus - minus) / (2 * FD_STEP))
+            acc["dV"].add(G_f, (plus - minus) / (2 * FD_STEP), sc.floor(sc.energy / FD_STEP))
     if keep is not None:
         keep.update(acc)
     scalars = {"T", "V"}
@@ -239,24 +250,31 @@ def _structure_rows(robot: Robot, samples: list[_Sample], rtol: float) -> list[C
         raw = np.array(M)
         eig = np.linalg.eigvalsh(raw) if np.all(np.isfinite(raw)) else np.full(robot.nv, np.nan)
         min_eig_ratio = min(min_eig_ratio, eig[0] / eig[-1])
-        # Positive definiteness: a non-positive eigenvalue shows as an error of its size.
+        sc = scales(robot, s, raw)
+        # Positive definiteness: a non-positive eigenvalue shows as an error of its size. An eigenvalue
+        # within round-off of zero (a body without inertia: icub) is still singular, so no floor here.
         spd.add(np.zeros(1), np.array([max(0.0, -eig[0]) + (eig[-1] if eig[0] <= 0 else 0.0)]))
         C = dynamics.coriolis_matrix(model, data, s.q, s.v)
         coriolis.add(
             dynamics.pinocchio_coriolis_matrix(model, data, s.q, s.v),
             C if mimic else dynamics.christoffel_coriolis(model, data, s.q, s.v),
+            sc.floor(sc.coriolis_terms),
         )
         G = dynamics.gravity(model, data, s.q)
         Mdot = _mdot(mass, integrate, s.q, s.v)
         n_scale = max(n_scale, skew_scale(Mdot, C, M, s.v))
         N = Mdot - 2 * C
-        skew.add(np.zeros_like(N), N + N.T)
-        grad.add(G, _grad(lambda q: dynamics.potential_energy(model, data, q), integrate, s.q, robot.nv))
+        skew.add(np.zeros_like(N), N + N.T, sc.floor(sc.mass * sc.speed / FD_STEP))
+        grad.add(
+            G,
+            _grad(lambda q: dynamics.potential_energy(model, data, q), integrate, s.q, robot.nv),
+            sc.floor(sc.energy / FD_STEP),
+        )
         b = dynamics.nonlinear_effects(model, data, s.q, s.v)
-        nle.add(b, C @ s.v + G)
+        nle.add(b, C @ s.v + G, sc.floor(sc.mass * sc.speed**2 + sc.energy))
         zero = np.zeros(robot.nv)
         cols = np.column_stack([dynamics.rnea(model, data, s.q, zero, e) - G for e in np.eye(robot.nv)])
-        columns.add(M, cols)
+        columns.add(M, cols, sc.floor(sc.mass + sc.energy))
         try:
             a_crba = dynamics.crba_solve(model, data, s.q, s.v, s.tau)
         except np.linalg.LinAlgError:  # M not positive definite: the rows solving through it fail, saying so
@@ -268,11 +286,15 @@ def _structure_rows(robot: Robot, samples: list[_Sample], rtol: float) -> list[C
             a_aba = dynamics.aba(model, data, s.q, s.v, s.tau)
         except (RuntimeError, ValueError):
             aba_ok, a_aba = False, a_crba
-        forward.add(a_aba, a_crba)
-        inverse.add(s.tau, dynamics.rnea(model, data, s.q, s.v, a_crba))
+        forward.add(a_aba, a_crba, sc.forward_floor(a_aba))
+        # tau -> a -> tau: ABA solves with a matrix off by eps |M|, which comes back through RNEA as eps |M| |a|
+        # (|a| is up to |M^-1| |tau - nle|: cond(M) times the torques' terms on an ill-conditioned M)
+        a_size = float(np.abs(a_crba).max())
+        inverse.add(s.tau, dynamics.rnea(model, data, s.q, s.v, a_crba), sc.floor(sc.mass * a_size + sc.torque_terms))
         T = 0.5 * float(s.v @ M @ s.v)
+        t_floor = sc.floor(sc.mass * sc.speed**2)
         try:
-            kinetic.add(T, dynamics.pinocchio_kinetic_energy(model, data, s.q, s.v))
+            kinetic.add(T, dynamics.pinocchio_kinetic_energy(model, data, s.q, s.v), t_floor)
         except RuntimeError:  # computeKineticEnergy refuses mimic joints
             energy_refused = True
             kinetic.add(T, T)
@@ -437,7 +459,9 @@ def check(
     rows.sort(key=lambda r: GROUP_ORDER.index(r.group))  # stable: keeps the order within a group
     explanation: tuple[str, ...] = ()
     if explain and explained is not None:
-        explanation = explain_rows(rows, kept, *explained, used)
+        explanation = any_check.explain_rows(rows, kept, *explained, used)
+    elif explain and kind == CONSTRAINED:
+        explanation = ("explain: not available for a KIND = 'constrained' formula (its rows are on the loop)",)
     if kind != CONSTRAINED and (tuple(loops) or springs):
         notes += ("the loops and springs are not checked: only a KIND = 'constrained' formula lives on them",)
     return CheckReport(
@@ -455,13 +479,3 @@ def check(
         params_given=params is not None,
         explanation=explanation,
     )
-
-
-def explain_rows(
-    rows: list[CheckRow], kept: dict[str, Accumulator], states: list[_Sample], ref: Reference, used: Mapping[str, float]
-) -> tuple[str, ...]:
-    """``--explain``'s lines (:func:`robodyn.kinds.explain.explain`), the coordinates' kinds read from ``ref``."""
-    joints = [next(j for j in ref.robot.joints if j.idx_v == column) for column in ref.columns]
-    prismatic = [JOINT_TYPES.get(j.kind) == "prismatic" for j in joints]
-    g = float(np.linalg.norm(dynamics.gravity_vector(ref.robot.model)))
-    return explain(rows, kept, states, used, prismatic=prismatic, g=g)

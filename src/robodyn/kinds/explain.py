@@ -13,8 +13,8 @@ The sparsest exact fit is taken: every single term first, then every pair among 
 terms, then orthogonal matching pursuit up to :data:`MAX_TERMS` terms. A fit is exact when what it
 leaves is round-off (:data:`FIT_RTOL` of the difference, or :data:`ROUNDOFF` of the entry's scale).
 Each coefficient is then named, when one does, by a product of the file's parameters with a small
-rational factor (and g where gravity is; :data:`RATIONALS`), or a sum or difference of two such
-products (``lc1`` written for ``l1`` leaves m2*lc1*lc2 - m2*l1*lc2), to :data:`NAME_RTOL`.
+rational factor (and g where gravity is), or a sum or difference of two such
+products (``lc1`` written for ``l1`` leaves m2*lc1*lc2 - m2*l1*lc2): :mod:`robodyn.kinds.explain_names`.
 
 The formula's own structure is read too: an M that is not symmetric, or not positive definite at a
 sample; a C whose C v is right while dM/dt - 2C is not skew (a valid C v, not in Christoffel form).
@@ -29,25 +29,28 @@ import math
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from fractions import Fraction
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from robodyn.kinds.check_rows import Accumulator, CheckRow
+from robodyn.kinds.explain_names import (
+    NAME_RTOL,
+    Dim,
+    Name,
+    Namer,
+    entry_dimension,
+    sub,
+    term_dimension,
+)
 
 Array = NDArray[np.float64]
 
 MAX_TERMS = 6  # the most terms a correction may have: more is not "a wrong term" but a wrong derivation
 FIT_RTOL = 1e-9  # an exact fit leaves at most this fraction of the difference (its round-off is ~1e-13)
 ROUNDOFF = 1e-12  # ... or this fraction of the entry's own scale (a difference near the tolerance)
-NAME_RTOL = 1e-9  # a coefficient is named by a product of parameters that equals it to this (fits give ~1e-13)
 PAIR_CANDIDATES = 40  # pairs of terms are searched among this many best-correlated ones
-MAX_FACTORS = 3  # parameters in a product (g comes on top)
-RATIONALS = tuple(
-    Fraction(x) for x in ("1", "2", "1/2", "3", "1/3", "4", "1/4", "3/2", "2/3", "3/4", "4/3", "1/12", "1/6", "1/8")
-)
 QUANTITIES = {"M": "M", "C": "C", "G": "G", "V": "V - V(q0)"}
 
 
@@ -201,154 +204,26 @@ def _least_squares(A: Array, d: Array) -> tuple[Array, float]:
     return coef, float(np.max(np.abs(d - A @ coef)))
 
 
-# ---------------------------------------------------------------------------------------- naming coefficients
-@dataclass(frozen=True)
-class Name:
-    """A coefficient's name (``-m2*l1*lc2``) and how closely it equals it (relative)."""
-
-    text: str
-    error: float
-
-
-Dim = tuple[int, int, int]  # exponents of kg, m, s
-GRAVITY: Dim = (0, 1, -2)
-
-
-def parameter_dimension(name: str) -> Dim | None:
-    """A parameter's dimension guessed from its name: m/M a mass, I/J an inertia, l/L/d/r/a/h/b/w a length, g."""
-    if name == "g":
-        return GRAVITY
-    head = name[:1]
-    if head in "mM":
-        return (1, 0, 0)
-    if head in "IJ":
-        return (1, 2, 0)
-    if head in "lLdrahbw":
-        return (0, 1, 0)
-    return None
-
-
-class Namer:
-    """Names numbers by products of parameters (up to :data:`MAX_FACTORS`, times g) with a small rational factor.
-
-    Where every factor's dimension is known (:func:`parameter_dimension`) a product must have the
-    coefficient's dimension; products of known dimension are preferred, then a rational factor of 1,
-    then fewer factors.
-    """
-
-    def __init__(self, params: Mapping[str, float], g: float) -> None:
-        names = [k for k, x in params.items() if math.isfinite(x) and x != 0 and k != "g"]
-        gravity = params.get("g", g)
-        products: list[tuple[str, float, int, Dim | None]] = []  # (text, value, factors, dimension)
-        for size in range(1, MAX_FACTORS + 1):
-            for combo in itertools.combinations_with_replacement(names, size):
-                value = math.prod(params[k] for k in combo)
-                products.append((_product_text(combo), value, size, _dimension(combo)))
-        if gravity:
-            products += [
-                (f"{text}*g", value * gravity, size + 1, None if dim is None else _add(dim, GRAVITY))
-                for text, value, size, dim in products
-            ]
-            products.append(("g", gravity, 1, GRAVITY))
-        self.products = products
-        values = np.array([abs(p[1]) for p in products])
-        order = np.argsort(values, kind="stable")
-        self.sorted_values = values[order]
-        self.sorted_index = order
-
-    def _matches(self, target: float, tol: float) -> list[int]:
-        lo = np.searchsorted(self.sorted_values, abs(target) - tol, side="left")
-        hi = np.searchsorted(self.sorted_values, abs(target) + tol, side="right")
-        return [int(i) for i in self.sorted_index[lo:hi]]
-
-    def name(self, c: float, dim: Dim | None = None) -> Name | None:
-        """The simplest r * product equal to ``c`` (of dimension ``dim``) to NAME_RTOL, or +-P1 +- P2; else None."""
-        if c == 0:
-            return None
-        best: tuple[tuple[int, int, int, int, int], str, float] | None = None
-        for r_index, r in enumerate(RATIONALS):
-            for i in self._matches(c / float(r), NAME_RTOL * abs(c / float(r))):
-                text, value, size, own = self.products[i]
-                if dim is not None and own is not None and own != dim:
-                    continue
-                key = (int(dim is None or own is None), int(r_index > 0), size, r_index, i)
-                if best is None or key < best[0]:
-                    err = abs(float(r) * abs(value) - abs(c)) / abs(c)
-                    sign = "-" if (c < 0) != (value < 0) else ""
-                    best = (key, f"{sign}{_scaled(text, r)}", err)
-        if best is not None:
-            return Name(best[1], best[2])
-        return self._pair(c, dim)
-
-    def _pair(self, c: float, dim: Dim | None) -> Name | None:
-        """``c`` = +-P1 +- P2 for two products (rational 1) of dimension ``dim``, the simplest pair; None if none."""
-        best: tuple[tuple[int, int, int], str, float] | None = None
-        for i, (text1, value1, size1, dim1) in enumerate(self.products):
-            if dim is not None and dim1 is not None and dim1 != dim:
-                continue
-            for s1 in (1.0, -1.0):
-                rest = c - s1 * value1
-                if abs(rest) < NAME_RTOL * abs(c):
-                    continue
-                for j in self._matches(rest, NAME_RTOL * abs(c)):
-                    text2, value2, size2, dim2 = self.products[j]
-                    if j == i or (dim is not None and dim2 is not None and dim2 != dim):
-                        continue
-                    s2 = 1.0 if (rest > 0) == (value2 > 0) else -1.0
-                    key = (size1 + size2, min(i, j), max(i, j))
-                    if best is None or key < best[0]:
-                        first, second = (s1, text1), (s2, text2)
-                        if s1 < 0 < s2:
-                            first, second = second, first
-                        text = f"{'-' if first[0] < 0 else ''}{first[1]} {'-' if second[0] < 0 else '+'} {second[1]}"
-                        err = abs(s1 * value1 + s2 * value2 - c) / abs(c)
-                        best = (key, text, err)
-        return None if best is None else Name(best[1], best[2])
-
-
-def _add(a: Dim, b: Dim) -> Dim:
-    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
-
-
-def _sub(a: Dim, b: Dim) -> Dim:
-    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
-
-
-def _dimension(combo: Sequence[str]) -> Dim | None:
-    out: Dim = (0, 0, 0)
-    for name in combo:
-        dim = parameter_dimension(name)
-        if dim is None:
-            return None
-        out = _add(out, dim)
-    return out
-
-
-def _product_text(combo: Sequence[str]) -> str:
-    parts = []
-    for name, group in itertools.groupby(combo):
-        power = len(list(group))
-        parts.append(name if power == 1 else f"{name}**{power}")
-    return "*".join(parts)
-
-
-def _scaled(text: str, r: Fraction) -> str:
-    if r == 1:
-        return text
-    if r.denominator == 1:
-        return f"{r.numerator}*{text}"
-    if r.numerator == 1:
-        return f"{text}/{r.denominator}"
-    return f"{r.numerator}*{text}/{r.denominator}"
-
-
 # ---------------------------------------------------------------------------------------- the explanation
+def _top_level_space(text: str) -> bool:
+    """True when ``text`` has a space outside parentheses (``a - b``, not ``2*(a - b)``)."""
+    depth = 0
+    for ch in text:
+        depth += {"(": 1, ")": -1}.get(ch, 0)
+        if ch == " " and depth == 0:
+            return True
+    return False
+
+
 def _term(coefficient: float, name: Name | None, atom: str) -> tuple[str, str]:
     """(sign, magnitude text) of one term: ``-``, ``m2*l1*lc2*cos(q2)``."""
     if name is not None:
         text = name.text
-        sign = "-" if text.startswith("-") and " " not in text else "+"
-        body = text.lstrip("-") if " " not in text or atom == "1" else f"({text})"
+        negative = text.startswith("-") and not _top_level_space(text)
+        sign = "-" if negative else "+"
+        body = text[1:] if negative else text
+        if _top_level_space(body) and atom != "1":
+            body = f"({body})"
     else:
         sign = "-" if coefficient < 0 else "+"
         body = f"{abs(coefficient):.3g}"
@@ -359,31 +234,6 @@ def _power_of_ten(x: float) -> str:
     return f"1e{math.ceil(math.log10(max(x, 1e-16))):d}"
 
 
-def entry_dimension(key: str, entry: tuple[int, ...], prismatic: Sequence[bool]) -> Dim:
-    """The dimension of an entry of M, C, G or V (a prismatic coordinate's rows and columns lose a metre)."""
-    rev = [0 if p else 1 for p in prismatic]
-    if key == "M":
-        return (1, rev[entry[0]] + rev[entry[1]], 0)
-    if key == "C":
-        return (1, rev[entry[0]] + rev[entry[1]], -1)
-    if key == "G":
-        return (1, 1 + rev[entry[0]], -2)
-    return (1, 2, -2)
-
-
-def term_dimension(term: str, prismatic: Sequence[bool]) -> Dim:
-    """The dimension of a basis term: a prismatic q is a metre, a velocity 1/s (a prismatic one m/s)."""
-    bare = re.sub(r"\([^)]*\)", "", term)  # the arguments of cos and sin are dimensionless
-    metres, seconds = 0, 0
-    for letter, index, power in re.findall(r"([qv])(\d+)(?:\*\*(\d+))?", bare):
-        k = int(power or 1)
-        if prismatic[int(index) - 1]:
-            metres += k
-        if letter == "v":
-            seconds -= k
-    return (0, metres, seconds)
-
-
 def describe_fit(label: str, f: Fit, namer: Namer, unit: str, dims: Sequence[Dim | None] | None = None) -> list[str]:
     """``M[0,1]: formula - Pinocchio = -m2*l1*lc2*cos(q2)   (coefficient -0.00945, = -m2*l1*lc2 to 1e-15)``."""
     if not f.exact:
@@ -392,7 +242,8 @@ def describe_fit(label: str, f: Fit, namer: Namer, unit: str, dims: Sequence[Dim
             f"{f.residual:.3g} {unit}): more than a term is wrong, or a term is outside the basis"
         ]
     named = [namer.name(c, None if dims is None else dims[j]) for j, c in enumerate(f.coefficients)]
-    order = sorted(range(len(f.terms)), key=lambda j: -abs(f.coefficients[j]))
+    # largest first; of two equal ones, the formula's own (positive: formula - Pinocchio) first
+    order = sorted(range(len(f.terms)), key=lambda j: (-float(f"{abs(f.coefficients[j]):.9g}"), f.coefficients[j] < 0))
     expression = ""
     details = []
     for position, j in enumerate(order):
@@ -423,16 +274,14 @@ def _swapped(f: Fit, named: Sequence[Name | None], order: Sequence[int]) -> str:
     if abs(ca + cb) > NAME_RTOL * max(abs(ca), abs(cb)) * 1e3:
         return ""
     extra, missing = (a, b) if ca > 0 else (b, a)  # formula - Pinocchio: + what the formula has, - what it lacks
-    name = named[extra]
-    coefficient = name.text if name is not None else f"{abs(f.coefficients[extra]):.3g}"
+    has = _term(f.coefficients[extra], named[extra], f.terms[extra])[1]
+    lacks = _term(f.coefficients[extra], named[extra], f.terms[missing])[1]
     what = "a term written wrong"
     if _sin_cos(f.terms[extra], f.terms[missing]):
         what = "a sine and a cosine swapped"
     elif re.sub(r"\d", "#", f.terms[extra]) == re.sub(r"\d", "#", f.terms[missing]):
         what = "an index written wrong"
-    return (
-        f"the formula has {coefficient}*{f.terms[extra]} where Pinocchio has {coefficient}*{f.terms[missing]}: {what}"
-    )
+    return f"the formula has {has} where Pinocchio has {lacks}: {what}"
 
 
 def _sin_cos(a: str, b: str) -> bool:
@@ -480,7 +329,7 @@ def explain(
             d = (vals - refs).reshape(len(samples), -1)[:, flat]
             found = fit(d, basis, scale)
             own = entry_dimension(key, entry, prismatic)
-            dims = [_sub(own, term_dimension(term, prismatic)) for term in found.terms]
+            dims = [sub(own, term_dimension(term, prismatic)) for term in found.terms]
             lines += describe_fit(label, found, namer, row.unit, dims)
         failing[key] = labels
     lines += _structure(rows, acc, samples)
@@ -505,9 +354,10 @@ def _structure(rows: Sequence[CheckRow], acc: Mapping[str, Accumulator], samples
         for k, (_, M) in enumerate(acc["M"].pairs):
             eig = np.linalg.eigvalsh(0.5 * (M + M.T))
             if eig[0] <= 0:
+                q = ", ".join(f"{x:.4g}" for x in samples[k].q)
                 out.append(
-                    f"the formula's M is not positive definite at sample {k}: q = "
-                    f"{np.array2string(samples[k].q, precision=4, separator=', ')}, smallest eigenvalue {eig[0]:.3g}"
+                    f"the formula's M is not positive definite at sample {k}: q = [{q}], smallest eigenvalue "
+                    f"{eig[0]:.3g} {acc['M'].unit}"
                 )
                 break
     skew = by_quantity.get("N = dM/dt - 2C skew (formula)")
@@ -546,6 +396,8 @@ def _knock_on(rows: Sequence[CheckRow], failing: Mapping[str, list[str]]) -> lis
                     if key in ("C", "G") and row.quantity in ("nle = C v + G", "tau (inverse dynamics)") and entry:
                         if not source.startswith(f"{key}[{entry[0]}"):
                             continue
+                    if row.quantity == "G = dV/dq (formula)" and key == "G" and source != f"G[{entry[0]}]":
+                        continue
                     if key == "M" and row.quantity == "tau (inverse dynamics)" and entry:
                         if not source.startswith(f"M[{entry[0]},") and not source.endswith(f",{entry[0]}]"):
                             continue

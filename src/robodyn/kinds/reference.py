@@ -41,12 +41,13 @@ class Reference:
     pairs: tuple[bool, ...]
     signs: Array
     offsets: Array
+    plain: bool = False  # Pinocchio's own coordinates: every map is the identity, skipped
 
     @classmethod
     def identity(cls, robot: Robot) -> Reference:
         """Pinocchio's own coordinates (nq = nv): the built-in kinds."""
         n = robot.nv
-        return cls(robot, tuple(range(n)), tuple(range(n)), (False,) * n, np.ones(n), np.zeros(n))
+        return cls(robot, tuple(range(n)), tuple(range(n)), (False,) * n, np.ones(n), np.zeros(n), plain=True)
 
     @classmethod
     def mapped(cls, robot: Robot, joints: Sequence[str], signs: Sequence[float], offsets: Sequence[float]) -> Reference:
@@ -71,6 +72,8 @@ class Reference:
     # ----------------------------------------------------------------- the maps
     def formula_q(self, q: Array) -> Array:
         """The formula's q (n,) of a configuration (nq,) of the robot."""
+        if self.plain:
+            return np.asarray(q, dtype=np.float64)
         angles = np.array(
             [np.arctan2(q[i + 1], q[i]) if pair else q[i] for i, pair in zip(self.q_columns, self.pairs, strict=True)]
         )
@@ -78,10 +81,14 @@ class Reference:
 
     def formula_v(self, v: Array) -> Array:
         """The formula's v (or a, or tau: S^T x) of the robot's (nv,)."""
+        if self.plain:
+            return np.asarray(v, dtype=np.float64)
         return self.signs * np.asarray(v)[list(self.columns)]
 
     def urdf_q(self, q: Array) -> Array:
         """The robot's configuration (nq,) of the formula's q (n,)."""
+        if self.plain:
+            return np.asarray(q, dtype=np.float64)
         angles = self.signs * (np.asarray(q, dtype=np.float64) - self.offsets)
         out = self.robot.neutral()
         for i, pair, x in zip(self.q_columns, self.pairs, angles, strict=True):
@@ -93,12 +100,16 @@ class Reference:
 
     def urdf_v(self, v: Array) -> Array:
         """S v: the robot's (nv,) of the formula's (n,)."""
+        if self.plain:
+            return np.asarray(v, dtype=np.float64)
         out = np.zeros(self.robot.nv)
         out[list(self.columns)] = self.signs * np.asarray(v, dtype=np.float64)
         return out
 
     def _project(self, A: Array) -> Array:
         """S^T A S of an (nv, nv) matrix."""
+        if self.plain:
+            return A
         idx = list(self.columns)
         return np.asarray(A[np.ix_(idx, idx)] * np.outer(self.signs, self.signs), dtype=np.float64)
 
@@ -134,6 +145,10 @@ class Reference:
         """S^T ABA(q, S v, S tau)."""
         model, data = self.robot.model, self.robot.data
         return self.formula_v(dynamics.aba(model, data, self.urdf_q(q), self.urdf_v(v), self.urdf_v(tau)))
+
+    def gravity_scale(self, q: Array) -> float:
+        """The energy scale |g| sum m_i |c_i| [J] (the round-off floors' scale), the same in every coordinate."""
+        return dynamics.gravity_scale(self.robot.model, self.robot.data, self.urdf_q(q))
 
     def potential_energy(self, q: Array) -> float:
         """V [J], the same in every coordinate."""

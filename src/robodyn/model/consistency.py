@@ -16,6 +16,9 @@ inertia_singular   warning  a body with mass whose inertia is not positive defin
 negative_joint     error    negative armature, damping or friction on a joint
 limits_reversed    error    a joint's lower position limit is above its upper one
 mesh_missing       warning  a mesh file the URDF refers to does not exist
+welded_root        note     an impossible inertia on a link welded to the fixed base: the
+                            dynamics never sees it (with a free flyer it is an error)
+massless_inertia   note     a link of zero mass with a non-zero inertia: read literally
 =================  =======  ====================================================
 
 Inertias are checked per Pinocchio body (the links welded to one joint, merged), which is
@@ -24,12 +27,15 @@ link's own ``<inertial>`` in the file is checked too (:func:`link_findings`): th
 welded links can hide a negative mass, and the root link's body is not a joint's. The triangle
 inequality is tested on the principal moments (the eigenvalues of the tensor), not its diagonal:
 I1 + I2 >= I3 for the two smallest, which holds in every frame for a real mass distribution.
+On a fixed base, the root link and the links welded to it by fixed joints are the world itself:
+their inertia cannot change the dynamics, so an impossible one there (anymal's placeholder
+``base``) is a note, not a refusal.
 """
 
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -149,19 +155,85 @@ def link_inertials(root: ET.Element) -> list[LinkInertial]:
     return out
 
 
-def link_findings(inertials: Sequence[LinkInertial]) -> list[Finding]:
-    """The errors of each link's own inertial as written in the file (before any merge of welded links)."""
+def welded_to_root(root: ET.Element) -> set[str]:
+    """The root link of the URDF ``root`` and every link welded to it by fixed joints only.
+
+    On a fixed base they are the world: Pinocchio merges them into the universe, which never moves.
+    """
+    children: dict[str, list[tuple[str, str]]] = {}
+    has_parent: set[str] = set()
+    for joint in root.findall("joint"):
+        parent, child = joint.find("parent"), joint.find("child")
+        if parent is None or child is None:
+            continue
+        children.setdefault(str(parent.get("link")), []).append((str(joint.get("type")), str(child.get("link"))))
+        has_parent.add(str(child.get("link")))
+    tops = [str(link.get("name")) for link in root.findall("link") if link.get("name") not in has_parent]
+    welded = set(tops[:1])
+    stack = list(welded)
+    while stack:
+        for kind, below in children.get(stack.pop(), ()):
+            if kind == "fixed" and below not in welded:
+                welded.add(below)
+                stack.append(below)
+    return welded
+
+
+def link_findings(inertials: Sequence[LinkInertial], *, welded: Collection[str] = ()) -> list[Finding]:
+    """The errors of each link's own inertial as written in the file (before any merge of welded links).
+
+    An error on a link of ``welded`` (the links fixed to a fixed base, :func:`welded_to_root`) is a
+    ``welded_root`` note instead: the dynamics never sees that inertia.
+    """
     findings: list[Finding] = []
     for link in inertials:
-        findings += [f for f in _inertia_findings(link.link, link.mass, link.inertia) if f.severity == "error"]
+        for f in _inertia_findings(link.link, link.mass, link.inertia):
+            if f.severity != "error":
+                continue
+            if link.link in welded:
+                f = Finding(
+                    f.body,
+                    "note",
+                    f"{f.message}: welded to the fixed base, so it does not enter the dynamics "
+                    "(with --free-flyer it would, and the model is refused)",
+                    "welded_root",
+                )
+            findings.append(f)
     return findings
 
 
-def file_findings(urdf: Path) -> list[Finding]:
-    """:func:`link_findings` of the URDF file ``urdf``."""
+def massless_inertia_findings(inertials: Sequence[LinkInertial]) -> list[Finding]:
+    """A note for each link of zero mass whose inertia is not zero (bolt's feet): robodyn reads it as written."""
+    return [
+        Finding(
+            link.link,
+            "note",
+            f"mass 0 kg with a non-zero inertia (largest term {float(np.abs(link.inertia).max()):.3g} kg m^2): "
+            "robodyn reads it literally (a body that resists rotation but not translation), while other "
+            "engines substitute a mass (Drake gives a link of zero mass 1 kg)",
+            "massless_inertia",
+        )
+        for link in inertials
+        if link.mass == 0 and float(np.abs(link.inertia).max()) > INERTIA_FLOOR
+    ]
+
+
+def is_free_flyer(model: pin.Model) -> bool:
+    """True when the model's root is mounted on a free-flyer joint."""
+    return model.njoints > 1 and int(model.parents[1]) == 0 and "FreeFlyer" in model.joints[1].shortname()
+
+
+def file_findings(urdf: Path, *, free_flyer: bool = False) -> list[Finding]:
+    """:func:`link_findings` and :func:`massless_inertia_findings` of the URDF file ``urdf``.
+
+    On a fixed base (``free_flyer`` False) the links welded to the root are notes (see :func:`link_findings`).
+    """
     from robodyn.model.files import read_xml
 
-    return link_findings(link_inertials(read_xml(urdf, "URDF")))
+    root = read_xml(urdf, "URDF")
+    inertials = link_inertials(root)
+    welded = () if free_flyer else welded_to_root(root)
+    return link_findings(inertials, welded=welded) + massless_inertia_findings(inertials)
 
 
 def _distinct(findings: list[Finding]) -> list[Finding]:
@@ -258,13 +330,18 @@ def all_findings(model: pin.Model, *, urdf: Path | None = None, geometry: bool =
     """Every finding about ``model`` and, given ``urdf``, its file's links; meshes only when ``geometry``."""
     findings = inertial_findings(model) + joint_findings(model)
     if urdf is not None:
-        findings += file_findings(urdf)
+        findings += file_findings(urdf, free_flyer=is_free_flyer(model))
         if geometry:
             findings += mesh_findings(urdf)
     return _distinct(findings)
 
 
-def impossible_inertials(model: pin.Model, *, links: Sequence[LinkInertial] = ()) -> list[Finding]:
-    """The findings that no real body can have, in ``model`` and in the file's ``links``."""
-    findings = inertial_findings(model) + joint_findings(model) + link_findings(links)
+def impossible_inertials(
+    model: pin.Model, *, links: Sequence[LinkInertial] = (), welded: Collection[str] = ()
+) -> list[Finding]:
+    """The findings that no real body can have, in ``model`` and in the file's ``links``.
+
+    ``welded``: the links fixed to a fixed base (:func:`welded_to_root`), whose inertia the dynamics never sees.
+    """
+    findings = inertial_findings(model) + joint_findings(model) + link_findings(links, welded=welded)
     return _distinct([f for f in findings if f.severity == "error"])

@@ -9,9 +9,12 @@ SRDF robodyn reads ``<rotor_params>`` (through Pinocchio, at load), ``<passive_j
 
 Every URDF and SRDF is read by :func:`read_xml`, within limits stated there: at most
 :data:`MAX_FILE_BYTES`, elements nested at most :data:`MAX_XML_DEPTH` deep, no ``<!DOCTYPE>``
-(so no entity of any kind), in an encoding that Python's expat knows. The file is handed to
-expat in one piece: fed in 64 KiB chunks (``ET.parse``), expat 2.5 rescans an unfinished token
-from its start at each chunk, so a 20 MB comment took 4.6 s instead of 0.1 s.
+(so no entity of any kind), in an encoding that Python's expat knows. Two things that cannot touch
+the dynamics are read anyway, each with a :class:`~robodyn.errors.ModelWarning`: white space before
+the ``<?xml ...?>`` declaration (urdfdom reads it, expat refuses it), and a visual or collision
+``<mesh scale="x y z 1">``, read as ``x y z`` (urdfdom drops that geometry). A NUL byte is refused by
+name. The file is handed to expat in one piece: fed in 64 KiB chunks (``ET.parse``), expat 2.5
+rescans an unfinished token from its start at each chunk, so a 20 MB comment took 4.6 s instead of 0.1 s.
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ from __future__ import annotations
 import importlib.metadata
 import importlib.resources
 import os
+import warnings
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -27,7 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
-from robodyn.errors import ModelError
+from robodyn.errors import ModelError, ModelWarning
+from robodyn.model.urdf import parse_numbers
 from robodyn.robot import Robot, joint_coordinates
 
 BUILTIN_NAMES = ("cart_pole", "geared_arm", "pendubot")
@@ -118,6 +123,7 @@ def read_xml(path: Path, what: str) -> ET.Element:
         )
     if not data.strip():
         raise ModelError(f"the {what} file is empty (expected XML with a <robot> element)", path=path)
+    data = _skip_blank_prefix(data, path, what)
     parser = ET.XMLParser(target=_TreeBuilder())
     try:
         parser.feed(data)  # in one piece: linear time (see the module docstring)
@@ -129,13 +135,110 @@ def read_xml(path: Path, what: str) -> ET.Element:
             path=path,
         ) from None
     except ET.ParseError as exc:
-        raise ModelError(f"malformed {what} XML: {exc}", path=path) from None
+        raise ModelError(f"malformed {what} XML: {_nul_byte(data) or exc}", path=path) from None
     except LookupError as exc:  # <?xml encoding="bogus"?>
         raise ModelError(f"the XML declaration names an {exc} (expected UTF-8)", path=path) from None
     except (UnicodeError, ValueError) as exc:  # e.g. a multi-byte codec expat cannot use
         raise ModelError(f"cannot decode the {what}: {exc} (expected UTF-8)", path=path) from None
     _check_depth(root, path)
+    if what == "URDF":
+        _read_homogeneous_scales(root, path)
+        _skip_unknown_geometry(root, path)
     return root
+
+
+def _skip_blank_prefix(data: bytes, path: Path, what: str) -> bytes:
+    """``data`` without the white space before its ``<?xml ...?>`` declaration, with a warning; else as is.
+
+    expat refuses a declaration that is not the first thing in the file; urdfdom (TinyXML) reads it.
+    White space carries nothing, so skipping it is unambiguous.
+    """
+    stripped = data.lstrip(b" \t\r\n")
+    if stripped is data or len(stripped) == len(data) or not stripped.startswith(b"<?xml"):
+        return data
+    lines = data[: len(data) - len(stripped)].count(b"\n")
+    warnings.warn(
+        ModelWarning(
+            f"{path}: {lines} blank line(s) before the <?xml ...?> declaration, skipped (XML puts the declaration "
+            f"first; urdfdom reads the {what} so too)"
+        ),
+        stacklevel=3,
+    )
+    return stripped
+
+
+def _nul_byte(data: bytes) -> str | None:
+    """Where a NUL byte is in ``data`` ("a NUL byte (0x00) at line 288, column 0, after </robot>"), or None."""
+    at = data.find(b"\0")
+    if at < 0:
+        return None
+    line = data.count(b"\n", 0, at) + 1
+    column = at - (data.rfind(b"\n", 0, at) + 1)
+    after = ", after </robot>" if data[:at].rstrip().endswith(b"</robot>") else ""
+    return (
+        f"a NUL byte (0x00) on line {line}, column {column}{after} (expected text: XML allows no NUL byte; "
+        "a tool may have padded the file, remove it)"
+    )
+
+
+def _read_homogeneous_scales(root: ET.Element, path: Path) -> None:
+    """Read a geometry's ``<mesh scale="x y z 1">`` as ``"x y z"``, with a warning (it is geometry, not dynamics).
+
+    urdfdom refuses the fourth number and drops the whole visual or collision; a trailing 1 is a
+    homogeneous coordinate, unambiguous. Any other fourth number stays, for validation to refuse.
+    """
+    changed: list[tuple[str, str]] = []
+    for link in root.findall("link"):
+        for kind in ("visual", "collision"):
+            for element in link.iter(kind):
+                for mesh in element.iter("mesh"):
+                    text = mesh.get("scale")
+                    values = parse_numbers(text, 4) if text is not None else None
+                    if text is None or values is None or values[3] != 1.0:
+                        continue
+                    mesh.set("scale", " ".join(text.split()[:3]))
+                    changed.append((str(link.get("name")), text))
+    if changed:
+        links = sorted({name for name, _ in changed})
+        shown = ", ".join(repr(n) for n in links[:3]) + (f" and {len(links) - 3} more" if len(links) > 3 else "")
+        warnings.warn(
+            ModelWarning(
+                f"{path}: {len(changed)} <mesh scale={changed[0][1]!r}> with a fourth number 1 (link {shown}) read "
+                "as its first three numbers (geometry only: masses, inertias, joints and frames are not touched)"
+            ),
+            stacklevel=3,
+        )
+
+
+# The shapes of a URDF <geometry> (urdfdom 6: capsule too); pybullet adds its own (plane, cdf, ...).
+GEOMETRY_SHAPES = ("box", "cylinder", "sphere", "mesh", "capsule")
+
+
+def _skip_unknown_geometry(root: ET.Element, path: Path) -> None:
+    """Drop a link's ``<visual>`` or ``<collision>`` whose geometry is no URDF shape, with a warning.
+
+    urdfdom drops it too, with an ``Error:`` (pybullet's ``<plane>``, ``<cdf>``); it is geometry,
+    never a mass, an inertia, a joint or a frame of the dynamics.
+    """
+    skipped: list[str] = []
+    for link in root.findall("link"):
+        for kind in ("visual", "collision"):
+            for element in link.findall(kind):
+                geometry = element.find("geometry")
+                shapes = [str(child.tag) for child in geometry] if geometry is not None else []
+                if shapes and not any(shape in GEOMETRY_SHAPES for shape in shapes):
+                    link.remove(element)
+                    skipped.append(f"link {link.get('name')!r} <{kind}> <{shapes[0][:40]}>")
+    if skipped:
+        more = f" and {len(skipped) - 2} more" if len(skipped) > 2 else ""
+        warnings.warn(
+            ModelWarning(
+                f"{path}: {', '.join(skipped[:2])}{more}: not a URDF shape (expected one of "
+                f"{', '.join(GEOMETRY_SHAPES)}), skipped as urdfdom skips it (geometry only: masses, inertias, "
+                "joints and frames are not touched)"
+            ),
+            stacklevel=3,
+        )
 
 
 def _check_depth(root: ET.Element, path: Path) -> None:

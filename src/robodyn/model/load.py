@@ -24,7 +24,7 @@ import sys
 import tempfile
 import threading
 import xml.etree.ElementTree as ET
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Collection, Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -34,11 +34,11 @@ import pinocchio as pin
 from numpy.typing import ArrayLike
 
 from robodyn.errors import InputError, ModelError
-from robodyn.model.consistency import LinkInertial, impossible_inertials, link_inertials
+from robodyn.model.consistency import LinkInertial, impossible_inertials, link_inertials, welded_to_root
 from robodyn.model.files import _check_urdf_root, looks_like_path, package_dirs, read_srdf, read_xml
 from robodyn.model.reduce import Reduction, reduce
 from robodyn.model.sources import resolve
-from robodyn.model.urdf import parse_numbers, urdf_text, validate_urdf
+from robodyn.model.urdf import check_mimic_targets, parse_numbers, urdf_text, validate_urdf
 from robodyn.robot import Robot
 
 
@@ -93,6 +93,8 @@ def load(
     _check_urdf_root(root, source.urdf)
     validate_urdf(root, source.urdf, free_flyer=free_flyer)
     inertials = link_inertials(root)
+    if mimic:
+        check_mimic_targets(root, source.urdf)
     model = build_model(source.urdf, free_flyer=free_flyer, mimic=mimic, root=root)
     check_model_matches_file(model, root, inertials, source.urdf, free_flyer=free_flyer)
     passive: tuple[str, ...] = ()
@@ -105,7 +107,8 @@ def load(
         known = set(list(model.names)[1:])
         passive = tuple(name for name in info.passive_joints if name in known)
     if check_physics:
-        refuse_impossible(model, source.urdf, links=inertials)
+        welded = () if free_flyer else welded_to_root(root)  # on a fixed base they are the world: never moved
+        refuse_impossible(model, source.urdf, links=inertials, welded=welded)
     # A name keeps its name (built-in or library); a file is named by its <robot name=...>.
     name = str(name_or_path) if not looks_like_path(name_or_path) else str(root.get("name"))
     return Robot.from_model(
@@ -138,9 +141,15 @@ def load_reduction(
         raise InputError("load_reduction needs lock or keep (the joints to lock or to keep)")
     full = load(name_or_path, srdf=srdf, free_flyer=free_flyer, mimic=mimic, check_physics=False)
     if check_physics:
-        links = link_inertials(read_xml(full.urdf_path, "URDF")) if full.urdf_path is not None else []
+        root = read_xml(full.urdf_path, "URDF") if full.urdf_path is not None else None
+        links = link_inertials(root) if root is not None else []
+        welded = welded_to_root(root) if root is not None and not free_flyer else set()
         refuse_impossible(
-            full.model, full.urdf_path or Path(str(name_or_path)), skip=("massless_subtree",), links=links
+            full.model,
+            full.urdf_path or Path(str(name_or_path)),
+            skip=("massless_subtree",),
+            links=links,
+            welded=welded,
         )
     reduction = reduce(full, lock=lock, keep=keep, reference=reference)
     if check_physics:
@@ -148,14 +157,26 @@ def load_reduction(
     return reduction
 
 
+# What every physics refusal ends with: the way past it, on the command line and in Python.
+PAST_PHYSICS = "--no-physics-check (check_physics=False in Python) loads the file's numbers as written"
+
+
 def refuse_impossible(
-    model: pin.Model, urdf: Path, *, skip: tuple[str, ...] = (), links: Sequence[LinkInertial] = ()
+    model: pin.Model,
+    urdf: Path,
+    *,
+    skip: tuple[str, ...] = (),
+    links: Sequence[LinkInertial] = (),
+    welded: Collection[str] = (),
 ) -> None:
-    """Raise :class:`ModelError` on the first impossible finding (model or file ``links``) not in ``skip``."""
-    problems = [f for f in impossible_inertials(model, links=links) if f.code not in skip]
+    """Raise :class:`ModelError` on the first impossible finding (model or file ``links``) not in ``skip``.
+
+    ``welded``: links fixed to a fixed base, whose inertia never enters the dynamics (not refused).
+    """
+    problems = [f for f in impossible_inertials(model, links=links, welded=welded) if f.code not in skip]
     if problems:
         more = f" (and {len(problems) - 1} more; see robodyn info)" if len(problems) > 1 else ""
-        raise ModelError(f"physically impossible model: {problems[0]}{more}", path=urdf)
+        raise ModelError(f"physically impossible model: {problems[0]}{more}; {PAST_PHYSICS}", path=urdf)
 
 
 def build_model(

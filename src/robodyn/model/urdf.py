@@ -286,6 +286,29 @@ def _cycle(start: str, parent_joint: dict[str, str], parent_link: dict[str, str]
     return order[seen[link] :][::-1]
 
 
+def check_mimic_targets(root: ET.Element, path: Path) -> None:
+    """Refuse a ``<mimic joint=...>`` on a moving joint that names no joint of the robot (both joints named).
+
+    Only when the couplings are kept (``mimic=True``): without it they are dropped and the file loads.
+    """
+    names = [str(j.get("name")) for j in root.findall("joint")]
+    for joint in root.findall("joint"):
+        mimic = joint.find("mimic")
+        if mimic is None or joint.get("type") == "fixed":
+            continue
+        leader = mimic.get("joint")
+        if leader in names:
+            continue
+        close = difflib.get_close_matches(str(leader), names, n=1)
+        hint = f"; did you mean {close[0]!r}?" if close else ""
+        raise ModelError(
+            f"joint {joint.get('name')!r} mimics joint {leader!r}, which is not a joint of this robot "
+            f"(expected one of its {len(names)} joints{hint}); without --mimic (mimic=False) the coupling is "
+            "dropped and the file loads",
+            path=path,
+        )
+
+
 def _check_axes(root: ET.Element, path: Path) -> None:
     for joint in root.findall("joint"):
         axis = joint.find("axis")

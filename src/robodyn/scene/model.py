@@ -30,7 +30,7 @@ CONTROL_GAINS: dict[str, tuple[str, ...]] = {
 PD_KEYS = ("kp", "kd", "target", "gravity_compensation")
 
 TABLES = {
-    "model": ("name", "urdf", "srdf", "free_flyer", "mimic", "keep", "lock", "reference"),
+    "model": ("name", "urdf", "srdf", "free_flyer", "mimic", "physics_check", "keep", "lock", "reference"),
     "initial": ("q", "v"),
     "control": tuple(dict.fromkeys(("kind", "torque", *PD_KEYS, *(k for ks in CONTROL_GAINS.values() for k in ks)))),
     "simulate": ("duration", "dt", "integrator", "backend"),
@@ -99,7 +99,12 @@ class Scene:
 
         m = self.model
         target = m.get("urdf") or m["name"]
-        options = {"srdf": m.get("srdf"), "free_flyer": m.get("free_flyer", False), "mimic": m.get("mimic", False)}
+        options = {
+            "srdf": m.get("srdf"),
+            "free_flyer": m.get("free_flyer", False),
+            "mimic": m.get("mimic", False),
+            "check_physics": m.get("physics_check", True),  # false: the file's numbers as written
+        }
         try:
             if not m.get("keep") and not m.get("lock"):
                 return load(target, **options), None

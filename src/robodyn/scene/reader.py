@@ -135,7 +135,7 @@ def read_scene(path: str | Path) -> Scene:
             model[key] = base / _string(path, "model", key, model[key])
             if not model[key].is_file():
                 raise _fail(path, f"[model] {key}", f"no such file {str(model[key])!r}")
-    for key in ("free_flyer", "mimic"):
+    for key in ("free_flyer", "mimic", "physics_check"):
         if key in model:
             _bool(path, "model", key, model[key])
     if "keep" in model:

@@ -20,6 +20,7 @@ the scene package in robodyn's layers); ``read_scene`` replaces that reader.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 from collections.abc import Callable, Mapping
@@ -38,7 +39,15 @@ from robodyn.sweep import measures
 from robodyn.sweep.chunk import Job, controller_of, upright_of
 from robodyn.sweep.engine import run_chunks
 from robodyn.sweep.plan import Chunk, Plan, Setting, make_plan, settings
-from robodyn.sweep.source import Model, SceneReader, SceneSource, has_control, scene_source, simulate_defaults
+from robodyn.sweep.source import (
+    AsWritten,
+    Model,
+    SceneReader,
+    SceneSource,
+    has_control,
+    scene_source,
+    simulate_defaults,
+)
 from robodyn.sweep.spec import (
     NO_CONTROLLER,
     SCENE_CONTROLLER,
@@ -102,7 +111,11 @@ def prepare(
         q_default, v_default = scene.scene.initial_state(robot, reduction)
     else:
         model = resolve(spec, spec.model)
-        robot = load_model(model)
+        if spec.physics_check:
+            robot = load_model(model)
+        else:
+            model = AsWritten(str(model))
+            robot, _ = model.build()
     if not robot.nq_equals_nv:
         raise InputError(f"{spec.source}: model {robot.name} has nq={robot.nq} != nv={robot.nv}; sweeps need nq == nv")
     if scene is None:
@@ -116,7 +129,7 @@ def prepare(
     spec = SweepSpec(
         **{
             **spec.__dict__,
-            "model": model.scene.path.as_posix() if isinstance(model, SceneSource) else model,
+            "model": model.scene.path.as_posix() if isinstance(model, SceneSource) else str(model),
             "measures": resolved_measures,
             "controllers": controllers,
             "gains": gains,
@@ -198,7 +211,10 @@ def _scene(spec: SweepSpec, read_scene: SceneReader | None) -> SceneSource | Non
     else:
         reader = read_scene
     path = Path(resolve(spec, spec.scene))
-    return scene_source(reader(path))
+    scene = reader(path)
+    if not spec.physics_check:  # the sweep's physics_check = false reaches the model of its scene
+        scene = dataclasses.replace(scene, model={**scene.model, "physics_check": False})  # type: ignore[type-var]
+    return scene_source(scene)
 
 
 def _with_scene_defaults(spec: SweepSpec, scene: SceneSource) -> SweepSpec:
@@ -248,6 +264,9 @@ def _models(spec: SweepSpec, model: Model, robot: Any, kind: str | None, out: Pa
                 path.parent.mkdir(parents=True, exist_ok=True)
                 write_params(full, kind, dict(setting.params), path)
             resolved = path.resolve()
-            written[setting.params] = model.with_urdf(resolved) if isinstance(model, SceneSource) else str(resolved)
+            if isinstance(model, SceneSource):
+                written[setting.params] = model.with_urdf(resolved)
+            else:
+                written[setting.params] = AsWritten(str(resolved)) if isinstance(model, AsWritten) else str(resolved)
         models[setting] = written[setting.params]
     return models

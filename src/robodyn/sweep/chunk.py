@@ -49,7 +49,7 @@ from robodyn.sim.trajectory import Trajectory
 from robodyn.sweep import measures as ms
 from robodyn.sweep.plan import Chunk
 from robodyn.sweep.policy import Policy, batch_policy
-from robodyn.sweep.source import Model, SceneSource
+from robodyn.sweep.source import AsWritten, Model, SceneSource
 from robodyn.sweep.spec import NO_CONTROLLER, SCENE_CONTROLLER
 
 Array = NDArray[np.float64]
@@ -69,7 +69,7 @@ class Job:
 @lru_cache(maxsize=8)
 def built_of(model: Model) -> tuple[Robot, Any]:
     """(robot, reduction or None): the loaded model, or the scene's (cached per worker process)."""
-    if isinstance(model, SceneSource):
+    if isinstance(model, (SceneSource, AsWritten)):
         return model.build()
     return load(model), None
 

@@ -126,7 +126,26 @@ class SceneSource:
         return robot
 
 
-Model = str | SceneSource
+@dataclass(frozen=True)
+class AsWritten:
+    """A model name or URDF path loaded with its file's numbers as written (a sweep's ``physics_check = false``)."""
+
+    name: str
+
+    def __str__(self) -> str:
+        return self.name
+
+    def __fspath__(self) -> str:
+        return self.name
+
+    def build(self) -> tuple[Robot, None]:
+        """(robot, None): the model loaded without refusing physically impossible inertias."""
+        from robodyn.model.load import load
+
+        return load(self.name, check_physics=False), None
+
+
+Model = str | SceneSource | AsWritten
 
 
 def scene_source(scene: SceneLike) -> SceneSource:

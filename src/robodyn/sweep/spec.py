@@ -61,6 +61,7 @@ TOP_KEYS = (
     "measure",
     "model",
     "params",
+    "physics_check",
     "q0",
     "scene",
     "seed",
@@ -107,6 +108,7 @@ class SweepSpec:
     digest: str = ""
     scene: str = ""
     given: frozenset[str] = frozenset()
+    physics_check: bool = True  # False: the model's file is loaded with its numbers as written
 
 
 def load(source: str | Path | Mapping[str, Any]) -> SweepSpec:
@@ -161,6 +163,9 @@ def parse(data: Mapping[str, Any], *, name: str, base: Path) -> SweepSpec:
         _table(table, f"{name}: gains.{controller}")
     chunk = _whole(data.get("chunk", DEFAULT_CHUNK), f"{name}: chunk", 1, MAX_CHUNK)
     seed = _whole(data.get("seed", 0), f"{name}: seed", 0, 2**32 - 1)
+    physics_check = data.get("physics_check", True)
+    if not isinstance(physics_check, bool):
+        raise InputError(f"{name}: physics_check must be true or false, got {physics_check!r}")
     q0 = {k: _axis(v, f"{name}: q0.{k}") for k, v in _table(data.get("q0", {}), f"{name}: q0").items()}
     v0 = {k: _axis(v, f"{name}: v0.{k}") for k, v in _table(data.get("v0", {}), f"{name}: v0").items()}
     params = {k: _axis(v, f"{name}: params.{k}") for k, v in _table(data.get("params", {}), f"{name}: params").items()}
@@ -184,6 +189,7 @@ def parse(data: Mapping[str, Any], *, name: str, base: Path) -> SweepSpec:
         base=base,
         scene=scene,
         given=frozenset(str(k) for k in data),
+        physics_check=physics_check,
     )
     return spec
 
@@ -202,6 +208,7 @@ def with_digest(spec: SweepSpec, files: Mapping[str, bytes]) -> SweepSpec:
         repr(spec.measures),
         repr(sorted((k, sorted(v.items())) for k, v in spec.gains.items())),
         repr(spec.seed),
+        *(() if spec.physics_check else ("physics as written",)),  # absent by default: old digests hold
     )
     for part in parts:
         h.update(part.encode() + b"\0")

@@ -1,0 +1,274 @@
+"""``robodyn info`` and ``robodyn check`` on every URDF of example-robot-data and of pybullet_data.
+
+    python benchmarks/world_urdfs.py [--sets erd-name,erd-file,pybullet,pybullet-random] [--random N]
+                                     [--seed 0] [--timeout 300] [--label after] [--out bench-out]
+
+Each command runs as ``robodyn.cli.main([...])`` in a forked child of this process (robodyn and
+Pinocchio imported once, before the fork), with file descriptors 1 and 2 sent to files, so that
+what urdfdom prints natively is counted too. For each file and command it records the exit code,
+the number of lines on stderr, whether a Python traceback escaped (the child prints it and exits
+99), the first stderr line, and for ``check`` the rows marked FAIL. The sets:
+
+* ``erd-name``: every name robodyn's model sources give an example-robot-data robot (loader names
+  with their SRDF and free-flyer hint, then every other file's stem);
+* ``erd-file``: every URDF file of example-robot-data, by path;
+* ``pybullet``: every URDF of pybullet_data outside ``random_urdfs/`` (95 files);
+* ``pybullet-random``: the 1,000 generated files of ``random_urdfs/``; all of them by default
+  (both commands together take about a second a file), or a seeded sample of ``--random N``.
+
+It prints one line per file and a summary, and writes ``world_urdfs[_LABEL].json`` to ``--out``.
+"""
+
+from __future__ import annotations
+
+import os
+import random
+import signal
+import sys
+import tempfile
+import time
+import traceback
+from pathlib import Path
+from typing import Any
+
+from _common import argument_parser, output_folder, run_facts, write_json
+
+SETS = ("erd-name", "erd-file", "pybullet", "pybullet-random")
+TRACEBACK_EXIT = 99  # the child's exit code when an exception escaped main()
+TIMEOUT_EXIT = -1  # recorded when the child ran past --timeout and was killed
+
+
+def erd_names() -> list[str]:
+    """Every example-robot-data name of robodyn's model sources, sorted."""
+    from robodyn.model.sources import sources
+
+    return sorted(sources())
+
+
+def erd_files() -> list[Path]:
+    """Every URDF file of example-robot-data, sorted."""
+    from robodyn.model.files import robots_dir
+
+    folder = robots_dir()
+    return sorted(folder.glob("**/*.urdf")) if folder is not None else []
+
+
+def pybullet_files(*, random_only: bool) -> list[Path]:
+    """The URDF files of pybullet_data: outside ``random_urdfs/``, or only inside it (empty without pybullet)."""
+    try:
+        import pybullet_data
+    except ImportError:
+        return []
+    root = Path(pybullet_data.getDataPath())
+    files = sorted(root.glob("**/*.urdf"))
+    return [f for f in files if ("random_urdfs" in f.relative_to(root).parts) == random_only]
+
+
+def label_of(path: Path) -> str:
+    """A file's name in its data package: ``pybullet_data/r2d2.urdf``, ``hyq_description/robots/hyq.urdf``."""
+    parts = path.parts
+    if "pybullet_data" in parts:
+        return "/".join(parts[parts.index("pybullet_data") :])
+    if "example-robot-data" in parts:
+        return "/".join(parts[parts.index("example-robot-data") + 2 :])  # after example-robot-data/robots/
+    return str(path)
+
+
+def portable(text: str) -> str:
+    """``text`` with this machine's data folders written as ``<example-robot-data>`` and ``<pybullet_data>``."""
+    from robodyn.model.files import robots_dir
+
+    folders = {"<example-robot-data>": robots_dir()}
+    try:
+        import pybullet_data
+
+        folders["<pybullet_data>"] = Path(pybullet_data.getDataPath())
+    except ImportError:
+        pass
+    for token, folder in folders.items():
+        if folder is not None:
+            text = text.replace(str(folder), token)
+    return text
+
+
+def run_child(argv: list[str], timeout: float) -> dict[str, Any]:
+    """``robodyn.cli.main(argv)`` in a forked child: exit code, stdout and stderr (native output included)."""
+    from robodyn.cli import main
+
+    with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        start = time.perf_counter()
+        pid = os.fork()
+        if pid == 0:  # the child
+            code = TRACEBACK_EXIT
+            try:
+                os.dup2(out.fileno(), 1)
+                os.dup2(err.fileno(), 2)
+                code = main(argv)
+            except SystemExit as exc:  # argparse
+                code = exc.code if isinstance(exc.code, int) else 2
+            except BaseException:
+                traceback.print_exc()
+            finally:
+                sys.stdout.flush()
+                sys.stderr.flush()
+                os._exit(code)
+        deadline = start + timeout
+        status = None
+        while status is None:
+            done, raw = os.waitpid(pid, os.WNOHANG)
+            if done:
+                status = raw
+            elif time.perf_counter() > deadline:
+                os.kill(pid, signal.SIGKILL)
+                os.waitpid(pid, 0)
+                status = -1
+            else:
+                time.sleep(0.01)
+        wall = time.perf_counter() - start
+        code = TIMEOUT_EXIT if status == -1 else os.waitstatus_to_exitcode(status)
+        out.seek(0)
+        err.seek(0)
+        stdout = out.read().decode("utf-8", "replace")
+        stderr = err.read().decode("utf-8", "replace")
+    return {"exit": code, "stdout": stdout, "stderr": stderr, "wall_s": round(wall, 3)}
+
+
+def summarize(command: str, result: dict[str, Any]) -> dict[str, Any]:
+    """What is kept of one run: exit code, stderr line count and first line, traceback, FAIL rows."""
+    lines = [line for line in result["stderr"].splitlines() if line.strip()]
+    row: dict[str, Any] = {
+        "exit": result["exit"],
+        "stderr_lines": len(lines),
+        "stderr_first": portable(lines[0])[:240] if lines else "",
+        "traceback": result["exit"] == TRACEBACK_EXIT or "Traceback (most recent call last)" in result["stderr"],
+        "wall_s": result["wall_s"],
+    }
+    if command == "check":
+        fails = []
+        for line in result["stdout"].splitlines():
+            if line.startswith("MISMATCH "):
+                fails.append(portable(line)[:240])
+        row["fail_rows"] = fails
+    return row
+
+
+def targets(sets: list[str], sample: int | None, seed: int) -> list[tuple[str, str]]:
+    """(set, argument) for every file or name of the chosen sets."""
+    out: list[tuple[str, str]] = []
+    if "erd-name" in sets:
+        out += [("erd-name", name) for name in erd_names()]
+    if "erd-file" in sets:
+        out += [("erd-file", str(p)) for p in erd_files()]
+    if "pybullet" in sets:
+        out += [("pybullet", str(p)) for p in pybullet_files(random_only=False)]
+    if "pybullet-random" in sets:
+        files = pybullet_files(random_only=True)
+        if sample is not None and sample < len(files):
+            files = sorted(random.Random(seed).sample(files, sample))
+        out += [("pybullet-random", str(p)) for p in files]
+    return out
+
+
+def main() -> int:
+    """Run every file, print a line each and a summary, write the JSON."""
+    parser = argument_parser(__doc__)
+    parser.add_argument("--sets", default=",".join(SETS), help=f"comma-separated sets among {', '.join(SETS)}")
+    parser.add_argument("--random", type=int, default=None, help="a seeded sample of random_urdfs (default: all)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the random_urdfs sample (default 0)")
+    parser.add_argument("--timeout", type=float, default=300.0, help="seconds per command before it is killed")
+    parser.add_argument("--label", default="", help="suffix of the JSON's name (world_urdfs_LABEL.json)")
+    parser.add_argument("--extra", default="", help="extra arguments for both commands, e.g. --no-physics-check")
+    parser.add_argument(
+        "--before",
+        type=Path,
+        action="append",
+        default=[],
+        help="a JSON of an earlier run (repeatable): each row gets its exit codes there as 'before'",
+    )
+    args = parser.parse_args()
+    sets = [s for s in args.sets.split(",") if s]
+    unknown = sorted(set(sets) - set(SETS))
+    if unknown:
+        parser.error(f"unknown set(s) {unknown}; expected some of {list(SETS)}")
+    out = output_folder(args.out, overwrite_committed=args.overwrite_committed)
+    facts = run_facts()
+    # imported once, before the forks
+    import robodyn.cli
+    import robodyn.kinds.check
+    import robodyn.model.load  # noqa: F401
+
+    extra = args.extra.split()
+    rows = []
+    for which, target in targets(sets, args.random, args.seed):
+        row: dict[str, Any] = {"set": which, "target": target if which == "erd-name" else label_of(Path(target))}
+        for command in ("info", "check"):
+            row[command] = summarize(command, run_child([command, target, *extra], args.timeout))
+        rows.append(row)
+        info, check = row["info"], row["check"]
+        flag = " TRACEBACK" if info["traceback"] or check["traceback"] else ""
+        print(
+            f"{which:15s} {row['target'][:60]:60s} info {info['exit']:3d} check {check['exit']:3d}{flag}  "
+            f"{(check['stderr_first'] or info['stderr_first'])[:100]}",
+            flush=True,
+        )
+    summary = {}
+    for which in sets:
+        mine = [r for r in rows if r["set"] == which]
+        summary[which] = {
+            "files": len(mine),
+            "info_exits": _count(r["info"]["exit"] for r in mine),
+            "check_exits": _count(r["check"]["exit"] for r in mine),
+            "tracebacks": sum(r["info"]["traceback"] or r["check"]["traceback"] for r in mine),
+            "check_fail": sum(r["check"]["exit"] == 1 for r in mine),
+            "multi_line_refusals": sum(
+                (r[c]["exit"] not in (0, 1) and r[c]["stderr_lines"] != 1) for r in mine for c in ("info", "check")
+            ),
+        }
+        print(f"{which}: {summary[which]}")
+    result: dict[str, Any] = {"summary": summary, "extra": extra, "rows": rows}
+    if args.before:
+        result.update(merge_before(rows, args.before, sets))
+    stem = "world_urdfs" + (f"_{args.label}" if args.label else "")
+    path = write_json(out, stem, result, facts)
+    print(f"wrote {path}")
+    return 0
+
+
+def merge_before(rows: list[dict[str, Any]], files: list[Path], sets: list[str]) -> dict[str, Any]:
+    """Each row's exit codes in the earlier runs ``files`` (as ``before``), and their summary per set."""
+    import json
+
+    earlier: dict[tuple[str, str], dict[str, Any]] = {}
+    facts = []
+    for file in files:
+        data = json.loads(file.read_text())
+        facts.append({"file": file.name, **{k: data["run"].get(k) for k in ("date", "command")}})
+        for row in data["rows"]:
+            earlier[(row["set"], row["target"])] = row
+    summary = {}
+    for row in rows:
+        old = earlier.get((row["set"], row["target"]))
+        row["before"] = None if old is None else {c: old[c]["exit"] for c in ("info", "check")}
+        if old is not None and old["check"].get("fail_rows"):
+            row["before"]["fail_rows"] = [portable(line)[:240] for line in old["check"]["fail_rows"]]
+    for which in sets:
+        mine = [r["before"] for r in rows if r["set"] == which and r["before"] is not None]
+        summary[which] = {
+            "files": len(mine),
+            "info_exits": _count(b["info"] for b in mine),
+            "check_exits": _count(b["check"] for b in mine),
+        }
+    return {"before": {"runs": facts, "summary": summary}}
+
+
+def _count(codes: Any) -> dict[str, int]:
+    counts: dict[str, int] = {}
+    for code in codes:
+        counts[str(code)] = counts.get(str(code), 0) + 1
+    return dict(sorted(counts.items(), key=lambda kv: int(kv[0])))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

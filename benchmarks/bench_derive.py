@@ -2,8 +2,9 @@
 
 Every built-in and every distinct example-robot-data URDF is loaded on a fixed base; those with at
 most 6 moving joints, all revolute, continuous or prismatic, are derived (the exact Fourier-form
-derivation), written out by sympy (the grouped expressions) and checked against Pinocchio at 20
-seeded states (lambdify of the printed expressions). Printed and saved as ``derive.json``:
+derivation), written out by sympy (the grouped expressions, then the text ``robodyn derive`` prints)
+and checked against Pinocchio at 20 seeded states (the printed text compiled), as the command does
+by default. Printed and saved as ``derive.json``:
 
     python benchmarks/bench_derive.py --out bench-out
 """
@@ -16,6 +17,7 @@ from typing import Any
 
 from robodyn.errors import RobodynError
 from robodyn.lagrange.derivation import MAX_JOINTS, derive
+from robodyn.lagrange.render import text
 from robodyn.lagrange.selfcheck import self_check
 from robodyn.lagrange.symbolic import symbolic
 from robodyn.model.links import link_table
@@ -43,8 +45,9 @@ def measure(name: str, samples: int) -> dict[str, Any]:
     derivation = derive(table)
     t1 = time.perf_counter()
     expressions = symbolic(derivation)
+    text(expressions)
     t2 = time.perf_counter()
-    check = self_check(expressions, robot, samples=samples)
+    check = self_check(expressions, robot, samples=samples, text=True)
     t3 = time.perf_counter()
     return {
         "robot": name,

@@ -306,7 +306,8 @@ def test_cli_without_sympy_says_which_extra(monkeypatch, capsys):
     assert "pip install 'robodyn[derive]'" in capsys.readouterr().err
 
 
-def test_cli_self_check_failure_is_exit_1_naming_the_entry(monkeypatch, tmp_path, capsys):
+@pytest.mark.parametrize("fmt", ["python", "text", "latex"])
+def test_cli_self_check_failure_is_exit_1_naming_the_entry(fmt, monkeypatch, tmp_path, capsys):
     from robodyn.lagrange import symbolic as module
 
     real = module.symbolic
@@ -317,7 +318,7 @@ def test_cli_self_check_failure_is_exit_1_naming_the_entry(monkeypatch, tmp_path
 
     monkeypatch.setattr(module, "symbolic", planted)
     out = tmp_path / "x.py"
-    assert main(["derive", "pendubot", "--format", "python", "--out", str(out)]) == 1
+    assert main(["derive", "pendubot", "--format", fmt, "--out", str(out)]) == 1
     err = capsys.readouterr().err
     assert "disagrees with Pinocchio: G[" in err and not out.exists()
 

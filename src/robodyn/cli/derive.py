@@ -122,7 +122,9 @@ def run(args: argparse.Namespace) -> int:
         formula = {"table": table}
         exec(compile(source, "<robodyn derive --format python>", "exec"), formula)  # our own output, not a user's
     _within(args.time_limit, begun, "writing it out with sympy")
-    check = self_check(expressions, robot, samples=args.samples, seed=args.seed, formula=formula)
+    check = self_check(
+        expressions, robot, samples=args.samples, seed=args.seed, formula=formula, text=args.format == "text"
+    )
     _within(args.time_limit, begun, "the self-check")
     elapsed = time.monotonic() - started
     if not check.passed:

@@ -82,6 +82,40 @@ def compiled(s: Symbolic) -> tuple[Any, Any, Any]:
     )
 
 
+def from_text(s: Symbolic) -> tuple[Any, Any, Any]:
+    """(M(q, p), C(q, v, p), G(q, p)) compiled from the very text ``robodyn derive`` prints (:meth:`Symbolic.sstr`).
+
+    sympy's text of these expressions is Python (``**``, ``cos``, fractions as ``1/2``), so the
+    printed entries are checked themselves, and printed once: a spatial 6-joint arm's are ~10^6
+    characters, and printing them is most of a derivation's time.
+    """
+    d = s.derivation
+    n = d.n
+    head = [f"    {', '.join(str(x) for x in s.q)}, = q"]
+    if d.params:
+        head.append(f"    {', '.join(str(x) for x in s.params)}, = p")
+    rows_M = ", ".join("[" + ", ".join(s.sstr(s.M[i, j]) for j in range(n)) + "]" for i in range(n))
+    rows_C = ", ".join("[" + ", ".join(s.sstr(s.C[i, j]) for j in range(n)) + "]" for i in range(n))
+    entries_G = ", ".join(s.sstr(s.G[i, 0]) for i in range(n))
+    source = "\n".join(
+        [
+            "def M(q, p):",
+            *head,
+            f"    return [{rows_M}]",
+            "def C(q, v, p):",
+            *head,
+            f"    {', '.join(str(x) for x in s.v)}, = v",
+            f"    return [{rows_C}]",
+            "def G(q, p):",
+            *head,
+            f"    return [{entries_G}]",
+        ]
+    )
+    namespace: dict[str, Any] = {"cos": np.cos, "sin": np.sin}
+    exec(compile(source, "<robodyn derive's printed expressions>", "exec"), namespace)  # robodyn's own text
+    return namespace["M"], namespace["C"], namespace["G"]
+
+
 def self_check(
     s: Symbolic,
     robot: Any,
@@ -90,6 +124,7 @@ def self_check(
     seed: int = 0,
     rtol: float = RTOL,
     formula: Mapping[str, Any] | None = None,
+    text: bool = False,
 ) -> SelfCheck:
     """Compare the derivation's M, C, C v and G with ``robot``'s (Pinocchio) at seeded random states.
 
@@ -98,11 +133,12 @@ def self_check(
     ``lambdify``; or, given ``formula`` (the namespace of the ``--format python`` file about to be
     written, and ``"table"``, the per-link table), that file's own ``mass_matrix``,
     ``coriolis_matrix`` and ``gravity`` are evaluated, with the parameters its
-    ``parameters(robot)`` reads: the check then holds for the very file written.
+    ``parameters(robot)`` reads: the check then holds for the very file written. With ``text``
+    the printed text itself is compiled (:func:`from_text`).
     """
     d = s.derivation
     if formula is None:
-        fM, fC, fG = compiled(s)
+        fM, fC, fG = from_text(s) if text else compiled(s)
         p: Any = tuple(x.value for x in d.params)
     else:
         fM, fC, fG = formula["mass_matrix"], formula["coriolis_matrix"], formula["gravity"]

@@ -68,8 +68,11 @@ class Symbolic:
         return bool(self.cache["large"])
 
     def sstr(self, expr: Any) -> str:
-        """``expr`` as text: sorted as sympy prints it, unsorted when :attr:`large`."""
-        return str(sympy().sstr(expr, order="none" if self.large else None))
+        """``expr`` as text: sorted as sympy prints it, unsorted when :attr:`large` (each text printed once)."""
+        texts = self.cache.setdefault("sstr", {})
+        if expr not in texts:
+            texts[expr] = str(sympy().sstr(expr, order="none" if self.large else None))
+        return str(texts[expr])
 
     def printer_settings(self) -> dict[str, Any]:
         """NumPyPrinter settings: unsorted when :attr:`large`."""

@@ -1,7 +1,8 @@
 """A derivation checked against Pinocchio at seeded random states, before anyone reads it.
 
-The printed expressions themselves are checked: they are compiled with sympy's ``lambdify`` and
-evaluated, at ``samples`` random states, beside the robot's own M, C and G (Pinocchio's CRBA,
+The printed expressions themselves are checked: the text ``robodyn derive`` prints, the formula
+file it writes, or (from Python) the expressions compiled with sympy's ``lambdify``, evaluated at
+``samples`` random states beside the robot's own M, C and G (Pinocchio's CRBA,
 Coriolis matrix and RNEA gravity), mapped to the formula's coordinates exactly as
 ``robodyn check`` maps them (``M_f = S^T M S``, ``S = dq_urdf / dq_formula``). Every entry of M, C,
 C v and G must agree to :data:`RTOL` of its quantity's largest magnitude.

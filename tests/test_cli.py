@@ -11,7 +11,9 @@ from robodyn.cli import _attach_negative_values, get_argument_parser, main
 def test_every_subcommand_is_registered():
     parser = get_argument_parser()
     sub = next(a for a in parser._actions if a.dest == "command")
-    assert set(sub.choices) == {"info", "params", "check", "simulate", "view", "portrait", "bench", "run", "sweep"}
+    assert set(sub.choices) == {
+        "info", "params", "check", "derive", "simulate", "view", "portrait", "bench", "run", "sweep",
+    }  # fmt: skip
 
 
 def test_help_is_plain_text(capsys):

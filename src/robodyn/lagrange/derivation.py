@@ -1,0 +1,464 @@
+"""The Lagrangian of a tree robot, derived from its per-link table in exact trigonometric form.
+
+:func:`derive` reads a per-link table (:class:`robodyn.model.links.LinkTable`: mass, centre of
+mass and inertia in each joint frame, joint origin, rotation and axis) and returns a
+:class:`Derivation`: M(q), the Christoffel symbols, G(q) and V(q) as :class:`~robodyn.lagrange.trig.Trig`
+polynomials in the formula's coordinates, whose parameters are named per link
+(:mod:`robodyn.lagrange.naming`).
+
+How. Every link's frame is written in the frame of each of its ancestors (3x3 rotations and
+offsets whose entries are Trig polynomials: cos and sin of the joint angles, exact 0 and +-1 for
+the usual axes, named symbols for lengths). M's entry (i, j), i an ancestor of j, is summed over
+the links b that j carries, in joint i's frame, where only the angles after joint i appear::
+
+    M_ij = sum_b  m_b Jv_i . Jv_j  +  w_i^T I_b w_j
+
+with Jv_i = a_i x r (revolute) or a_i (prismatic), r the centre of mass of b, and w_i the axis
+of joint i seen from b's frame (the angular Jacobian in body axes). V is -m_b g . r_b summed in
+the base frame, G = dV/dq, and the Christoffel symbols come from dM/dq. Every step stays in
+canonical Fourier form, so no simplifier runs and a 6-joint arm takes seconds.
+
+This module reads the table by duck typing (it never imports Pinocchio or the Robot) and
+imports only NumPy and :mod:`robodyn.lagrange`.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from robodyn.errors import InputError
+from robodyn.lagrange.naming import Param, name_parameters, snap
+from robodyn.lagrange.trig import Trig, cross, dot, matmul, matvec, transpose
+
+MAX_JOINTS = 6
+"""The most moving joints ``robodyn derive`` takes: past it the printed expressions run over pages."""
+
+DEFAULT_TIME_LIMIT = 120.0
+"""Seconds a derivation may take before it stops (a 6-joint arm takes a few)."""
+
+# Three axes are parallel when their cross product is below this (unit vectors, 1e-9 printed digits).
+PARALLEL_TOL = 1e-9
+
+Matrix = list[list[Trig]]
+Vector = list[Trig]
+
+
+@dataclass(frozen=True)
+class Coordinate:
+    """One formula coordinate: the URDF joint it stands for, ``q = sign * q_urdf + offset``."""
+
+    joint: str
+    joint_type: str  # revolute, continuous or prismatic
+    sign: float = 1.0
+    offset: float = 0.0  # [rad | m]
+
+    @property
+    def angular(self) -> bool:
+        """True for a revolute or continuous joint."""
+        return self.joint_type != "prismatic"
+
+
+@dataclass(frozen=True)
+class Derivation:
+    """M, the Christoffel symbols, G and V of a robot as Trig polynomials (see the module docstring).
+
+    Variables: ``angle_of[i]`` is the angle index of coordinate i (None for a prismatic one),
+    ``variable_of[i]`` its polynomial index (None for an angle); the parameters are polynomial
+    variables from ``len(prismatic coordinates)`` on, in the order of ``params``.
+    """
+
+    robot: str
+    coordinates: tuple[Coordinate, ...]
+    params: tuple[Param, ...]
+    n_angles: int
+    angle_of: tuple[int | None, ...]
+    variable_of: tuple[int | None, ...]
+    M: tuple[tuple[Trig, ...], ...]
+    christoffel: tuple[tuple[tuple[Trig, ...], ...], ...]  # [i][j][k] = Gamma_ijk
+    G: tuple[Trig, ...]
+    V: Trig
+    com: tuple[tuple[Trig, ...], ...]  # each link's centre of mass in the base frame (formula order)
+    angular_velocity: tuple[tuple[tuple[Trig, ...], ...], ...]  # [b][k]: link b's body-axes omega per unit v_k
+    inertia: tuple[tuple[tuple[Trig, ...], ...], ...]  # [b]: link b's inertia about its centre (body axes)
+    gravity_direction: tuple[float, float, float]
+    wall_time_s: float = field(default=0.0, compare=False)
+
+    @property
+    def n(self) -> int:
+        """Degrees of freedom."""
+        return len(self.coordinates)
+
+    def d(self, expr: Trig, i: int) -> Trig:
+        """The partial derivative of ``expr`` with respect to coordinate i."""
+        angle = self.angle_of[i]
+        if angle is not None:
+            return expr.d_angle(angle)
+        variable = self.variable_of[i]
+        assert variable is not None  # a coordinate is an angle or a polynomial variable
+        return expr.d_variable(variable)
+
+    def used_parameters(self) -> frozenset[str]:
+        """The names of the parameters that appear in M, G or V."""
+        first = sum(1 for v in self.variable_of if v is not None)
+        seen = 0
+        for expr in (*(x for row in self.M for x in row), *self.G, self.V):
+            for mono in (key[2] for key in expr.terms):
+                seen |= mono
+        used = set()
+        for k, p in enumerate(self.params):
+            if (seen >> (8 * (first + k))) & 0xFF:
+                used.add(p.name)
+        return frozenset(used)
+
+    def mass(self, b: int) -> Trig:
+        """Link b's mass as a Trig (zero when dropped)."""
+        return self._param(f"m{b + 1}")
+
+    def _param(self, name: str) -> Trig:
+        first = sum(1 for v in self.variable_of if v is not None)
+        for k, p in enumerate(self.params):
+            if p.name == name:
+                return Trig.variable(self.n_angles, first + k)
+        return Trig(self.n_angles)
+
+
+class _Deadline:
+    """Raise :class:`InputError` once ``limit`` seconds have passed since the start."""
+
+    def __init__(self, limit: float) -> None:
+        self.limit = limit
+        self.start = time.monotonic()
+
+    def __call__(self, what: str) -> None:
+        if time.monotonic() - self.start > self.limit:
+            raise InputError(
+                f"the derivation took longer than its limit of {self.limit:g} s (at {what}); "
+                "lock joints with --coordinates or raise --time-limit"
+            )
+
+
+def derive(
+    table: Any,
+    coordinates: Sequence[Coordinate] | None = None,
+    *,
+    time_limit: float = DEFAULT_TIME_LIMIT,
+    tick: Callable[[str], None] | None = None,
+) -> Derivation:
+    """Derive M, the Christoffel symbols, G and V of the robot in ``table`` (see :func:`_derive`).
+
+    A first pass finds the parameters that appear in none of M, G and V (an offset along the axis
+    of a planar chain, a centre of mass off the plane); a second names the rest, so that a length
+    left alone on one axis takes the single name (``l1`` rather than ``lx1``). Both passes share
+    ``time_limit``.
+    """
+    started = time.monotonic()
+    first = _derive(table, coordinates, time_limit=time_limit, tick=tick)
+    used = first.used_parameters()
+    unused = frozenset(p.name for p in first.params) - used
+    if not unused:
+        return first
+    left = time_limit - (time.monotonic() - started)
+    second = _derive(table, coordinates, time_limit=max(left, 0.0), tick=tick, unused=unused)
+    object.__setattr__(second, "wall_time_s", time.monotonic() - started)
+    return second
+
+
+def _derive(
+    table: Any,
+    coordinates: Sequence[Coordinate] | None = None,
+    *,
+    time_limit: float = DEFAULT_TIME_LIMIT,
+    tick: Callable[[str], None] | None = None,
+    unused: frozenset[str] = frozenset(),
+) -> Derivation:
+    """Derive M, the Christoffel symbols, G and V of the robot in ``table``.
+
+    Args:
+        table: a per-link table (:class:`robodyn.model.links.LinkTable`) whose moving joints are
+            exactly the coordinates' joints (lock the others first).
+        coordinates: the formula's coordinates in its order (default: the table's joints, in
+            model order, ``q = q_urdf``).
+        time_limit: seconds before the derivation stops with an :class:`InputError`.
+        tick: called with a stage name between stages (a test's hook; the deadline runs anyway).
+        unused: parameters to leave out (see :func:`derive`).
+
+    Raises:
+        InputError: more than :data:`MAX_JOINTS` joints, coordinates that do not match the
+            table's joints, or the time limit passed.
+    """
+    started = time.monotonic()
+    deadline = _Deadline(time_limit)
+
+    def check(what: str) -> None:
+        deadline(what)
+        if tick is not None:
+            tick(what)
+
+    links = {link.joint: link for link in table.links}
+    coords = tuple(coordinates) if coordinates is not None else _default_coordinates(table)
+    _validate(table, coords)
+    n = len(coords)
+    index = {c.joint: i for i, c in enumerate(coords)}
+    angle_of = tuple(sum(1 for c in coords[:i] if c.angular) if coords[i].angular else None for i in range(n))
+    variable_of = tuple(
+        sum(1 for c in coords[:i] if not c.angular) if not coords[i].angular else None for i in range(n)
+    )
+    n_angles = sum(1 for c in coords if c.angular)
+    first_param = n - n_angles
+    params, per_link = name_parameters(table, [c.joint for c in coords], planar=_planar_links(table), unused=unused)
+    pvar = {p.name: Trig.variable(n_angles, first_param + k) for k, p in enumerate(params)}
+    zero = Trig(n_angles)
+
+    def const(x: float) -> Trig:
+        return Trig.constant(n_angles, x)
+
+    def vec(x: Sequence[float]) -> Vector:
+        return [const(snap(float(v))) for v in x]
+
+    def mat(A: Any) -> Matrix:
+        return [[const(snap(float(A[r][c]))) for c in range(3)] for r in range(3)]
+
+    eye = mat(np.eye(3))
+    # Each link's motion relative to its parent: rotation A_b and offset t_b (Trig), its axis, COM and inertia.
+    local: dict[str, tuple[Matrix, Vector]] = {}
+    for name in table.joints:
+        link, c = links[name], coords[index[name]]
+        R0, origin, axis = mat(link.rotation), per_link[name].origin(pvar, zero), vec(link.axis)
+        i = index[name]
+        if c.angular:
+            cos_q, sin_q = Trig.cos(n_angles, angle_of[i]), Trig.sin(n_angles, angle_of[i])  # type: ignore[arg-type]
+            co, so = snap(np.cos(c.offset)), snap(np.sin(c.offset))
+            cphi = cos_q.scale(co) + sin_q.scale(so)
+            sphi = (sin_q.scale(co) - cos_q.scale(so)).scale(c.sign)
+            local[name] = (matmul(R0, _rotation(axis, cphi, sphi, const)), origin)
+        else:
+            x = Trig.variable(n_angles, variable_of[i])  # type: ignore[arg-type]
+            d = x.scale(c.sign) - const(c.sign * c.offset)
+            slide = matvec(R0, [a * d for a in axis])
+            local[name] = (R0, [o + s for o, s in zip(origin, slide, strict=True)])
+    check("the joint transforms")
+    children: dict[str | None, list[str]] = {}
+    for name in table.joints:
+        children.setdefault(links[name].parent, []).append(name)
+
+    def subtree(root: str) -> list[str]:
+        out, stack = [], [root]
+        while stack:
+            b = stack.pop(0)
+            out.append(b)
+            stack.extend(children.get(b, []))
+        return out
+
+    # rel[k][b] = (rotation, origin) of link b's frame in link k's frame, b in k's subtree.
+    rel: dict[str, dict[str, tuple[Matrix, Vector]]] = {}
+    for k in table.joints:
+        frames = {k: (eye, [zero, zero, zero])}
+        for b in subtree(k)[1:]:
+            R, p = frames[links[b].parent]  # type: ignore[index]
+            A, t = local[b]
+            frames[b] = (matmul(R, A), [pi + ti for pi, ti in zip(p, matvec(R, t), strict=True)])
+        rel[k] = frames
+        check(f"the frames below {k}")
+    world: dict[str, tuple[Matrix, Vector]] = {}
+    for b in table.joints:
+        parent = links[b].parent
+        A, t = local[b]
+        if parent is None:
+            world[b] = (A, t)
+        else:
+            R, p = world[parent]
+            world[b] = (matmul(R, A), [pi + ti for pi, ti in zip(p, matvec(R, t), strict=True)])
+
+    # The Jacobians' axes: d q_urdf / d q = sign, so each joint's axis enters times its coordinate's sign.
+    axes = {name: [a.scale(coords[index[name]].sign) for a in vec(links[name].axis)] for name in table.joints}
+    com = {name: per_link[name].com(pvar, zero) for name in table.joints}
+    inertia = {name: per_link[name].inertia(pvar, zero) for name in table.joints}
+    mass = {name: per_link[name].mass(pvar, zero) for name in table.joints}
+
+    def ancestors(b: str) -> list[str]:
+        out = []
+        cur: str | None = b
+        while cur is not None:
+            out.append(cur)
+            cur = links[cur].parent
+        return out
+
+    M = [[zero for _ in range(n)] for _ in range(n)]
+    for i_name in table.joints:
+        for j_name in subtree(i_name):
+            i, j = index[i_name], index[j_name]
+            entry = _mass_entry(i_name, j_name, subtree(j_name), coords, index, rel, axes, com, inertia, mass)
+            if i == j:
+                entry = entry + per_link[i_name].armature(pvar, zero)
+            M[i][j] = entry
+            M[j][i] = entry
+            check(f"M[{i},{j}]")
+    # V = -sum_b m_b g . r_b in the base frame; G = dV/dq.
+    gdir = [snap(float(x)) for x in np.asarray(table.gravity, dtype=np.float64) / max(float(table.g), 1e-300)]
+    g = pvar.get("g", zero)
+    V = zero
+    com_world: list[Vector] = []
+    for b in (c.joint for c in coords):
+        R, p = world[b]
+        r = [pi + ri for pi, ri in zip(p, matvec(R, com[b]), strict=True)]
+        com_world.append(r)
+        V = V - mass[b] * g * dot(vec(gdir), r)
+    derivation = Derivation(
+        str(table.name),
+        coords,
+        tuple(params),
+        n_angles,
+        angle_of,
+        variable_of,
+        tuple(tuple(row) for row in M),
+        (),
+        (),
+        V,
+        tuple(tuple(r) for r in com_world),
+        tuple(
+            tuple(tuple(w) for w in _body_rates(b, ancestors(b), coords, index, rel, axes, zero))
+            for b in (c.joint for c in coords)
+        ),
+        tuple(tuple(tuple(row) for row in inertia[c.joint]) for c in coords),
+        (gdir[0], gdir[1], gdir[2]),
+    )
+    G = tuple(derivation.d(V, i) for i in range(n))
+    check("G")
+    dM = [[[derivation.d(M[i][j], k) for k in range(n)] for j in range(n)] for i in range(n)]  # dM[i][j][k]
+    check("dM/dq")
+    gamma = tuple(
+        tuple(tuple((dM[i][j][k] + dM[i][k][j] - dM[j][k][i]).scale(0.5) for k in range(n)) for j in range(n))
+        for i in range(n)
+    )
+    check("the Christoffel symbols")
+    object.__setattr__(derivation, "christoffel", gamma)
+    object.__setattr__(derivation, "G", G)
+    object.__setattr__(derivation, "wall_time_s", time.monotonic() - started)
+    return derivation
+
+
+def _default_coordinates(table: Any) -> tuple[Coordinate, ...]:
+    return tuple(Coordinate(link.joint, link.joint_type) for link in table.links)
+
+
+def _validate(table: Any, coords: Sequence[Coordinate]) -> None:
+    names = tuple(table.joints)
+    if len(names) > MAX_JOINTS:
+        raise InputError(
+            f"{table.name} has {len(names)} moving joints; robodyn derive takes at most {MAX_JOINTS} "
+            "(name at most 6 in a --coordinates file's JOINTS: the others are locked)"
+        )
+    given = [c.joint for c in coords]
+    if sorted(given) != sorted(names) or len(set(given)) != len(given):
+        raise InputError(f"the coordinates name joints {given}; expected each of {list(names)} once")
+    for c in coords:
+        if c.sign not in (1.0, -1.0) or not np.isfinite(c.offset):
+            raise InputError(f"coordinate of {c.joint}: sign must be +1 or -1 and the offset finite")
+
+
+def _planar_links(table: Any) -> dict[str, np.ndarray | None]:
+    """For each link: the common axis (body axes) of every revolute joint carrying it, when they are parallel.
+
+    Then the link turns about that one axis only and its inertia enters as one number ``u^T I u``;
+    otherwise (None) the whole tensor does. A link that no revolute joint turns has an empty entry
+    (a zero vector): its inertia never enters.
+    """
+    links = {link.joint: link for link in table.links}
+    out: dict[str, np.ndarray | None] = {}
+    for link in table.links:
+        # Walk up, carrying the rotation of each ancestor's frame in this link's frame (at q = 0).
+        R = np.eye(3)  # ancestor frame -> this link's frame
+        axes = []
+        cur = link
+        while True:
+            if cur.joint_type != "prismatic":
+                axes.append(R @ np.asarray(cur.axis, dtype=np.float64))
+            R = R @ np.asarray(cur.rotation, dtype=np.float64).T
+            if cur.parent is None:
+                break
+            cur = links[cur.parent]
+        if not axes:
+            out[link.joint] = np.zeros(3)
+            continue
+        u = axes[0] / np.linalg.norm(axes[0])
+        parallel = all(np.linalg.norm(np.cross(u, a)) < PARALLEL_TOL for a in axes)
+        out[link.joint] = np.array([snap(x) for x in u]) if parallel else None
+    return out
+
+
+def _rotation(axis: Vector, c: Trig, s: Trig, const: Callable[[float], Trig]) -> Matrix:
+    """Rodrigues: ``c 1 + s [a]x + (1 - c) a a^T``."""
+    ax, ay, az = axis
+    skew = [[None, -az, ay], [az, None, -ax], [-ay, ax, None]]
+    one_minus_c = const(1.0) - c
+    out: Matrix = []
+    for r in range(3):
+        row = []
+        for col in range(3):
+            term = one_minus_c * axis[r] * axis[col]
+            if r == col:
+                term = term + c
+            else:
+                term = term + s * skew[r][col]  # type: ignore[operator]
+            row.append(term)
+        out.append(row)
+    return out
+
+
+def _mass_entry(
+    i_name: str,
+    j_name: str,
+    bodies: list[str],
+    coords: Sequence[Coordinate],
+    index: Mapping[str, int],
+    rel: Mapping[str, Mapping[str, tuple[Matrix, Vector]]],
+    axes: Mapping[str, Vector],
+    com: Mapping[str, Vector],
+    inertia: Mapping[str, Matrix],
+    mass: Mapping[str, Trig],
+) -> Trig:
+    """M_ij (i an ancestor of j, or j itself) summed over the links j carries, in joint i's frame."""
+    ci, cj = coords[index[i_name]], coords[index[j_name]]
+    a_i = axes[i_name]
+    R_ij, p_ij = rel[i_name][j_name]
+    z_j = matvec(R_ij, axes[j_name])
+    entry = Trig(a_i[0].n_angles)
+    for b in bodies:
+        R_ib, p_ib = rel[i_name][b]
+        if not mass[b].is_zero():
+            r = [p + x for p, x in zip(p_ib, matvec(R_ib, com[b]), strict=True)]
+            jv_i = cross(a_i, r) if ci.angular else a_i
+            if i_name == j_name:
+                jv_j = jv_i
+            else:
+                jv_j = cross(z_j, [x - p for x, p in zip(r, p_ij, strict=True)]) if cj.angular else z_j
+            entry = entry + mass[b] * dot(jv_i, jv_j)
+        if ci.angular and cj.angular and any(not x.is_zero() for row in inertia[b] for x in row):
+            w_i = matvec(transpose(R_ib), a_i)
+            w_j = w_i if i_name == j_name else matvec(transpose(rel[j_name][b][0]), axes[j_name])
+            entry = entry + dot(w_i, matvec(inertia[b], w_j))
+    return entry
+
+
+def _body_rates(
+    b: str,
+    chain: list[str],
+    coords: Sequence[Coordinate],
+    index: Mapping[str, int],
+    rel: Mapping[str, Mapping[str, tuple[Matrix, Vector]]],
+    axes: Mapping[str, Vector],
+    zero: Trig,
+) -> list[Vector]:
+    """Link b's angular velocity in its own axes per unit rate of each coordinate (zero off its chain)."""
+    out: list[Vector] = []
+    for c in coords:
+        if c.joint in chain and c.angular:
+            out.append(matvec(transpose(rel[c.joint][b][0]), axes[c.joint]))
+        else:
+            out.append([zero, zero, zero])
+    return out

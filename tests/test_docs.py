@@ -62,6 +62,9 @@ NOT_RUN = {
 }
 COPIED = ("examples", "models", "benchmarks", "tests/fixtures")
 TIMEOUT = 600  # [s] per command
+STOP_TIMEOUT = (
+    180  # [s] for a served command to stop after Ctrl-C: 60 s ran out twice at a load average of 24 on 2 cores
+)
 PAGE_TIMEOUT = 1800  # [s] per page (pytest-timeout): a page runs several commands, a bench or a first numba compile
 CACHES = ("__pycache__/", ".pytest_cache/", ".mypy_cache/", ".ruff_cache/", ".hypothesis/", ".venv/")
 MARKER = re.compile(r"^<!-- doc-test: (?P<body>.*) -->$")
@@ -245,7 +248,7 @@ def run_command(block: Block, command: str, cwd: Path) -> tuple[int, str]:
                 break
         else:
             pytest.fail(f"{block.where()}: {command!r} ended without printing {interrupt[0]!r}:\n{''.join(seen)}")
-        rest, _ = process.communicate(timeout=60)
+        rest, _ = process.communicate(timeout=STOP_TIMEOUT)
     finally:
         if process.poll() is None:
             os.killpg(process.pid, signal.SIGKILL)

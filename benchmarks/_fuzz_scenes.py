@@ -18,6 +18,7 @@ finite mismatch, never a NaN reported as one.
 from __future__ import annotations
 
 import atexit
+import copy
 import json
 import math
 import os
@@ -148,7 +149,7 @@ def edit(doc: dict[str, Any], pick: Any, extra_keys: list[str]) -> tuple[dict[st
             _set(doc, path, [] if isinstance(target, list) else [target, target])
             done.append(f"listed {where}")
         else:
-            _set(doc, path, pick.choice(HOSTILE))
+            _set(doc, path, copy.deepcopy(pick.choice(HOSTILE)))  # a copy: later edits must not reach the list
             done.append(f"{where} hostile")
     return doc, done
 

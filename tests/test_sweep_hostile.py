@@ -234,3 +234,10 @@ def test_an_unknown_parameter_names_the_sweep_file_and_its_table(tmp_path):
     path.write_text(_toml({"model": "pendubot", "duration": 0.1, "params": {"dt": [1.0]}}))
     with pytest.raises(robodyn.errors.UnknownNameError, match=r"sweep.toml: \[params\] unknown pendubot parameter"):
         sweep.prepare(path, tmp_path / "out")
+
+
+def test_an_unknown_controller_names_the_sweep_file(tmp_path):
+    path = tmp_path / "sweep.toml"
+    path.write_text(_toml({"model": "pendubot", "duration": 0.1, "controller": "nope"}))
+    with pytest.raises(robodyn.errors.UnknownNameError, match=r"sweep.toml: controller unknown controller 'nope'"):
+        sweep.prepare(path, tmp_path / "out")

@@ -166,7 +166,12 @@ def prepare(
     spec = with_digest(spec, files)
     gains_json = json.dumps(gains, sort_keys=True)
     for c in controllers:  # build each once here: unknown names and gains are refused before any task
-        controller_of(model, c, gains_json)
+        try:
+            controller_of(model, c, gains_json)
+        except (InputError, UnknownNameError) as exc:  # named with the file and key it comes from
+            if not str(exc.args[0]).startswith(spec.source):
+                exc.args = (f"{spec.source}: controller {exc.args[0]}",)
+            raise
     for m in spec.measures:
         if measures.is_user(m):
             measures.load_user_measure(m)

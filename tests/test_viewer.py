@@ -600,3 +600,30 @@ def test_a_switched_controller_records_its_mode_and_the_replay_charts_it(tmp_pat
     playback = viewer.build(robodyn.load("cart_pole"), motion)
     chart = next(c for c in playback.charts if c.key == "mode")
     np.testing.assert_array_equal(chart.series[0].values, np.asarray(mode, dtype=float)[playback.sample_index])
+
+
+def test_the_ground_plane_lies_at_the_base_under_the_whole_motion(
+    pendubot: robodyn.Robot, motion: Trajectory, motion_file: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--ground: a slab whose top face is the base's plane z = 0, under every link at every frame."""
+    from robodyn.viewer.camera import robot_boxes
+
+    playback = viewer.build(pendubot, motion, ground=True)
+    slab = playback.ground
+    assert slab is not None and slab.height == 0.0
+    assert slab.centre[2] + 0.5 * slab.sides[2] == pytest.approx(0.0, abs=1e-15)  # the top face is the plane
+    low, high = robot_boxes(list(playback.objects), playback.n_frames)
+    assert np.all(slab.centre[:2] - 0.5 * slab.sides[:2] <= low[:, :2])
+    assert np.all(slab.centre[:2] + 0.5 * slab.sides[:2] >= high[:, :2])
+    assert viewer.build(pendubot, motion).ground is None  # only when asked
+    out = tmp_path / "ground.html"
+    assert main(["view", "pendubot", str(motion_file), "--ground", "--html", str(out)]) == 0
+    commands = _page_commands(out.read_text(encoding="utf-8"))
+    ground_path = "/" + "/".join((*ROOT, "ground"))
+    drawn = [c for c in commands if c["type"] == "set_object" and c["path"] == ground_path]
+    assert len(drawn) == 1
+    placed = [c for c in commands if c["type"] == "set_transform" and c["path"] == ground_path]
+    np.testing.assert_allclose(np.reshape(placed[-1]["matrix"], (4, 4)).T[:3, 3], slab.centre, atol=1e-6)
+    capsys.readouterr()
+    assert main(["simulate", "pendubot", "--duration", "0.1", "--ground"]) == 2
+    assert "--ground draws a plane in the replay; add --view" in capsys.readouterr().err

@@ -43,6 +43,7 @@ from robodyn.cli._common import (
     warn_ignored_mimic,
 )
 from robodyn.cli._output import partial_path, refuse_clobbering, writable_path
+from robodyn.cli.view import add_ground_argument
 from robodyn.errors import EXIT_DIVERGED, EXIT_OK, InputError, UnknownNameError
 from robodyn.fileio import read_user_file
 from robodyn.registry import BACKENDS
@@ -183,6 +184,7 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.add_argument("--view", action="store_true", help="afterwards, play the motion in the browser (meshcat)")
+    add_ground_argument(p)
     p.set_defaults(handler=run)
 
 
@@ -217,6 +219,8 @@ def run(args: argparse.Namespace) -> int:
         [*inputs, ("--constraints", args.constraints), ("--controller", controller_file), ("--gains", gains_file)],
     )
     constraints = constraints_from_args(args)
+    if args.ground and not args.view:
+        raise InputError("--ground draws a plane in the replay; add --view")
     if args.view:
         from robodyn.cli.view import check_frame_count
 
@@ -278,7 +282,7 @@ def run(args: argparse.Namespace) -> int:
     if args.view:
         from robodyn.cli.view import serve_and_play
 
-        return serve_and_play(robot, trajectory, speed=1.0, open_browser=False, zmq_url=None)
+        return serve_and_play(robot, trajectory, speed=1.0, open_browser=False, zmq_url=None, ground=args.ground)
     return EXIT_OK
 
 

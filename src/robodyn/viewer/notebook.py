@@ -84,6 +84,7 @@ def show(
     names: Sequence[str] | None = None,
     zmq_url: str | None = None,
     height: int = 560,
+    ground: bool = False,
 ) -> Replay:
     """Show ``robot`` (playing ``trajectory`` if given) inline in a Jupyter notebook.
 
@@ -91,7 +92,7 @@ def show(
     self-contained page in an iframe (meshcat's static inline display), so it works offline
     and in exported notebooks, with the chart panel beside the 3D view. A list of up to 8
     trajectories plays them together as ghosts (see :func:`~robodyn.viewer.build`, which
-    also documents ``camera`` and ``names``). With ``zmq_url`` the scene is also sent to that running
+    also documents ``camera``, ``names`` and ``ground``). With ``zmq_url`` the scene is also sent to that running
     meshcat server and the iframe shows the server's page. Never blocks.
     """
     playback = build(
@@ -105,6 +106,7 @@ def show(
         camera=camera,
         names=names,
         loop=loop,
+        ground=ground,
     )
     url = None
     if zmq_url is not None:

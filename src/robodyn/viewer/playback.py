@@ -20,6 +20,7 @@ from robodyn.viewer.animation import bake_animation
 from robodyn.viewer.backend import ROOT, import_meshcat, scene_path
 from robodyn.viewer.camera import Framing, follow_tracks, frame_motion, view_commands
 from robodyn.viewer.geometry import SceneObject, geometry_objects, object_commands
+from robodyn.viewer.ground import Ground, ground_commands, ground_slab
 from robodyn.viewer.panel import Chart, panel_charts
 from robodyn.viewer.runs import GHOST_OPACITY, RUN_COLORS, Run, check_runs, common_frames, run_names
 from robodyn.viewer.sampling import DEFAULT_FPS, check_rate
@@ -68,6 +69,7 @@ class Playback:
         ghosts: the objects of every run (``ghosts[0]`` is ``objects``).
         traces: every run's traced positions (k, 3) [m].
         charts: the chart panel's charts (empty without a trajectory or with ``charts=False``).
+        ground: the ground slab under the robot, its top face at the base's plane (None unless asked).
     """
 
     robot_name: str
@@ -92,6 +94,7 @@ class Playback:
     ghosts: tuple[tuple[SceneObject, ...], ...] = ()
     traces: tuple[Array, ...] = ()
     charts: tuple[Chart, ...] = ()
+    ground: Ground | None = None
 
     @property
     def offset(self) -> Array:
@@ -141,6 +144,7 @@ def build(
     names: Sequence[str] | None = None,
     loop: bool = False,
     geometry: pin.GeometryModel | None = None,
+    ground: bool = False,
 ) -> Playback:
     """Bake ``robot`` and, if given, its motion into a :class:`Playback` (no server, no browser).
 
@@ -161,6 +165,8 @@ def build(
         names: the runs' names in the legend (default: each run's integrator).
         loop: repeat the animation forever instead of playing it once.
         geometry: an already loaded visual ``GeometryModel`` (default: loaded from the URDF).
+        ground: draw a translucent ground slab whose top face is the base's plane (z = 0 of the
+            model's world frame), wide enough to lie under the robot over the whole motion.
 
     Raises:
         InputError: a trajectory that does not fit the model, runs of different models, more
@@ -214,6 +220,9 @@ def build(
             group = "trace" if r == 0 else f"trace{r}"
             commands += trace_commands(mc, dense, traces[r], framing.size, color=run.color, group=group)
             tracks[MARKER_PATH if r == 0 else (*ROOT, group, "marker")] = translations(traces[r])
+    slab = ground_slab(framing.centres, framing.half, framing.size) if ground else None
+    if slab is not None:
+        commands += ground_commands(mc, slab)
     commands += view_commands(mc, framing)
     tracks.update(follow_tracks(framing))
     animation = bake_animation(mc, tracks, playback_times, fps=fps) if trajectories else None
@@ -242,6 +251,7 @@ def build(
         ghosts=tuple(tuple(objs) for objs in ghost_objects),
         traces=tuple(traces),
         charts=tuple(chart_list),
+        ground=slab,
     )
 
 

@@ -412,7 +412,7 @@ def test_a_replay_prints_as_one_short_line_not_as_its_page(
     )
     assert str(replay) == text
     two = viewer.show(pendubot, [motion, motion], names=["a", "b"])
-    assert repr(two).startswith("<Replay pendubot: 2 runs (a, b), ")
+    assert repr(two).startswith("<Replay pendubot: 2 runs (a, b (identical to a)), ")
     assert repr(viewer.show(pendubot)).startswith("<Replay pendubot: still pose, 0.00 s, 1 frame;")
     saved = replay.save(tmp_path / "r.html")
     assert saved.read_text(encoding="utf-8") == replay.html
@@ -627,3 +627,62 @@ def test_the_ground_plane_lies_at_the_base_under_the_whole_motion(
     capsys.readouterr()
     assert main(["simulate", "pendubot", "--duration", "0.1", "--ground"]) == 2
     assert "--ground draws a plane in the replay; add --view" in capsys.readouterr().err
+
+
+def test_the_page_gets_the_trace_times_and_window_for_a_fading_trace(
+    pendubot: robodyn.Robot, motion: Trajectory
+) -> None:
+    """The line's points carry their playback times, the window is in playback seconds; None: whole trace."""
+    from robodyn.viewer.trace import dense_rows
+
+    playback = viewer.build(pendubot, motion, speed=0.5, trace_window=0.75)
+    info = json.loads(re.search(r'id="robodyn-info">(.*?)</script>', viewer.to_html(playback), re.S).group(1))
+    assert info["traceWindow"] == pytest.approx(0.75 / 0.5, rel=1e-15)
+    (trace,) = info["traces"]
+    assert trace["line"] == [*ROOT, "trace", "path"] and trace["dots"] == [*ROOT, "trace", "dots"]
+    rows = dense_rows(len(motion.t))
+    np.testing.assert_allclose(trace["tau"], (motion.t[rows] - motion.t[0]) / 0.5, atol=1e-9)
+    assert len(trace["tau"]) == len(viewer.trace.dense_path(pendubot, motion, "tip"))
+    whole = viewer.build(pendubot, motion, trace_window=None)
+    assert (
+        json.loads(re.search(r'id="robodyn-info">(.*?)</script>', viewer.to_html(whole), re.S).group(1))["traceWindow"]
+        is None
+    )
+    with pytest.raises(InputError, match="trace_window must be a positive number"):
+        viewer.build(pendubot, motion, trace_window=0.0)
+
+
+def test_two_identical_runs_say_so_in_the_legend(pendubot: robodyn.Robot, motion: Trajectory) -> None:
+    playback = viewer.build(pendubot, [motion, motion])
+    assert [run.name for run in playback.runs] == ["run 1", "run 2 (identical to run 1)"]
+    other = dataclasses.replace(motion, q=motion.q + 1e-9)
+    assert [run.name for run in viewer.build(pendubot, [motion, other]).runs] == ["run 1", "run 2"]
+
+
+def test_several_runs_draw_the_limits_grey_under_one_legend_entry(pendubot: robodyn.Robot, motion: Trajectory) -> None:
+    """One run: each joint's limit in its colour; several: grey, labelled "effort limit", matching no run's colour."""
+    one = next(c for c in viewer.build(pendubot, motion).charts if c.key == "torque")
+    assert {color for _, _, color in one.limits} <= set(viewer.LINK_COLORS)
+    two = viewer.build(pendubot, [motion, dataclasses.replace(motion, q=motion.q + 1e-3)])
+    torque = next(c for c in two.charts if c.key == "torque")
+    assert torque.limits and {(label, color) for label, _, color in torque.limits} == {
+        ("effort limit", viewer.panel.LIMIT_COLOR)
+    }
+    assert viewer.panel.LIMIT_COLOR not in {run.color for run in two.runs}
+
+
+def test_several_runs_each_get_their_own_energy_in_the_overlay(pendubot: robodyn.Robot, motion: Trajectory) -> None:
+    euler = robodyn.simulate(pendubot, [0.5, 0.0], [0.0, 0.0], duration=2.0, dt=0.002, integrator="euler")
+    playback = viewer.build(pendubot, [motion, euler], names=["rk4", "euler"])
+    info = json.loads(re.search(r'id="robodyn-info">(.*?)</script>', viewer.to_html(playback), re.S).group(1))
+    assert [(r["name"], r["color"]) for r in info["runEnergies"]] == [
+        (run.name, f"#{run.color:06x}") for run in playback.runs
+    ]
+    for entry, run in zip(info["runEnergies"], playback.runs, strict=True):
+        own = (run.trajectory.kinetic + run.trajectory.potential)[run.index]
+        np.testing.assert_array_equal(entry["energy"], own)
+    assert not np.allclose(info["runEnergies"][0]["energy"], info["runEnergies"][1]["energy"])  # Euler gains energy
+    single = json.loads(
+        re.search(r'id="robodyn-info">(.*?)</script>', viewer.to_html(viewer.build(pendubot, motion)), re.S).group(1)
+    )
+    assert single["runEnergies"] == []

@@ -77,6 +77,14 @@ def add_parser(sub: Any) -> None:
         "--trace", metavar="FRAME", default=None, help="frame whose path is drawn (default: the one that moves most)"
     )
     p.add_argument("--no-trace", action="store_true", help="draw no frame path")
+    p.add_argument(
+        "--trace-window",
+        type=positive_float,
+        default=2.0,
+        metavar="S",
+        help="the --html page shows the last S seconds of the path, fading behind the cursor (default 2)",
+    )
+    p.add_argument("--full-trace", action="store_true", help="draw the whole path from the start, not the window")
     add_ground_argument(p)
     p.add_argument("--loop", action="store_true", help="repeat the animation forever instead of playing it once")
     p.add_argument(
@@ -183,6 +191,7 @@ def run(args: argparse.Namespace) -> int:
         names=_stems(files) if len(files) > 1 else None,
         loop=args.loop,
         ground=args.ground,
+        trace_window=None if args.full_trace else args.trace_window,
     )
     for file, run in zip(files, loaded, strict=True):  # notes once the input is known good: a refusal stays one line
         _note_trajectory(robot, run, file)

@@ -55,7 +55,7 @@ from robodyn.viewer.server import (
     free_port,
     serve,
 )
-from robodyn.viewer.trace import MAX_TRACE_POINTS, TRACE_COLOR, frame_path_lengths
+from robodyn.viewer.trace import DEFAULT_TRACE_WINDOW_S, MAX_TRACE_POINTS, TRACE_COLOR, frame_path_lengths
 
 __all__ = [
     "BASE_COLOR",
@@ -65,6 +65,7 @@ __all__ = [
     "CONNECT_TIMEOUT_MS",
     "CURSOR_COLOR",
     "DEFAULT_FPS",
+    "DEFAULT_TRACE_WINDOW_S",
     "ENERGY_COLORS",
     "FRAME_FRACTION",
     "GHOST_OPACITY",

@@ -686,3 +686,23 @@ def test_several_runs_each_get_their_own_energy_in_the_overlay(pendubot: robodyn
         re.search(r'id="robodyn-info">(.*?)</script>', viewer.to_html(viewer.build(pendubot, motion)), re.S).group(1)
     )
     assert single["runEnergies"] == []
+
+
+def test_a_sprung_joint_is_drawn_as_a_coil_riding_on_its_frame(pendubot: robodyn.Robot, motion: Trajectory) -> None:
+    """The spring at joint2: a flat coil normal to the joint's axis, its keyframes the joint frame's placements."""
+    from robodyn.viewer.springs import COIL_TURNS
+
+    sprung = dataclasses.replace(motion, meta={**motion.meta, "springs": {"joint2": {"stiffness": 2.5, "rest": 0.1}}})
+    playback = viewer.build(pendubot, sprung)
+    (coil,) = playback.springs
+    assert coil.joint == "joint2" and coil.path == (*ROOT, "springs", "joint2")
+    axis = np.asarray(pendubot.model.joints[pendubot.model.getJointId("joint2")].extract().axis)
+    np.testing.assert_allclose(coil.points @ axis, 0.0, atol=1e-15)  # in the plane normal to the axis
+    turns = np.sum(np.abs(np.diff(np.unwrap(np.arctan2(coil.points[:, 2], coil.points[:, 0]))))) / (2 * np.pi)
+    assert turns == pytest.approx(COIL_TURNS, rel=1e-9)
+    frame = pendubot.model.getFrameId("joint2")
+    for k, row in enumerate(playback.sample_index[:5]):
+        pin.framesForwardKinematics(pendubot.model, pendubot.data, motion.q[row])
+        _, placements = viewer.animation.read_keyframes(playback.animation, coil.path)
+        np.testing.assert_allclose(placements[k], pendubot.data.oMf[frame].homogeneous, atol=TRANSFORM_ATOL)
+    assert viewer.build(pendubot, motion).springs == ()  # no springs, no coil

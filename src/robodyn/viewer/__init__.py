@@ -25,6 +25,7 @@ The modules, in the order data flows through them:
 * ``sampling``: the playback time grid (which trajectory rows become rendered frames);
 * ``geometry``: the robot's shapes and their placements; ``trace``: the path of one frame;
 * ``runs``: several runs checked, named, coloured and put on one time grid;
+* ``springs``: a coil at each sprung revolute joint of a run with springs;
 * ``ground``: the optional ground slab at the base's plane (``build(..., ground=True)``);
 * ``camera``: the framed box, the centring shift (animated in follow mode) and the camera;
 * ``panel``: the chart panel's curves and units (drawn by ``assets/replay.js``);

@@ -24,6 +24,7 @@ from robodyn.viewer.ground import Ground, ground_commands, ground_slab
 from robodyn.viewer.panel import Chart, panel_charts
 from robodyn.viewer.runs import GHOST_OPACITY, RUN_COLORS, Run, check_runs, common_frames, mark_identical, run_names
 from robodyn.viewer.sampling import DEFAULT_FPS, check_rate
+from robodyn.viewer.springs import Coil, coil_commands, spring_coils
 from robodyn.viewer.trace import (
     DEFAULT_TRACE_WINDOW_S,
     MARKER_PATH,
@@ -74,6 +75,7 @@ class Playback:
         ground: the ground slab under the robot, its top face at the base's plane (None unless asked).
         trace_window: simulation time of trace the page keeps behind the cursor [s] (None: the whole trace).
         trace_times: every run's trace-line points' playback times [s], shape (m,) each.
+        springs: the first run's sprung revolute joints, each drawn as a coil riding on its frame.
     """
 
     robot_name: str
@@ -101,6 +103,7 @@ class Playback:
     ground: Ground | None = None
     trace_window: float | None = DEFAULT_TRACE_WINDOW_S
     trace_times: tuple[Array, ...] = ()
+    springs: tuple[Coil, ...] = ()
 
     @property
     def offset(self) -> Array:
@@ -236,6 +239,11 @@ def build(
             group = "trace" if r == 0 else f"trace{r}"
             commands += trace_commands(mc, dense, traces[r], framing.size, color=run.color, group=group)
             tracks[MARKER_PATH if r == 0 else (*ROOT, group, "marker")] = translations(traces[r])
+    meta = runs[0].trajectory.meta if runs and isinstance(runs[0].trajectory.meta, dict) else {}
+    coils = spring_coils(robot, meta.get("springs"), configurations[0], framing.size) if runs else []
+    for coil in coils:
+        commands += coil_commands(mc, coil)
+        tracks[coil.path] = coil.placements
     slab = ground_slab(framing.centres, framing.half, framing.size) if ground else None
     if slab is not None:
         commands += ground_commands(mc, slab)
@@ -270,6 +278,7 @@ def build(
         ground=slab,
         trace_window=None if trace_window is None else float(trace_window),
         trace_times=tuple(trace_times),
+        springs=tuple(coils),
     )
 
 

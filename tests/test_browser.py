@@ -32,6 +32,7 @@ import pytest
 import robodyn
 from robodyn import viewer
 from robodyn.cli import main
+from robodyn.sim.trajectory import Trajectory
 from robodyn.viewer import camera as _camera  # noqa: F401  (loads viewer.camera for box_corners)
 
 from ._viewer_helpers import HEADLESS_FLAGS, SLIDER_URDF, DevTools, interrupt, travel_trajectory, view_process
@@ -51,6 +52,9 @@ MIN_FILL = 0.5  # of FRAME_FRACTION: the robot's silhouette spans at least half 
 BOX_MARGIN_PX = 6  # the silhouette stays inside the projected box, up to antialiasing
 CURSOR_MIN_PIXELS = 60  # magenta pixels in the cursor's column (a 2 px line through four ~60 px plots)
 CURSOR_STRAY_PIXELS = 6  # antialiased edges of the purple E curve come close to the cursor's hue
+OVERLAY_BOX = (10, 10, 470, 130)  # left, top, right, bottom [px]: the text overlay's lines, above the robot
+MIN_TEXT_PIXELS = 20  # saturated pixels of one bold 14 px line of coloured text (a few hundred when drawn)
+FADE_COLOR_ATOL = 0.02  # float32 vertex colours, and the first point lies up to one sample (2 ms) inside the window
 CURSOR_WINDOW_PX = 3  # the cursor's x is rounded to a pixel and drawn 2 px wide
 
 
@@ -372,6 +376,9 @@ def test_two_runs_play_as_ghosts_at_their_own_poses(artifacts: Path, tmp_path: P
             budget_ms=1500,
             profile=tmp_path / f"profile_{when}",
         )
+        overlay = image[OVERLAY_BOX[1] : OVERLAY_BOX[3], OVERLAY_BOX[0] : OVERLAY_BOX[2]]
+        for run in playback.runs:  # each run's own "E = ... J  name" line, in its colour
+            assert hue_mask(overlay, run.color).sum() >= MIN_TEXT_PIXELS, f"t = {t}: no {run.name} energy line"
         tips = [project(playback, run_trace[frame], frame) for run_trace in playback.traces]
         assert np.linalg.norm(tips[0] - tips[1]) > MIN_MOVE_PX, "the runs sit at the same pose: a weak test time"
         for run, objects in zip(playback.runs, playback.ghosts, strict=True):
@@ -467,3 +474,33 @@ def test_constraint_drift_is_charted_in_metres_on_a_log_axis(artifacts: Path, tm
     assert len(ys), f"no drift curve at the mid time; see {artifacts}"
     middle = (plot_top + plot_bottom) / 2  # log10 of 10^-10.5 is halfway between -12 and -9
     assert abs(ys.mean() - middle) <= DRIFT_PIXEL_TOLERANCE, (ys.mean(), middle)
+
+
+def test_the_trace_keeps_only_its_window_behind_the_cursor_and_fades(swing: Path, tmp_path: Path) -> None:
+    """At t = 2 s with a 0.5 s window, the line draws the points of 1.5 s to 2 s, white at 1.5 s, yellow at 2 s."""
+    chromium = find_chromium()
+    robot = robodyn.load("pendubot")
+    motion = Trajectory.load(swing)
+    window, now = 0.5, 2.0  # [s]
+    playback = viewer.build(robot, motion, trace_window=window)
+    page = tmp_path / "fade.html"
+    page.write_text(viewer.to_html(playback), encoding="utf-8")
+    tau = playback.trace_times[0]
+    first = int(np.searchsorted(tau, now - window, side="left"))
+    end = int(np.searchsorted(tau, now + 1e-9, side="left"))
+    with DevTools(chromium, width=WIDTH, height=HEIGHT, profile=tmp_path / "profile") as browser:
+        browser.open(f"{page.resolve().as_uri()}#t={now}")
+        browser.wait_for("document.body.getAttribute('data-trace-ranges')")
+        assert browser.evaluate("document.body.getAttribute('data-trace-ranges')") == f"{first}:{end - first}"
+        line = "viewer.scene_tree.find(['meshcat', 'robodyn', 'trace', 'path', '<object>']).object.geometry"
+        drawn = browser.evaluate(f"[{line}.drawRange.start, {line}.drawRange.count]")
+        assert drawn == [first, end - first]
+        colors = browser.evaluate(
+            f"(function () {{ var a = {line}.getAttribute('color').array;"
+            f" return [a[3 * {first}], a[3 * {first} + 1], a[3 * {first} + 2],"
+            f" a[3 * {end - 1}], a[3 * {end - 1} + 1], a[3 * {end - 1} + 2]]; }})()"
+        )
+    yellow = np.array([(viewer.TRACE_COLOR >> s) & 255 for s in (16, 8, 0)]) / 255.0
+    oldest, newest = np.array(colors[:3]), np.array(colors[3:])  # type: ignore[index]
+    np.testing.assert_allclose(newest, yellow, atol=FADE_COLOR_ATOL)
+    assert np.all(oldest > 1 - FADE_COLOR_ATOL)  # the window's start has faded to white

@@ -174,6 +174,7 @@ def test_bench_view_with_one_side_empty_says_so_and_replays_one_run(
         (["--view"], "--view replays the runs of one model; 2 given"),
         (["--accuracy", "1e-4"], "--accuracy is an option of the replay; add --view"),
         (["--open"], "--open is an option of the replay"),
+        (["--ground"], "--ground is an option of the replay; add --view"),
         (["--html", "x.html", "--port", "8123"], "--html writes a file and starts no server"),
     ],
 )

@@ -412,7 +412,7 @@ def test_a_replay_prints_as_one_short_line_not_as_its_page(
     )
     assert str(replay) == text
     two = viewer.show(pendubot, [motion, motion], names=["a", "b"])
-    assert repr(two).startswith("<Replay pendubot: 2 runs (a, b), ")
+    assert repr(two).startswith("<Replay pendubot: 2 runs (a, b (identical to a)), ")
     assert repr(viewer.show(pendubot)).startswith("<Replay pendubot: still pose, 0.00 s, 1 frame;")
     saved = replay.save(tmp_path / "r.html")
     assert saved.read_text(encoding="utf-8") == replay.html
@@ -600,3 +600,109 @@ def test_a_switched_controller_records_its_mode_and_the_replay_charts_it(tmp_pat
     playback = viewer.build(robodyn.load("cart_pole"), motion)
     chart = next(c for c in playback.charts if c.key == "mode")
     np.testing.assert_array_equal(chart.series[0].values, np.asarray(mode, dtype=float)[playback.sample_index])
+
+
+def test_the_ground_plane_lies_at_the_base_under_the_whole_motion(
+    pendubot: robodyn.Robot, motion: Trajectory, motion_file: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--ground: a slab whose top face is the base's plane z = 0, under every link at every frame."""
+    from robodyn.viewer.camera import robot_boxes
+
+    playback = viewer.build(pendubot, motion, ground=True)
+    slab = playback.ground
+    assert slab is not None and slab.height == 0.0
+    assert slab.centre[2] + 0.5 * slab.sides[2] == pytest.approx(0.0, abs=1e-15)  # the top face is the plane
+    low, high = robot_boxes(list(playback.objects), playback.n_frames)
+    assert np.all(slab.centre[:2] - 0.5 * slab.sides[:2] <= low[:, :2])
+    assert np.all(slab.centre[:2] + 0.5 * slab.sides[:2] >= high[:, :2])
+    assert viewer.build(pendubot, motion).ground is None  # only when asked
+    out = tmp_path / "ground.html"
+    assert main(["view", "pendubot", str(motion_file), "--ground", "--html", str(out)]) == 0
+    commands = _page_commands(out.read_text(encoding="utf-8"))
+    ground_path = "/" + "/".join((*ROOT, "ground"))
+    drawn = [c for c in commands if c["type"] == "set_object" and c["path"] == ground_path]
+    assert len(drawn) == 1
+    placed = [c for c in commands if c["type"] == "set_transform" and c["path"] == ground_path]
+    np.testing.assert_allclose(np.reshape(placed[-1]["matrix"], (4, 4)).T[:3, 3], slab.centre, atol=1e-6)
+    capsys.readouterr()
+    assert main(["simulate", "pendubot", "--duration", "0.1", "--ground"]) == 2
+    assert "--ground draws a plane in the replay; add --view" in capsys.readouterr().err
+
+
+def test_the_page_gets_the_trace_times_and_window_for_a_fading_trace(
+    pendubot: robodyn.Robot, motion: Trajectory
+) -> None:
+    """The line's points carry their playback times, the window is in playback seconds; None: whole trace."""
+    from robodyn.viewer.trace import dense_rows
+
+    playback = viewer.build(pendubot, motion, speed=0.5, trace_window=0.75)
+    info = json.loads(re.search(r'id="robodyn-info">(.*?)</script>', viewer.to_html(playback), re.S).group(1))
+    assert info["traceWindow"] == pytest.approx(0.75 / 0.5, rel=1e-15)
+    (trace,) = info["traces"]
+    assert trace["line"] == [*ROOT, "trace", "path"] and trace["dots"] == [*ROOT, "trace", "dots"]
+    rows = dense_rows(len(motion.t))
+    np.testing.assert_allclose(trace["tau"], (motion.t[rows] - motion.t[0]) / 0.5, atol=1e-9)
+    assert len(trace["tau"]) == len(viewer.trace.dense_path(pendubot, motion, "tip"))
+    whole = viewer.build(pendubot, motion, trace_window=None)
+    assert (
+        json.loads(re.search(r'id="robodyn-info">(.*?)</script>', viewer.to_html(whole), re.S).group(1))["traceWindow"]
+        is None
+    )
+    with pytest.raises(InputError, match="trace_window must be a positive number"):
+        viewer.build(pendubot, motion, trace_window=0.0)
+
+
+def test_two_identical_runs_say_so_in_the_legend(pendubot: robodyn.Robot, motion: Trajectory) -> None:
+    playback = viewer.build(pendubot, [motion, motion])
+    assert [run.name for run in playback.runs] == ["run 1", "run 2 (identical to run 1)"]
+    other = dataclasses.replace(motion, q=motion.q + 1e-9)
+    assert [run.name for run in viewer.build(pendubot, [motion, other]).runs] == ["run 1", "run 2"]
+
+
+def test_several_runs_draw_the_limits_grey_under_one_legend_entry(pendubot: robodyn.Robot, motion: Trajectory) -> None:
+    """One run: each joint's limit in its colour; several: grey, labelled "effort limit", matching no run's colour."""
+    one = next(c for c in viewer.build(pendubot, motion).charts if c.key == "torque")
+    assert {color for _, _, color in one.limits} <= set(viewer.LINK_COLORS)
+    two = viewer.build(pendubot, [motion, dataclasses.replace(motion, q=motion.q + 1e-3)])
+    torque = next(c for c in two.charts if c.key == "torque")
+    assert torque.limits and {(label, color) for label, _, color in torque.limits} == {
+        ("effort limit", viewer.panel.LIMIT_COLOR)
+    }
+    assert viewer.panel.LIMIT_COLOR not in {run.color for run in two.runs}
+
+
+def test_several_runs_each_get_their_own_energy_in_the_overlay(pendubot: robodyn.Robot, motion: Trajectory) -> None:
+    euler = robodyn.simulate(pendubot, [0.5, 0.0], [0.0, 0.0], duration=2.0, dt=0.002, integrator="euler")
+    playback = viewer.build(pendubot, [motion, euler], names=["rk4", "euler"])
+    info = json.loads(re.search(r'id="robodyn-info">(.*?)</script>', viewer.to_html(playback), re.S).group(1))
+    assert [(r["name"], r["color"]) for r in info["runEnergies"]] == [
+        (run.name, f"#{run.color:06x}") for run in playback.runs
+    ]
+    for entry, run in zip(info["runEnergies"], playback.runs, strict=True):
+        own = (run.trajectory.kinetic + run.trajectory.potential)[run.index]
+        np.testing.assert_array_equal(entry["energy"], own)
+    assert not np.allclose(info["runEnergies"][0]["energy"], info["runEnergies"][1]["energy"])  # Euler gains energy
+    single = json.loads(
+        re.search(r'id="robodyn-info">(.*?)</script>', viewer.to_html(viewer.build(pendubot, motion)), re.S).group(1)
+    )
+    assert single["runEnergies"] == []
+
+
+def test_a_sprung_joint_is_drawn_as_a_coil_riding_on_its_frame(pendubot: robodyn.Robot, motion: Trajectory) -> None:
+    """The spring at joint2: a flat coil normal to the joint's axis, its keyframes the joint frame's placements."""
+    from robodyn.viewer.springs import COIL_TURNS
+
+    sprung = dataclasses.replace(motion, meta={**motion.meta, "springs": {"joint2": {"stiffness": 2.5, "rest": 0.1}}})
+    playback = viewer.build(pendubot, sprung)
+    (coil,) = playback.springs
+    assert coil.joint == "joint2" and coil.path == (*ROOT, "springs", "joint2")
+    axis = np.asarray(pendubot.model.joints[pendubot.model.getJointId("joint2")].extract().axis)
+    np.testing.assert_allclose(coil.points @ axis, 0.0, atol=1e-15)  # in the plane normal to the axis
+    turns = np.sum(np.abs(np.diff(np.unwrap(np.arctan2(coil.points[:, 2], coil.points[:, 0]))))) / (2 * np.pi)
+    assert turns == pytest.approx(COIL_TURNS, rel=1e-9)
+    frame = pendubot.model.getFrameId("joint2")
+    for k, row in enumerate(playback.sample_index[:5]):
+        pin.framesForwardKinematics(pendubot.model, pendubot.data, motion.q[row])
+        _, placements = viewer.animation.read_keyframes(playback.animation, coil.path)
+        np.testing.assert_allclose(placements[k], pendubot.data.oMf[frame].homogeneous, atol=TRANSFORM_ATOL)
+    assert viewer.build(pendubot, motion).springs == ()  # no springs, no coil

@@ -36,7 +36,7 @@ from robodyn.cli._common import (
     warn_unchecked,
 )
 from robodyn.cli._interrupts import held
-from robodyn.cli.view import port_number
+from robodyn.cli.view import add_ground_argument, port_number
 from robodyn.errors import InputError
 from robodyn.fileio import pause_for_test, write_text_atomically
 from robodyn.wording import count
@@ -96,6 +96,7 @@ def add_parser(sub: Any) -> None:
         help="write the replay to this file (implies --view)",
     )
     view.add_argument("--open", action="store_true", help="open the replay (page or file) in the web browser")
+    add_ground_argument(view)
     view.add_argument(
         "--port", type=port_number, default=None, help="web port of the replay's meshcat server (default: free)"
     )
@@ -234,7 +235,13 @@ def _check_view_options(args: argparse.Namespace) -> None:
             raise InputError("--html writes a file and starts no server; leave out --port")
         check_output_file(args.html)
     if not args.view:
-        for flag, given in (("--accuracy", args.accuracy), ("--open", args.open or None), ("--port", args.port)):
+        replay_only = (
+            ("--accuracy", args.accuracy),
+            ("--open", args.open or None),
+            ("--port", args.port),
+            ("--ground", args.ground or None),
+        )
+        for flag, given in replay_only:
             if given is not None:
                 raise InputError(f"{flag} is an option of the replay; add --view (or --html OUT.html)")
 
@@ -273,6 +280,7 @@ def _replay(args: argparse.Namespace, robot: Any, sweep: Any) -> int:
         robot,
         [r.trajectory for r in replayed],
         names=[pair.name(r.result) for r in replayed],
+        ground=args.ground,
     )
     print(
         f"{playback.robot_name}: {count(playback.n_frames, 'frame')}, {playback.duration:.2f} s of playback, "

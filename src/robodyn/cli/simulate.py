@@ -45,6 +45,7 @@ from robodyn.cli._common import (
 )
 from robodyn.cli._interrupts import held
 from robodyn.cli._output import partial_path, refuse_clobbering, writable_path
+from robodyn.cli.view import add_ground_argument
 from robodyn.errors import EXIT_DIVERGED, EXIT_OK, InputError, UnknownNameError
 from robodyn.fileio import read_user_file
 from robodyn.registry import BACKENDS
@@ -186,6 +187,7 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.add_argument("--view", action="store_true", help="afterwards, play the motion in the browser (meshcat)")
+    add_ground_argument(p)
     p.set_defaults(handler=run)
 
 
@@ -220,6 +222,8 @@ def run(args: argparse.Namespace) -> int:
         [*inputs, ("--constraints", args.constraints), ("--controller", controller_file), ("--gains", gains_file)],
     )
     constraints = constraints_from_args(args)
+    if args.ground and not args.view:
+        raise InputError("--ground draws a plane in the replay; add --view")
     if args.view:
         from robodyn.cli.view import check_frame_count
 
@@ -301,7 +305,7 @@ def run(args: argparse.Namespace) -> int:
     if args.view:
         from robodyn.cli.view import serve_and_play
 
-        return serve_and_play(robot, trajectory, speed=1.0, open_browser=False, zmq_url=None)
+        return serve_and_play(robot, trajectory, speed=1.0, open_browser=False, zmq_url=None, ground=args.ground)
     return EXIT_OK
 
 

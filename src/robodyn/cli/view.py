@@ -77,6 +77,15 @@ def add_parser(sub: Any) -> None:
         "--trace", metavar="FRAME", default=None, help="frame whose path is drawn (default: the one that moves most)"
     )
     p.add_argument("--no-trace", action="store_true", help="draw no frame path")
+    p.add_argument(
+        "--trace-window",
+        type=positive_float,
+        default=2.0,
+        metavar="S",
+        help="the --html page shows the last S seconds of the path, fading behind the cursor (default 2)",
+    )
+    p.add_argument("--full-trace", action="store_true", help="draw the whole path from the start, not the window")
+    add_ground_argument(p)
     p.add_argument("--loop", action="store_true", help="repeat the animation forever instead of playing it once")
     p.add_argument(
         "--html", type=file_path, default=None, metavar="OUT.html", help="write a self-contained HTML replay; no server"
@@ -89,6 +98,15 @@ def add_parser(sub: Any) -> None:
         "--port", type=port_number, default=None, help="web port of the server robodyn starts, 1-65535 (default: free)"
     )
     p.set_defaults(handler=run)
+
+
+def add_ground_argument(p: Any) -> None:
+    """Register ``--ground`` (shared by ``view``, ``simulate --view`` and ``bench --view``)."""
+    p.add_argument(
+        "--ground",
+        action="store_true",
+        help="draw a translucent ground plane at the base's height (z = 0) under the robot; nothing collides with it",
+    )
 
 
 port_number = number_in(integer=True, low=1, high=65535, low_open=False, noun="port number")
@@ -175,6 +193,8 @@ def run(args: argparse.Namespace) -> int:
         camera=args.camera,
         names=_stems(files) if len(files) > 1 else None,
         loop=args.loop,
+        ground=args.ground,
+        trace_window=None if args.full_trace else args.trace_window,
     )
     for file, run in zip(files, loaded, strict=True):  # notes once the input is known good: a refusal stays one line
         _note_trajectory(robot, run, file)
@@ -201,6 +221,7 @@ def serve_and_play(
     open_browser: bool = False,
     zmq_url: str | None = None,
     trace_frame: str | None = None,
+    ground: bool = False,
 ) -> int:
     """Play ``trajectory`` in meshcat and block until Ctrl-C; return the exit code (0).
 
@@ -215,7 +236,7 @@ def serve_and_play(
 
     span = float(trajectory.t[-1] - trajectory.t[0])
     check_frame_count(span, speed=speed, fps=None, what="the trajectory", hint="play a shorter one")
-    playback = viewer.build(robot, trajectory, speed=speed, trace_frame=trace_frame)
+    playback = viewer.build(robot, trajectory, speed=speed, trace_frame=trace_frame, ground=ground)
     _describe(playback)
     return serve_playback(playback, open_browser=open_browser, zmq_url=zmq_url, port=None)
 

@@ -25,6 +25,8 @@ The modules, in the order data flows through them:
 * ``sampling``: the playback time grid (which trajectory rows become rendered frames);
 * ``geometry``: the robot's shapes and their placements; ``trace``: the path of one frame;
 * ``runs``: several runs checked, named, coloured and put on one time grid;
+* ``springs``: a coil at each sprung revolute joint of a run with springs;
+* ``ground``: the optional ground slab at the base's plane (``build(..., ground=True)``);
 * ``camera``: the framed box, the centring shift (animated in follow mode) and the camera;
 * ``panel``: the chart panel's curves and units (drawn by ``assets/replay.js``);
 * ``animation``: the one meshcat Animation; ``playback``: :func:`build` and :class:`Playback`;
@@ -54,7 +56,7 @@ from robodyn.viewer.server import (
     free_port,
     serve,
 )
-from robodyn.viewer.trace import MAX_TRACE_POINTS, TRACE_COLOR, frame_path_lengths
+from robodyn.viewer.trace import DEFAULT_TRACE_WINDOW_S, MAX_TRACE_POINTS, TRACE_COLOR, frame_path_lengths
 
 __all__ = [
     "BASE_COLOR",
@@ -64,6 +66,7 @@ __all__ = [
     "CONNECT_TIMEOUT_MS",
     "CURSOR_COLOR",
     "DEFAULT_FPS",
+    "DEFAULT_TRACE_WINDOW_S",
     "ENERGY_COLORS",
     "FRAME_FRACTION",
     "GHOST_OPACITY",

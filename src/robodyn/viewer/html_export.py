@@ -18,8 +18,10 @@ from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from robodyn.errors import InputError, MissingDependencyError
-from robodyn.viewer.backend import INSTALL_HINT, import_meshcat
+from robodyn.viewer.backend import INSTALL_HINT, ROOT, import_meshcat
 from robodyn.viewer.packing import packed_commands
 from robodyn.viewer.panel import panel_info
 
@@ -45,6 +47,18 @@ def _script_safe(text: str) -> str:
     return text.replace("</", "<\\/").replace("<!--", "<\\!--")
 
 
+def _run_energies(playback: Playback) -> list[dict[str, object]]:
+    """Each run's own E = T + V at its rendered rows [J], with its name and colour (runs without T, V left out)."""
+    out: list[dict[str, object]] = []
+    for run in playback.runs:
+        n = len(run.trajectory.t)
+        kinetic, potential = np.asarray(run.trajectory.kinetic), np.asarray(run.trajectory.potential)
+        if kinetic.shape == (n,) and potential.shape == (n,):
+            energy = (kinetic + potential)[run.index]
+            out.append({"name": run.name, "color": f"#{run.color:06x}", "energy": [float(x) for x in energy]})
+    return out
+
+
 def to_html(playback: Playback, *, title: str | None = None) -> str:
     """One self-contained HTML page that replays ``playback`` offline (no server, no network).
 
@@ -64,10 +78,22 @@ def to_html(playback: Playback, *, title: str | None = None) -> str:
         "speed": playback.speed,
         "tau": [round(float(x), 9) for x in playback.playback_times],
         "energy": [float(x) for x in playback.energy] if len(playback.kinetic) else [],
+        "runEnergies": _run_energies(playback) if len(playback.runs) > 1 else [],
         "traceFrame": playback.trace_frame,
         "animated": playback.animation is not None,
         "camera": playback.camera_mode,
         "panel": panel_info(playback.charts, playback.runs),
+        # The fading trace: each run's line (scene path and its points' playback times) and dots;
+        # the page keeps traceWindow seconds of playback behind the cursor (null: the whole trace).
+        "traceWindow": None if playback.trace_window is None else playback.trace_window / playback.speed,
+        "traces": [
+            {
+                "line": [*ROOT, "trace" if r == 0 else f"trace{r}", "path"],
+                "dots": [*ROOT, "trace" if r == 0 else f"trace{r}", "dots"],
+                "tau": [round(float(x), 9) for x in tau],
+            }
+            for r, tau in enumerate(playback.trace_times)
+        ],
     }
     try:  # JavaScript's JSON.parse refuses NaN and Infinity: such a page would show nothing at all
         info_json = json.dumps(info, allow_nan=False)

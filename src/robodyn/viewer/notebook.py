@@ -20,6 +20,7 @@ from robodyn.viewer.html_export import to_html
 from robodyn.viewer.playback import Playback, build
 from robodyn.viewer.sampling import DEFAULT_FPS
 from robodyn.viewer.server import serve
+from robodyn.viewer.trace import DEFAULT_TRACE_WINDOW_S
 
 if TYPE_CHECKING:
     from robodyn.robot import Robot
@@ -84,6 +85,8 @@ def show(
     names: Sequence[str] | None = None,
     zmq_url: str | None = None,
     height: int = 560,
+    ground: bool = False,
+    trace_window: float | None = DEFAULT_TRACE_WINDOW_S,
 ) -> Replay:
     """Show ``robot`` (playing ``trajectory`` if given) inline in a Jupyter notebook.
 
@@ -91,8 +94,9 @@ def show(
     self-contained page in an iframe (meshcat's static inline display), so it works offline
     and in exported notebooks, with the chart panel beside the 3D view. A list of up to 8
     trajectories plays them together as ghosts (see :func:`~robodyn.viewer.build`, which
-    also documents ``camera`` and ``names``). With ``zmq_url`` the scene is also sent to that running
-    meshcat server and the iframe shows the server's page. Never blocks.
+    also documents ``camera``, ``names``, ``ground`` and ``trace_window``). With ``zmq_url``
+    the scene is also sent to that running meshcat server and the iframe shows the server's
+    page. Never blocks.
     """
     playback = build(
         robot,
@@ -105,6 +109,8 @@ def show(
         camera=camera,
         names=names,
         loop=loop,
+        ground=ground,
+        trace_window=trace_window,
     )
     url = None
     if zmq_url is not None:

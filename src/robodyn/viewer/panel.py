@@ -20,7 +20,9 @@ This module computes what they plot, from each run's trajectory at its rendered 
   a closed loop held by a solver drifts by 1e-12 m to 1e-9 m, decades a linear axis would
   flatten (a zero sits on the axis floor).
 
-One run: one colour per curve. Several runs: the run's colour, one dash pattern per curve.
+One run: one colour per curve, each joint's limits dashed in its colour. Several runs: the
+run's colour, one dash pattern per curve; the limits dashed in grey (:data:`LIMIT_COLOR`) under
+one legend entry, "effort limit" or "position limit".
 """
 
 from __future__ import annotations
@@ -53,6 +55,11 @@ MODE_COLOR = 0x6A1B9A
 WORK_COLORS = {"input": 0x2E7D32, "damping": 0x6D4C41, "limits": 0x455A64, "residual": 0x9E9E9E}
 POWER_COLOR = 0xEF6C00
 DRIFT_COLOR = 0x5E35B1
+LIMIT_DASH = (5, 4)
+"""Dash pattern of the limit lines [px]."""
+LIMIT_COLOR = 0x757575
+"""Limit lines when several runs share a chart: grey, one legend entry ("effort limit"), since the curves wear
+the runs' colours and a joint's colour would match nothing in the legend."""
 DASHES = ((), (7, 4), (2, 3), (9, 3, 2, 3), (4, 4), (1, 2), (12, 4), (6, 2, 2, 2))
 """Dash patterns [px] that tell the curves of one run apart when several runs share a chart."""
 
@@ -298,15 +305,24 @@ def panel_charts(robot: Robot, runs: Sequence[Run]) -> list[Chart]:
             for j in range(robot.nq):
                 lo, hi = float(lower[j]), float(upper[j])
                 if np.isfinite(lo) and np.isfinite(hi) and lo < hi and max(abs(lo), abs(hi)) < 1e3:
-                    color = LINK_COLORS[j % len(LINK_COLORS)]
-                    limits += [(f"{names[j]} limits", lo, color), ("", hi, color)]
+                    if len(runs) == 1:
+                        color = LINK_COLORS[j % len(LINK_COLORS)]
+                        limits += [(f"{names[j]} limits", lo, color), ("", hi, color)]
+                    else:
+                        limits += [("position limit", lo, LIMIT_COLOR), ("position limit", hi, LIMIT_COLOR)]
         if key == "torque":
             names = _dof_names(robot)
             effort = np.asarray(robot.model.effortLimit, dtype=np.float64)
             for j, value in enumerate(effort[: robot.nv]):
                 if np.isfinite(value) and 0 < value < 1e6:
-                    color = LINK_COLORS[j % len(LINK_COLORS)]
-                    limits += [(f"{names[j]} limit", float(value), color), ("", -float(value), color)]
+                    if len(runs) == 1:
+                        color = LINK_COLORS[j % len(LINK_COLORS)]
+                        limits += [(f"{names[j]} limit", float(value), color), ("", -float(value), color)]
+                    else:
+                        limits += [
+                            ("effort limit", float(value), LIMIT_COLOR),
+                            ("effort limit", -float(value), LIMIT_COLOR),
+                        ]
         scale = "log" if key in LOG_SCALE and any(np.any(s.values > 0) for s in series) else "linear"
         markers = _impact_frames(runs) if key == "position" else ()
         tick_unit = bool(unit) and " or " not in unit
@@ -317,6 +333,7 @@ def panel_charts(robot: Robot, runs: Sequence[Run]) -> list[Chart]:
 def panel_info(charts: Sequence[Chart], runs: Sequence[Run]) -> dict[str, Any]:
     """What the page needs to draw the panel: geometry, runs, charts (JSON-ready)."""
     return {
+        "limitDash": list(LIMIT_DASH),
         "width": PANEL_WIDTH_PX,
         "margins": dict(PLOT_MARGINS_PX),
         "cursor": f"#{CURSOR_COLOR:06x}",

@@ -20,14 +20,18 @@ from robodyn.viewer.animation import bake_animation
 from robodyn.viewer.backend import ROOT, import_meshcat, scene_path
 from robodyn.viewer.camera import Framing, follow_tracks, frame_motion, view_commands
 from robodyn.viewer.geometry import SceneObject, geometry_objects, object_commands
+from robodyn.viewer.ground import Ground, ground_commands, ground_slab
 from robodyn.viewer.panel import Chart, panel_charts
-from robodyn.viewer.runs import GHOST_OPACITY, RUN_COLORS, Run, check_runs, common_frames, run_names
+from robodyn.viewer.runs import GHOST_OPACITY, RUN_COLORS, Run, check_runs, common_frames, mark_identical, run_names
 from robodyn.viewer.sampling import DEFAULT_FPS, check_rate
+from robodyn.viewer.springs import Coil, coil_commands, spring_coils
 from robodyn.viewer.trace import (
+    DEFAULT_TRACE_WINDOW_S,
     MARKER_PATH,
     TRACE_COLOR,
     choose_trace_frame,
     dense_path,
+    dense_rows,
     frame_positions,
     trace_commands,
 )
@@ -68,6 +72,10 @@ class Playback:
         ghosts: the objects of every run (``ghosts[0]`` is ``objects``).
         traces: every run's traced positions (k, 3) [m].
         charts: the chart panel's charts (empty without a trajectory or with ``charts=False``).
+        ground: the ground slab under the robot, its top face at the base's plane (None unless asked).
+        trace_window: simulation time of trace the page keeps behind the cursor [s] (None: the whole trace).
+        trace_times: every run's trace-line points' playback times [s], shape (m,) each.
+        springs: the first run's sprung revolute joints, each drawn as a coil riding on its frame.
     """
 
     robot_name: str
@@ -92,6 +100,10 @@ class Playback:
     ghosts: tuple[tuple[SceneObject, ...], ...] = ()
     traces: tuple[Array, ...] = ()
     charts: tuple[Chart, ...] = ()
+    ground: Ground | None = None
+    trace_window: float | None = DEFAULT_TRACE_WINDOW_S
+    trace_times: tuple[Array, ...] = ()
+    springs: tuple[Coil, ...] = ()
 
     @property
     def offset(self) -> Array:
@@ -141,6 +153,8 @@ def build(
     names: Sequence[str] | None = None,
     loop: bool = False,
     geometry: pin.GeometryModel | None = None,
+    ground: bool = False,
+    trace_window: float | None = DEFAULT_TRACE_WINDOW_S,
 ) -> Playback:
     """Bake ``robot`` and, if given, its motion into a :class:`Playback` (no server, no browser).
 
@@ -154,6 +168,9 @@ def build(
         fps: rendered frames per second of playback.
         trace_frame: frame whose path is drawn; None picks the frame that travels farthest.
         trace: draw the trace at all.
+        trace_window: the replay page shows only this much simulation time [s] of the trace, up
+            to the animation's time and fading behind it; None draws the whole trace (meshcat's
+            own page, on a live server, always draws the whole trace).
         charts: compute the chart panel (energy, ledger, power, torques, drift) the page shows.
         camera: "fit" (the robot over the motion), "follow" (the camera moves with the robot),
             "fixed" (the robot and its trace); None: follow when the robot travels more than
@@ -161,6 +178,8 @@ def build(
         names: the runs' names in the legend (default: each run's integrator).
         loop: repeat the animation forever instead of playing it once.
         geometry: an already loaded visual ``GeometryModel`` (default: loaded from the URDF).
+        ground: draw a translucent ground slab whose top face is the base's plane (z = 0 of the
+            model's world frame), wide enough to lie under the robot over the whole motion.
 
     Raises:
         InputError: a trajectory that does not fit the model, runs of different models, more
@@ -170,6 +189,8 @@ def build(
     """
     mc = import_meshcat()
     check_rate("speed", speed)
+    if trace_window is not None:
+        check_rate("trace_window", trace_window)
     check_rate("fps", fps)
     trajectories = _as_runs(trajectory)
     labels = run_names(trajectories, names)
@@ -177,7 +198,8 @@ def build(
         check_runs(robot, trajectories, labels)
         times, indices = common_frames(trajectories, speed=speed, fps=fps)
         colors = [TRACE_COLOR] if len(trajectories) == 1 else list(RUN_COLORS)
-        runs = [Run(n, c, tr, ix) for n, c, tr, ix in zip(labels, colors, trajectories, indices, strict=False)]
+        shown = mark_identical(trajectories, labels)
+        runs = [Run(n, c, tr, ix) for n, c, tr, ix in zip(shown, colors, trajectories, indices, strict=False)]
         configurations = [np.asarray(run.trajectory.q, dtype=np.float64)[run.index] for run in runs]
     else:
         runs = []
@@ -208,12 +230,23 @@ def build(
         for obj, geom in zip(objects, geoms, strict=True):
             commands += object_commands(mc, obj, geom, tint=tint)
             tracks[obj.path] = obj.placements
+    trace_times: list[Array] = []
     if chosen is not None:
         for r, run in enumerate(runs):
+            t = np.asarray(run.trajectory.t, dtype=np.float64)
+            trace_times.append((t[dense_rows(len(t))] - times[0]) / speed)
             dense = dense_path(robot, run.trajectory, chosen)
             group = "trace" if r == 0 else f"trace{r}"
             commands += trace_commands(mc, dense, traces[r], framing.size, color=run.color, group=group)
             tracks[MARKER_PATH if r == 0 else (*ROOT, group, "marker")] = translations(traces[r])
+    meta = runs[0].trajectory.meta if runs and isinstance(runs[0].trajectory.meta, dict) else {}
+    coils = spring_coils(robot, meta.get("springs"), configurations[0], framing.size) if runs else []
+    for coil in coils:
+        commands += coil_commands(mc, coil)
+        tracks[coil.path] = coil.placements
+    slab = ground_slab(framing.centres, framing.half, framing.size) if ground else None
+    if slab is not None:
+        commands += ground_commands(mc, slab)
     commands += view_commands(mc, framing)
     tracks.update(follow_tracks(framing))
     animation = bake_animation(mc, tracks, playback_times, fps=fps) if trajectories else None
@@ -242,6 +275,10 @@ def build(
         ghosts=tuple(tuple(objs) for objs in ghost_objects),
         traces=tuple(traces),
         charts=tuple(chart_list),
+        ground=slab,
+        trace_window=None if trace_window is None else float(trace_window),
+        trace_times=tuple(trace_times),
+        springs=tuple(coils),
     )
 
 

@@ -93,6 +93,27 @@ def run_names(trajectories: Sequence[Trajectory], names: Sequence[str] | None) -
     return out
 
 
+def mark_identical(trajectories: Sequence[Trajectory], names: Sequence[str]) -> list[str]:
+    """The names, each run that repeats an earlier one sample for sample (same t and q) saying so.
+
+    Two identical runs draw one ghost over the other and one curve over the other: the
+    legend says "(identical to NAME)" so that the hidden one is not taken for missing.
+    """
+    out: list[str] = []
+    for k, (trajectory, name) in enumerate(zip(trajectories, names, strict=True)):
+        t, q = np.asarray(trajectory.t), np.asarray(trajectory.q)
+        twin = next(
+            (
+                names[j]
+                for j in range(k)
+                if np.array_equal(np.asarray(trajectories[j].t), t) and np.array_equal(np.asarray(trajectories[j].q), q)
+            ),
+            None,
+        )
+        out.append(name if twin is None else f"{name} (identical to {twin})")
+    return out
+
+
 def common_frames(
     trajectories: Sequence[Trajectory], *, speed: float, fps: float
 ) -> tuple[Array, list[NDArray[np.int64]]]:

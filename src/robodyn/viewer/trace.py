@@ -3,6 +3,12 @@
 The frame is the one asked for, or else the one that travels farthest over the rendered
 frames. The line follows the trajectory densely (up to :data:`MAX_TRACE_POINTS` samples);
 the marker rides on the frame (its placements are one animation track).
+
+The line carries one colour per vertex, so that the replay page (``assets/replay.js``) can
+show only its last :data:`DEFAULT_TRACE_WINDOW_S` seconds up to the animation's time,
+fading to white towards the older end: a whole trace drawn from t = 0 makes a tangle. Its
+points' playback times go to the page with it (:func:`dense_rows`). meshcat's own page (the
+live server) has no such hook and draws the whole trace.
 """
 
 from __future__ import annotations
@@ -29,6 +35,8 @@ MARKER_PATH = (*ROOT, "trace", "marker")
 
 MAX_TRACE_POINTS = 4000
 """The trace's line goes through at most this many trajectory samples (evenly spread)."""
+DEFAULT_TRACE_WINDOW_S = 2.0
+"""Simulation time the replay page keeps of the trace behind the cursor [s]: a swing or two of a pendulum."""
 
 
 def frame_positions(robot: Robot, configurations: Array) -> dict[str, Array]:
@@ -66,10 +74,15 @@ def choose_trace_frame(frames: dict[str, Array], wanted: str | None) -> str | No
     return [name for name, length in lengths.items() if length >= longest * (1 - 1e-9)][-1]
 
 
+def dense_rows(n: int) -> NDArray[np.int64]:
+    """The rows (m,) of an n-sample trajectory that the trace's line goes through (at most MAX_TRACE_POINTS)."""
+    return np.unique(np.linspace(0, n - 1, min(n, MAX_TRACE_POINTS)).round().astype(np.int64))
+
+
 def dense_path(robot: Robot, trajectory: Trajectory, frame: str) -> Array:
-    """World positions (m, 3) [m] of ``frame`` at up to MAX_TRACE_POINTS samples of the trajectory."""
+    """World positions (m, 3) [m] of ``frame`` at the trajectory's :func:`dense_rows`."""
     q = np.asarray(trajectory.q, dtype=np.float64)
-    rows = np.unique(np.linspace(0, len(q) - 1, min(len(q), MAX_TRACE_POINTS)).round().astype(np.int64))
+    rows = dense_rows(len(q))
     index = [str(f.name) for f in robot.model.frames].index(frame)
     return np.array([dynamics.frame_placements(robot.model, robot.data, q[i])[index][:3, 3] for i in rows])
 
@@ -83,11 +96,16 @@ def trace_commands(
     """
     marker_path = (*ROOT, group, "marker")
     line = np.ascontiguousarray(dense.T, dtype=np.float32)
+    # Vertex colours (white material times the run's colour): the page fades the older part by rewriting them.
+    line_colors = np.ascontiguousarray(np.tile(_rgb(color), (len(dense), 1)).T)
     points = np.ascontiguousarray(xyz.T, dtype=np.float32)
     marker = mc.geometry.Mesh(mc.geometry.Sphere(0.02 * size), mc.geometry.MeshLambertMaterial(color=color))
     return [
         mc.commands.SetObject(
-            mc.geometry.Line(mc.geometry.PointsGeometry(line), mc.geometry.LineBasicMaterial(color=color, linewidth=2)),
+            mc.geometry.Line(
+                mc.geometry.PointsGeometry(line, color=line_colors),
+                mc.geometry.LineBasicMaterial(color=0xFFFFFF, linewidth=2, vertexColors=True),
+            ),
             path=scene_path(mc, (*ROOT, group, "path")),
         ),
         mc.commands.SetObject(

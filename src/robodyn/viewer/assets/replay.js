@@ -41,12 +41,13 @@
     return lo;
   }
 
-  function energyAt(tau) {
+  function energyAt(tau, energy) {
+    energy = energy || info.energy;
     var k = frameAt(tau);
-    if (k + 1 >= info.tau.length) { return info.energy[k]; }
+    if (k + 1 >= info.tau.length) { return energy[k]; }
     var s = (tau - info.tau[k]) / (info.tau[k + 1] - info.tau[k]);
     s = Math.max(0, Math.min(1, s));
-    return (1 - s) * info.energy[k] + s * info.energy[k + 1];
+    return (1 - s) * energy[k] + s * energy[k + 1];
   }
 
   function seek(tau) {
@@ -124,6 +125,14 @@
           addKey(legend, s.color, s.dash, s.label);
         }
       });
+      if (runs.length > 1) {  // several runs: the grey dashed limits get one legend entry each kind
+        var limitSeen = {};
+        chart.limits.forEach(function (l) {
+          if (!l.label || limitSeen[l.label]) { return; }
+          limitSeen[l.label] = true;
+          addKey(legend, l.color, panelInfo.limitDash, l.label);
+        });
+      }
       box.appendChild(legend);
       panel.appendChild(box);
       var height = Math.max(80, each - title.offsetHeight - legend.offsetHeight);
@@ -245,7 +254,7 @@
     ctx.fillText("t [s]", b.right, b.bottom + 15);
     // limits, dashed
     chart.limits.forEach(function (l) {
-      ctx.strokeStyle = l.color; ctx.lineWidth = 1; ctx.setLineDash([5, 4]);
+      ctx.strokeStyle = l.color; ctx.lineWidth = 1; ctx.setLineDash(panelInfo.limitDash);
       ctx.beginPath(); ctx.moveTo(b.left, y(l.value)); ctx.lineTo(b.right, y(l.value)); ctx.stroke();
     });
     // events (impacts on the stops): short red ticks on the time axis
@@ -280,16 +289,63 @@
     document.body.setAttribute("data-cursor-tau", String(tau));
   }
 
+  // ------------------------------------------------------------------ the fading trace
+  // Each run's line keeps only info.traceWindow seconds of playback up to the cursor, its
+  // vertex colours fading from the run's colour (at the cursor) to white (at the window's
+  // start); the dots (one per rendered frame) keep the same window. data-trace-ranges on the
+  // body lists each line's drawn vertices as "first:count" (for tests).
+  function sceneObject(path) {
+    var node = viewer.scene_tree.find(path);
+    var inner = node.children["<object>"];
+    return (inner && inner.object && inner.object.geometry) ? inner.object : node.object;
+  }
+  var traces = (info.traces || []).map(function (tr) {
+    var line = sceneObject(tr.line), dots = sceneObject(tr.dots);
+    var colors = line.geometry.getAttribute("color");
+    return {
+      tau: tr.tau, line: line, dots: dots, colors: colors,
+      base: colors ? Float32Array.from(colors.array) : null
+    };
+  });
+  function firstAtOrAfter(times, t) {
+    var lo = 0, hi = times.length;
+    while (lo < hi) { var mid = (lo + hi) >> 1; if (times[mid] < t) { lo = mid + 1; } else { hi = mid; } }
+    return lo;
+  }
+  function fadeTraces(tau) {
+    if (info.traceWindow === null || info.traceWindow === undefined || !traces.length) { return; }
+    var window_ = info.traceWindow, start = tau - window_, ranges = [];
+    traces.forEach(function (tr) {
+      var first = firstAtOrAfter(tr.tau, start), end = firstAtOrAfter(tr.tau, tau + 1e-9);
+      var count = Math.max(0, end - first);
+      tr.line.geometry.setDrawRange(first, count);
+      if (tr.colors) {
+        for (var i = first; i < end; i++) {
+          var f = Math.max(0, Math.min(1, (tr.tau[i] - start) / window_));  // 0 at the window's start, 1 now
+          for (var c = 0; c < 3; c++) { tr.colors.array[3 * i + c] = 1 - f * (1 - tr.base[3 * i + c]); }
+        }
+        tr.colors.needsUpdate = true;
+      }
+      var dotFirst = firstAtOrAfter(info.tau, start), dotEnd = firstAtOrAfter(info.tau, tau + 1e-9);
+      tr.dots.geometry.setDrawRange(dotFirst, Math.max(0, dotEnd - dotFirst));
+      ranges.push(first + ":" + count);
+    });
+    document.body.setAttribute("data-trace-ranges", ranges.join("|"));
+  }
+
   // ------------------------------------------------------------------ the overlay, every frame
   var overlay = document.getElementById("robodyn-overlay");
   var last = "", lastTau = null;
   function update() {
     var tau = currentTau();
     var text = info.robot + "   t = " + (info.t0 + tau * info.speed).toFixed(3) + " s";
-    if (info.energy.length) {
+    var runEnergies = info.runEnergies || [];
+    if (info.energy.length && runEnergies.length < 2) {
       text += "   E = " + energyAt(tau).toPrecision(6) + " J";
       if (panelInfo && panelInfo.runs.length > 1) { text += " (" + panelInfo.runs[0].name + ")"; }
     }
+    // several runs: one line per run, "E = ... J  name", in the run's colour
+    var perRun = runEnergies.map(function (r) { return "E = " + energyAt(tau, r.energy).toPrecision(6) + " J  " + r.name; });
     if (info.speed !== 1) {
       text += "   (x" + info.speed + ")";
     }
@@ -297,12 +353,26 @@
       text += "\nOpen Controls > Animations: play, pause, time slider";
       if (hasPanel) { text += "\nClick a chart to seek; camera: " + info.camera; }
     }
-    if (text !== last) {
-      overlay.textContent = text;
-      last = text;
+    var whole = text + "\n" + perRun.join("\n");
+    if (whole !== last) {
+      overlay.textContent = "";
+      var lines = text.split("\n");
+      overlay.appendChild(document.createTextNode(lines[0]));
+      perRun.forEach(function (line, r) {
+        var span = document.createElement("span");
+        span.className = "robodyn-run-energy";
+        span.style.color = runEnergies[r].color;
+        span.style.fontWeight = "bold";
+        span.textContent = line;
+        overlay.appendChild(document.createTextNode("\n"));
+        overlay.appendChild(span);
+      });
+      if (lines.length > 1) { overlay.appendChild(document.createTextNode("\n" + lines.slice(1).join("\n"))); }
+      last = whole;
     }
-    if (hasPanel && tau !== lastTau) {
-      drawCursors(tau);
+    if (tau !== lastTau) {
+      if (hasPanel) { drawCursors(tau); }
+      fadeTraces(tau);
       lastTau = tau;
     }
     window.requestAnimationFrame(update);

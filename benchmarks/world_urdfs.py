@@ -8,7 +8,7 @@ Each command runs as ``robodyn.cli.main([...])`` in a forked child of this proce
 Pinocchio imported once, before the fork), with file descriptors 1 and 2 sent to files, so that
 what urdfdom prints natively is counted too. For each file and command it records the exit code,
 the number of lines on stderr (error lines, warning lines and others), whether a Python traceback
-escaped (the child prints it and exits 99), the first stderr line, and for ``check`` the rows
+escaped (the child prints it and exits 99), the error line (else the first line) of stderr, and for ``check`` the rows
 marked FAIL. ``--before OLD.json`` (a run of an earlier version) adds each row's exit codes there.
 The sets:
 
@@ -146,7 +146,8 @@ def summarize(command: str, result: dict[str, Any]) -> dict[str, Any]:
         "stderr_lines": len(lines),
         "other_lines": sum(": error: " not in line and ": warning: " not in line for line in lines),
         "error_lines": sum(f"robodyn {command}: error: " in line for line in lines),
-        "stderr_first": portable(lines[0])[:240] if lines else "",
+        # the refusal's own line when there is one (one-line warnings may come first), else the first line
+        "stderr_first": portable(next((x for x in lines if ": error: " in x), lines[0]))[:240] if lines else "",
         "traceback": result["exit"] == TRACEBACK_EXIT or "Traceback (most recent call last)" in result["stderr"],
         "wall_s": result["wall_s"],
     }

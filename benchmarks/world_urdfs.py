@@ -1,13 +1,16 @@
 """``robodyn info`` and ``robodyn check`` on every URDF of example-robot-data and of pybullet_data.
 
     python benchmarks/world_urdfs.py [--sets erd-name,erd-file,pybullet,pybullet-random] [--random N]
-                                     [--seed 0] [--timeout 300] [--label after] [--out bench-out]
+                                     [--seed 0] [--timeout 300] [--label after] [--before OLD.json]
+                                     [--extra ARGS] [--out bench-out]
 
 Each command runs as ``robodyn.cli.main([...])`` in a forked child of this process (robodyn and
 Pinocchio imported once, before the fork), with file descriptors 1 and 2 sent to files, so that
 what urdfdom prints natively is counted too. For each file and command it records the exit code,
-the number of lines on stderr, whether a Python traceback escaped (the child prints it and exits
-99), the first stderr line, and for ``check`` the rows marked FAIL. The sets:
+the number of lines on stderr (error lines, warning lines and others), whether a Python traceback
+escaped (the child prints it and exits 99), the error line (else the first line) of stderr, and for ``check`` the rows
+marked FAIL. ``--before OLD.json`` (a run of an earlier version) adds each row's exit codes there.
+The sets:
 
 * ``erd-name``: every name robodyn's model sources give an example-robot-data robot (loader names
   with their SRDF and free-flyer hint, then every other file's stem);
@@ -141,7 +144,10 @@ def summarize(command: str, result: dict[str, Any]) -> dict[str, Any]:
     row: dict[str, Any] = {
         "exit": result["exit"],
         "stderr_lines": len(lines),
-        "stderr_first": portable(lines[0])[:240] if lines else "",
+        "other_lines": sum(": error: " not in line and ": warning: " not in line for line in lines),
+        "error_lines": sum(f"robodyn {command}: error: " in line for line in lines),
+        # the refusal's own line when there is one (one-line warnings may come first), else the first line
+        "stderr_first": portable(next((x for x in lines if ": error: " in x), lines[0]))[:240] if lines else "",
         "traceback": result["exit"] == TRACEBACK_EXIT or "Traceback (most recent call last)" in result["stderr"],
         "wall_s": result["wall_s"],
     }
@@ -222,8 +228,11 @@ def main() -> int:
             "check_exits": _count(r["check"]["exit"] for r in mine),
             "tracebacks": sum(r["info"]["traceback"] or r["check"]["traceback"] for r in mine),
             "check_fail": sum(r["check"]["exit"] == 1 for r in mine),
-            "multi_line_refusals": sum(
-                (r[c]["exit"] not in (0, 1) and r[c]["stderr_lines"] != 1) for r in mine for c in ("info", "check")
+            # a refusal is one error line; one-line warnings may come with it, nothing else may
+            "refusals_not_one_line": sum(
+                (r[c]["exit"] not in (0, 1) and (r[c]["error_lines"] != 1 or r[c]["other_lines"] > 0))
+                for r in mine
+                for c in ("info", "check")
             ),
         }
         print(f"{which}: {summary[which]}")

@@ -660,15 +660,15 @@ def _world_urdfs(data: dict[str, Any]) -> str:
     before = data.get("before", {}).get("summary", {})
     out = [
         "| set | files | info exits before | info exits after | check exits before | check exits after | "
-        "tracebacks after | check FAIL after |",
-        "|---|---:|---|---|---|---|---:|---:|",
+        "tracebacks after | check FAIL after | refusals of more than one error line after |",
+        "|---|---:|---|---|---|---|---:|---:|---:|",
     ]
     for name, s in data["summary"].items():
         b = before.get(name, {})
         out.append(
             f"| {_WORLD_SETS.get(name, name)} | {s['files']} | {_exits(b.get('info_exits', {}))} | "
             f"{_exits(s['info_exits'])} | {_exits(b.get('check_exits', {}))} | {_exits(s['check_exits'])} | "
-            f"{s['tracebacks']} | {s['check_fail']} |"
+            f"{s['tracebacks']} | {s['check_fail']} | {s['refusals_not_one_line']} |"
         )
     out += [
         "",

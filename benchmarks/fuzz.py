@@ -1282,7 +1282,7 @@ def classify(run: Running, status: int) -> dict[str, Any]:
         outcome["signature"] = signature(err)
     elif code not in ALLOWED_EXITS[case.command]:
         problems.append(f"unexpected exit {code}")
-    lines = err.splitlines()
+    lines = refusal_lines(err)
     outcome["line"] = lines[0][:300] if lines else ""  # what a refusal said (the table's clean refusals, by reason)
     if code in (2, 3) and len(lines) != 1:
         problems.append("one-line violation")
@@ -1312,6 +1312,15 @@ def classify(run: Running, status: int) -> dict[str, Any]:
     if problems:
         outcome["stderr"] = err[-2000:]
     return outcome
+
+
+ACKNOWLEDGED = ": warning: --no-physics-check: "
+"""The one warning line of a model loaded with --no-physics-check: the user asked for it, it is not a refusal's."""
+
+
+def refusal_lines(err: str) -> list[str]:
+    """stderr's lines less the acknowledgement of an explicit ``--no-physics-check``."""
+    return [line for line in err.splitlines() if ACKNOWLEDGED not in line]
 
 
 COLUMNS = ("one-line violation", "refusal names no input", "files changed on refusal", "signal", "hang", "traceback",

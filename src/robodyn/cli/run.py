@@ -29,7 +29,7 @@ from robodyn.cli._output import (
     refuse_clobbering,
     writable_path,
 )
-from robodyn.cli.simulate import constraint_lines, note_clamped_q0
+from robodyn.cli._summary import constraint_lines, note_clamped_q0
 from robodyn.errors import EXIT_MISMATCH, EXIT_OK
 from robodyn.fileio import write_text_atomically
 from robodyn.wording import count

@@ -24,8 +24,6 @@ FORMAT_VERSION = 2
 # Every .npz starts with a zip local-file header.
 _ZIP_MAGIC = b"PK\x03\x04"
 
-STATUSES = ("ok", "diverged", "interrupted")
-
 
 @dataclass(frozen=True, eq=False)
 class Trajectory:
@@ -272,7 +270,7 @@ class Trajectory:
             reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
             raise InputError(f"{path}: not a robodyn trajectory: the archive is damaged ({reason[:160]})") from None
         checks.check_metadata(path, info)
-        checks.check_arrays(path, arrays)
+        checks.check_arrays(path, arrays, finite=info.get("status", "ok") == "ok")
         known = {f.name for f in fields(cls)}
         # Metadata never overrides an array: a key such as 't' in a hand-made file is ignored.
         extra = {k: v for k, v in info.items() if k in known and k not in (*cls._ARRAYS, *cls._OPTIONAL)}

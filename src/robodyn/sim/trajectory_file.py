@@ -30,7 +30,9 @@ from robodyn.errors import InputError
 
 if TYPE_CHECKING:
     from robodyn.robot import Robot
-    from robodyn.sim.trajectory import Trajectory
+
+STATUSES = ("ok", "diverged", "interrupted")
+"""How a run ended: every step taken, stopped as diverged, or interrupted (Ctrl-C)."""
 
 MAX_TRAJECTORY_BYTES = 2**31
 """Bytes of array data one trajectory file may hold, 2 GiB: a 7-joint run of 5 million samples (83 minutes at
@@ -102,12 +104,14 @@ def check_dtypes(path: Path, headers: Mapping[str, tuple[tuple[int, ...], np.dty
             raise InputError(f"{path}: array {name!r} holds {what}; expected real numbers (float64)")
 
 
-def check_arrays(path: Path, arrays: Mapping[str, NDArray[np.float64]]) -> None:
+def check_arrays(path: Path, arrays: Mapping[str, NDArray[np.float64]], *, finite: bool = True) -> None:
     """Raise :class:`InputError` unless ``arrays`` form one trajectory: shapes, times, finite values.
 
     ``t`` (n,) finite and strictly increasing with n >= 1; each of :data:`ROWS` present (n,);
-    each of :data:`MATRICES` (n, k), v, a and tau with one column count; every value finite;
-    T + V and tau * v finite too.
+    each of :data:`MATRICES` (n, k), v, a and tau with one column count; with ``finite`` (a run
+    that ended ``ok``), every value finite and T + V and tau * v finite too. A diverged or
+    interrupted run's partial file may end on non-finite samples: it stays readable (what it
+    computed is kept), and the viewer refuses to draw what is not finite.
     """
     t = arrays["t"]
     if t.ndim != 1 or t.shape[0] == 0:
@@ -128,7 +132,8 @@ def check_arrays(path: Path, arrays: Mapping[str, NDArray[np.float64]]) -> None:
         if arrays[name].shape[1] != nv:
             raise InputError(f"{path}: array {name!r} has {arrays[name].shape[1]} columns but 'v' has {nv}")
     for name, values in arrays.items():
-        _check_finite(path, name, values, t)
+        if finite or name == "t":
+            _check_finite(path, name, values, t)
     steps = np.diff(t)
     if np.any(steps <= 0):
         k = int(np.argmax(steps <= 0))
@@ -137,6 +142,8 @@ def check_arrays(path: Path, arrays: Mapping[str, NDArray[np.float64]]) -> None:
             f"{path}: 't' {how} at sample {k + 1} (t = {t[k]:.9g} s, then {t[k + 1]:.9g} s); "
             "expected strictly increasing times"
         )
+    if not finite:
+        return
     with np.errstate(over="ignore", invalid="ignore"):
         derived = {
             "the energy T + V": arrays["kinetic"] + arrays["potential"],
@@ -164,8 +171,6 @@ def _check_finite(
 
 def check_metadata(path: Path, info: Any) -> None:
     """Raise :class:`InputError` unless the metadata is a JSON object whose known keys have their types."""
-    from robodyn.sim.trajectory import STATUSES
-
     if not isinstance(info, dict):
         raise InputError(f"{path}: not a robodyn trajectory: its metadata is not a JSON object")
     expected: dict[str, tuple[tuple[type, ...], str]] = {
@@ -196,7 +201,7 @@ def _shown(value: Any) -> str:
     return text if len(text) <= 40 else text[:37] + "..."
 
 
-def check_fits(trajectory: Trajectory, robot: Robot, source: Path | str) -> None:
+def check_fits(trajectory: Any, robot: Robot, source: Path | str) -> None:
     """Raise :class:`InputError` unless ``trajectory`` (read from ``source``) can be played on ``robot``.
 
     q must have nq columns, v, a and tau nv; the joint names the file records, when it records

@@ -244,17 +244,11 @@ def start_state(robot: Robot) -> tuple[Array, Array]:
     offsets = np.full(robot.nv, -0.3)
     offsets[0] = 0.5
     q = robot.integrate(robot.neutral(), offsets)
-    lower = np.asarray(robot.model.lowerPositionLimit, dtype=np.float64)
-    upper = np.asarray(robot.model.upperPositionLimit, dtype=np.float64)
-    for joint in robot.joints:
-        if joint.nq != 1 or joint.nv != 1:
-            continue
-        lo, hi = lower[joint.idx_q], upper[joint.idx_q]
-        if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi and hi - lo < 1e300):
-            continue  # no range (Pinocchio's unbounded default is +-max float)
-        margin = INSIDE_RANGE * (hi - lo)
-        if not lo <= q[joint.idx_q] <= hi:
-            q[joint.idx_q] = min(max(q[joint.idx_q], lo + margin), hi - margin)
+    lower, upper = robot.model.lowerPositionLimit, robot.model.upperPositionLimit
+    for i in (j.idx_q for j in robot.joints if j.nq == j.nv == 1):
+        lo, hi = float(lower[i]), float(upper[i])  # Pinocchio's unbounded default is +-max float: no range
+        if np.isfinite(hi - lo) and 0 < hi - lo < 1e300 and not lo <= q[i] <= hi:
+            q[i] = min(max(q[i], lo + INSIDE_RANGE * (hi - lo)), hi - INSIDE_RANGE * (hi - lo))
     return q, np.zeros(robot.nv)
 
 

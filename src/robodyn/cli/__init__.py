@@ -27,6 +27,7 @@ from typing import TextIO
 
 from robodyn import __version__
 from robodyn.errors import EXIT_BAD_INPUT, RobodynError
+from robodyn.fileio import pause_for_test
 
 EXIT_INTERRUPTED = 130
 
@@ -105,6 +106,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"robodyn {args.command}: note: {_describe_warnings(counts)}", file=sys.stderr)
     if argv is None:
         _interrupts.quiet_exit()
+        pause_for_test("exit")
     return code
 
 

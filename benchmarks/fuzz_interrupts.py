@@ -141,8 +141,11 @@ def execute(command: list[str], folder: Path, *, signum: int | None = None, dela
                 seen.setdefault(child.pid, child)
         except psutil.Error:
             pass
-        for path in folder.rglob(".*.part"):
-            parts.add(path.name.split(".")[1])  # .x.npz.abc.part -> x
+        try:
+            for path in folder.rglob(".*.part"):
+                parts.add(path.name.split(".")[1])  # .x.npz.abc.part -> x
+        except OSError:  # a folder removed while it was listed (bench's partial folder)
+            pass
         time.sleep(0.01)
     code = process.returncode
     wall = time.monotonic() - start

@@ -16,8 +16,8 @@ Each trial is checked for:
 
 * **lost result**: a finished result being written (a ``.part`` of it was seen) that ends up
   nowhere (no new output, no ``.partial`` file, no partial folder); or an output (present, or
-  named by the line) that does not load; or an earlier good output changed by an interrupted run
-  that does not say it wrote one;
+  named by the line) that does not load; or an earlier good output changed by a run stopped by
+  Ctrl-C that does not say it wrote one (a killed run that finished a write leaves a whole file);
 * **leftover process**: a process of the command still running 10 s after it ended;
 * **traceback**: ``Traceback`` or ``Exception ignored`` on stderr, from robodyn's command line;
   counted apart as **start-up traceback** when robodyn's command line is not in it: a Ctrl-C in
@@ -141,8 +141,11 @@ def execute(command: list[str], folder: Path, *, signum: int | None = None, dela
                 seen.setdefault(child.pid, child)
         except psutil.Error:
             pass
-        for path in folder.rglob(".*.part"):
-            parts.add(path.name.split(".")[1])  # .x.npz.abc.part -> x
+        try:
+            for path in folder.rglob(".*.part"):
+                parts.add(path.name.split(".")[1])  # .x.npz.abc.part -> x
+        except OSError:  # a folder removed while it was listed (bench's partial folder)
+            pass
         time.sleep(0.01)
     code = process.returncode
     wall = time.monotonic() - start
@@ -241,7 +244,8 @@ def check(name: str, folder: Path, outcome: Outcome, signum: int, earlier: dict[
         changed = [
             str(p.relative_to(folder)) for p, data in earlier.items() if (p.read_bytes() if p.exists() else b"") != data
         ]
-        if changed and "written to" not in said and "holds them all" not in said and "moved in" not in said:
+        saying = ("written to", "holds them all", "moved in")
+        if changed and signum == signal.SIGINT and not any(words in said for words in saying):
             found["lost result"] = f"an interrupted run changed {changed} without saying so"
         stem = {"simulate": "x", "run": "scene"}.get(name)
         if stem is not None and stem in outcome.seen_parts:  # a finished result was being written
@@ -284,6 +288,9 @@ def run_trial(index: int, seed: int, names: Sequence[str], calibration: dict[str
             found["leftover process"] = "after the next run"
     if not found:
         shutil.rmtree(trial, ignore_errors=True)
+    else:  # kept for a look: what it said and what was found
+        (trial / "stderr.txt").write_text(outcome.stderr)
+        (trial / "findings.json").write_text(json.dumps(found, indent=1, default=str))
     return {
         "index": index,
         "command": name,

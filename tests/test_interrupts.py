@@ -139,6 +139,16 @@ def test_a_second_ctrl_c_abandons_the_write_and_says_so(tmp_path: Path) -> None:
     assert not out.exists() and not list(tmp_path.glob("*.part"))
 
 
+def test_ctrl_c_once_the_command_has_returned_changes_nothing(tmp_path: Path) -> None:
+    out = tmp_path / "x.npz"
+    command = Paused(tmp_path, "exit", "simulate", "pendubot", "--duration", "0.1", "--out", str(out))
+    command.wait_for_window()  # main() has returned 0: the interpreter is about to exit
+    command.signal_group(signal.SIGINT)
+    assert command.release() == 0
+    assert command.stderr() == ""  # no traceback, no "Exception ignored"
+    assert Trajectory.load(out).t[-1] == pytest.approx(0.1)
+
+
 def test_ctrl_c_while_run_writes_the_scene_trajectory_keeps_it(tmp_path: Path) -> None:
     scene = tmp_path / "s.toml"
     scene.write_text('[model]\nname = "pendubot"\n\n[simulate]\nduration = 0.2\ndt = 1e-3\n')

@@ -15,7 +15,8 @@ rename replaces a link at the target itself, not the file the link points to.
 
 :func:`pause_for_test` is the one test hook of the package: with ``ROBODYN_TEST_PAUSE_AT=WINDOW:FILE``
 in the environment, the command stops at the named window (``write``: a temporary file written and
-not yet renamed; ``publish``, ``chunk``: see their callers) until ``FILE`` exists, having created
+not yet renamed; ``exit``: the command has returned its exit code; ``publish``, ``chunk``: see their
+callers) until ``FILE`` exists, having created
 ``FILE.waiting``. A test then sends its signal inside that window, deterministically.
 """
 

@@ -26,6 +26,7 @@ from typing import TextIO
 
 from robodyn import __version__
 from robodyn.errors import EXIT_BAD_INPUT, ModelWarning, RobodynError
+from robodyn.fileio import pause_for_test
 
 DESCRIPTION = "robodyn: rigid-body robot dynamics checked against Pinocchio, simulated and replayed."
 """What ``robodyn --help`` says first: plain text (the module docstring's reST markup would show as written)."""
@@ -93,6 +94,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"robodyn {args.command}: note: {_describe_warnings(counts)}", file=sys.stderr)
     if argv is None:
         _interrupts.quiet_exit()
+        pause_for_test("exit")
     return code
 
 

@@ -493,7 +493,9 @@ def _formula(pick: Any, fixtures: dict[str, bytes]) -> dict[str, Any]:
     files = {"model.urdf": fixtures["model.urdf"], "f.py": data if data is not None else text.encode()}
     route = pick.integer(0, 5)
     if route == 0:  # a scene's [check] formula
-        files["scene.toml"] = b'[model]\nname = "pendubot"\n[check]\nformula = "f.py"\nsamples = 2\n'
+        files["scene.toml"] = (
+            b'[model]\nname = "pendubot"\n[check]\nformula = "f.py"\nsamples = 2\nformula_timeout = 5\n'
+        )
         argv = ["run", "scene.toml", "--no-view", "--out", "out"]
         return _case(f"formula {label} (scene)", label, "check", files, argv, expect=expect)  # exits as check
     models = ["pendubot", "model.urdf"] if route == 1 else ["pendubot"]

@@ -14,14 +14,17 @@ session of its own; every 10 ms the trial notes its processes and the temporary 
 
 Each trial is checked for:
 
-* **lost result**: a finished result being written (a ``.part`` of it was seen) that ends up
-  nowhere (no new output, no ``.partial`` file, no partial folder); or an output (present, or
+* **lost result**: a finished result being written (a ``.part`` of it was seen) when Ctrl-C came
+  that ends up nowhere (no new output, no ``.partial`` file, no partial folder; under SIGKILL no
+  process can finish a write, so there only the next two rules apply); or an output (present, or
   named by the line) that does not load; or an earlier good output changed by a run stopped by
   Ctrl-C that does not say it wrote one (a killed run that finished a write leaves a whole file);
 * **leftover process**: a process of the command still running 10 s after it ended;
-* **traceback**: ``Traceback`` or ``Exception ignored`` on stderr, from robodyn's command line;
-  counted apart as **start-up traceback** when robodyn's command line is not in it: a Ctrl-C in
-  the first ~0.3 s, while Python starts and imports robodyn, before any robodyn code can catch it;
+* **traceback**: ``Traceback`` or ``Exception ignored`` on stderr through any robodyn file (its
+  import included: ``robodyn.__main__`` ends a Ctrl-C that comes while the command line loads);
+  counted apart as **start-up traceback** when no robodyn frame is in it: a Ctrl-C in the first
+  ~0.1 s, while the interpreter starts (``site`` and the ``.pth`` files of the installed
+  packages), before any robodyn code runs;
 * **not one line**: an interrupted run (exit 130) whose stderr, less progress bars and notes, is
   not exactly one line; a killed one that printed anything but progress bars (e.g. ``leaked
   semaphore``); and a run after a killed sweep that says ``leaked``.
@@ -248,13 +251,15 @@ def check(name: str, folder: Path, outcome: Outcome, signum: int, earlier: dict[
         if changed and signum == signal.SIGINT and not any(words in said for words in saying):
             found["lost result"] = f"an interrupted run changed {changed} without saying so"
         stem = {"simulate": "x", "run": "scene"}.get(name)
-        if stem is not None and stem in outcome.seen_parts:  # a finished result was being written
+        # a finished result was being written when Ctrl-C came (a SIGKILL cannot be answered by any
+        # process: what holds then is that no output is half-written and an earlier one is whole)
+        if stem is not None and stem in outcome.seen_parts and signum == signal.SIGINT:
             kept = list(folder.rglob(f"{stem}.npz")) + list(folder.rglob(f"{stem}.partial.npz"))
             new = [p for p in kept if p.read_bytes() != earlier.get(p, b"")]
             if not new:
                 found["lost result"] = "a finished result was being written and is nowhere"
     if "Traceback" in outcome.stderr or "Exception ignored" in outcome.stderr:
-        before_main = "robodyn/cli/" not in outcome.stderr  # Python's start-up, or robodyn's own import
+        before_main = "/robodyn/" not in outcome.stderr  # no robodyn frame: Python's own start-up (site, .pth files)
         found["start-up traceback" if before_main else "traceback"] = outcome.stderr[-600:]
     if outcome.code == 130 and len(lines) != 1:
         found["not one line"] = lines[:6]

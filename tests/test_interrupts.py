@@ -139,6 +139,15 @@ def test_a_second_ctrl_c_abandons_the_write_and_says_so(tmp_path: Path) -> None:
     assert not out.exists() and not list(tmp_path.glob("*.part"))
 
 
+def test_ctrl_c_while_the_command_line_loads_is_one_line(tmp_path: Path) -> None:
+    """Before main() runs, a Ctrl-C ends the program with robodyn's line and 130, not an import traceback."""
+    command = Paused(tmp_path, "loading", "info", "pendubot")
+    command.wait_for_window()
+    command.signal_group(signal.SIGINT)
+    assert command.release() == 130
+    assert _lines(command.stderr()) == ["robodyn: interrupted"]
+
+
 def test_ctrl_c_once_the_command_has_returned_changes_nothing(tmp_path: Path) -> None:
     out = tmp_path / "x.npz"
     command = Paused(tmp_path, "exit", "simulate", "pendubot", "--duration", "0.1", "--out", str(out))

@@ -281,3 +281,45 @@ def test_run_gives_the_exactness_figures_their_units(tmp_path, capsys):
     assert main(["run", str(path), "--out", str(tmp_path / "out2")]) == 0
     line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("exactness:"))
     assert re.search(r"max \|dq\| = \S+ rad, max \|dv\| = \S+ rad/s, lock drift \S+ m \(tolerance", line), line
+
+
+def test_exactness_starts_where_the_run_starts_inside_the_stops(tmp_path):
+    """A q0 far outside a joint's limits is moved onto the limit for the run and for the exactness proof alike.
+
+    Before: the proof integrated from q0 = -1e308 as given and failed with 'tau must be finite' (exit 2).
+    """
+    path = write(
+        tmp_path,
+        """
+[model]
+name = "panda"
+keep = ["panda_joint2", "panda_joint4", "panda_joint6"]
+[initial]
+q = { panda_joint2 = -1e308, panda_joint4 = -2.0, panda_joint6 = 1.2 }
+[control]
+kind = "pd"
+kp = 40.0
+kd = 4.0
+target = { panda_joint2 = -0.785398, panda_joint4 = -2.35619, panda_joint6 = 1.5707 }
+[simulate]
+duration = 0.01
+dt = 1e-3
+[check]
+samples = 2
+exactness = true
+""",
+    )
+    out = tmp_path / "out"
+    assert main(["run", str(path), "--no-view", "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["exactness"]["passed"]
+
+
+def test_a_scene_formula_that_never_returns_stops_at_its_formula_timeout(tmp_path, capsys):
+    """``formula_timeout`` in [check] bounds a formula file run from a scene, and the line names that key."""
+    (tmp_path / "f.py").write_text("while True:\n    pass\n", encoding="utf-8")
+    path = write(tmp_path, "[model]\nname = 'pendubot'\n[check]\nformula = 'f.py'\nsamples = 2\nformula_timeout = 1\n")
+    assert main(["run", str(path), "--no-view", "--out", str(tmp_path / "out")]) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err.strip()
+    assert err.endswith("did not finish its import within 1 s ([check] formula_timeout); it was running line 1"), err
+    assert "\n" not in err

@@ -99,6 +99,8 @@ def test_a_batch_chunk_that_ends_past_the_energy_bound_is_diverged(tmp_path, mon
         ({"dt": []}, "dt lists no value"),
         ({"integrator": []}, "integrator lists no value"),
         ({"controller": []}, "controller lists no value"),
+        # the first value sets' URDFs (and SRDFs) are written, then one is refused: those go again
+        ({"params": {"m1": [1.0, 1e-320], "m2": [0.4, 0.5]}}, r"<mass value='1e-320'> is out of range"),
     ],
 )
 def test_a_sweep_past_its_bounds_is_refused_before_anything_is_written(edit, expected, tmp_path, capsys):

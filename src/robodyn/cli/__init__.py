@@ -33,6 +33,8 @@ DESCRIPTION = "robodyn: rigid-body robot dynamics checked against Pinocchio, sim
 
 EXIT_INTERRUPTED = 130
 
+pause_for_test("loading")  # tests send Ctrl-C here: while the command line loads (robodyn.__main__)
+
 
 class _Parser(argparse.ArgumentParser):
     """argparse whose usage errors are one line on stderr, exit code 2, like every other bad input."""

@@ -208,8 +208,9 @@ def _jsonable(obj: Any) -> Any:
 
 
 def _check(scene: Any, robot: Any, reduction: Any, q0: Any, v0: Any, torque: Any, summary: dict[str, Any]) -> int:
-    from robodyn.errors import UnknownNameError
+    from robodyn.errors import FormulaError, UnknownNameError
     from robodyn.kinds.check import check
+    from robodyn.kinds.sandbox import DEFAULT_TIMEOUT as DEFAULT_FORMULA_TIMEOUT
     from robodyn.studies.exactness import prove_exact
 
     c = scene.check
@@ -223,7 +224,10 @@ def _check(scene: Any, robot: Any, reduction: Any, q0: Any, v0: Any, torque: Any
             loops=loops,
             springs=springs,
             scene=scene.path,
+            formula_timeout=float(c.get("formula_timeout", DEFAULT_FORMULA_TIMEOUT)),
         )
+    except FormulaError as exc:  # the time limit is the scene's key here, not the check command's flag
+        raise FormulaError(str(exc).replace("(--formula-timeout)", "([check] formula_timeout)")) from None
     except UnknownNameError as exc:  # a frame or joint of [constraints] or [springs], or the formula's INDEPENDENT
         where = ("check", "formula") if "INDEPENDENT" in exc.what else _constraint_key(exc)
         raise scene.error(*where, str(exc)) from None
@@ -244,6 +248,11 @@ def _check(scene: Any, robot: Any, reduction: Any, q0: Any, v0: Any, torque: Any
     status = EXIT_OK if report.passed else EXIT_MISMATCH
     if c.get("exactness"):
         duration, dt, integrator = _timing(scene)
+        if scene.constraints.limits:  # from the q0 the run starts at: moved inside the stops, as simulate moves it
+            from robodyn.robot import as_vector
+            from robodyn.sim.limits import stops_of
+
+            q0 = stops_of(reduction.reduced).clamp(as_vector(q0, reduction.reduced.nq, "q0"))[0]
         exact = prove_exact(reduction, q0, v0, duration=duration, dt=dt, tau=torque, method=integrator)
         ok = exact.holds(EXACTNESS_TOL)
         held = count(len(reduction.locked), "joint")

@@ -43,6 +43,7 @@ then builds the model and runs the parts asked for. Example::
 
     [check]                                 # structural identities (and a formula, if named)
     formula = "reduced_formula.py"          # a kind or a file; KIND = "constrained": checked on the loops
+    formula_timeout = 60                    # [s] the file's own time per request, as --formula-timeout
     samples = 20
     exactness = true                        # reduced model == full model with locks held
     closed_form = "closed_form.py"          # only this: the motion against the book's closed form

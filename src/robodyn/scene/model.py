@@ -37,7 +37,7 @@ TABLES = {
     "simulate": ("duration", "dt", "integrator", "backend"),
     "constraints": ("limits", "restitution", "effort_limits", "loops", "couplings"),
     "springs": (),  # joint names: checked by Constraints
-    "check": ("samples", "seed", "formula", "exactness", "closed_form", "closed_form_rtol"),
+    "check": ("samples", "seed", "formula", "formula_timeout", "exactness", "closed_form", "closed_form_rtol"),
     "bench": ("repeat",),
     "view": ("open", "html", "port"),
     "output": ("dir",),

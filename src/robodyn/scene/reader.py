@@ -197,6 +197,12 @@ def read_scene(path: str | Path) -> Scene:
                 check["formula"] = str(base / formula)
                 if not Path(check["formula"]).is_file():
                     raise _fail(path, "[check] formula", f"no such file {check['formula']!r}")
+        if "formula_timeout" in check:
+            if "formula" not in check:
+                raise _fail(path, "[check] formula_timeout", "needs formula (the file the time limit is for)")
+            from robodyn.kinds.sandbox import MAX_TIMEOUT  # the same bound as --formula-timeout
+
+            _number(path, "check", "formula_timeout", check["formula_timeout"], positive=True, high=MAX_TIMEOUT)
         if "closed_form" in check:
             check["closed_form"] = base / _string(path, "check", "closed_form", check["closed_form"])
             if not check["closed_form"].is_file():

@@ -20,6 +20,7 @@ the scene package in robodyn's layers); ``read_scene`` replaces that reader.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import json
@@ -286,22 +287,45 @@ def _models(spec: SweepSpec, model: Model, robot: Any, kind: str | None, out: Pa
     tag_of = model.key if isinstance(model, SceneSource) else str(model)
     if isinstance(model, ModelFile) and model.passive:  # a passive set of its own: URDFs of their own
         tag_of += "|passive=" + ",".join(model.passive)
-    for setting in settings(spec):
-        if not setting.params or kind is None:
-            models[setting] = model
-            continue
-        if setting.params not in written:
-            tag = hashlib.sha256((tag_of + repr(setting.params)).encode()).hexdigest()[:16]
-            path = out / MODELS / f"{full.name}-{tag}.urdf"
-            if not path.is_file():
-                path.parent.mkdir(parents=True, exist_ok=True)
-                write_params(full, kind, dict(setting.params), path)
-            resolved = path.resolve()
-            if isinstance(model, SceneSource):
-                written[setting.params] = model.with_urdf(resolved)
-            elif isinstance(model, ModelFile):  # AsWritten too: the same passive joints, the same physics check
-                written[setting.params] = dataclasses.replace(model, name=str(resolved))
-            else:
-                written[setting.params] = str(resolved)
-        models[setting] = written[setting.params]
+    created: list[Path] = []  # what this call wrote (folders first): removed again if a later value set is refused
+    try:
+        for setting in settings(spec):
+            models[setting] = _model_of(setting, model, full, kind, out, tag_of, written, created)
+    except BaseException:
+        for path in reversed(created):
+            with contextlib.suppress(OSError):
+                path.rmdir() if path.is_dir() else path.unlink()
+        raise
     return models
+
+
+def _model_of(
+    setting: Setting,
+    model: Model,
+    full: Any,
+    kind: str | None,
+    out: Path,
+    tag_of: str,
+    written: dict[tuple[tuple[str, float], ...], Model],
+    created: list[Path],
+) -> Model:
+    """One setting's model (see :func:`_models`); a URDF written into ``out/models`` is noted in ``created``."""
+    if not setting.params or kind is None:
+        return model
+    if setting.params not in written:
+        tag = hashlib.sha256((tag_of + repr(setting.params)).encode()).hexdigest()[:16]
+        path = out / MODELS / f"{full.name}-{tag}.urdf"
+        if not path.is_file():
+            missing = [p for p in (path.parent, *path.parent.parents) if not p.exists()]
+            path.parent.mkdir(parents=True, exist_ok=True)
+            created += reversed(missing)
+            files = write_params(full, kind, dict(setting.params), path)
+            created += [f for f in (files.urdf, files.srdf) if f is not None]
+        resolved = path.resolve()
+        if isinstance(model, SceneSource):
+            written[setting.params] = model.with_urdf(resolved)
+        elif isinstance(model, ModelFile):  # AsWritten too: the same passive joints, the same physics check
+            written[setting.params] = dataclasses.replace(model, name=str(resolved))
+        else:
+            written[setting.params] = str(resolved)
+    return written[setting.params]

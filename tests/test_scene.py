@@ -323,3 +323,16 @@ def test_a_scene_formula_that_never_returns_stops_at_its_formula_timeout(tmp_pat
     err = capsys.readouterr().err.strip()
     assert err.endswith("did not finish its import within 1 s ([check] formula_timeout); it was running line 1"), err
     assert "\n" not in err
+
+
+def test_run_names_every_mismatching_entry_of_a_formula(tmp_path, capsys):
+    """Two wrong entries of M (M[0,0] and M[0,1] = M[1,0]): run says each, as check does."""
+    mine = (EXAMPLES / "formulas" / "pendubot_mine.py").read_text(encoding="utf-8")
+    right = "return np.array([[t1 + t2 + 2 * t3 * c2, t2 + t3 * c2], [t2 + t3 * c2, t2]])"
+    assert right in mine
+    wrong = "return np.array([[2 * (t1 + t2 + 2 * t3 * c2), t2 + 2 * t3 * c2], [t2 + 2 * t3 * c2, t2]])"
+    (tmp_path / "f.py").write_text(mine.replace(right, wrong), encoding="utf-8")
+    path = write(tmp_path, "[model]\nname = 'pendubot'\n[check]\nformula = 'f.py'\nsamples = 3\n")
+    assert main(["run", str(path), "--no-view", "--out", str(tmp_path / "out")]) == 1
+    said = [line.split(" (")[0].strip() for line in capsys.readouterr().out.splitlines() if "MISMATCH M[" in line]
+    assert sorted(said) == ["MISMATCH M[0,0]", "MISMATCH M[0,1]"], said  # M's row lists its upper triangle

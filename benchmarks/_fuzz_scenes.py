@@ -47,7 +47,8 @@ HOSTILE: list[Any] = [
 SPECIAL = ["fifo", "folder", "dev-zero link", "empty", "not UTF-8", "not TOML", "huge"]
 
 
-def _toml_value(value: Any) -> str:
+def toml_value(value: Any) -> str:
+    """``value`` as a TOML value (nan and inf as TOML writes them; tables inline)."""
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, float):
@@ -57,17 +58,17 @@ def _toml_value(value: Any) -> str:
     if isinstance(value, str):
         return json.dumps(value)
     if isinstance(value, list):
-        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
-    return "{" + ", ".join(f"{json.dumps(str(k))} = {_toml_value(v)}" for k, v in value.items()) + "}"
+        return "[" + ", ".join(toml_value(v) for v in value) + "]"
+    return "{" + ", ".join(f"{json.dumps(str(k))} = {toml_value(v)}" for k, v in value.items()) + "}"
 
 
 def toml_bytes(doc: dict[str, Any]) -> bytes:
     """TOML text of ``doc``: top-level values first, then each table (its tables inline)."""
-    lines = [f"{json.dumps(k)} = {_toml_value(v)}" for k, v in doc.items() if not isinstance(v, dict)]
+    lines = [f"{json.dumps(k)} = {toml_value(v)}" for k, v in doc.items() if not isinstance(v, dict)]
     for table, body in doc.items():
         if isinstance(body, dict):
             lines.append(f"[{json.dumps(table)}]")
-            lines += [f"{json.dumps(str(k))} = {_toml_value(v)}" for k, v in body.items()]
+            lines += [f"{json.dumps(str(k))} = {toml_value(v)}" for k, v in body.items()]
     return ("\n".join(lines) + "\n").encode()
 
 

@@ -58,6 +58,11 @@ from typing import Any, Protocol, TypeVar
 
 import numpy as np
 
+if str(Path(__file__).resolve().parent) not in sys.path:  # the sibling modules, also when loaded by path (tests)
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _fuzz_scenes import toml_value  # after the path: the TOML writer the scene families share too
+
 T = TypeVar("T")
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = ROOT / "models"
@@ -797,20 +802,6 @@ def command_line(pick: Chooser, options: dict[str, list[tuple[str, Any]]]) -> tu
     return command, argv
 
 
-def _toml_value(value: Any) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, float):
-        return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf") if math.isinf(value) else repr(value)
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, str):
-        return json.dumps(value)
-    if isinstance(value, list):
-        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
-    return "{" + ", ".join(f"{json.dumps(k)} = {_toml_value(v)}" for k, v in value.items()) + "}"
-
-
 NUMBERS: list[Any] = [0.05, 0.2, 0.01, 0.001, 0, -1, 1e9, float("nan"), float("inf"), 2**63, 2**64, 1.5, "abc", True]
 SCENE_KEYS: dict[str, dict[str, list[Any]]] = {
     "model": {
@@ -910,7 +901,7 @@ def scene_bytes(scene: dict[str, dict[str, Any]]) -> bytes:
     lines = []
     for table, body in scene.items():
         lines.append(f"[{table}]")
-        lines += [f"{key} = {_toml_value(value)}" for key, value in body.items()]
+        lines += [f"{key} = {toml_value(value)}" for key, value in body.items()]
     return ("\n".join(lines) + "\n").encode()
 
 

@@ -51,7 +51,7 @@ BALANCED_TOL = 0.05  # [rad | m | rad/s | m/s] every coordinate and velocity at 
 MASS_FACTORS = (0.8, 1.0, 1.2)
 SWING_SECONDS = {"cart_pole": 15.0, "pendubot": 40.0}
 HOLD_SECONDS = 3.0  # a robust run succeeds when it is upright and stays for at least this long before the end
-MASSES = {"cart_pole": (("M",), ("m", "I")), "pendubot": (("m1", "I1"), ("m2", "I2"))}
+MASSES = {"cart_pole": (("m_cart",), ("m", "I")), "pendubot": (("m1", "I1"), ("m2", "I2"))}
 SYSTEMS = ("cart_pole", "pendubot")
 
 

@@ -504,3 +504,44 @@ def test_the_trace_keeps_only_its_window_behind_the_cursor_and_fades(swing: Path
     oldest, newest = np.array(colors[:3]), np.array(colors[3:])  # type: ignore[index]
     np.testing.assert_allclose(newest, yellow, atol=FADE_COLOR_ATOL)
     assert np.all(oldest > 1 - FADE_COLOR_ATOL)  # the window's start has faded to white
+
+
+LABEL_PX = 2.0  # the page's pixel of a label (rounded) against this test's own projection of its point
+MIN_LABEL_INK = 15  # near-black pixels of a bold 20 px letter beside its point (a few dozen when drawn)
+
+
+def test_labels_are_written_where_their_points_project(artifacts: Path, swing: Path, tmp_path: Path) -> None:
+    """A, B and θ on the Pendubot at t = 1.2 s: each text sits at its point's pixel, in black ink there."""
+    chromium = find_chromium()
+    robot = robodyn.load("pendubot")
+    playback = viewer.build(
+        robot, Trajectory.load(swing), labels={"A": "joint1", "B": "joint2"}, angles={"θ": "joint1"}
+    )
+    page = tmp_path / "labels.html"
+    page.write_text(viewer.to_html(playback), encoding="utf-8")
+    frame = round(0.4 * (playback.n_frames - 1))
+    t = float(playback.times[frame])
+    expected = {lab.text: project(playback, lab.points[frame], frame) for lab in playback.labels}
+    expected["θ"] = project(playback, playback.angles[0].anchors[frame], frame)
+    with DevTools(chromium, width=WIDTH, height=HEIGHT, profile=tmp_path / "profile") as browser:
+        browser.open(f"{page.resolve().as_uri()}#t={t!r}")
+        browser.wait_for("document.body.getAttribute('data-labels')")
+        listed = str(browser.evaluate("document.body.getAttribute('data-labels')"))
+    shown = {
+        text: np.array([float(c) for c in xy.split(",")]) for text, xy in (e.rsplit(":", 1) for e in listed.split("|"))
+    }
+    assert sorted(shown) == sorted(expected)
+    for text, pixel in expected.items():
+        assert np.abs(shown[text] - pixel).max() <= LABEL_PX + 0.5, f"{text}: at {shown[text]}, projects to {pixel}"
+    image = screenshot(
+        chromium,
+        f"{page.resolve().as_uri()}#t={t!r}",
+        artifacts / "labels.png",
+        budget_ms=1500,
+        profile=tmp_path / "p2",
+    )
+    ink = image.max(axis=2) < 60  # the letters are near-black with a white halo; nothing else in the pane is
+    for text, (x, y) in expected.items():
+        x0, y0 = (int(x) + 8, int(y) - 12) if text != "θ" else (int(x), int(y))  # where the page writes the letter
+        box = ink[max(0, y0 - 12) : y0 + 12, max(0, x0 - 4) : x0 + 16]
+        assert int(box.sum()) >= MIN_LABEL_INK, f"no letter {text} drawn near ({x0}, {y0}); see {artifacts}"

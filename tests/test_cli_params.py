@@ -96,10 +96,10 @@ def test_several_at_once_with_commas_and_repeats(tmp_path, capsys):
 
 def test_geared_arm_rotor_and_link_together(tmp_path, capsys):
     out = tmp_path / "arm.urdf"
-    assert main(["params", "geared_arm", "--set", "J_m=2e-6,n=30,M=0.3,l=0.1,J_l=0.005", "--write", str(out)]) == 0
+    assert main(["params", "geared_arm", "--set", "J_m=2e-6,n=30,m=0.3,l=0.1,J_l=0.005", "--write", str(out)]) == 0
     robot = robodyn.load(out)
     after = extract(robot, "geared_arm").as_dict()
-    expected = dict(J_m=2e-6, n=30.0, M=0.3, l=0.1, J_l=0.005, g=9.81)
+    expected = dict(J_m=2e-6, n=30.0, m=0.3, l=0.1, J_l=0.005, g=9.81)
     for key, value in expected.items():
         assert after[key] == pytest.approx(value, rel=ROUND_TRIP_RTOL, abs=0.0), key
     assert (tmp_path / "arm.srdf").is_file()
@@ -111,7 +111,7 @@ def test_without_write_prints_the_modified_parameters_and_writes_nothing(tmp_pat
     assert main(["params", "cart_pole", "--set", "m=0.25"]) == 0
     printed = _params_json(capsys)
     assert printed["params"]["m"] == pytest.approx(0.25, rel=ROUND_TRIP_RTOL)
-    assert printed["params"]["M"] == 1.0 and "written" not in printed
+    assert printed["params"]["m_cart"] == 1.0 and "written" not in printed
     assert list(tmp_path.iterdir()) == []
     assert main(["params", "cart_pole"]) == 0
     assert _params_json(capsys)["params"]["m"] == 0.1  # the model itself is untouched
@@ -194,7 +194,7 @@ def test_what_yourdfpy_does_not_write_is_kept(tmp_path, capsys):
     )
     src.write_text(text)
     out = tmp_path / "c2.urdf"
-    assert main(["params", str(src), "--set", "M=2.5", "--write", str(out)]) == 0
+    assert main(["params", str(src), "--set", "m_cart=2.5", "--write", str(out)]) == 0
     written = out.read_text()
     for piece in ("<transmission", "SimpleTransmission", '<gazebo reference="cart"', '<calibration rising="0.1"'):
         assert piece in written, piece
@@ -244,7 +244,7 @@ def test_bad_write_targets_are_one_line_exit_2(tmp_path, capsys):
 
 def test_geared_arm_j_l_below_the_point_mass_is_refused(tmp_path, capsys):
     assert main(["params", "geared_arm", "--set", "J_l=1e-3", "--write", str(tmp_path / "a.urdf")]) == 2
-    assert "is less than M l^2" in capsys.readouterr().err
+    assert "is less than m l^2" in capsys.readouterr().err
 
 
 def test_point_bob_gets_a_ring_of_inertia(tmp_path, capsys):
@@ -287,3 +287,22 @@ def test_params_print_the_files_decimals_not_the_round_off_of_reading_them(capsy
     # A value with more digits than round-off explains stays as it is; non-finite values too.
     assert decimal(1 / 3) == 1 / 3 and decimal(0.0026502) == 0.0026502 and decimal(0.0) == 0.0
     assert math.isnan(decimal(math.nan)) and decimal(-math.inf) == -math.inf
+
+
+@pytest.mark.parametrize("model", ["pendubot", "cart_pole", "geared_arm"])
+def test_every_printed_parameter_has_its_unit_and_no_mass_is_called_m(model, capsys):
+    """One symbol, one meaning: M is only ever the mass matrix; the cart's and a link's mass have names of their own."""
+    assert main(["params", model]) == 0
+    printed = _params_json(capsys)
+    assert "M" not in printed["params"]
+    assert set(printed["units"]) == set(printed["params"])
+    by_initial = {"m": "kg", "l": "m", "I": "kg m^2", "J": "kg m^2", "g": "m/s^2", "n": "1"}  # the house's names
+    assert printed["units"] == {name: by_initial[name[0]] for name in printed["params"]}
+
+
+def test_the_old_name_m_points_at_the_new_one(capsys):
+    assert main(["params", "cart_pole", "--set", "M=2"]) == 2
+    assert "did you mean 'm_cart'?" in capsys.readouterr().err
+    p = robodyn.kinds.params.extract(robodyn.load("geared_arm"), "geared_arm")
+    with pytest.raises(KeyError, match="parameter M is now 'm'"):
+        p["M"]

@@ -53,24 +53,24 @@ def _symbolic(kind: str):
         return [q1, q2], [v1, v2], T, V, syms
     if kind == "cart_pole":
         y, th, vy, vth = sp.symbols("y th vy vth")
-        M_, m, l, I = sp.symbols("M m l I")
+        m_cart, m, l, I = sp.symbols("m_cart m l I")
         zb = l * sp.cos(th)  # the pole's centre of mass is at (y + l sin th, l cos th)
         xd = vy + l * sp.cos(th) * vth
         zd = -l * sp.sin(th) * vth
-        T = sp.Rational(1, 2) * (M_ * vy**2 + m * (xd**2 + zd**2) + I * vth**2)
+        T = sp.Rational(1, 2) * (m_cart * vy**2 + m * (xd**2 + zd**2) + I * vth**2)
         V = m * g * zb
-        return [y, th], [vy, vth], T, V, dict(M=M_, m=m, l=l, I=I, g=g)
+        return [y, th], [vy, vth], T, V, dict(m_cart=m_cart, m=m, l=l, I=I, g=g)
     th, w = sp.symbols("th w")
-    J_m, J_l, n, M_, l = sp.symbols("J_m J_l n M l")
+    J_m, J_l, n, m, l = sp.symbols("J_m J_l n m l")
     T = sp.Rational(1, 2) * (J_m * (n * w) ** 2 + J_l * w**2)  # motor turns n times faster
-    V = M_ * g * l * (1 - sp.cos(th))
-    return [th], [w], T, V, dict(J_m=J_m, J_l=J_l, n=n, M=M_, l=l, g=g)
+    V = m * g * l * (1 - sp.cos(th))
+    return [th], [w], T, V, dict(J_m=J_m, J_l=J_l, n=n, m=m, l=l, g=g)
 
 
 PARAMS = {
     "pendubot": dict(m1=1.3, m2=0.45, l1=0.17, lc1=0.09, lc2=0.12, I1=0.006, I2=0.0027, g=9.81),
-    "cart_pole": dict(M=1.2, m=0.15, l=0.45, I=0.004, g=9.81),
-    "geared_arm": dict(J_m=1.1e-6, J_l=7.3e-3, n=50.0, M=0.25, l=0.15, g=9.81),
+    "cart_pole": dict(m_cart=1.2, m=0.15, l=0.45, I=0.004, g=9.81),
+    "geared_arm": dict(J_m=1.1e-6, J_l=7.3e-3, n=50.0, m=0.25, l=0.15, g=9.81),
 }
 
 
@@ -118,12 +118,12 @@ def test_geared_arm_motor_coordinate_forms_match_the_motor_lagrangian():
     from robodyn.kinds import geared_arm as ga
 
     th, w = sp.symbols("th_m w_m")
-    J_m, J_l, n, M_, l, g = sp.symbols("J_m J_l n M l g")
+    J_m, J_l, n, m, l, g = sp.symbols("J_m J_l n m l g")
     T = sp.Rational(1, 2) * (J_m * w**2 + J_l * (w / n) ** 2)  # the link turns n times slower
-    V = M_ * g * l * (1 - sp.cos(th / n))
+    V = m * g * l * (1 - sp.cos(th / n))
     M, C, G = _lagrange(T, V, [th], [w])
     p = PARAMS["geared_arm"]
-    values = {J_m: p["J_m"], J_l: p["J_l"], n: p["n"], M_: p["M"], l: p["l"], g: p["g"]}
+    values = {J_m: p["J_m"], J_l: p["J_l"], n: p["n"], m: p["m"], l: p["l"], g: p["g"]}
     f_M = sp.lambdify([[th]], M.subs(values), "numpy")
     f_G = sp.lambdify([[th]], G.subs(values), "numpy")
     f_V = sp.lambdify([[th]], V.subs(values), "numpy")

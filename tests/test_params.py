@@ -29,10 +29,10 @@ def test_builtin_parameters_are_the_documented_ones():
     )
     np.testing.assert_allclose(lumped, (0.0308, 0.0106, 0.0095, 0.2086, 0.0630), rtol=0.01)
     arm = extract(robodyn.load("geared_arm"), "geared_arm")
-    assert (arm["J_m"], arm["n"], arm["M"], arm["l"]) == (1.08e-6, 50.0, 0.243, 0.15)
+    assert (arm["J_m"], arm["n"], arm["m"], arm["l"]) == (1.08e-6, 50.0, 0.243, 0.15)
     assert arm["J_l"] == pytest.approx(1.840725e-3 + 0.243 * 0.15**2, rel=EXACT)
     cp = extract(robodyn.load("cart_pole"), "cart_pole")
-    assert (cp["M"], cp["m"], cp["l"]) == (1.0, 0.1, 0.5)
+    assert (cp["m_cart"], cp["m"], cp["l"]) == (1.0, 0.1, 0.5)
     assert cp["I"] == pytest.approx(0.1 * 1.0**2 / 12, rel=1e-7)  # URDF prints 8 digits
 
 

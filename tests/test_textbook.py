@@ -145,10 +145,10 @@ def test_rolling_disk_simulated_today_matches_v_of_b(scene, tmp_path):
 def test_motorcycle_b_of_v_is_lagranges_and_the_books_128_68_m():
     cf = _module("motorcycle")
     xd = sp.Symbol("xd")
-    mb, mr, mf, Ir, If, rr, rf, M = sp.symbols("m_b m_r m_f I_r I_f rho_r rho_f M", positive=True)
+    mb, mr, mf, Ir, If, rr, rf, Gamma = sp.symbols("m_b m_r m_f I_r I_f rho_r rho_f Gamma", positive=True)
     T = sp.Rational(1, 2) * ((mb + mr + mf) * xd**2 + Ir * (rr * xd) ** 2 + If * (rf * xd) ** 2)
-    # The couple acts on the rear wheel (+M) and on the body (-M, which does not turn): virtual work M rho_r dx.
-    a = sp.solve(sp.Eq(sp.diff(T, xd, 2) * sp.Symbol("a"), M * rr), sp.Symbol("a"))[0]
+    # The couple acts on the rear wheel (+Gamma) and on the body (-Gamma, which does not turn): virtual work Gamma rho_r dx.
+    a = sp.solve(sp.Eq(sp.diff(T, xd, 2) * sp.Symbol("a"), Gamma * rr), sp.Symbol("a"))[0]
     for _ in range(N_RANDOM):
         p = {
             "m_body": rng.uniform(50, 300),
@@ -158,17 +158,17 @@ def test_motorcycle_b_of_v_is_lagranges_and_the_books_128_68_m():
             "I_front": rng.uniform(0.1, 2),
             "ratio_rear": rng.uniform(1, 5),
             "ratio_front": rng.uniform(1, 5),
-            "M": rng.uniform(10, 300),
+            "Gamma": rng.uniform(10, 300),
             "v0": rng.uniform(0, 5),
         }
         subs = {mb: p["m_body"], mr: p["m_rear"], mf: p["m_front"], Ir: p["I_rear"], If: p["I_front"]}
-        accel = float(a.subs({**subs, rr: p["ratio_rear"], rf: p["ratio_front"], M: p["M"]}))
+        accel = float(a.subs({**subs, rr: p["ratio_rear"], rf: p["ratio_front"], Gamma: p["Gamma"]}))
         assert cf.acceleration(p) == pytest.approx(accel, rel=RTOL_SYMBOLIC)
         speed = p["v0"] + rng.uniform(1, 30)
         assert cf.distance_to_reach(speed, p) == pytest.approx((speed**2 - p["v0"] ** 2) / (2 * accel), rel=1e-12)
         b = cf.distance_to_reach(speed, p)
         assert cf.speed_after(b, p) == pytest.approx(speed, rel=RTOL_SYMBOLIC)
-    book = cf.book_distance(25.0, m_c=142.0, m_w=9.0, I=0.8, R=0.33, M=140.0)
+    book = cf.book_distance(25.0, m_c=142.0, m_w=9.0, I=0.8, R=0.33, Gamma=140.0)
     assert round(float(book), 2) == 128.68 and round(float(book)) == 129  # the figure and the book's
     p = cf.parameters(EXAMPLES / "motorcycle" / "motorcycle.toml")
     assert cf.distance_to_reach(25.0, p) == pytest.approx(book, rel=RTOL_SYMBOLIC)
@@ -184,9 +184,9 @@ def test_motorcycle_simulated_today_reaches_25_m_s_after_128_68_m(tmp_path):
     )
     robot = robodyn.load(urdf, mimic=True)
     assert robot.nv == 1
-    # Today a torque goes on the leader: the couple M on the rear wheel is M ratio_rear on drive (virtual work).
+    # Today a torque goes on the leader: the couple Gamma on the rear wheel is Gamma ratio_rear on drive (virtual work).
     # dt = 10 ms: RK4 integrates the constant acceleration exactly at any step.
-    traj = robodyn.simulate(robot, [0.0], [0.0], duration=10.5, dt=1e-2, torque=[p["M"] * p["ratio_rear"]])
+    traj = robodyn.simulate(robot, [0.0], [0.0], duration=10.5, dt=1e-2, torque=[p["Gamma"] * p["ratio_rear"]])
     q, v = _series(robot, traj)
     assert _deviation(cf, traj.t, q, v, p)["speed"] < EXACT_RK4
     t25 = 25.0 / cf.acceleration(p)
@@ -340,7 +340,7 @@ def test_torsional_spring_potential_and_motion_are_the_books():
     cf = _module("torsional_spring")
     th, k, rest = sp.symbols("theta k rest", real=True)
     couple = -k * (th - rest)
-    V = -sp.integrate(couple, (th, rest, th))  # M d theta = -dV (19.17), V = 0 at rest
+    V = -sp.integrate(couple, (th, rest, th))  # Gamma d theta = -dV (19.17), V = 0 at rest
     assert sp.simplify(V - k * (th - rest) ** 2 / 2) == 0  # Eq. (19.18)
     for _ in range(N_RANDOM):
         p = {"k": rng.uniform(0.1, 50), "rest": rng.uniform(-1, 1), "I_A": rng.uniform(1e-3, 1)}
@@ -375,17 +375,22 @@ def test_torsional_spring_simulated_today_with_the_spring_as_a_torque():
 # ----------------------------------------------------------------------------- 19.22-19.24 power
 def test_power_work_and_average_power_are_the_books():
     cf = _module("power")
-    t, F, M, m, I, v0, w0 = sp.symbols("t F M m I v0 omega0", real=True)
-    v, w = v0 + F * t / m, w0 + M * t / I  # Newton: F = m v', M = I omega'
-    P = F * v + M * w  # (19.22) + (19.23)
+    t, F, Gamma, m, I, v0, w0 = sp.symbols("t F Gamma m I v0 omega0", real=True)
+    v, w = v0 + F * t / m, w0 + Gamma * t / I  # Newton: F = m v', Gamma = I omega'
+    P = F * v + Gamma * w  # (19.22) + (19.23)
     T = m * v**2 / 2 + I * w**2 / 2
     assert sp.simplify(sp.diff(T, t) - P) == 0  # P = dT/dt
     U = sp.integrate(P, (t, 0, t))
     assert sp.simplify(U - (T - T.subs(t, 0))) == 0  # the work is the kinetic energy gained (19.5)
     for _ in range(N_RANDOM):
-        p = {"F": rng.uniform(-5, 5), "M": rng.uniform(-1, 1), "m": rng.uniform(0.5, 5), "I": rng.uniform(1e-3, 0.1)}
+        p = {
+            "F": rng.uniform(-5, 5),
+            "Gamma": rng.uniform(-1, 1),
+            "m": rng.uniform(0.5, 5),
+            "I": rng.uniform(1e-3, 0.1),
+        }
         p.update(v0=rng.uniform(-1, 1), omega0=rng.uniform(-5, 5))
-        at = {F: p["F"], M: p["M"], m: p["m"], I: p["I"], v0: p["v0"], w0: p["omega0"]}
+        at = {F: p["F"], Gamma: p["Gamma"], m: p["m"], I: p["I"], v0: p["v0"], w0: p["omega0"]}
         t1, t2 = sorted(rng.uniform(0, 3, 2))
         assert cf.work(t2, p) == pytest.approx(float(U.subs({**at, t: t2})), rel=RTOL_SYMBOLIC, abs=1e-12)
         average = float(sp.integrate(P.subs(at), (t, t1, t2))) / (t2 - t1)  # (19.24)
@@ -400,7 +405,7 @@ def test_power_simulated_today_integrates_to_the_kinetic_energy_gained():
     p = cf.parameters(path)
     robot = robodyn.load(EXAMPLES / "power" / "cart_flywheel.urdf")
     assert [j.name for j in robot.joints] == ["rail", "flywheel"]
-    traj = robodyn.simulate(robot, robot.neutral(), np.zeros(2), duration=2.0, dt=1e-3, torque=[p["F"], p["M"]])
+    traj = robodyn.simulate(robot, robot.neutral(), np.zeros(2), duration=2.0, dt=1e-3, torque=[p["F"], p["Gamma"]])
     q, v = _series(robot, traj)
     deviation = _deviation(cf, traj.t, q, v, p)
     assert deviation["power"] < EXACT_RK4 and deviation["work"] < EXACT_RK4
@@ -446,7 +451,7 @@ def test_box_corner_pinocchio_and_the_spin_about_a_corner_axis():
     about_corner = body.matrix()[3:, 3:]  # Pinocchio's inertia about the link frame's origin, the corner
     np.testing.assert_allclose(cf.corner_tensor(p["m"], p["w"], p["l"], p["h"]), about_corner, rtol=RTOL_PINOCCHIO)
     assert cf.axis_inertia(p) == pytest.approx(0.075, rel=RTOL_SYMBOLIC)  # as box.urdf says
-    traj = robodyn.simulate(robot, robot.neutral(), [0.0], duration=2.0, dt=1e-3, torque=[p["M"]])
+    traj = robodyn.simulate(robot, robot.neutral(), [0.0], duration=2.0, dt=1e-3, torque=[p["Gamma"]])
     deviation = _deviation(cf, traj.t, {}, {"spin": traj.v[:, 0]}, p)
     assert deviation["omega"] < EXACT_RK4
     np.testing.assert_allclose(traj.potential, traj.potential[0], rtol=0, atol=1e-12)  # the axis is vertical

@@ -8,6 +8,8 @@ Read as M q'' + C q' + G = tau, the second equation's "- m l sin th y' th'" term
 dL/dth. The excerpt's bob is a point (I = 0), so check this against a point-bob cart-pole:
 
     robodyn check examples/urdf/cart_pole_point_bob.urdf --formula examples/formulas/cart_pole_seed.py
+
+The excerpt's M, the cart's mass, is p["m_cart"] here: in robodyn M is only ever the mass matrix.
 """
 
 import numpy as np
@@ -16,9 +18,9 @@ KIND = "cart_pole"
 
 
 def mass_matrix(q, p):
-    M, m, l = p["M"], p["m"], p["l"]
+    m_cart, m, l = p["m_cart"], p["m"], p["l"]
     c = np.cos(q[1])
-    return np.array([[M + m, m * l * c], [m * l * c, m * l**2]])
+    return np.array([[m_cart + m, m * l * c], [m * l * c, m * l**2]])
 
 
 def coriolis_matrix(q, v, p):

@@ -5,6 +5,8 @@
 The inertia should be J_m + J_l / n^2 (the excerpt's own Eq. 6.1.32 has n^2). Check it with:
 
     robodyn check geared_arm --formula examples/formulas/geared_arm_seed.py
+
+The excerpt's M, the link's mass, is p["m"] here: in robodyn M is only ever the mass matrix.
 """
 
 import numpy as np
@@ -22,8 +24,8 @@ def coriolis_matrix(q, v, p):
 
 
 def gravity(q, p):
-    return np.array([p["M"] * p["g"] * p["l"] / p["n"] * np.sin(q[0] / p["n"])])
+    return np.array([p["m"] * p["g"] * p["l"] / p["n"] * np.sin(q[0] / p["n"])])
 
 
 def potential_energy(q, p):
-    return p["M"] * p["g"] * p["l"] * (1.0 - np.cos(q[0] / p["n"]))
+    return p["m"] * p["g"] * p["l"] * (1.0 - np.cos(q[0] / p["n"]))

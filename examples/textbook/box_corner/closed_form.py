@@ -7,7 +7,7 @@ With the box filling [0, w] x [0, l] x [0, h] and rho = m / (w l h), Eq. (6.17) 
 
 (the book's products of inertia are +integral(x y dm)), and the tensor (6.16, 6.24) holds them
 negated off the diagonal. About an axis u through the corner the moment of inertia is
-I_u = u . I_A u; a constant couple M about u spins the box up at omega(t) = omega0 + M t / I_u
+I_u = u . I_A u; a constant couple Gamma about u spins the box up at omega(t) = omega0 + Gamma t / I_u
 when gravity does no work (u vertical). Interface: see
 ``examples/textbook/rolling_disk/closed_form.py``.
 """
@@ -44,8 +44,8 @@ def axis_inertia(p):
 
 
 def spin_rate(t, p):
-    """omega(t) = omega0 + M t / I_u [rad/s]."""
-    return p["omega0"] + p["M"] * (np.asarray(t) - p["t0"]) / axis_inertia(p)
+    """omega(t) = omega0 + Gamma t / I_u [rad/s]."""
+    return p["omega0"] + p["Gamma"] * (np.asarray(t) - p["t0"]) / axis_inertia(p)
 
 
 def urdf_parameters(urdf):
@@ -76,11 +76,11 @@ def urdf_parameters(urdf):
 
 
 def parameters(scene):
-    """The URDF's box and axis, the scene's couple M [N m] on spin, and omega0 [rad/s]."""
+    """The URDF's box and axis, the scene's couple Gamma [N m] on spin, and omega0 [rad/s]."""
     scene = Path(scene)
     data = tomllib.loads(scene.read_text(encoding="utf-8"))
     params = urdf_parameters(scene.parent / data["model"]["urdf"])
-    params["M"] = float(data["control"]["torque"]["spin"])
+    params["Gamma"] = float(data["control"]["torque"]["spin"])
     params["omega0"] = float(data.get("initial", {}).get("v", {}).get("spin", 0.0))
     params["t0"] = 0.0
     return params

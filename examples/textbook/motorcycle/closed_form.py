@@ -1,19 +1,19 @@
 """Example 19.2: the motorcycle driven by a couple on its rear wheel, the book's closed form for any parameters.
 
-The couple M acts between the body and the rear wheel. The road's forces do no work (the
+The couple Gamma acts between the body and the rear wheel. The road's forces do no work (the
 contact points are at rest) and neither do the weights (the road is level), so the work of
-the couple, M times the rear wheel's angle b / R, equals the kinetic energy (19.21):
+the couple, Gamma times the rear wheel's angle b / R, equals the kinetic energy (19.21):
 
-    M b / R = 1/2 m_c v^2 + 2 (1/2 m_w v^2 + 1/2 I omega^2),   omega = v / R
-    b(v)    = (1/2 m_c + m_w + I / R^2) R v^2 / M              (the book: 128.68 m for 25 m/s)
+    Gamma b / R = 1/2 m_c v^2 + 2 (1/2 m_w v^2 + 1/2 I omega^2),   omega = v / R
+    b(v)    = (1/2 m_c + m_w + I / R^2) R v^2 / Gamma              (the book: 128.68 m for 25 m/s)
 
 In general, with the scene's couplings wheel = ratio * drive (ratio = 1/R [rad/m]), any
 masses and inertias, and an initial speed v0:
 
-    M ratio_rear b = 1/2 m_eff (v^2 - v0^2),   m_eff = m_body + m_rear + m_front
+    Gamma ratio_rear b = 1/2 m_eff (v^2 - v0^2),   m_eff = m_body + m_rear + m_front
                                                        + I_rear ratio_rear^2 + I_front ratio_front^2.
 
-The motion has constant acceleration a = M ratio_rear / m_eff. Interface: see
+The motion has constant acceleration a = Gamma ratio_rear / m_eff. Interface: see
 ``examples/textbook/rolling_disk/closed_form.py`` (parameters, closed_form, simulated).
 """
 
@@ -46,30 +46,30 @@ def effective_mass(params):
 
 
 def distance_to_reach(speed, params):
-    """b [m] travelled from speed ``params["v0"]`` to ``speed`` [m/s]: M ratio_rear b = 1/2 m_eff (v^2 - v0^2)."""
+    """b [m] travelled from speed ``params["v0"]`` to ``speed`` [m/s]: Gamma ratio_rear b = 1/2 m_eff (v^2 - v0^2)."""
     p = params
-    return 0.5 * effective_mass(p) * (np.asarray(speed) ** 2 - p["v0"] ** 2) / (p["M"] * p["ratio_rear"])
+    return 0.5 * effective_mass(p) * (np.asarray(speed) ** 2 - p["v0"] ** 2) / (p["Gamma"] * p["ratio_rear"])
 
 
-def book_distance(speed, m_c, m_w, I, R, M):
-    """The book's b = (m_c / 2 + m_w + I / R^2) R v^2 / M, from rest, two equal wheels [m]."""
-    return (0.5 * m_c + m_w + I / R**2) * R * np.asarray(speed) ** 2 / M
+def book_distance(speed, m_c, m_w, I, R, Gamma):
+    """The book's b = (m_c / 2 + m_w + I / R^2) R v^2 / Gamma, from rest, two equal wheels [m]."""
+    return (0.5 * m_c + m_w + I / R**2) * R * np.asarray(speed) ** 2 / Gamma
 
 
 def speed_after(b, params):
     """Speed [m/s] after a distance ``b`` [m]."""
     p = params
-    return np.sqrt(p["v0"] ** 2 + 2.0 * p["M"] * p["ratio_rear"] * np.asarray(b) / effective_mass(p))
+    return np.sqrt(p["v0"] ** 2 + 2.0 * p["Gamma"] * p["ratio_rear"] * np.asarray(b) / effective_mass(p))
 
 
 def acceleration(params):
-    """The constant acceleration [m/s^2]: M ratio_rear / m_eff."""
-    return params["M"] * params["ratio_rear"] / effective_mass(params)
+    """The constant acceleration [m/s^2]: Gamma ratio_rear / m_eff."""
+    return params["Gamma"] * params["ratio_rear"] / effective_mass(params)
 
 
 def engine_power(speed, params):
-    """P = M omega_rear = M ratio_rear v [W] (Eq. 19.23)."""
-    return params["M"] * params["ratio_rear"] * np.asarray(speed)
+    """P = Gamma omega_rear = Gamma ratio_rear v [W] (Eq. 19.23)."""
+    return params["Gamma"] * params["ratio_rear"] * np.asarray(speed)
 
 
 def _mass(link):
@@ -97,7 +97,7 @@ def urdf_parameters(urdf):
 def parameters(scene):
     """Everything the closed form needs, from the scene file and its URDF.
 
-    ``M`` is the scene's constant torque on ``rear_wheel`` [N m]; ``ratio_rear`` and
+    ``Gamma`` is the scene's constant torque on ``rear_wheel`` [N m]; ``ratio_rear`` and
     ``ratio_front`` the couplings wheel = ratio * drive [rad/m]; ``v0`` the initial speed.
     """
     scene = Path(scene)
@@ -105,7 +105,7 @@ def parameters(scene):
     params = urdf_parameters(scene.parent / data["model"]["urdf"])
     ratios = {c["joint"]: float(c["ratio"]) for c in data["constraints"]["couplings"] if c["leader"] == "drive"}
     params["ratio_rear"], params["ratio_front"] = ratios["rear_wheel"], ratios["front_wheel"]
-    params["M"] = float(data["control"]["torque"]["rear_wheel"])
+    params["Gamma"] = float(data["control"]["torque"]["rear_wheel"])
     params["v0"] = float(data.get("initial", {}).get("v", {}).get("drive", 0.0))
     params["g"] = GRAVITY
     return params

@@ -1,12 +1,12 @@
-"""Power (Section 19.4): P = F . v, P = M omega, and P_av = U12 / (t2 - t1), closed form for any parameters.
+"""Power (Section 19.4): P = F . v, P = Gamma omega, and P_av = U12 / (t2 - t1), closed form for any parameters.
 
-A constant force F on the cart (total mass m = m_cart + m_wheel) and a constant couple M on
+A constant force F on the cart (total mass m = m_cart + m_wheel) and a constant couple Gamma on
 the flywheel (moment of inertia I about its axle), both from rest at t = 0 (or from v0, omega0):
 
-    v(t) = v0 + F t / m,      omega(t) = omega0 + M t / I
-    P(t) = F v(t) + M omega(t)                                       (19.22, 19.23)
+    v(t) = v0 + F t / m,      omega(t) = omega0 + Gamma t / I
+    P(t) = F v(t) + Gamma omega(t)                                       (19.22, 19.23)
     U(t) = integral_0^t P dt = T(t) - T(0)
-         = F (v0 t + F t^2 / (2 m)) + M (omega0 t + M t^2 / (2 I))
+         = F (v0 t + F t^2 / (2 m)) + Gamma (omega0 t + Gamma t^2 / (2 I))
     P_av = U12 / (t2 - t1)                                           (19.24)
 
 Interface: see ``examples/textbook/rolling_disk/closed_form.py``; ``simulated`` reads the
@@ -36,20 +36,20 @@ def power(tau, rate):
 def speeds(t, p):
     """(v(t) [m/s], omega(t) [rad/s])."""
     t = np.asarray(t)
-    return p["v0"] + p["F"] * t / p["m"], p["omega0"] + p["M"] * t / p["I"]
+    return p["v0"] + p["F"] * t / p["m"], p["omega0"] + p["Gamma"] * t / p["I"]
 
 
 def joint_power(t, p):
-    """{"rail": F v(t), "flywheel": M omega(t)} [W]."""
+    """{"rail": F v(t), "flywheel": Gamma omega(t)} [W]."""
     v, omega = speeds(t, p)
-    return {"rail": p["F"] * v, "flywheel": p["M"] * omega}
+    return {"rail": p["F"] * v, "flywheel": p["Gamma"] * omega}
 
 
 def work(t, p):
     """U(t) = integral_0^t P dt [J] (= T(t) - T(0))."""
     t = np.asarray(t)
-    return p["F"] * (p["v0"] * t + p["F"] * t**2 / (2 * p["m"])) + p["M"] * (
-        p["omega0"] * t + p["M"] * t**2 / (2 * p["I"])
+    return p["F"] * (p["v0"] * t + p["F"] * t**2 / (2 * p["m"])) + p["Gamma"] * (
+        p["omega0"] * t + p["Gamma"] * t**2 / (2 * p["I"])
     )
 
 
@@ -77,12 +77,12 @@ def urdf_parameters(urdf):
 
 
 def parameters(scene):
-    """m, I from the URDF; F, M from the scene's constant torque; v0, omega0 from [initial]."""
+    """m, I from the URDF; F, Gamma from the scene's constant torque; v0, omega0 from [initial]."""
     scene = Path(scene)
     data = tomllib.loads(scene.read_text(encoding="utf-8"))
     params = urdf_parameters(scene.parent / data["model"]["urdf"])
     torque = data["control"]["torque"]
-    params["F"], params["M"] = float(torque.get("rail", 0.0)), float(torque.get("flywheel", 0.0))
+    params["F"], params["Gamma"] = float(torque.get("rail", 0.0)), float(torque.get("flywheel", 0.0))
     v = data.get("initial", {}).get("v", {})
     params["v0"], params["omega0"] = float(v.get("rail", 0.0)), float(v.get("flywheel", 0.0))
     return params
@@ -95,8 +95,8 @@ def closed_form(t, q: Mapping, v: Mapping, params):
 
 
 def simulated(t, q: Mapping, v: Mapping, params):
-    """P = F v_rail + M omega_flywheel on the simulated motion, and its trapezoidal integral."""
+    """P = F v_rail + Gamma omega_flywheel on the simulated motion, and its trapezoidal integral."""
     t = np.asarray(t)
-    P = params["F"] * np.asarray(v["rail"]) + params["M"] * np.asarray(v["flywheel"])
+    P = params["F"] * np.asarray(v["rail"]) + params["Gamma"] * np.asarray(v["flywheel"])
     U = np.concatenate([[0.0], np.cumsum(0.5 * (P[1:] + P[:-1]) * np.diff(t))])
     return {"power": P, "work": U}

@@ -23,6 +23,7 @@ from robodyn.cli._common import (
 from robodyn.errors import EXIT_MISMATCH, EXIT_OK, InputError
 from robodyn.fileio import read_user_file
 from robodyn.kinds.sandbox import DEFAULT_TIMEOUT, MAX_TIMEOUT
+from robodyn.kinds.units import UNITS
 from robodyn.wording import count
 
 
@@ -207,10 +208,7 @@ def read_params(path: Path) -> dict[str, Any]:
     return data
 
 
-PARAM_UNITS = {
-    "m1": "kg", "m2": "kg", "m": "kg", "M": "kg", "l1": "m", "lc1": "m", "lc2": "m", "l": "m",
-    "I1": "kg m^2", "I2": "kg m^2", "I": "kg m^2", "J_m": "kg m^2", "J_l": "kg m^2", "n": "", "g": "m/s^2",
-}  # fmt: skip
+PARAM_UNITS = {name: ("" if unit == "1" else unit) for name, unit in UNITS.items()}
 
 
 _DIMENSION_UNITS = {(1, 0, 0): "kg", (0, 1, 0): "m", (1, 2, 0): "kg m^2", (0, 1, -2): "m/s^2"}

@@ -86,6 +86,23 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument("--full-trace", action="store_true", help="draw the whole path from the start, not the window")
     add_ground_argument(p)
+    p.add_argument(
+        "--label",
+        type=text_on_name,
+        action="append",
+        default=[],
+        metavar="TEXT=FRAME",
+        help="write TEXT beside FRAME in the 3D view of the --html page, e.g. --label A=joint_a (repeatable)",
+    )
+    p.add_argument(
+        "--angle",
+        type=text_on_name,
+        action="append",
+        default=[],
+        metavar="TEXT=JOINT",
+        help="draw the revolute JOINT's angle as an arc from its zero direction, named TEXT, in the --html page, "
+        "e.g. --angle theta=joint_a (repeatable)",
+    )
     p.add_argument("--loop", action="store_true", help="repeat the animation forever instead of playing it once")
     p.add_argument(
         "--html", type=file_path, default=None, metavar="OUT.html", help="write a self-contained HTML replay; no server"
@@ -107,6 +124,14 @@ def add_ground_argument(p: Any) -> None:
         action="store_true",
         help="draw a translucent ground plane at the base's height (z = 0) under the robot; nothing collides with it",
     )
+
+
+def text_on_name(value: str) -> tuple[str, str]:
+    """Argparse type: ``TEXT=NAME`` (a label and the frame or joint it is written on)."""
+    text, sep, name = value.partition("=")
+    if not sep or not text.strip() or not name.strip():
+        raise argparse.ArgumentTypeError(f"expected TEXT=NAME (e.g. A=joint_a), got {value!r}")
+    return text.strip(), name.strip()
 
 
 port_number = number_in(integer=True, low=1, high=65535, low_open=False, noun="port number")
@@ -195,6 +220,8 @@ def run(args: argparse.Namespace) -> int:
         loop=args.loop,
         ground=args.ground,
         trace_window=None if args.full_trace else args.trace_window,
+        labels=dict(args.label),
+        angles=dict(args.angle),
     )
     for file, run in zip(files, loaded, strict=True):  # notes once the input is known good: a refusal stays one line
         _note_trajectory(robot, run, file)

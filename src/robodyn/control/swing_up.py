@@ -154,7 +154,7 @@ def cart_pole(
     m, l, g = p["m"], p["l"], p["g"]
     J = m * l * l + p["I"]
     if accel_max is None:
-        accel_max = min(g, 0.8 * float(plant.effort[0]) / (p["M"] + m))
+        accel_max = min(g, 0.8 * float(plant.effort[0]) / (p["m_cart"] + m))
     _positive(k_energy=k_energy, accel_max=accel_max)
     _non_negative(k_position=k_position, k_velocity=k_velocity, kick=kick)
     return CartPoleEnergy(

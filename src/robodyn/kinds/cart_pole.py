@@ -2,18 +2,19 @@
 
 Derivation: the pole's centre of mass is at (y + l sin th, l cos th), so
 
-    T = 1/2 M y'^2 + 1/2 m [(y' + l th' cos th)^2 + (l th' sin th)^2] + 1/2 I th'^2
-      = 1/2 (M + m) y'^2 + m l cos th y' th' + 1/2 (m l^2 + I) th'^2
+    T = 1/2 m_cart y'^2 + 1/2 m [(y' + l th' cos th)^2 + (l th' sin th)^2] + 1/2 I th'^2
+      = 1/2 (m_cart + m) y'^2 + m l cos th y' th' + 1/2 (m l^2 + I) th'^2
     V = m g l cos th
 
 and Lagrange's equations give
 
-    (M + m) y'' + m l cos th th'' - m l sin th th'^2 = f
+    (m_cart + m) y'' + m l cos th th'' - m l sin th th'^2 = f
     m l cos th y'' + (m l^2 + I) th'' - m g l sin th = 0
 
 (the m l sin th y' th' terms of d/dt dL/dth' and of dL/dth cancel). In matrix form
-M = [[M + m, m l cos th], [m l cos th, m l^2 + I]], C = [[0, -m l sin th th'], [0, 0]],
-G = [0, -m g l sin th]. I = 0 is a point bob; I = m (2 l)^2 / 12 a uniform rod.
+M = [[m_cart + m, m l cos th], [m l cos th, m l^2 + I]], C = [[0, -m l sin th th'], [0, 0]],
+G = [0, -m g l sin th], with m_cart the cart's mass [kg] and m the pole's (M is only ever the mass
+matrix). I = 0 is a point bob; I = m (2 l)^2 / 12 a uniform rod.
 
 The four functions below are the only place this closed form is written: see
 :mod:`robodyn.kinds.formula` for how they serve NumPy, numba and extended precision.
@@ -25,13 +26,13 @@ import numpy as np
 
 from robodyn.kinds.formula import ClosedForm, Scalar
 
-PARAMS = ("M", "m", "l", "I", "g")
+PARAMS = ("m_cart", "m", "l", "I", "g")
 
 
 def mass(p: Scalar, y: Scalar, th: Scalar) -> tuple[Scalar, Scalar, Scalar]:
     """(M11 [kg], M12 [kg m], M22 [kg m^2])."""
-    M, m, l, I = p[0], p[1], p[2], p[3]
-    return M + m, m * l * np.cos(th), m * l * l + I
+    m_cart, m, l, I = p[0], p[1], p[2], p[3]
+    return m_cart + m, m * l * np.cos(th), m * l * l + I
 
 
 def coriolis(p: Scalar, y: Scalar, th: Scalar, vy: Scalar, vth: Scalar) -> tuple[Scalar, Scalar, Scalar, Scalar]:

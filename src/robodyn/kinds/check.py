@@ -70,7 +70,7 @@ __all__ = ["DEFAULT_RTOL", "FD_STEP", "FD_TOL", "MAX_SAMPLES", "CheckReport", "C
 SPEED = 2.0  # |v|, |a| sampled up to this [rad/s, rad/s^2 | m/s, m/s^2]
 TORQUE = 1.0  # |tau| sampled up to this [N m | N]
 SINGULAR_RATIO = 1e-12  # lambda_min / lambda_max of M at or below this: singular to working precision (as simulate)
-NON_NEGATIVE = ("m1", "m2", "M", "m", "I1", "I2", "I", "J_l", "J_m")  # masses [kg], inertias [kg m^2]: given >= 0
+NON_NEGATIVE = ("m1", "m2", "m_cart", "m", "I1", "I2", "I", "J_l", "J_m")  # masses [kg], inertias [kg m^2]: given >= 0
 # The most random states one check takes: ~40 s for the Pendubot with a formula file (6 s of it the file's, inside
 # sandbox.DEFAULT_TIMEOUT). The worst error over 10^5 states is rarely beaten by more; another seed explores as well.
 MAX_SAMPLES = 100_000

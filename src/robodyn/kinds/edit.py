@@ -6,10 +6,10 @@ extraction (world directions at q = 0, as there):
 * pendubot: ``m1``, ``m2`` the body's mass; ``lc1``, ``lc2`` its centre of mass moved along the
   link line (+x); ``I1``, ``I2`` its inertia about the centre of mass around the joint axis;
   ``l1`` joint 2's ``<origin>`` moved along the link line (link 2 and everything on it move along).
-* cart_pole: ``M`` the cart's mass; ``m``, ``l``, ``I`` the pole's mass, centre of mass along +z
+* cart_pole: ``m_cart`` the cart's mass; ``m``, ``l``, ``I`` the pole's mass, centre of mass along +z
   and inertia around +y.
-* geared_arm: ``M``, ``l``, ``J_l`` the link's mass, centre of mass along -z and inertia about the
-  joint axis, J_l = I + M l^2 (kept when only ``M`` or ``l`` change, so I = J_l - M l^2 follows);
+* geared_arm: ``m``, ``l``, ``J_l`` the link's mass, centre of mass along -z and inertia about the
+  joint axis, J_l = I + m l^2 (kept when only ``m`` or ``l`` change, so I = J_l - m l^2 follows);
   ``J_m``, ``n`` the joint's ``<rotor_params mass= gear_ratio=>`` in the SRDF.
 * ``g`` is the model's gravity, not a URDF quantity: it cannot be set.
 
@@ -43,6 +43,7 @@ from robodyn import dynamics
 from robodyn.errors import AssumptionError, InputError, ModelError, UnknownNameError
 from robodyn.fileio import is_number, write_text_atomically
 from robodyn.kinds.params import EX, EXTRACTORS, EY, EZ, Params, extract
+from robodyn.kinds.units import RENAMED
 from robodyn.model.files import find_srdf
 from robodyn.model.load import load
 from robodyn.model.urdf import Document, read_document, relocate_meshes, same_robot, write_document
@@ -59,16 +60,16 @@ VERIFY_RTOL = 1e-12
 
 SETTABLE: dict[str, tuple[str, ...]] = {
     "pendubot": ("m1", "m2", "l1", "lc1", "lc2", "I1", "I2"),
-    "cart_pole": ("M", "m", "l", "I"),
-    "geared_arm": ("J_m", "J_l", "n", "M", "l"),
+    "cart_pole": ("m_cart", "m", "l", "I"),
+    "geared_arm": ("J_m", "J_l", "n", "m", "l"),
 }
 # What each non-negative parameter is, for the refusal of a negative value.
-_NON_NEGATIVE = dict.fromkeys(("m1", "m2", "M", "m"), "a mass") | dict.fromkeys(
+_NON_NEGATIVE = dict.fromkeys(("m1", "m2", "m_cart", "m"), "a mass") | dict.fromkeys(
     ("I1", "I2", "I", "J_l", "J_m"), "an inertia"
 )
 _POSITIVE = {"l1": "the length of link 1 (joint 2 lies along +x)", "n": "a gear ratio"}
 # A body without mass has no centre of mass: these masses must stay > 0 to keep their length.
-_COM_OF = {"pendubot": {"m1": "lc1", "m2": "lc2"}, "cart_pole": {"m": "l"}, "geared_arm": {"M": "l"}}
+_COM_OF = {"pendubot": {"m1": "lc1", "m2": "lc2"}, "cart_pole": {"m": "l"}, "geared_arm": {"m": "l"}}
 
 
 def check_changes(kind: str, assignments: Iterable[tuple[str, float]]) -> dict[str, float]:
@@ -107,6 +108,8 @@ def _unknown(kind: str, name: str) -> UnknownNameError:
     error = UnknownNameError(f"{kind} parameter", name, SETTABLE[kind])
     lowered = difflib.get_close_matches(name.lower(), [n.lower() for n in SETTABLE[kind]], n=3, cutoff=0.5)
     close = [n for low in lowered for n in SETTABLE[kind] if n.lower() == low]
+    if (kind, name) in RENAMED:  # an old name: M is only ever the mass matrix now
+        close = [RENAMED[kind, name]]
     hint = f"did you mean {' or '.join(repr(c) for c in close)}? " if close else ""
     error.args = (f"unknown {kind} parameter {name!r}; {hint}expected one of: {', '.join(error.choices)}",)
     return error
@@ -283,7 +286,7 @@ def _pendubot(robot: Robot, document: Document, before: Params, changes: Mapping
 def _cart_pole(robot: Robot, document: Document, before: Params, changes: Mapping[str, float]) -> None:
     bodies = _bodies(robot, document)
     cart, pole = robot.joint_names
-    _edit_body(bodies[cart], mass=changes.get("M"))
+    _edit_body(bodies[cart], mass=changes.get("m_cart"))
     line = None if "l" not in changes else (EZ, changes["l"])
     _edit_body(bodies[pole], mass=changes.get("m"), line=line, axis=EY, axis_inertia=_constant(changes.get("I")))
 
@@ -291,23 +294,23 @@ def _cart_pole(robot: Robot, document: Document, before: Params, changes: Mappin
 def _geared_arm(robot: Robot, document: Document, before: Params, changes: Mapping[str, float]) -> None:
     (name,) = robot.joint_names
     body = _bodies(robot, document)[name]
-    if not {"M", "l", "J_l"} & set(changes):
+    if not {"m", "l", "J_l"} & set(changes):
         return
     J_l = changes.get("J_l", before["J_l"])
     a = body.R.T @ body.axis
 
-    def about_com(mass: float, com: Array) -> float:  # J_l = I + M d^2, d the COM's distance from the axis
+    def about_com(mass: float, com: Array) -> float:  # J_l = I + m d^2, d the COM's distance from the axis
         off_axis = com - float(com @ a) * a
         value = J_l - mass * float(off_axis @ off_axis)
         if value < -VERIFY_RTOL * J_l:
             raise InputError(
-                f"J_l = {J_l!r} kg m^2 is less than M l^2 = {J_l - value!r} kg m^2, the inertia of the mass "
-                "alone at distance l from the axis: raise J_l, or lower M or l"
+                f"J_l = {J_l!r} kg m^2 is less than m l^2 = {J_l - value!r} kg m^2, the inertia of the mass "
+                "alone at distance l from the axis: raise J_l, or lower m or l"
             )
         return max(value, 0.0)
 
     line = None if "l" not in changes else (-EZ, changes["l"])
-    _edit_body(body, mass=changes.get("M"), line=line, axis=body.axis, axis_inertia=about_com)
+    _edit_body(body, mass=changes.get("m"), line=line, axis=body.axis, axis_inertia=about_com)
 
 
 def _constant(value: float | None) -> AxisTarget | None:

@@ -4,10 +4,10 @@ The motor shaft turns n times per turn of the link: theta_m = n theta_l. With J_
 rotor's inertia and J_l the link's inertia about the joint axis,
 
     T = 1/2 J_m theta_m'^2 + 1/2 J_l theta_l'^2 = 1/2 (J_l + n^2 J_m) theta_l'^2
-    V = M g l (1 - cos theta_l)
+    V = m g l (1 - cos theta_l)
 
-Link coordinate (Pinocchio's):  (J_l + n^2 J_m) theta_l'' + M g l sin theta_l = tau_l
-Motor coordinate (the textbook's): (J_m + J_l / n^2) theta_m'' + (M g l / n) sin(theta_m / n) = tau_m
+Link coordinate (Pinocchio's):  (J_l + n^2 J_m) theta_l'' + m g l sin theta_l = tau_l
+Motor coordinate (the textbook's): (J_m + J_l / n^2) theta_m'' + (m g l / n) sin(theta_m / n) = tau_m
 
 The two are one equation: theta_l = theta_m / n, tau_l = n tau_m (ideal gears), so
 M_l = n^2 M_m, C_l = n^2 C_m, G_l = n G_m. n^2 J_m is the reflected rotor inertia that
@@ -27,7 +27,7 @@ import numpy as np
 
 from robodyn.kinds.formula import Array, ClosedForm, Params, Scalar
 
-PARAMS = ("J_m", "J_l", "n", "M", "l", "g")
+PARAMS = ("J_m", "J_l", "n", "m", "l", "g")
 
 
 def mass(p: Scalar, q: Scalar) -> tuple[Scalar]:
@@ -41,7 +41,7 @@ def coriolis(p: Scalar, q: Scalar, v: Scalar) -> tuple[Scalar]:
 
 
 def gravity(p: Scalar, q: Scalar) -> tuple[Scalar]:
-    """(G,) = (M g l sin q,) [N m] in the link coordinate."""
+    """(G,) = (m g l sin q,) [N m] in the link coordinate."""
     return (p[3] * p[5] * p[4] * np.sin(q),)
 
 

@@ -23,6 +23,7 @@ from robodyn import dynamics
 from robodyn.errors import AssumptionError, InputError
 from robodyn.fileio import is_number
 from robodyn.kinds.formulas import closed_form
+from robodyn.kinds.units import RENAMED
 from robodyn.registry import Registry
 from robodyn.robot import Robot
 
@@ -43,6 +44,10 @@ class Params(Mapping[str, float]):
     table: Mapping[str, float]
 
     def __getitem__(self, key: str) -> float:
+        if key not in self.table and (self.kind, key) in RENAMED:
+            raise KeyError(
+                f"{key!r}: the {self.kind}'s parameter {key} is now {RENAMED[self.kind, key]!r} (M is the mass matrix)"
+            )
         return self.table[key]
 
     def __iter__(self) -> Iterator[str]:
@@ -213,7 +218,7 @@ def _cart_pole(robot: Robot) -> dict[str, float]:
     g = _require_gravity(kind, robot)
     _require_no_armature(kind, bodies)
     l = _along(kind, f"the pole's centre of mass ({pole.name})", pole.com - pole.origin, EZ, EY)
-    return {"M": cart.mass, "m": pole.mass, "l": l, "I": _axis_inertia(pole, EY), "g": g}
+    return {"m_cart": cart.mass, "m": pole.mass, "l": l, "I": _axis_inertia(pole, EY), "g": g}
 
 
 def _geared_arm(robot: Robot) -> dict[str, float]:
@@ -239,7 +244,7 @@ def _geared_arm(robot: Robot) -> dict[str, float]:
             "(load rotor parameters once, from the SRDF)",
         )
     J_l = _axis_inertia(arm, axis) + arm.mass * float(np.sum(_in_plane(arm.com - arm.origin, axis) ** 2))
-    return {"J_m": J_m, "J_l": J_l, "n": n, "M": arm.mass, "l": l, "g": g}
+    return {"J_m": J_m, "J_l": J_l, "n": n, "m": arm.mass, "l": l, "g": g}
 
 
 EXTRACTORS: Registry = Registry("formula kind")

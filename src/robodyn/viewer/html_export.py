@@ -22,6 +22,7 @@ import numpy as np
 
 from robodyn.errors import InputError, MissingDependencyError
 from robodyn.viewer.backend import INSTALL_HINT, ROOT, import_meshcat
+from robodyn.viewer.labels import labels_info
 from robodyn.viewer.packing import packed_commands
 from robodyn.viewer.panel import panel_info
 
@@ -94,6 +95,9 @@ def to_html(playback: Playback, *, title: str | None = None) -> str:
             }
             for r, tau in enumerate(playback.trace_times)
         ],
+        # Texts on frames and joint angles as arcs (world [m], one entry per rendered frame), drawn over the 3D pane.
+        "root": list(ROOT),
+        "labels": labels_info(playback.labels, playback.angles),
     }
     try:  # JavaScript's JSON.parse refuses NaN and Infinity: such a page would show nothing at all
         info_json = json.dumps(info, allow_nan=False)

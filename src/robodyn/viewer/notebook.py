@@ -10,7 +10,7 @@ page is), not as the page itself; :meth:`Replay.save` writes the page to a file.
 from __future__ import annotations
 
 import html
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -87,6 +87,8 @@ def show(
     height: int = 560,
     ground: bool = False,
     trace_window: float | None = DEFAULT_TRACE_WINDOW_S,
+    labels: Mapping[str, str] | None = None,
+    angles: Mapping[str, str] | None = None,
 ) -> Replay:
     """Show ``robot`` (playing ``trajectory`` if given) inline in a Jupyter notebook.
 
@@ -94,7 +96,7 @@ def show(
     self-contained page in an iframe (meshcat's static inline display), so it works offline
     and in exported notebooks, with the chart panel beside the 3D view. A list of up to 8
     trajectories plays them together as ghosts (see :func:`~robodyn.viewer.build`, which
-    also documents ``camera``, ``names``, ``ground`` and ``trace_window``). With ``zmq_url``
+    also documents ``camera``, ``names``, ``ground``, ``trace_window``, ``labels`` and ``angles``). With ``zmq_url``
     the scene is also sent to that running meshcat server and the iframe shows the server's
     page. Never blocks.
     """
@@ -111,6 +113,8 @@ def show(
         loop=loop,
         ground=ground,
         trace_window=trace_window,
+        labels=labels,
+        angles=angles,
     )
     url = None
     if zmq_url is not None:

@@ -9,7 +9,7 @@ and the notebook view all show the same :class:`Playback`.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -21,6 +21,7 @@ from robodyn.viewer.backend import ROOT, import_meshcat, scene_path
 from robodyn.viewer.camera import Framing, follow_tracks, frame_motion, view_commands
 from robodyn.viewer.geometry import SceneObject, geometry_objects, object_commands
 from robodyn.viewer.ground import Ground, ground_commands, ground_slab
+from robodyn.viewer.labels import AngleMark, PointLabel, angle_marks, point_labels
 from robodyn.viewer.panel import Chart, panel_charts
 from robodyn.viewer.runs import GHOST_OPACITY, RUN_COLORS, Run, check_runs, common_frames, mark_identical, run_names
 from robodyn.viewer.sampling import DEFAULT_FPS, check_rate
@@ -76,6 +77,8 @@ class Playback:
         trace_window: simulation time of trace the page keeps behind the cursor [s] (None: the whole trace).
         trace_times: every run's trace-line points' playback times [s], shape (m,) each.
         springs: the first run's sprung revolute joints, each drawn as a coil riding on its frame.
+        labels: texts written beside frames of the first run (e.g. a textbook figure's A, B, C).
+        angles: joint angles of the first run drawn as arcs from their zero direction, with their texts.
     """
 
     robot_name: str
@@ -104,6 +107,8 @@ class Playback:
     trace_window: float | None = DEFAULT_TRACE_WINDOW_S
     trace_times: tuple[Array, ...] = ()
     springs: tuple[Coil, ...] = ()
+    labels: tuple[PointLabel, ...] = ()
+    angles: tuple[AngleMark, ...] = ()
 
     @property
     def offset(self) -> Array:
@@ -155,6 +160,8 @@ def build(
     geometry: pin.GeometryModel | None = None,
     ground: bool = False,
     trace_window: float | None = DEFAULT_TRACE_WINDOW_S,
+    labels: Mapping[str, str] | None = None,
+    angles: Mapping[str, str] | None = None,
 ) -> Playback:
     """Bake ``robot`` and, if given, its motion into a :class:`Playback` (no server, no browser).
 
@@ -180,11 +187,17 @@ def build(
         geometry: an already loaded visual ``GeometryModel`` (default: loaded from the URDF).
         ground: draw a translucent ground slab whose top face is the base's plane (z = 0 of the
             model's world frame), wide enough to lie under the robot over the whole motion.
+        labels: text -> frame name: the page writes each text beside its frame (the first run's),
+            e.g. ``{"A": "joint_a", "B": "joint_b", "C": "collar"}``; shown by the ``--html`` page.
+        angles: text -> revolute joint: the page draws the joint's angle as an arc from the
+            direction its child points at zero angle (a dashed ray) to where it points now,
+            with the text beside it, e.g. ``{"θ": "joint_a"}``; shown by the ``--html`` page.
 
     Raises:
         InputError: a trajectory that does not fit the model, runs of different models, more
             than 8 runs, or a bad speed/fps.
-        UnknownNameError: a ``trace_frame`` the model does not have, or an unknown camera mode.
+        UnknownNameError: a ``trace_frame`` or label's frame or angle's joint the model does not
+            have, or an unknown camera mode.
         MissingDependencyError: meshcat is not installed.
     """
     mc = import_meshcat()
@@ -193,12 +206,12 @@ def build(
         check_rate("trace_window", trace_window)
     check_rate("fps", fps)
     trajectories = _as_runs(trajectory)
-    labels = run_names(trajectories, names)
+    run_labels = run_names(trajectories, names)
     if trajectories:
-        check_runs(robot, trajectories, labels)
+        check_runs(robot, trajectories, run_labels)
         times, indices = common_frames(trajectories, speed=speed, fps=fps)
         colors = [TRACE_COLOR] if len(trajectories) == 1 else list(RUN_COLORS)
-        shown = mark_identical(trajectories, labels)
+        shown = mark_identical(trajectories, run_labels)
         runs = [Run(n, c, tr, ix) for n, c, tr, ix in zip(shown, colors, trajectories, indices, strict=False)]
         configurations = [np.asarray(run.trajectory.q, dtype=np.float64)[run.index] for run in runs]
     else:
@@ -244,6 +257,10 @@ def build(
     for coil in coils:
         commands += coil_commands(mc, coil)
         tracks[coil.path] = coil.placements
+    marks = (
+        point_labels(robot, labels, frames[0]),
+        angle_marks(robot, angles, configurations[0], framing.size),
+    )
     slab = ground_slab(framing.centres, framing.half, framing.size) if ground else None
     if slab is not None:
         commands += ground_commands(mc, slab)
@@ -279,6 +296,8 @@ def build(
         trace_window=None if trace_window is None else float(trace_window),
         trace_times=tuple(trace_times),
         springs=tuple(coils),
+        labels=tuple(marks[0]),
+        angles=tuple(marks[1]),
     )
 
 

@@ -333,6 +333,83 @@
     document.body.setAttribute("data-trace-ranges", ranges.join("|"));
   }
 
+  // ------------------------------------------------------------------ labels over the 3D view
+  // Texts on frames (a textbook figure's A, B, C) and joint angles (an arc from a dashed
+  // reference ray, with its text), given in the model's world frame at each rendered frame:
+  // interpolated at the animation's time, moved by the drawing's shift (the root's transform,
+  // animated in follow mode) and projected through meshcat's camera onto the 3D pane, every
+  // frame (the user may orbit the camera). data-labels on the body lists each text and its
+  // pixel "text:x,y" (for tests).
+  var marks = info.labels || { points: [], angles: [] };
+  var labelSvg = document.getElementById("robodyn-labels");
+  var hasLabels = marks.points.length + marks.angles.length > 0;
+  var SVG_NS = "http://www.w3.org/2000/svg";
+  function svgChild(tag, attrs) {
+    var el = document.createElementNS(SVG_NS, tag);
+    Object.keys(attrs).forEach(function (k) { el.setAttribute(k, attrs[k]); });
+    labelSvg.appendChild(el);
+    return el;
+  }
+  var drawn = { angles: [], points: [] };
+  if (hasLabels) {
+    marks.angles.forEach(function (a) {
+      drawn.angles.push({
+        mark: a,
+        ray: svgChild("line", { stroke: "#333", "stroke-width": "1.5", "stroke-dasharray": "5 4" }),
+        arc: svgChild("polyline", { fill: "none", stroke: "#111", "stroke-width": "2" }),
+        text: svgChild("text", { "text-anchor": "middle", "dominant-baseline": "central" })
+      });
+      drawn.angles[drawn.angles.length - 1].text.textContent = a.text;
+    });
+    marks.points.forEach(function (p) {
+      var dot = svgChild("circle", { r: "3.5", fill: "#111", stroke: "#fff", "stroke-width": "1.5" });
+      var text = svgChild("text", { "text-anchor": "start", "dominant-baseline": "central" });
+      text.textContent = p.text;
+      drawn.points.push({ mark: p, dot: dot, text: text });
+    });
+  }
+  // A point of a series (an array of [x, y, z], one per rendered frame, or {length, at(k)}) at time tau.
+  function pointAt(series, tau) {
+    var get = series.at && !Array.isArray(series) ? series.at : function (k) { return series[k]; };
+    var k = frameAt(tau);
+    if (k + 1 >= series.length || k + 1 >= info.tau.length) { return get(Math.min(k, series.length - 1)); }
+    var s = Math.max(0, Math.min(1, (tau - info.tau[k]) / (info.tau[k + 1] - info.tau[k])));
+    var a = get(k), b = get(k + 1);
+    return [0, 1, 2].map(function (i) { return (1 - s) * a[i] + s * b[i]; });
+  }
+  function drawLabels(tau) {
+    if (!hasLabels) { return; }
+    var THREE = MeshCat.THREE, camera = viewer.camera, node = viewer.scene_tree.find(info.root);
+    var pane = document.getElementById("meshcat-pane").getBoundingClientRect();
+    node.object.updateMatrixWorld(true);
+    camera.updateMatrixWorld(true);
+    function screen(p) {
+      var v = new THREE.Vector3(p[0], p[1], p[2]).applyMatrix4(node.object.matrixWorld).project(camera);
+      return [(v.x + 1) / 2 * pane.width, (1 - v.y) / 2 * pane.height];
+    }
+    var listed = [];
+    drawn.angles.forEach(function (d) {
+      var arc = d.mark.arc[0].map(function (_, n) {
+        return screen(pointAt({ length: d.mark.arc.length, at: function (k) { return d.mark.arc[k][n]; } }, tau));
+      });
+      var o = screen(pointAt(d.mark.ray.map(function (r) { return r[0]; }), tau));
+      var e = screen(pointAt(d.mark.ray.map(function (r) { return r[1]; }), tau));
+      d.ray.setAttribute("x1", o[0]); d.ray.setAttribute("y1", o[1]);
+      d.ray.setAttribute("x2", e[0]); d.ray.setAttribute("y2", e[1]);
+      d.arc.setAttribute("points", arc.map(function (p) { return p[0].toFixed(1) + "," + p[1].toFixed(1); }).join(" "));
+      var at = screen(pointAt(d.mark.at, tau));
+      d.text.setAttribute("x", at[0]); d.text.setAttribute("y", at[1]);
+      listed.push(d.mark.text + ":" + Math.round(at[0]) + "," + Math.round(at[1]));
+    });
+    drawn.points.forEach(function (d) {
+      var p = screen(pointAt(d.mark.xyz, tau));
+      d.dot.setAttribute("cx", p[0]); d.dot.setAttribute("cy", p[1]);
+      d.text.setAttribute("x", p[0] + 8); d.text.setAttribute("y", p[1] - 12);
+      listed.push(d.mark.text + ":" + Math.round(p[0]) + "," + Math.round(p[1]));
+    });
+    document.body.setAttribute("data-labels", listed.join("|"));
+  }
+
   // ------------------------------------------------------------------ the overlay, every frame
   var overlay = document.getElementById("robodyn-overlay");
   var last = "", lastTau = null;
@@ -370,6 +447,7 @@
       if (lines.length > 1) { overlay.appendChild(document.createTextNode("\n" + lines.slice(1).join("\n"))); }
       last = whole;
     }
+    drawLabels(tau);  // every frame: the camera may have been orbited
     if (tau !== lastTau) {
       if (hasPanel) { drawCursors(tau); }
       fadeTraces(tau);

@@ -336,3 +336,28 @@ def test_run_names_every_mismatching_entry_of_a_formula(tmp_path, capsys):
     assert main(["run", str(path), "--no-view", "--out", str(tmp_path / "out")]) == 1
     said = [line.split(" (")[0].strip() for line in capsys.readouterr().out.splitlines() if "MISMATCH M[" in line]
     assert sorted(said) == ["MISMATCH M[0,0]", "MISMATCH M[0,1]"], said  # M's row lists its upper triangle
+
+
+def test_an_exactness_proof_that_blows_up_says_so_exit_3(tmp_path, capsys):
+    """kd = 1e9 makes RK4 at 1 ms unstable: the proof's run diverges; the line says so (before: 'tau must be finite')."""
+    path = write(
+        tmp_path,
+        """
+[model]
+name = "panda"
+keep = ["panda_joint2", "panda_joint4", "panda_joint6"]
+[control]
+kind = "pd"
+kp = 40.0
+kd = 1e9
+[simulate]
+duration = 0.01
+dt = 1e-3
+[check]
+samples = 2
+exactness = true
+""",
+    )
+    assert main(["run", str(path), "--no-view", "--out", str(tmp_path / "out")]) == 3
+    err = capsys.readouterr().err.strip()
+    assert "the exactness proof's run diverged by t = " in err and "\n" not in err, err

@@ -101,6 +101,8 @@ def test_a_batch_chunk_that_ends_past_the_energy_bound_is_diverged(tmp_path, mon
         ({"controller": []}, "controller lists no value"),
         # the first value sets' URDFs (and SRDFs) are written, then one is refused: those go again
         ({"params": {"m1": [1.0, 1e-320], "m2": [0.4, 0.5]}}, r"<mass value='1e-320'> is out of range"),
+        # the file and key named; a long name by its start and length, not 5,000 characters
+        ({"model": "x" * 5000}, r"sweep\.toml: model: unknown model 'x{30}'\.\.\. \(5,000 characters\); "),
     ],
 )
 def test_a_sweep_past_its_bounds_is_refused_before_anything_is_written(edit, expected, tmp_path, capsys):

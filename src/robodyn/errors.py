@@ -53,6 +53,17 @@ class InputError(RobodynError, ValueError):
     """A value given by the user has the wrong shape, sign or type."""
 
 
+# A name longer than this is shown by its start and its length: a 5,000-character typo is no one-line message.
+SHOWN_NAME_CHARS = 60
+
+
+def shown_name(name: str) -> str:
+    """``name`` quoted, or its first characters quoted with its length when it is long."""
+    if len(name) <= SHOWN_NAME_CHARS:
+        return repr(name)
+    return f"{name[: SHOWN_NAME_CHARS // 2]!r}... ({len(name):,} characters)"
+
+
 class UnknownNameError(RobodynError, KeyError):
     """A name does not resolve in a registry; the message lists what exists."""
 
@@ -62,7 +73,7 @@ class UnknownNameError(RobodynError, KeyError):
         self.choices = tuple(sorted(choices))
         close = difflib.get_close_matches(name, self.choices, n=3, cutoff=0.6)
         hint = f"did you mean {' or '.join(repr(c) for c in close)}? " if close else ""
-        super().__init__(f"unknown {what} {name!r}; {hint}expected one of: {', '.join(self.choices)}")
+        super().__init__(f"unknown {what} {shown_name(name)}; {hint}expected one of: {', '.join(self.choices)}")
 
     def __str__(self) -> str:  # KeyError would quote the message otherwise
         return str(self.args[0])
@@ -153,6 +164,6 @@ class UnknownModelError(UnknownNameError):
         close = difflib.get_close_matches(name, self.choices, n=5, cutoff=0.6)
         hint = f"did you mean {', '.join(close)}? " if close else ""
         self.args = (
-            f"unknown model {name!r}; {hint}'robodyn info --list' names all {len(self.choices)} models "
+            f"unknown model {shown_name(name)}; {hint}'robodyn info --list' names all {len(self.choices)} models "
             "(or give a path to a .urdf file)",
         )

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robodyn import dynamics, integrators
-from robodyn.errors import InputError
+from robodyn.errors import DivergenceError, InputError
 from robodyn.model.reduce import Reduction, locked_acceleration
 from robodyn.robot import Robot
 
@@ -96,6 +96,13 @@ def prove_exact(
     damping_red, damping_full = red.damping, full.damping
 
     def accel_reduced(t: float, q: Array, v: Array) -> Array:
+        if not (np.isfinite(q).all() and np.isfinite(v).all()):  # before a controller sees it: a blow-up, said so
+            raise DivergenceError(
+                f"the exactness proof's run diverged by t = {t:.6g} s ({method} at dt = {dt:g} s: its state is no "
+                "longer finite); a smaller dt or gentler control gains keep it bounded",
+                step=round(t / dt),
+                time=t,
+            )
         return dynamics.aba(red.model, red.data, q, v, torque_reduced(t, q, v) - damping_red * v)
 
     lock_torque = [0.0]

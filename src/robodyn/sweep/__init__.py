@@ -250,7 +250,10 @@ def _with_scene_defaults(spec: SweepSpec, scene: SceneSource) -> SweepSpec:
 def _robot_named(spec: SweepSpec, model: str | ModelFile) -> Any:
     """The sweep's robot, its ``passive`` joints (if any) checked against the model's joints."""
     if isinstance(model, str):
-        return load_model(model)
+        try:
+            return load_model(model)
+        except UnknownNameError as exc:  # named with the file and key it comes from
+            raise InputError(f"{spec.source}: model: {exc}") from None
     try:
         robot, _ = model.build()
     except UnknownNameError as exc:

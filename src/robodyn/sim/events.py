@@ -70,6 +70,10 @@ FORCE_NOISE_RTOL = 1e-12
 # Impacts kept in the metadata (the count is always exact).
 IMPACTS_KEPT = 200
 
+# What the events have done at a point of the run (EventStepper.mark): impacts, releases, impacts kept,
+# projections, work_limits [J] and the held stops.
+Mark = tuple[int, int, int, int, float, dict[int, int]]
+
 
 @dataclass(frozen=True)
 class ImpactRecord:
@@ -119,12 +123,12 @@ class EventStepper(Stepper):
         # The last configuration found clear of every stop (q arrays are never written in place).
         self._clear_q: Array | None = None
 
-    def mark(self) -> tuple[int, int, int, int, float, dict[int, int]]:
+    def mark(self) -> Mark:
         """What the events have done so far: counts, impacts kept, the held stops (for :meth:`rewind`)."""
         held = dict(self.system.held)
         return self.n_impacts, self.n_releases, len(self.impacts), self.projections, self.work_limits, held
 
-    def rewind(self, mark: tuple[int, int, int, int, float, dict[int, int]], q: Array) -> None:
+    def rewind(self, mark: Mark, q: Array) -> None:
         """Forget the events after ``mark`` (steps taken past a failure); q is the configuration kept last."""
         self.n_impacts, self.n_releases, kept, self.projections, self.work_limits, held = mark
         del self.impacts[kept:]

@@ -120,17 +120,29 @@ class EventStepper(Stepper):
         self._loops = system.loops
         # The bounds as Python floats: comparing a handful of scalars beats two NumPy reductions.
         self._lower_list, self._upper_list = self._lower_in.tolist(), self._upper_in.tolist()
+        iq = self.stops.iq
+        self._iq: NDArray[np.intp] | None = None if np.array_equal(iq, np.arange(system.nq)) else iq
         # The last configuration found clear of every stop (q arrays are never written in place).
         self._clear_q: Array | None = None
+        self._mark: Mark | None = None  # the last mark, until an event changes it (see :meth:`mark`)
 
     def mark(self) -> Mark:
-        """What the events have done so far: counts, impacts kept, the held stops (for :meth:`rewind`)."""
-        held = dict(self.system.held)
-        return self.n_impacts, self.n_releases, len(self.impacts), self.projections, self.work_limits, held
+        """What the events have done so far: counts, impacts kept, the held stops (for :meth:`rewind`).
+
+        Asked after every step: the last mark is kept until an event step or a projection (which
+        drop it) or a new held set (``system.hold`` replaces the dict, never edits it).
+        """
+        mark = self._mark
+        if mark is None or mark[5] is not self.system.held:
+            held = self.system.held
+            mark = self.n_impacts, self.n_releases, len(self.impacts), self.projections, self.work_limits, held
+            self._mark = mark
+        return mark
 
     def rewind(self, mark: Mark, q: Array) -> None:
         """Forget the events after ``mark`` (steps taken past a failure); q is the configuration kept last."""
         self.n_impacts, self.n_releases, kept, self.projections, self.work_limits, held = mark
+        self._mark = None
         del self.impacts[kept:]
         if held != self.system.held:
             self.system.hold(held, q)
@@ -171,7 +183,7 @@ class EventStepper(Stepper):
     # ------------------------------------------------------------------ the step
     def _clear(self, q: Array) -> bool:
         """True when every limited joint is clear of its stops at q (farther than the tolerance; NaN is not)."""
-        x = q[self.stops.iq].tolist()
+        x = (q if self._iq is None else q[self._iq]).tolist()
         return all(map(float.__lt__, self._lower_list, x)) and all(map(float.__lt__, x, self._upper_list))
 
     def advance(self, t: float, q: Array, u: Array, h: float) -> tuple[Array, Array, Array | None]:
@@ -181,7 +193,8 @@ class EventStepper(Stepper):
         if self.system.held or not (q is self._clear_q or self._clear(q)):
             return self._events_in_step(t, q, u, h, None)
         q1, u1, k = self.inner.advance(t, q, u, h)  # the common case: free at the step's start...
-        if not self._clear(q1):
+        x = (q1 if self._iq is None else q1[self._iq]).tolist()  # :meth:`_clear`, inline on the hot path
+        if not (all(map(float.__lt__, self._lower_list, x)) and all(map(float.__lt__, x, self._upper_list))):
             return self._events_in_step(t, q, u, h, (q1, u1, k))
         self._clear_q = q1  # ...and at its end
         if self._loops is None:
@@ -194,6 +207,7 @@ class EventStepper(Stepper):
         """The step from t to t + h with its events; ``first`` is the step already taken from (t, q, u)."""
         t_stop = t + h
         k_start: Array | None = None
+        self._mark = None  # the events below change what the run has done
         held = self.system.held
         if first is None:
             q, u, held = self._touch(t, q, u, h, held)
@@ -484,6 +498,7 @@ class EventStepper(Stepper):
                 reason=f"the loop projection did not converge (residual {left:.3g} m)",
             )
         self.projections += 1
+        self._mark = None
         u = u.copy()
         u[:nv] = v
         return q, u

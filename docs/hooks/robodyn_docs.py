@@ -250,6 +250,8 @@ def _overhead(data: dict[str, Any]) -> str:
         f"a step; the states differ by at most {data['max_state_difference']:.1e}): {verdict} the limit of "
         f"{data['limit']:g}×."
     )
+    if "ratio_cpu" in data:
+        text += f" In CPU time (without the waits for a core on a loaded machine): {data['ratio_cpu']:.2f}×."
     buys = data.get("overhead_buys")
     if buys is not None:
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import functools
 import weakref
+from collections.abc import Callable
 
 import numpy as np
 import pinocchio as pin
@@ -109,6 +110,16 @@ def rnea(model: pin.Model, data: pin.Data, q: Array, v: Array, a: Array) -> Arra
 def aba(model: pin.Model, data: pin.Data, q: Array, v: Array, tau: Array) -> Array:
     """Forward dynamics by the articulated-body algorithm, shape (nv,)."""
     return pin.aba(model, data, q, v, tau).copy()  # a copy of the live view (.copy() is faster than np.array)
+
+
+def aba_function(model: pin.Model, data: pin.Data) -> Callable[[Array, Array, Array], Array]:
+    """:func:`aba` on ``model`` and ``data`` as a function a(q, v, tau) (nv,): one call less per evaluation."""
+    forward = pin.aba
+
+    def aba_of(q: Array, v: Array, tau: Array) -> Array:
+        return forward(model, data, q, v, tau).copy()  # a copy of the live view
+
+    return aba_of
 
 
 def crba_solve(model: pin.Model, data: pin.Data, q: Array, v: Array, tau: Array) -> Array:

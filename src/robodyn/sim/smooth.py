@@ -45,8 +45,8 @@ def backend_function(
 ) -> Callable[[Array, Array, Array], Array]:
     """The forward-dynamics function a(q, v, tau) of backend ``name``."""
     model, data = robot.model, robot.data
-    if name == "aba":  # a partial, not a lambda: one Python frame less on every evaluation
-        return functools.partial(dynamics.aba, model, data)
+    if name == "aba":
+        return dynamics.aba_function(model, data)
     if name == "crba":
         return functools.partial(dynamics.crba_solve, model, data)
     if name == "numba":

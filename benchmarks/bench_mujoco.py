@@ -372,11 +372,11 @@ def main() -> int:
                 f"MuJoCo {stopped['mujoco_limit_activations']} limit activations"
             )
             for path, p in stopped["paths"].items():
-                print(f"  {path + ', stops on':30s} {p['us_per_step']:9.3f} us/step")
+                print(f"  {path + ', stops on':40s} {p['us_per_step']:9.3f} us/step")
             print(f"  robodyn.simulate vs MuJoCo RK4, stops on: {stopped['speedup_vs_mujoco_rk4']:.2f}x")
             for path, p in one["paths"].items():
                 err = f"error at t = {one['error_at_s']:g} s {p['error']:.2e}" if "error" in p else ""
-                print(f"  {path + ', stops off':30s} {p['us_per_step']:9.3f} us/step   {err}")
+                print(f"  {path + ', stops off':40s} {p['us_per_step']:9.3f} us/step   {err}")
             print(
                 f"  robodyn's best vs MuJoCo RK4, stops off: {one['speedup_vs_mujoco_rk4']:.2f}x; robodyn.simulate's "
                 f"whole call over its compiled loop: {one['simulate_call_over_compiled_loop']:.2f}x"

@@ -7,16 +7,22 @@ Run from the repository root (MuJoCo is a benchmark-only dependency: pip install
     python benchmarks/bench_mujoco.py --systems pendubot,panda --out /tmp/b
 
 1. Every system is loaded by robodyn and by MuJoCo from the same URDF (geometry stripped,
-   <compiler fusestatic=false balanceinertia=false>, contacts and joint limits disabled,
-   armature and damping copied; Coulomb friction off in both, as MuJoCo's frictionloss is a
-   constraint, not robodyn's regularised torque). MuJoCo's mass matrix and bias forces are
-   compared with Pinocchio's on seeded states first.
-2. Single trajectory: torque-free RK4 at dt = 1 ms from robodyn's bench start state (joint limits
-   off in both). MuJoCo steps in its own C loop (mj_step with nstep); robodyn runs
-   robodyn.simulate (the compiled loop, ledger and energies included) and, for the seed kinds,
-   the closed-form fast path. Errors at t = 2 s (or the end) against robodyn's compiled RK4 at dt / 20
-   (RK4's error then 20^4 = 1.6e5 times smaller): equal method, equal step, errors printed side
-   by side. Also: robodyn.simulate's whole call against its own compiled loop's wall time.
+   <compiler fusestatic=false balanceinertia=false autolimits=true>, so that MuJoCo limits the
+   joints whose URDF <limit> gives a range, as robodyn's stops do: the two sets are compared;
+   contacts off, armature and damping copied; Coulomb friction off in both, as MuJoCo's
+   frictionloss is a constraint, not robodyn's regularised torque). MuJoCo's mass matrix and
+   bias forces are compared with Pinocchio's on seeded states first.
+2. Single trajectory, measured twice: with the joint stops on (each engine's default handling of
+   the URDF's limits: robodyn's exact impacts and holds, MuJoCo's soft limit constraints) and
+   with them off in both. Torque-free RK4 at dt = 1 ms from robodyn's bench start state. MuJoCo
+   steps in its own C loop (mj_step with nstep); robodyn runs robodyn.simulate (the compiled
+   loop, ledger and energies included) and, for the seed kinds with the stops off, the
+   closed-form fast path. Stops off: errors at t = 2 s (or the end) against robodyn's compiled
+   RK4 at dt / 20 (RK4's error then 20^4 = 1.6e5 times smaller): equal method, equal step, errors
+   printed side by side. Stops on: the number of impacts of robodyn's run, its steps with an
+   event, and MuJoCo's limit activations (a joint's limit constraint becoming active, counted
+   in a separate step-by-step pass), no error (the two engines model a stop differently). Also:
+   robodyn.simulate's whole call against its own compiled loop's wall time (stops off).
 3. Batches of 1000 seeded states (lossless: damping set to 0 in both), RK4 at 1 ms: robodyn's
    batch.rollout against mujoco.rollout, on 1 and on 2 threads; the final states compared.
 
@@ -81,14 +87,15 @@ def mujoco_model(robot: robodyn.Robot):
     if start is None:
         sys.exit(f"no <robot> tag in {robot.urdf_path}")
     compiler = (
-        '<mujoco><compiler discardvisual="true" fusestatic="false" balanceinertia="false" angle="radian"/></mujoco>'
+        '<mujoco><compiler discardvisual="true" fusestatic="false" balanceinertia="false" angle="radian" '
+        'autolimits="true"/></mujoco>'
     )
     text = text[: start.end()] + compiler + text[start.end() :]
     m = mujoco.MjModel.from_xml_string(text)
     m.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
     m.opt.timestep = DT
     off = mujoco.mjtDisableBit
-    m.opt.disableflags |= off.mjDSBL_CONTACT | off.mjDSBL_LIMIT | off.mjDSBL_EQUALITY  # a <mimic> is an equality
+    m.opt.disableflags |= off.mjDSBL_CONTACT | off.mjDSBL_EQUALITY  # a <mimic> is an equality; limits: see set_limits
     if m.nv != robot.nv or m.nq != robot.nq:
         sys.exit(f"{robot.name}: MuJoCo has {m.nv} degrees of freedom, robodyn {robot.nv}")
     # MuJoCo orders the joints its own way (Talos: torso first); idx[i] = MuJoCo's index of robodyn's joint i
@@ -98,6 +105,51 @@ def mujoco_model(robot: robodyn.Robot):
     m.dof_damping[idx] = robot.damping
     m.dof_frictionloss[:] = 0.0
     return m, idx
+
+
+def set_limits(m, on: bool) -> None:
+    """Honour MuJoCo's joint limits (the URDF's ranges), or disable them."""
+    import mujoco
+
+    if on:
+        m.opt.disableflags &= ~int(mujoco.mjtDisableBit.mjDSBL_LIMIT)
+    else:
+        m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_LIMIT)
+
+
+def same_limits(robot: robodyn.Robot, m) -> dict:
+    """The joints MuJoCo limits against robodyn's stops: counts, and the joints whose ranges differ."""
+    import mujoco
+
+    from robodyn.sim.system import robot_system
+
+    stops = robot_system(robot).stops
+    names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(m.njnt)]
+    mj = {names[j]: (float(m.jnt_range[j, 0]), float(m.jnt_range[j, 1])) for j in range(m.njnt) if m.jnt_limited[j]}
+    ours = {n: (float(lo), float(hi)) for n, lo, hi in zip(stops.names, stops.lower, stops.upper, strict=True)}
+    differ = sorted(
+        n for n in set(mj) | set(ours) if n not in mj or n not in ours or not np.allclose(mj[n], ours[n], rtol=1e-12)
+    )
+    if differ:
+        sys.exit(f"{robot.name}: MuJoCo and robodyn limit different joints or ranges: {', '.join(differ)}")
+    return {"mujoco_limited_joints": len(mj), "robodyn_stops": len(ours)}
+
+
+def limit_activations(m, idx, q0, v0, steps: int) -> int:
+    """How many times a joint's limit constraint becomes active in MuJoCo's run (a step-by-step pass)."""
+    import mujoco
+
+    d = mujoco.MjData(m)
+    d.qpos[idx], d.qvel[idx] = q0, v0
+    limit = int(mujoco.mjtConstraint.mjCNSTR_LIMIT_JOINT)
+    active: set[int] = set()
+    onsets = 0
+    for _ in range(steps):
+        mujoco.mj_step(m, d)
+        now = {int(d.efc_id[i]) for i in range(d.nefc) if int(d.efc_type[i]) == limit}
+        onsets += len(now - active)
+        active = now
+    return onsets
 
 
 def confirm_same_model(robot: robodyn.Robot, m, idx) -> dict:
@@ -126,17 +178,10 @@ def _error(q, v, q_ref, v_ref) -> float:
     return float(np.max(np.abs(x - x_ref)) / max(np.max(np.abs(x_ref)), 1.0))
 
 
-def single(robot: robodyn.Robot, m, idx) -> dict:
+def _mujoco_time(m, idx, q0, v0, steps: int) -> float:
+    """Best wall time [s] of MuJoCo's C loop over ``steps`` steps from (q0, v0)."""
     import mujoco
 
-    duration = DURATION[robot.name]
-    steps = round(duration / DT)
-    q0, v0 = bench.start_state(robot)
-    opts = {"limits": False, "max_energy_growth": None}
-    t_err = min(ERROR_AT, duration)
-    k = round(t_err / DT)
-    ref = robodyn.simulate(robot, q0, v0, duration=t_err, dt=DT / REF_DIVISOR, **opts)
-    q_ref, v_ref = ref.q[-1], ref.v[-1]
     d = mujoco.MjData(m)
     times = []
     for _ in range(REPEATS):
@@ -145,16 +190,38 @@ def single(robot: robodyn.Robot, m, idx) -> dict:
         start = time.perf_counter()
         mujoco.mj_step(m, d, nstep=steps)
         times.append(time.perf_counter() - start)
-    mujoco.mj_resetData(m, d)
-    d.qpos[idx], d.qvel[idx] = q0, v0
-    mujoco.mj_step(m, d, nstep=k)
-    mj_err = _error(d.qpos[idx], d.qvel[idx], q_ref, v_ref)
-    paths = {"mujoco_rk4_c_loop": {"us_per_step": 1e6 * min(times) / steps, "error": mj_err}}
+    return min(times)
+
+
+def _simulate_runs(robot: robodyn.Robot, q0, v0, duration: float, opts: dict) -> tuple[list, list[float]]:
     runs, calls = [], []
     for _ in range(REPEATS):
         start = time.perf_counter()
         runs.append(robodyn.simulate(robot, q0, v0, duration=duration, dt=DT, **opts))
         calls.append(time.perf_counter() - start)
+    return runs, calls
+
+
+def single(robot: robodyn.Robot, m, idx) -> dict:
+    """Stops off: MuJoCo's RK4 loop against robodyn's paths at equal method, step and (measured) error."""
+    import mujoco
+
+    set_limits(m, False)
+    duration = DURATION[robot.name]
+    steps = round(duration / DT)
+    q0, v0 = bench.start_state(robot)
+    opts = {"limits": False, "max_energy_growth": None}
+    t_err = min(ERROR_AT, duration)
+    k = round(t_err / DT)
+    ref = robodyn.simulate(robot, q0, v0, duration=t_err, dt=DT / REF_DIVISOR, **opts)
+    q_ref, v_ref = ref.q[-1], ref.v[-1]
+    mj_time = _mujoco_time(m, idx, q0, v0, steps)
+    d = mujoco.MjData(m)
+    d.qpos[idx], d.qvel[idx] = q0, v0
+    mujoco.mj_step(m, d, nstep=k)
+    mj_err = _error(d.qpos[idx], d.qvel[idx], q_ref, v_ref)
+    paths = {"mujoco_rk4_c_loop": {"us_per_step": 1e6 * mj_time / steps, "error": mj_err}}
+    runs, calls = _simulate_runs(robot, q0, v0, duration, opts)
     tr = runs[0]
     loop_wall = min(r.wall_time_s for r in runs)
     paths["robodyn_simulate_compiled"] = {
@@ -174,6 +241,7 @@ def single(robot: robodyn.Robot, m, idx) -> dict:
     paths["robodyn_simulate_python_aba"] = {"us_per_step": 1e6 * python.wall_time_s / (python.t.size - 1)}
     best = min(p["us_per_step"] for k, p in paths.items() if k.startswith("robodyn") and "error" in p)
     return {
+        "stops": "off",
         "duration": duration,
         "dt": DT,
         "steps": steps,
@@ -181,6 +249,45 @@ def single(robot: robodyn.Robot, m, idx) -> dict:
         "reference": f"robodyn compiled RK4 at dt / {REF_DIVISOR}",
         "paths": paths,
         "speedup_vs_mujoco_rk4": paths["mujoco_rk4_c_loop"]["us_per_step"] / best,
+        "simulate_call_over_compiled_loop": min(calls) / loop_wall,
+    }
+
+
+def single_with_stops(robot: robodyn.Robot, m, idx) -> dict:
+    """Stops on: MuJoCo's RK4 loop with its limits against robodyn.simulate with its stops (robodyn's default)."""
+    set_limits(m, True)
+    try:
+        duration = DURATION[robot.name]
+        steps = round(duration / DT)
+        q0, v0 = bench.start_state(robot)
+        mj_time = _mujoco_time(m, idx, q0, v0, steps)
+        activations = limit_activations(m, idx, q0, v0, steps)
+    finally:
+        set_limits(m, False)
+    runs, calls = _simulate_runs(robot, q0, v0, duration, {"max_energy_growth": None})
+    tr = runs[0]
+    loop_wall = min(r.wall_time_s for r in runs)
+    paths = {
+        "mujoco_rk4_c_loop": {"us_per_step": 1e6 * mj_time / steps, "limit_activations": activations},
+        "robodyn_simulate_compiled": {
+            "us_per_step": 1e6 * loop_wall / steps,
+            "backend": tr.meta["backend"],
+            "loop": tr.meta["loop"],
+            "impacts": tr.meta["impacts"],
+            "releases": tr.meta["releases"],
+            "event_steps": tr.meta.get("event_steps"),
+        },
+    }
+    return {
+        "stops": "on",
+        "duration": duration,
+        "dt": DT,
+        "steps": steps,
+        "paths": paths,
+        "impacts": tr.meta["impacts"],
+        "mujoco_limit_activations": activations,
+        "speedup_vs_mujoco_rk4": paths["mujoco_rk4_c_loop"]["us_per_step"]
+        / paths["robodyn_simulate_compiled"]["us_per_step"],
         "simulate_call_over_compiled_loop": min(calls) / loop_wall,
     }
 
@@ -252,18 +359,27 @@ def main() -> int:
         for name in names:
             robot = prepare(name)
             m, idx = mujoco_model(robot)
-            check = confirm_same_model(robot, m, idx)
+            check = confirm_same_model(robot, m, idx) | same_limits(robot, m)
+            stopped = single_with_stops(robot, m, idx)
             one = single(robot, m, idx)
             print(
                 f"{name} (nv = {robot.nv}): MuJoCo vs Pinocchio M {check['mass_matrix_rel_diff']:.1e}, "
                 f"bias {check['bias_rel_diff']:.1e}; single RK4 trajectory, dt = 1 ms, {one['duration']:g} s"
             )
+            print(
+                f"  stops on: robodyn {stopped['impacts']} impacts "
+                f"({stopped['paths']['robodyn_simulate_compiled']['event_steps']} event steps), "
+                f"MuJoCo {stopped['mujoco_limit_activations']} limit activations"
+            )
+            for path, p in stopped["paths"].items():
+                print(f"  {path + ', stops on':40s} {p['us_per_step']:9.3f} us/step")
+            print(f"  robodyn.simulate vs MuJoCo RK4, stops on: {stopped['speedup_vs_mujoco_rk4']:.2f}x")
             for path, p in one["paths"].items():
                 err = f"error at t = {one['error_at_s']:g} s {p['error']:.2e}" if "error" in p else ""
-                print(f"  {path:30s} {p['us_per_step']:9.3f} us/step   {err}")
+                print(f"  {path + ', stops off':40s} {p['us_per_step']:9.3f} us/step   {err}")
             print(
-                f"  robodyn's best vs MuJoCo RK4: {one['speedup_vs_mujoco_rk4']:.2f}x; robodyn.simulate's whole call "
-                f"over its compiled loop: {one['simulate_call_over_compiled_loop']:.2f}x"
+                f"  robodyn's best vs MuJoCo RK4, stops off: {one['speedup_vs_mujoco_rk4']:.2f}x; robodyn.simulate's "
+                f"whole call over its compiled loop: {one['simulate_call_over_compiled_loop']:.2f}x"
             )
             many = batched(robot, m, idx)
             for threads, b in many["threads"].items():
@@ -274,7 +390,13 @@ def main() -> int:
                     f"us/state-step: {b['ratio_mujoco_over_robodyn']:.2f}x; final states differ by "
                     f"{b['max_final_state_difference']:.1e}"
                 )
-            results[name] = {"nv": robot.nv, "model_check": check, "single": one, "batch": many}
+            results[name] = {
+                "nv": robot.nv,
+                "model_check": check,
+                "single": one,
+                "single_stops_on": stopped,
+                "batch": many,
+            }
     finally:
         if spinner is not None:
             stop.set()
@@ -284,9 +406,10 @@ def main() -> int:
     print(f"load average (1, 5, 15 min) before {run['load_before']}, after {run['load_after']}; busy mode {args.busy}")
     labels, values = [], []
     for name, r in results.items():
-        for path, p in r["single"]["paths"].items():
-            labels.append(f"{name} single: {path}")
-            values.append(p["us_per_step"])
+        for key, stops in (("single_stops_on", "stops on"), ("single", "stops off")):
+            for path, p in r[key]["paths"].items():
+                labels.append(f"{name} single, {stops}: {path}")
+                values.append(p["us_per_step"])
         for threads, b in r["batch"]["threads"].items():
             labels += [f"{name} batch {threads} thr: robodyn", f"{name} batch {threads} thr: mujoco.rollout"]
             values += [b["robodyn_us_per_state_step"], b["mujoco_rollout_us_per_state_step"]]

@@ -448,7 +448,7 @@ def test_mujoco_goals_are_judged_from_the_numbers() -> None:
     data = json.loads((ROOT / "docs" / "benchmarks" / "bench_mujoco.json").read_text(encoding="utf-8"))
     paths = data["systems"]["panda"]["single"]["paths"]
     mine = paths["robodyn_simulate_compiled"]["us_per_step"]
-    row = "| Panda single trajectory vs MuJoCo RK4, equal error | ≥ 2× | {} | {} |"
+    row = "| Panda single trajectory vs MuJoCo RK4, equal error | off | – | ≥ 2× | {} | {} |"
     paths["mujoco_rk4_c_loop"]["us_per_step"] = 1.5 * mine
     assert row.format("1.5×", "**not met**") in hook._mujoco(data)
     paths["mujoco_rk4_c_loop"]["us_per_step"] = 2.5 * mine
@@ -457,7 +457,8 @@ def test_mujoco_goals_are_judged_from_the_numbers() -> None:
     overhead["simulate_call_over_compiled_loop"] = 1.4
     text = hook._mujoco(data)
     assert (
-        "| talos: `robodyn.simulate` with the ledger vs its own compiled loop | ≤ 1.3× | 1.4× | **not met** |" in text
+        "| talos: `robodyn.simulate` with the ledger vs its own compiled loop | off | – | ≤ 1.3× | 1.4× | **not met** |"
+        in text
     )
     assert "not met: " in text.splitlines()[-1]
 
@@ -477,7 +478,30 @@ def test_the_readmes_speed_table_is_the_saved_benchmarks() -> None:
     paths["mujoco_rk4_c_loop"]["us_per_step"] = 1.5 * paths["robodyn_simulate_compiled"]["us_per_step"]
     text = hook.readme_speed(data, data)
     assert (
-        "| Panda single trajectory vs MuJoCo RK4, equal error | ≥ 2× | 1.5× (**not met**) | 1.5× (**not met**) |"
-        in text
+        "| Panda single trajectory vs MuJoCo RK4, equal error | off | – | ≥ 2× | 1.5× (**not met**) "
+        "| 1.5× (**not met**) |" in text
     )
-    assert "figures miss their target." in text.splitlines()[-1]
+    assert "figures with a target miss it" in text.splitlines()[-1]
+
+
+def test_the_speed_table_shows_the_stops_on_run_beside_the_stops_off_one() -> None:
+    """Each robot's stops-on row: its own timings (not the stops-off ones), robodyn's impacts and MuJoCo's
+    limit activations; a file without that run says so rather than borrow a figure."""
+    import copy
+    import json
+
+    hook = _hook()
+    data = json.loads((ROOT / "docs" / "benchmarks" / "bench_mujoco.json").read_text(encoding="utf-8"))
+    label = "Panda single trajectory vs MuJoCo RK4 with its limits"
+    without = hook.readme_speed(data, data)
+    assert f"| {label} | on | – | ≥ 2× | not measured | not measured |" in without
+    panda = data["systems"]["panda"]
+    on = copy.deepcopy(panda["single"])  # a stops-on run four times slower than the stops-off one, 0.5× MuJoCo
+    on["paths"]["robodyn_simulate_compiled"]["us_per_step"] *= 4.0
+    on["paths"]["mujoco_rk4_c_loop"]["us_per_step"] = 2.0 * on["paths"]["robodyn_simulate_compiled"]["us_per_step"]
+    on["paths"]["mujoco_rk4_c_loop"]["us_per_step"] /= 4.0
+    on |= {"stops": "on", "impacts": 29, "mujoco_limit_activations": 31}
+    panda["single_stops_on"] = on
+    text = hook.readme_speed(data, data)
+    assert f"| {label} | on | 29 / 31 | ≥ 2× | 0.5× (**not met**) | 0.5× (**not met**) |" in text
+    assert "| Panda single trajectory vs MuJoCo RK4, equal error | off | – | ≥ 2× |" in text

@@ -104,3 +104,32 @@ def test_momentum_rate_law_holds_for_the_formula_set(kind):
         law = tau + formula.coriolis_matrix(q, v, p).T @ v - formula.gravity(q, p)
         expected, scale = _momentum_rate_oracle(robot, q, v, tau)
         np.testing.assert_allclose(law, expected, rtol=0, atol=MOMENTUM_RTOL * scale)
+
+
+def test_the_python_pipeline_is_the_bare_rk4_loop():
+    """simulate(backend="aba", rk4) on a torque-free Pendubot is a hand-written pin.aba RK4 loop, to the bit.
+
+    The loop below is the oracle (the one benchmarks/bench_overhead.py times): the stages of the
+    system, the stop watch and the records add no arithmetic to the motion.
+    """
+    import pinocchio as pin
+
+    robot = robodyn.load("pendubot")
+    q0, v0 = robot.random_state(np.random.default_rng(SEED), speed=1.0)
+    traj = robodyn.simulate(robot, q0, v0, duration=0.2, dt=DT, integrator="rk4", backend="aba")
+    model, data = robot.model, robot.model.createData()
+    tau = np.zeros(robot.nv)
+    q, v = q0.copy(), v0.copy()
+    h, h2, h6 = DT, 0.5 * DT, DT / 6.0
+    for k in range(traj.t.size - 1):
+        a1 = pin.aba(model, data, q, v, tau).copy()
+        v2 = v + h2 * a1
+        a2 = pin.aba(model, data, q + h2 * v, v2, tau).copy()
+        v3 = v + h2 * a2
+        a3 = pin.aba(model, data, q + h2 * v2, v3, tau).copy()
+        v4 = v + h * a3
+        a4 = pin.aba(model, data, q + h * v3, v4, tau).copy()
+        q = q + h6 * (v + 2.0 * (v2 + v3) + v4)
+        v = v + h6 * (a1 + 2.0 * (a2 + a3) + a4)
+        np.testing.assert_array_equal(traj.q[k + 1], q)  # identical arithmetic: exact
+        np.testing.assert_array_equal(traj.v[k + 1], v)

@@ -19,6 +19,13 @@ there, so an adaptive method never reuses rates from before a velocity jump). Af
 a loop whose residual exceeds ``PROJECT_ABOVE`` is projected back (:mod:`robodyn.sim.loops`).
 On a robot without stops in range and without loops, ``advance`` is the integrator's own: the
 arithmetic of an unconstrained run is untouched.
+
+The stages of ``advance``, in order: **step** (the integrator's own), **classify** how the step
+ended (clear of every stop, or which event functions went negative: :meth:`EventStepper._events`),
+**locate** the first event (:meth:`EventStepper._locate`), **take** it (the impact, then the held
+set made consistent: :meth:`EventStepper._take`), and step on from there. The set of held stops
+(limited joint k -> side) flows through these stages as an argument and a returned value; each
+stage that changes it tells the system (``system.hold``), whose constraint solve reads it.
 """
 
 from __future__ import annotations
@@ -63,6 +70,10 @@ FORCE_NOISE_RTOL = 1e-12
 # Impacts kept in the metadata (the count is always exact).
 IMPACTS_KEPT = 200
 
+# What the events have done at a point of the run (EventStepper.mark): impacts, releases, impacts kept,
+# projections, work_limits [J] and the held stops.
+Mark = tuple[int, int, int, int, float, dict[int, int]]
+
 
 @dataclass(frozen=True)
 class ImpactRecord:
@@ -104,17 +115,34 @@ class EventStepper(Stepper):
         self.projections = 0
         self._steps = 0
         self._rejected = 0
-        if self.stops.empty and system.loops is None:
-            self.advance = self.inner.advance  # type: ignore[method-assign]
+        # Fixed at construction: with no stop in range and no loop there is no event to watch.
+        self._watching = not (self.stops.empty and system.loops is None)
+        self._loops = system.loops
+        # The bounds as Python floats: comparing a handful of scalars beats two NumPy reductions.
+        self._lower_list, self._upper_list = self._lower_in.tolist(), self._upper_in.tolist()
+        iq = self.stops.iq
+        self._iq: NDArray[np.intp] | None = None if np.array_equal(iq, np.arange(system.nq)) else iq
+        # The last configuration found clear of every stop (q arrays are never written in place).
+        self._clear_q: Array | None = None
+        self._mark: Mark | None = None  # the last mark, until an event changes it (see :meth:`mark`)
 
-    def mark(self) -> tuple[int, int, int, int, float, dict[int, int]]:
-        """What the events have done so far: counts, impacts kept, the held stops (for :meth:`rewind`)."""
-        held = dict(self.system.held)
-        return self.n_impacts, self.n_releases, len(self.impacts), self.projections, self.work_limits, held
+    def mark(self) -> Mark:
+        """What the events have done so far: counts, impacts kept, the held stops (for :meth:`rewind`).
 
-    def rewind(self, mark: tuple[int, int, int, int, float, dict[int, int]], q: Array) -> None:
+        Asked after every step: the last mark is kept until an event step or a projection (which
+        drop it) or a new held set (``system.hold`` replaces the dict, never edits it).
+        """
+        mark = self._mark
+        if mark is None or mark[5] is not self.system.held:
+            held = self.system.held
+            mark = self.n_impacts, self.n_releases, len(self.impacts), self.projections, self.work_limits, held
+            self._mark = mark
+        return mark
+
+    def rewind(self, mark: Mark, q: Array) -> None:
         """Forget the events after ``mark`` (steps taken past a failure); q is the configuration kept last."""
         self.n_impacts, self.n_releases, kept, self.projections, self.work_limits, held = mark
+        self._mark = None
         del self.impacts[kept:]
         if held != self.system.held:
             self.system.hold(held, q)
@@ -154,18 +182,24 @@ class EventStepper(Stepper):
 
     # ------------------------------------------------------------------ the step
     def _clear(self, q: Array) -> bool:
-        """True when every limited joint is clear of its stops at q (farther than the tolerance)."""
-        x = q[self.stops.iq]
-        return bool((x > self._lower_in).all() and (x < self._upper_in).all())
+        """True when every limited joint is clear of its stops at q (farther than the tolerance; NaN is not)."""
+        x = (q if self._iq is None else q[self._iq]).tolist()
+        return all(map(float.__lt__, self._lower_list, x)) and all(map(float.__lt__, x, self._upper_list))
 
     def advance(self, t: float, q: Array, u: Array, h: float) -> tuple[Array, Array, Array | None]:
         """Move (q, u) from t to t + h [s], taking every event inside the step."""
-        if not self.system.held and self._clear(q):  # the common case: free at both ends of the step
-            q1, u1, k = self.inner.advance(t, q, u, h)
-            if self._clear(q1):
-                return (*self._close_loops(t + h, q1, u1), k)
+        if not self._watching:  # nothing to watch: the integrator's own step
+            return self.inner.advance(t, q, u, h)
+        if self.system.held or not (q is self._clear_q or self._clear(q)):
+            return self._events_in_step(t, q, u, h, None)
+        q1, u1, k = self.inner.advance(t, q, u, h)  # the common case: free at the step's start...
+        x = (q1 if self._iq is None else q1[self._iq]).tolist()  # :meth:`_clear`, inline on the hot path
+        if not (all(map(float.__lt__, self._lower_list, x)) and all(map(float.__lt__, x, self._upper_list))):
             return self._events_in_step(t, q, u, h, (q1, u1, k))
-        return self._events_in_step(t, q, u, h, None)
+        self._clear_q = q1  # ...and at its end
+        if self._loops is None:
+            return q1, u1, k
+        return (*self._close_loops(t + h, q1, u1, {}), k)
 
     def _events_in_step(
         self, t: float, q: Array, u: Array, h: float, first: tuple[Array, Array, Array | None] | None
@@ -173,8 +207,10 @@ class EventStepper(Stepper):
         """The step from t to t + h with its events; ``first`` is the step already taken from (t, q, u)."""
         t_stop = t + h
         k_start: Array | None = None
+        self._mark = None  # the events below change what the run has done
+        held = self.system.held
         if first is None:
-            q, u = self._touch(t, q, u, h)
+            q, u, held = self._touch(t, q, u, h, held)
         remaining = h  # the step as asked (t + h - t is not always h in floating point)
         for _ in range(MAX_EVENTS_PER_STEP):
             if first is not None:
@@ -183,39 +219,35 @@ class EventStepper(Stepper):
                 q1, u1, k = self.inner.advance(t, q, u, remaining)
             if k_start is None:
                 k_start = k
-            watch = self._events(t + remaining, q1, u1)
+            watch = self._events(t + remaining, q1, u1, held)  # classify how the step ended
             if not watch:
-                return (*self._close_loops(t_stop, q1, u1), k_start)
-            s, q, u = self._locate(t, q, u, remaining, q1, u1, watch)
+                return (*self._close_loops(t_stop, q1, u1, held), k_start)
+            s, q, u = self._locate(t, q, u, remaining, q1, u1, watch, held)
             t = t_stop if remaining - s <= self._floor(t_stop, h) else t + s
-            q, u = self._take(t, q, u, h)
+            q, u, held = self._take(t, q, u, h, held)  # take the event
             self._restart(t, q, u)
             if t >= t_stop:
-                return (*self._close_loops(t_stop, q, u), k_start)
+                return (*self._close_loops(t_stop, q, u, held), k_start)
             remaining = t_stop - t
-        joints = ", ".join(
-            sorted({self.stops.names[k] for k in self.system.held} | {r.joint for r in self.impacts[-3:]})
-        )
+        joints = ", ".join(sorted({self.stops.names[k] for k in held} | {r.joint for r in self.impacts[-3:]}))
         raise StepError(
             f"more than {MAX_EVENTS_PER_STEP} stop events within one step at t = {t:.6g} s ({joints})",
             time=t,
             reason=f"more than {MAX_EVENTS_PER_STEP} stop events within one step at joint(s) {joints} (chattering)",
         )
 
-    def _events(self, t: float, q: Array, u: Array) -> dict[tuple[int, int], float]:
+    def _events(self, t: float, q: Array, u: Array, held: dict[int, int]) -> dict[tuple[int, int], float]:
         """The event functions that are negative at (t, q, u): stops crossed, held stops pulling."""
-        held = self.system.held
         rows = self.stops.crossed(q, held) + [(k, side) for k, side in held.items()]
-        values = self._values(t, q, u, rows)
+        values = self._values(t, q, u, rows, held)
         return {row: value for row, value in zip(rows, values, strict=True) if value < 0}
 
-    def _values(self, t: float, q: Array, u: Array, rows: list[tuple[int, int]]) -> list[float]:
+    def _values(self, t: float, q: Array, u: Array, rows: list[tuple[int, int]], held: dict[int, int]) -> list[float]:
         """The event functions of ``rows`` at (t, q, u); each crosses 0 exactly where its event happens.
 
         A free row: gap + tolerance (negative once the joint is past its stop); a held row:
         its stop force + RELEASE_TOL (negative once the stop pulls).
         """
-        held = self.system.held
         f = self.system.stop_forces(t, q, u) if any(k in held for k, _ in rows) else None
         tol = self.stops.tolerance()
         out = []
@@ -235,6 +267,7 @@ class EventStepper(Stepper):
         q1: Array,
         u1: Array,
         watch: dict[tuple[int, int], float],
+        held: dict[int, int],
     ) -> tuple[float, Array, Array]:
         """The first instant s in [0, h] where a watched function reaches 0; the state there (just past it).
 
@@ -243,16 +276,16 @@ class EventStepper(Stepper):
         rows = list(watch)
         scale = np.array([abs(watch[r]) for r in rows])
         scale[scale == 0] = 1.0
-        f_start = float(np.min(np.array(self._values(t, q, u, rows)) / scale))
+        f_start = float(np.min(np.array(self._values(t, q, u, rows, held)) / scale))
         if f_start <= 0:  # already there at the start: take it now
             return 0.0, q, u
         # Past zero by less than this (per row, in units of its scale) is past it: a relative
         # 1e-13 of the value at the step's end, or, for a held row, the round-off of its force.
-        close = np.maximum(LOCATE_FTOL, self._force_noise(t, q, u, rows) / scale)
+        close = np.maximum(LOCATE_FTOL, self._force_noise(t, q, u, rows, held) / scale)
 
         def F(s: float) -> tuple[float, bool, Array, Array]:
             qs, us = self._trial(t, q, u, s)
-            f = np.array(self._values(t + s, qs, us, rows)) / scale
+            f = np.array(self._values(t + s, qs, us, rows, held)) / scale
             i = int(np.argmin(f))
             return float(f[i]), bool(-close[i] <= f[i] < 0), qs, us
 
@@ -278,13 +311,12 @@ class EventStepper(Stepper):
                 side = 1
         return hi, q_hi, u_hi
 
-    def _force_noise(self, t: float, q: Array, u: Array, rows: list[tuple[int, int]]) -> Array:
+    def _force_noise(self, t: float, q: Array, u: Array, rows: list[tuple[int, int]], held: dict[int, int]) -> Array:
         """Per row, how well its event function is known [N m | N for a held row, 0 for a gap row].
 
         A held row's stop force is sum_i M_ji a_i - force_j with a the held acceleration:
         FORCE_NOISE_RTOL x sum_i |M_ji a_i| at the step's start.
         """
-        held = self.system.held
         if not any(k in held for k, _ in rows):
             return np.zeros(len(rows))
         nv = self.system.nv
@@ -293,32 +325,37 @@ class EventStepper(Stepper):
         size = np.abs(M) @ np.abs(a)
         return np.array([FORCE_NOISE_RTOL * float(size[self.stops.iv[k]]) if k in held else 0.0 for k, _ in rows])
 
-    def _take(self, t: float, q: Array, u: Array, h: float) -> tuple[Array, Array]:
+    def _take(
+        self, t: float, q: Array, u: Array, h: float, held: dict[int, int]
+    ) -> tuple[Array, Array, dict[int, int]]:
         """At time t: the impact of the stops reached, then the held set made consistent (:meth:`_settle`)."""
-        stops, held = self.stops, self.system.held
+        stops = self.stops
         hitting = stops.crossed(q, held)
         hitting += [r for r in stops.touching(q, u[: self.system.nv], held) if r not in hitting]
         if hitting:
             q = stops.snap(q, hitting)
-            u = self._impact(t, q, u, h, hitting, stops.restitution)
-        return q, self._settle(t, q, u, h)
+            u, held = self._impact(t, q, u, h, hitting, stops.restitution, held)
+        u, held = self._settle(t, q, u, h, held)
+        return q, u, held
 
-    def _touch(self, t: float, q: Array, u: Array, h: float) -> tuple[Array, Array]:
+    def _touch(
+        self, t: float, q: Array, u: Array, h: float, held: dict[int, int]
+    ) -> tuple[Array, Array, dict[int, int]]:
         """Before a step: a joint that sits on a stop moving into it (the initial state, say) hits it now."""
         if self.stops.empty:
-            return q, u
+            return q, u, held
         x = q[self.stops.iq]
         tol = self.stops.tolerance()
         at_stop = (np.abs(x - self.stops.lower) <= tol) | (np.abs(x - self.stops.upper) <= tol)
-        if not any(at_stop[k] for k in range(x.size) if k not in self.system.held):
-            return q, u
-        q1, u1 = self._take(t, q, u, h)
+        if not any(at_stop[k] for k in range(x.size) if k not in held):
+            return q, u, held
+        q1, u1, held = self._take(t, q, u, h, held)
         if q1 is not q or u1 is not u:
             self._restart(t, q1, u1)
-        return q1, u1
+        return q1, u1, held
 
-    def _settle(self, t: float, q: Array, u: Array, h: float) -> Array:
-        """Make the held set consistent at t, one row at a time; return u.
+    def _settle(self, t: float, q: Array, u: Array, h: float, held: dict[int, int]) -> tuple[Array, dict[int, int]]:
+        """Make the held set consistent at t, one row at a time; return (u, the held set).
 
         Let go a held stop that pulls; hold a joint that sits on its stop, is pushed into it
         and would not leave it for a whole step (the small speed it has is taken by a
@@ -328,23 +365,24 @@ class EventStepper(Stepper):
         nv = system.nv
         tol = stops.tolerance()
         for _ in range(2 * stops.iq.size + 2):
-            if system.held:
+            if held:
                 f = system.stop_forces(t, q, u)
-                pull = {k: side * float(f[stops.iv[k]]) for k, side in system.held.items()}
+                pull = {k: side * float(f[stops.iv[k]]) for k, side in held.items()}
                 k = min(pull, key=lambda j: pull[j])
                 if pull[k] < -RELEASE_TOL:
-                    system.hold({j: s for j, s in system.held.items() if j != k}, q)
+                    held = {j: s for j, s in held.items() if j != k}
+                    system.hold(held, q)
                     self.n_releases += 1
                     continue
             rows = [
                 (k, side)
                 for k in range(stops.iq.size)
-                if k not in system.held
+                if k not in held
                 for side in (1, -1)
                 if abs(stops.gap(q, (k, side))) <= tol[k]
             ]
             if not rows:
-                return u
+                return u, held
             a = system.rates(t, q, u)[:nv]
             resting = {}
             for k, side in rows:
@@ -353,18 +391,20 @@ class EventStepper(Stepper):
                 if push < -RELEASE_TOL and (speed <= 0 or 2.0 * speed < -push * h):  # back within a step
                     resting[(k, side)] = push
             if not resting:
-                return u
+                return u, held
             row = min(resting, key=lambda r: resting[r])
-            u = self._rest(t, q, u, row)
-        return u
+            u, held = self._rest(t, q, u, row, held)
+        return u, held
 
-    def _rest(self, t: float, q: Array, u: Array, row: tuple[int, int]) -> Array:
-        """Bring ``row`` to rest at its stop with the held rows: a plastic impulse (booked); returns u."""
+    def _rest(
+        self, t: float, q: Array, u: Array, row: tuple[int, int], held: dict[int, int]
+    ) -> tuple[Array, dict[int, int]]:
+        """Bring ``row`` to rest at its stop with the held rows: a plastic impulse (booked); returns (u, held)."""
         system, stops = self.system, self.stops
         nv = system.nv
         M = system.mass_matrix_free(q)
         J_loops = system.loops.jacobian(q) if system.loops is not None else None
-        held_rows = list(system.held.items())
+        held_rows = list(held.items())
         result = limits.impact(M, u[:nv], stops, [], [*held_rows, row], J_loops, plastic=True)
         self.work_limits += result.energy_change
         held = dict([*held_rows, row])
@@ -372,12 +412,19 @@ class EventStepper(Stepper):
         u[:nv] = result.v
         u[stops.iv[list(held)]] = 0.0
         system.hold(held, q)
-        return u
+        return u, held
 
     def _impact(
-        self, t: float, q: Array, u: Array, h: float, hitting: list[tuple[int, int]], restitution: float
-    ) -> Array:
-        """The impulse of ``hitting`` (restitution e) with the held rows (and loops) holding; returns u.
+        self,
+        t: float,
+        q: Array,
+        u: Array,
+        h: float,
+        hitting: list[tuple[int, int]],
+        restitution: float,
+        held: dict[int, int],
+    ) -> tuple[Array, dict[int, int]]:
+        """The impulse of ``hitting`` (restitution e) with the held rows (and loops) holding; returns (u, held).
 
         A row whose rebound would land again within the step h is held instead (e = 0 for it).
         """
@@ -385,7 +432,7 @@ class EventStepper(Stepper):
         nv = system.nv
         M = system.mass_matrix_free(q)
         J_loops = system.loops.jacobian(q) if system.loops is not None else None
-        held_rows = list(system.held.items())
+        held_rows = list(held.items())
         v = u[:nv]
         result = limits.impact(M, v, stops, hitting, held_rows, J_loops, restitution=restitution)
         resting = [r for r in hitting if r in result.contact and self._rests(t, q, result.v, r, h, restitution)]
@@ -399,7 +446,7 @@ class EventStepper(Stepper):
         u[:nv] = result.v
         u[stops.iv[list(held)]] = 0.0
         system.hold(held, q)
-        return u
+        return u, held
 
     def _rests(self, t: float, q: Array, v: Array, row: tuple[int, int], h: float, restitution: float) -> bool:
         """True when ``row`` stays at its stop: e = 0, or its rebound would land again within one step h."""
@@ -431,15 +478,18 @@ class EventStepper(Stepper):
                     )
                 )
 
-    def _close_loops(self, t: float, q: Array, u: Array) -> tuple[Array, Array]:
-        """Project (q, v) back onto the loops when the step left a residual above ``PROJECT_ABOVE``."""
+    def _close_loops(self, t: float, q: Array, u: Array, held: dict[int, int]) -> tuple[Array, Array]:
+        """Project (q, v) back onto the loops when the step left a residual above ``PROJECT_ABOVE``.
+
+        The joints of ``held`` stay still.
+        """
         loops = self.system.loops
         if loops is None:
             return q, u
         if float(np.max(np.abs(loops.residual(q)), initial=0.0)) <= PROJECT_ABOVE:
             return q, u
         nv = self.system.nv
-        free = np.setdiff1d(np.arange(nv), self.stops.iv[list(self.system.held)]).astype(np.intp)
+        free = np.setdiff1d(np.arange(nv), self.stops.iv[list(held)]).astype(np.intp)
         q, v, left = loops.project(q, u[:nv], free)
         if not left <= 1e3 * PROJECTION_TOL:
             raise StepError(
@@ -448,6 +498,7 @@ class EventStepper(Stepper):
                 reason=f"the loop projection did not converge (residual {left:.3g} m)",
             )
         self.projections += 1
+        self._mark = None
         u = u.copy()
         u[:nv] = v
         return q, u

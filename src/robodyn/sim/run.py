@@ -12,6 +12,7 @@ outcome into a :class:`~robodyn.Trajectory` or an exception.
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -20,7 +21,7 @@ from numpy.typing import NDArray
 from robodyn.errors import StepError
 from robodyn.integrators import Integrator
 from robodyn.sim import energy
-from robodyn.sim.events import EventStepper
+from robodyn.sim.events import EventStepper, Mark
 from robodyn.sim.system import SINGULAR_MASS_RTOL, RobotSystem
 from robodyn.sim.trajectory import Trajectory
 
@@ -91,6 +92,20 @@ def diagnose(
     return cause, suggestion
 
 
+@dataclass
+class _Block:
+    """The records of one block of steps from step ``lo``: states, rates at the start, work, the events' marks."""
+
+    lo: int
+    marks: list[Mark]  # the events' marks (EventStepper.mark) at the block's start and after each step
+    qs: list[Array] = field(default_factory=list)
+    us: list[Array] = field(default_factory=list)
+    ks: list[Array | None] = field(default_factory=list)
+    work: list[tuple[int, int]] = field(default_factory=list)  # (rates, jacobian) evaluations after each step
+    failed: BaseException | None = None
+    interrupted: bool = False
+
+
 class Run:
     """One simulation: the stepping loop, the records, the divergence checks.
 
@@ -136,7 +151,7 @@ class Run:
         self._block_work: list[tuple[int, int]] = []
         # The events' marks (EventStepper.mark) at the block's start and after each of its steps,
         # to forget the impacts of steps taken past a failure in the same block.
-        self._block_marks: list[tuple[int, int, int, int, float, dict[int, int]]] = []
+        self._block_marks: list[Mark] = []
         self.work: tuple[int, int] | None = None  # evaluations spent on the kept samples, once known
         self._energies(0, 1)
         self.scale = energy.energy_scale(robot, float(self.kinetic[0]), float(self.potential[0]))
@@ -169,57 +184,63 @@ class Run:
             self.work = self._counters()
 
     def _integrate(self) -> None:
-        """Every ``CHECK_EVERY`` steps store the block and check it."""
+        """Every ``CHECK_EVERY`` steps: step the block, then store and check it (:meth:`_keep`)."""
         times = self.t.tolist()
         steps = step_sizes(self.t)
-        stepper = self.stepper
-        advance = stepper.advance
-        system = self.system
         q, u = self.Q[0].copy(), self.U[0].copy()
         n_steps = len(steps)
-        eventful = not (system.stops.empty and system.loops is None)
-        mark = stepper.mark
+        eventful = not (self.system.stops.empty and self.system.loops is None)
         with np.errstate(all="ignore"):
             for lo in range(0, n_steps, CHECK_EVERY):
-                hi = min(lo + CHECK_EVERY, n_steps)
-                qs: list[Array] = []
-                us: list[Array] = []
-                ks: list[Array | None] = []
-                wl: list[float] = []
-                work: list[tuple[int, int]] = []
-                marks = [mark()] if eventful else []
-                self._block_lo, self._block_work, self._block_marks = lo, work, marks
-                failed: BaseException | None = None
-                interrupted = False
+                block = _Block(lo, [self.stepper.mark()] if eventful else [])
+                self._block_lo, self._block_work, self._block_marks = lo, block.work, block.marks
                 try:
-                    for k in range(lo, hi):
-                        q, u, k_start = advance(times[k], q, u, steps[k])
-                        qs.append(q)
-                        us.append(u)
-                        ks.append(k_start)
-                        wl.append(stepper.work_limits)
-                        work.append((system.evaluations, system.jacobian_evaluations))
-                        if eventful:
-                            marks.append(mark())
+                    q, u = self._step(block, times, steps, min(lo + CHECK_EVERY, n_steps), q, u)
                 except (StepError, np.linalg.LinAlgError) as exc:
-                    failed = exc
+                    block.failed = exc
                 except KeyboardInterrupt:
-                    interrupted = True
-                done = lo + len(qs)
-                if failed is not None or interrupted:
-                    work.append(self._counters())  # the failed or interrupted step's work
-                self.work_limits[lo + 1 : lo + 1 + len(wl)] = wl
-                self._store(lo, qs, us, ks)
-                self._check_block(lo + 1, done + 1)
-                if self.failure is None and failed is not None:
-                    what = failed.reason if isinstance(failed, StepError) else f"the forward dynamics failed ({failed})"
-                    self._fail(done + 1, done + 1, what, during_step=True)
-                if self.failure is not None:
+                    block.interrupted = True
+                if not self._keep(block):
                     return
-                self.checked = done + 1
-                if interrupted:
-                    self._interrupt(done + 1)
-                    return
+
+    def _step(
+        self, block: _Block, times: list[float], steps: list[float], hi: int, q: Array, u: Array
+    ) -> tuple[Array, Array]:
+        """Steps block.lo .. hi - 1 into ``block``'s records; returns the last state."""
+        advance, system = self.stepper.advance, self.system
+        qs, us, ks, work, marks = block.qs, block.us, block.ks, block.work, block.marks
+        mark = self.stepper.mark if marks else None
+        for k in range(block.lo, hi):
+            q, u, k_start = advance(times[k], q, u, steps[k])
+            qs.append(q)
+            us.append(u)
+            ks.append(k_start)
+            work.append((system.evaluations, system.jacobian_evaluations))
+            if mark is not None:  # the events so far (their work_limits included)
+                marks.append(mark())
+        return q, u
+
+    def _keep(self, block: _Block) -> bool:
+        """Store ``block`` and check it; False when the run stops there (a failure or a Ctrl-C)."""
+        lo = block.lo
+        done = lo + len(block.qs)
+        if block.failed is not None or block.interrupted:
+            block.work.append(self._counters())  # the failed or interrupted step's work
+        if block.marks:
+            self.work_limits[lo + 1 : lo + len(block.marks)] = [m[4] for m in block.marks[1:]]
+        self._store(lo, block.qs, block.us, block.ks)
+        self._check_block(lo + 1, done + 1)
+        failed = block.failed
+        if self.failure is None and failed is not None:
+            what = failed.reason if isinstance(failed, StepError) else f"the forward dynamics failed ({failed})"
+            self._fail(done + 1, done + 1, what, during_step=True)
+        if self.failure is not None:
+            return False
+        self.checked = done + 1
+        if block.interrupted:
+            self._interrupt(done + 1)
+            return False
+        return True
 
     def _store(self, lo: int, qs: list[Array], us: list[Array], ks: list[Array | None]) -> None:
         """Samples lo+1 .. lo+len(qs) and the rates at samples lo .. lo+len(qs)-1."""

@@ -27,6 +27,7 @@ from __future__ import annotations
 import reprlib
 import time
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -155,6 +156,63 @@ def simulate(
     """
     duration, dt = _check_times(duration, dt)
     method = integrators.get(integrator) if isinstance(integrator, str) else integrator
+    spec = _constraint_spec(
+        constraints, limits=limits, restitution=restitution, effort_limits=effort_limits, loops=loops,
+        couplings=couplings, springs=springs,
+    )  # fmt: skip
+    if max_energy_growth is not None and not max_energy_growth > 0:
+        raise InputError(f"max_energy_growth must be > 0 or None, got {max_energy_growth!r}")
+    system = robot_system(robot, backend=backend, torque=torque, losses=losses, constraints=spec)
+    start = _initial_state(system, robot, q0, v0, method, dt)
+    setup = _Setup(start, method, _time_grid(duration, dt), rtol, atol, max_energy_growth)
+    run, check = _first_run(setup)
+    run, outcome, wall = _integrate(setup, run, backend)
+    meta = _meta(start.robot, system, method, run, dt, duration, check) | start.notes | _loop_meta(system, outcome)
+    return _result(run, wall, meta)
+
+
+@dataclass(frozen=True)
+class _Start:
+    """The run's starting point: the robot as integrated (coupled), its system, (q0, v0) inside the constraints."""
+
+    robot: Robot
+    system: RobotSystem
+    q: Array
+    v: Array
+    notes: dict[str, Any]  # what was changed or found on the way, for the metadata
+
+
+@dataclass(frozen=True)
+class _Setup:
+    """Everything a :class:`Run` is built from."""
+
+    start: _Start
+    method: Integrator
+    t_grid: Array
+    rtol: float
+    atol: float
+    max_energy_growth: float | None
+
+    def new_run(self) -> Run:
+        """A fresh run from the start (no step taken)."""
+        s = self.start
+        return Run(
+            s.robot, s.system, self.method, self.t_grid, s.q, s.v,
+            rtol=self.rtol, atol=self.atol, max_energy_growth=self.max_energy_growth,
+        )  # fmt: skip
+
+
+def _constraint_spec(
+    constraints: Constraints | None,
+    *,
+    limits: bool,
+    restitution: float,
+    effort_limits: bool,
+    loops: Sequence[Loop | Mapping[str, Any]],
+    couplings: Sequence[Coupling | Mapping[str, Any]],
+    springs: Mapping[str, Spring | Mapping[str, Any] | tuple[float, float] | float] | None,
+) -> Constraints:
+    """The constraints, from ``constraints=`` or from the keyword arguments (not both)."""
     spec = Constraints.build(
         limits=limits,
         restitution=restitution,
@@ -163,13 +221,17 @@ def simulate(
         couplings=couplings,
         springs=springs,
     )
-    if constraints is not None:
-        if not spec.is_default:
-            raise InputError("give the constraints either as constraints=... or as keyword arguments, not both")
-        spec = constraints
-    if max_energy_growth is not None and not max_energy_growth > 0:
-        raise InputError(f"max_energy_growth must be > 0 or None, got {max_energy_growth!r}")
-    system = robot_system(robot, backend=backend, torque=torque, losses=losses, constraints=spec)
+    if constraints is None:
+        return spec
+    if not spec.is_default:
+        raise InputError("give the constraints either as constraints=... or as keyword arguments, not both")
+    return constraints
+
+
+def _initial_state(
+    system: RobotSystem, robot: Robot, q0: ArrayLike, v0: ArrayLike, method: Integrator, dt: float
+) -> _Start:
+    """(q0, v0) checked, mapped to the coupled coordinates, moved inside the constraints; M(q0) checked."""
     notes: dict[str, Any] = {}
     if system.couplings is not None:
         q0, v0, mapped = system.couplings.state(q0, v0)
@@ -182,21 +244,31 @@ def simulate(
     stiff = friction_stiffness(system, method, q, dt)
     if stiff is not None:  # the run still happens; the finding is said, in the metadata and by the CLI
         notes["stiff_friction"] = stiff.describe()
-    t_grid = _time_grid(duration, dt)
+    return _Start(robot, system, q, v, notes)
 
-    def new_run() -> Run:
-        return Run(robot, system, method, t_grid, q, v, rtol=rtol, atol=atol, max_energy_growth=max_energy_growth)
 
+def _first_run(setup: _Setup) -> tuple[Run, energy.EnergyCheck]:
+    """The run, with its initial energies (refused when not finite), and the energy cross-check at q0."""
+    start = setup.start
     with np.errstate(over="ignore", invalid="ignore"):  # an overflowing state is refused just below
-        check = energy.cross_check(robot, q, v)
-        run = new_run()
+        check = energy.cross_check(start.robot, start.q, start.v)
+        run = setup.new_run()
     e0 = (float(run.kinetic[0]), float(run.potential[0]))
     if not np.all(np.isfinite(e0)):  # not a divergence: no step was taken
         raise InputError(
             f"the initial energy is not finite (T0 = {e0[0]:.6g} J, V0 = {e0[1]:.6g} J): q0 or v0 is too large "
             "for float64 arithmetic; expected a state whose energy is a finite number"
         )
-    plan = whole_run.prepare(system, method) if backend in (None, "numba") else None
+    return run, check
+
+
+def _integrate(setup: _Setup, run: Run, backend: str | None) -> tuple[Run, whole_run.Outcome | None, float]:
+    """Take the steps: in the compiled loop where it applies (and ran), else in ``run``'s Python loop.
+
+    Returns the run that holds the steps, the compiled loop's outcome (None: not asked) and the wall time [s].
+    """
+    system = setup.start.system
+    plan = whole_run.prepare(system, setup.method) if backend in (None, "numba") else None
     start = time.perf_counter()
     outcome = None
     if isinstance(plan, str):
@@ -204,11 +276,14 @@ def simulate(
     elif plan is not None:  # the whole run in the compiled loop
         outcome = whole_run.attempt(plan, system, run)
         if not outcome.ran:
-            run = new_run()
+            run = setup.new_run()
     if outcome is None or not outcome.ran:
         run.integrate()
-    meta = _meta(robot, system, method, run, dt, duration, check) | notes | _loop_meta(system, outcome)
-    wall = time.perf_counter() - start
+    return run, outcome, time.perf_counter() - start
+
+
+def _result(run: Run, wall: float, meta: dict[str, Any]) -> Trajectory:
+    """The trajectory, or the exception that carries it (a divergence, a Ctrl-C)."""
     try:
         trajectory = run.trajectory(wall, meta)
     except KeyboardInterrupt:  # the run is computed: keep it, then answer the Ctrl-C

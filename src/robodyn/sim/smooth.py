@@ -10,6 +10,7 @@ one compiled loop (:mod:`robodyn.sim.whole_run`), which :func:`robodyn.simulate`
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
@@ -45,9 +46,9 @@ def backend_function(
     """The forward-dynamics function a(q, v, tau) of backend ``name``."""
     model, data = robot.model, robot.data
     if name == "aba":
-        return lambda q, v, tau: dynamics.aba(model, data, q, v, tau)
+        return dynamics.aba_function(model, data)
     if name == "crba":
-        return lambda q, v, tau: dynamics.crba_solve(model, data, q, v, tau)
+        return functools.partial(dynamics.crba_solve, model, data)
     if name == "numba":
         return compiled_function(robot)
     if name == "formula" and formula is not None:

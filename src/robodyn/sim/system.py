@@ -95,7 +95,7 @@ class RobotSystem:
     :func:`robot_system`. ``evaluations`` counts ``rates`` calls (each one forward
     dynamics), ``jacobian_evaluations`` the ABA-derivative calls of implicit methods.
     ``held`` maps each stop row held by the run (limited joint k -> side) and is changed
-    only through :meth:`hold`, which re-picks the ``rates`` path.
+    only through :meth:`hold`, which also sets the rows the constraint solve locks.
     """
 
     robot: Robot
@@ -136,17 +136,10 @@ class RobotSystem:
         self._held_iv = np.zeros(0, dtype=np.intp)
         self._free_iv = np.arange(self.nv, dtype=np.intp)
         self._commanded = self.command if self.command is not None else self.torque.constant
-        self._choose_rates()
-
-    def _choose_rates(self) -> None:
-        """The ``rates`` path: the bare ones when nothing but the smooth dynamics is left to compute."""
-        plain = not (self._sprung or self._held_iv.size or self.loops is not None)
-        if self.nw == 0 and plain:  # nothing to book: u is v, and the rates are the acceleration alone
-            self.rates = self._rates_free_aba if self.backend == "aba" else self._rates_free  # type: ignore[method-assign]
-        elif self.nw == 0:
-            self.rates = self._rates_conservative  # type: ignore[method-assign]
-        else:
-            self.rates = self._rates  # type: ignore[method-assign]
+        # Fixed at construction: with no works to book (u is v), no springs and no loops, the rates
+        # are the smooth acceleration alone while no stop is held (``_bare``, kept by :meth:`hold`).
+        self._smooth_only = self.nw == 0 and not self._sprung and self.loops is None
+        self._bare = self._smooth_only
 
     @property
     def constrained(self) -> bool:
@@ -158,10 +151,10 @@ class RobotSystem:
         self.held = dict(held)
         self._held_iv = np.array(sorted(self.stops.iv[k] for k in held), dtype=np.intp)
         self._free_iv = np.setdiff1d(np.arange(self.nv), self._held_iv).astype(np.intp)
+        self._bare = self._smooth_only and not self._held_iv.size
         if self.loops is not None:
             ids = tuple(sorted(int(self._model.getJointId(self.stops.names[k])) for k in held))
             self.loops.hold(q, ids)
-        self._choose_rates()
 
     # ------------------------------------------------------------------ stages
     def input_torque(self, t: float, q: Array, v: Array) -> Array:
@@ -235,21 +228,23 @@ class RobotSystem:
         return limits.hold(self.mass_matrix_free(q), self._force(q, v, tau), self._held_iv, self._free_iv)[1]
 
     # ------------------------------------------------------------------ SecondOrderProblem
-    def _rates_free(self, t: float, q: Array, u: Array) -> Array:
-        self.evaluations += 1
-        return self._forward(q, u, self._zero)
+    def rates(self, t: float, q: Array, u: Array) -> Array:
+        """du/dt at (t, q, u): [a] when u is v, [a, P_input, P_damping] when the works are booked.
 
-    def _rates_free_aba(self, t: float, q: Array, u: Array) -> Array:
+        One fixed dispatch, no path swapped at run time: with works to book, the stages of
+        :meth:`booked_rates`; with nothing but the smooth dynamics (no springs, no loops, no
+        stop held now), the backend alone; otherwise the springs' torque into the smooth
+        acceleration and the constraint solve.
+        """
         self.evaluations += 1
-        return dynamics.aba(self._model, self._data, q, u, self._zero)
-
-    def _rates_conservative(self, t: float, q: Array, u: Array) -> Array:
-        self.evaluations += 1
+        if self._bare:  # u is v, and the rates are the acceleration alone
+            return self._forward(q, u, self._zero)
+        if self.nw:
+            return self.booked_rates(t, q, u)
         return self.acceleration(t, q, u, self.spring_torque(q))
 
-    def _rates(self, t: float, q: Array, u: Array) -> Array:
-        """du/dt = [a, P_input, P_damping] at (t, q, u): the stages of one step, in order."""
-        self.evaluations += 1
+    def booked_rates(self, t: float, q: Array, u: Array) -> Array:
+        """[a, P_input, P_damping] at (t, q, u) (nv + 2,): the stages of one step, in order (not counted)."""
         nv = self.nv
         v = u[:nv]
         tau_in = self.input_torque(t, q, v)  # actuation, clamped at the efforts
@@ -262,10 +257,6 @@ class RobotSystem:
         out[nv] = tau_in @ v
         out[nv + 1] = tau_loss @ v
         return out
-
-    def rates(self, t: float, q: Array, u: Array) -> Array:
-        """du/dt = [a, P_input, P_damping] at (t, q, u) (replaced per instance by the path that applies)."""
-        return self._rates(t, q, u)  # pragma: no cover
 
     def mass_matrix_free(self, q: Array) -> Array:
         """M(q) [kg m^2 | kg] (nv, nv) from the backend (CRBA, or the formula), armature included."""

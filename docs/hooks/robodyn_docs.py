@@ -747,6 +747,37 @@ def _fuzz(data: dict[str, Any]) -> str:
     out += [f"| {name} | {count} |" for name, count in data["violations"].items()]
     out += ["", "| kind of case | cases | with a problem |", "|---|---:|---:|"]
     out += [f"| {kind} | {v['cases']} | {v['problems']} |" for kind, v in data["by_kind"].items()]
+    table = data.get("table") or {}
+    if table:  # one row per family of files, as the campaign prints it
+        columns = list(next(iter(table.values())))
+        out += ["", "| family | " + " | ".join(columns) + " |", "|---|" + "---:|" * len(columns)]
+        out += [f"| {family} | " + " | ".join(str(row[c]) for c in columns) + " |" for family, row in table.items()]
+    return "\n".join(out) + "\n"
+
+
+def _fuzz_interrupts(data: dict[str, Any]) -> str:
+    """Per command: trials, what was found, and how the trials ended."""
+    table = data["table"]
+    findings = ("lost result", "leftover process", "traceback", "not one line", "start-up traceback")
+    exits = sorted({k for row in table.values() for k in row if k.startswith("exit ")}, key=lambda k: int(k[5:]))
+    out = [
+        "| command | trials | " + " | ".join(findings) + " | " + " | ".join(exits) + " |",
+        "|---|---:|" + "---:|" * (len(findings) + len(exits)),
+    ]
+    out += [
+        f"| {name} | {row['trials']} | "
+        + " | ".join(str(row[f]) for f in findings)
+        + " | "
+        + " | ".join(str(row.get(e, 0)) for e in exits)
+        + " |"
+        for name, row in table.items()
+    ]
+    found = sum(table["all"][f] for f in findings)
+    out += [
+        "",
+        f"{table['all']['trials']} trials; {found} with a finding"
+        + (": see the data below." if found else " (exit -9: ended by the SIGKILL itself)."),
+    ]
     return "\n".join(out) + "\n"
 
 
@@ -818,6 +849,7 @@ RENDERERS: dict[str, Callable[[dict[str, Any]], str]] = {
     "sweep": _sweep,
     "textbook": _textbook,
     "fuzz": _fuzz,
+    "fuzz_interrupts": _fuzz_interrupts,
     "world_urdfs": _world_urdfs,
 }
 

@@ -37,7 +37,7 @@ from robodyn.kinds.params import detect_kind
 from robodyn.model.load import PASSIVE_JOINT
 from robodyn.model.load import load as load_model
 from robodyn.sweep import measures
-from robodyn.sweep.chunk import Job, controller_of, upright_of
+from robodyn.sweep.chunk import Job, controller_of, cuda_refusal, upright_of
 from robodyn.sweep.engine import check_cluster, run_chunks
 from robodyn.sweep.plan import Chunk, Plan, Setting, make_plan, settings
 from robodyn.sweep.source import (
@@ -176,7 +176,9 @@ def prepare(
         if measures.is_user(m):
             measures.load_user_measure(m)
     models = _models(spec, model, robot, kind, out)
-    job = Job(spec.duration, spec.measures, gains_json, spec.seed, robot.joint_names)
+    job = Job(spec.duration, spec.measures, gains_json, spec.seed, robot.joint_names, spec.device)
+    if spec.device == "cuda":
+        _check_cuda(spec, models, gains_json)
     return Prepared(spec, make_plan(spec, robot.joint_names, models, defaults=(q_default, v_default)), job, out)
 
 
@@ -213,6 +215,24 @@ def run(
         on_chunk=on_chunk,
     )
     return SweepResult(prepared.out, computed, len(prepared.plan.chunks) - computed, prepared.plan, store)
+
+
+def _check_cuda(spec: SweepSpec, models: Mapping[Setting, Model], gains: str) -> None:
+    """Refuse a ``device = "cuda"`` sweep that has a setting the GPU path cannot run, or no GPU, before any work.
+
+    Raises:
+        InputError: naming the setting's integrator or controller and what the GPU path takes.
+        MissingDependencyError, UnavailableError: numba's CUDA target or a GPU missing.
+    """
+    for setting, model in models.items():
+        refusal = cuda_refusal(
+            model, setting.integrator, controller_of(model, setting.controller, gains), spec.measures
+        )
+        if refusal:
+            raise InputError(f"{spec.source}: device cuda: {refusal}")
+    from robodyn.sim import cuda_batch
+
+    cuda_batch.cuda_module()
 
 
 def _scene(spec: SweepSpec, read_scene: SceneReader | None) -> SceneSource | None:

@@ -1,0 +1,180 @@
+"""The built-in kinds' batch rollout on an NVIDIA GPU: the same closed form, compiled by numba's CUDA target.
+
+One GPU thread advances one state of the batch through every step of classic RK4 at a fixed
+``dt``, in float64, with no torque (as :func:`robodyn.sim.batch.rollout` on the CPU). The closed
+forms are not written here: ``cuda.jit(device=True)`` compiles each kind's own four scalar
+functions (``mass``, ``coriolis``, ``gravity`` of :mod:`robodyn.kinds.pendubot`,
+:mod:`~robodyn.kinds.cart_pole`, :mod:`~robodyn.kinds.geared_arm`) and
+:func:`robodyn.kinds.formula.solve_2x2`, the functions :mod:`robodyn.sim.fast` hands to
+``numba.njit``. The step's arithmetic is the CPU kernel's (``batch_rk4`` in :mod:`robodyn.sim.fast`)
+term for term, so the two paths agree to round-off (to the bit in numba's CUDA simulator).
+
+Each thread also keeps the smallest and largest value of each coordinate it passed through, so
+that a caller can tell which runs left the URDF's position limits on the way (the sweep hands
+those to :func:`robodyn.simulate`, which stops them there).
+
+This module needs only NumPy, numba's CUDA target and :mod:`robodyn.kinds` (no Pinocchio): a
+GPU worker runs it from a kind's name and parameter vector (``benchmarks/bench_gpu.py --run``).
+It is imported only when ``device="cuda"`` is asked for; ``numba.cuda`` loads on first use.
+
+Setting ``NUMBA_ENABLE_CUDASIM=1`` before numba is first imported runs the same kernels in
+numba's CUDA simulator on the CPU (slow: a Python thread per state), as the tests do.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from functools import cache
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robodyn.errors import InputError, MissingDependencyError, UnavailableError
+from robodyn.kinds.formula import solve_2x2
+from robodyn.kinds.formulas import closed_form
+
+Array = NDArray[np.float64]
+
+# The kinds that run on the GPU, as in robodyn.sim.fast.
+CUDA_KINDS = ("pendubot", "cart_pole", "geared_arm")
+# Threads per CUDA block: a multiple of the warp (32); each thread holds a dozen float64 registers.
+THREADS_PER_BLOCK = 128
+NO_GPU = (
+    "device cuda: no CUDA GPU found (numba.cuda.is_available() is False); "
+    "run without --device cuda or on a machine with an NVIDIA GPU"
+)
+
+# numba.cuda, set by cuda_module(). The kernels reach it as a module global: numba's CUDA
+# simulator patches a kernel's globals, not the names a closure captured.
+cuda: Any = None
+
+
+def cuda_module() -> Any:
+    """``numba.cuda`` once a GPU (or numba's CUDA simulator) is there.
+
+    Raises:
+        MissingDependencyError: numba's CUDA target does not import (exit 4: install the ``cuda`` extra).
+        UnavailableError: it imports but finds no CUDA GPU (exit 5).
+    """
+    global cuda
+    if cuda is None:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            if not hasattr(np, "row_stack"):  # numba-cuda still overloads np.row_stack, gone from numpy 2.5
+                np.row_stack = np.vstack  # type: ignore[attr-defined]
+            try:
+                from numba import cuda as module
+            except ImportError as exc:
+                raise MissingDependencyError(
+                    f"device cuda: numba's CUDA target does not import ({exc}); pip install 'robodyn[cuda]'"
+                ) from None
+        cuda = module
+    if not cuda.is_available():
+        raise UnavailableError(NO_GPU)
+    return cuda
+
+
+def device_name() -> str:
+    """The GPU's name (``"simulator"`` in numba's CUDA simulator)."""
+    module = cuda_module()
+    if getattr(module, "simulator", None) is not None or not hasattr(module, "get_current_device"):
+        return "numba CUDA simulator"
+    name = module.get_current_device().name
+    return name.decode() if isinstance(name, bytes) else str(name)
+
+
+@cache
+def rk4_kernel(kind: str) -> Any:
+    """The CUDA kernel ``(p, b, nv, Q, V, qmin, qmax, dt, steps)`` of one built-in kind (compiled on first launch)."""
+    if kind not in CUDA_KINDS:
+        raise InputError(f"device cuda: kind {kind!r} has no GPU kernel; expected one of {', '.join(CUDA_KINDS)}")
+    module = cuda_module()
+    form = closed_form(kind)
+    device = module.jit(device=True)
+    mass, coriolis, gravity, solve = (device(f) for f in (form.mass, form.coriolis, form.gravity, solve_2x2))
+
+    if form.dof == 2:
+
+        @device
+        def acc(p, b, q0, q1, v0, v1):  # type: ignore[no-untyped-def]
+            m11, m12, m22 = mass(p, q0, q1)
+            c11, c12, c21, c22 = coriolis(p, q0, q1, v0, v1)
+            g0, g1 = gravity(p, q0, q1)
+            r0 = 0.0 - b[0] * v0 - (c11 * v0 + c12 * v1) - g0
+            r1 = 0.0 - b[1] * v1 - (c21 * v0 + c22 * v1) - g1
+            return solve(m11, m12, m22, r0, r1)
+
+    else:
+
+        @device
+        def acc(p, b, q0, q1, v0, v1):  # type: ignore[no-untyped-def]
+            m = mass(p, q0)[0]
+            return (0.0 - b[0] * v0 - coriolis(p, q0, v0)[0] * v0 - gravity(p, q0)[0]) / m, 0.0
+
+    @module.jit
+    def kernel(p, b, nv, Q, V, qmin, qmax, dt, n):  # type: ignore[no-untyped-def]
+        r = cuda.grid(1)
+        if r >= Q.shape[0]:
+            return
+        h = dt
+        q0, q1, v0, v1 = Q[r, 0], Q[r, 1], V[r, 0], V[r, 1]
+        lo0, lo1, hi0, hi1 = q0, q1, q0, q1
+        for _ in range(n):
+            a0, a1 = acc(p, b, q0, q1, v0, v1)
+            b0, b1 = acc(p, b, q0 + 0.5 * h * v0, q1 + 0.5 * h * v1, v0 + 0.5 * h * a0, v1 + 0.5 * h * a1)
+            w0 = v0 + 0.5 * h * a0
+            w1 = v1 + 0.5 * h * a1
+            c0, c1 = acc(p, b, q0 + 0.5 * h * w0, q1 + 0.5 * h * w1, v0 + 0.5 * h * b0, v1 + 0.5 * h * b1)
+            x0 = v0 + 0.5 * h * b0
+            x1 = v1 + 0.5 * h * b1
+            d0, d1 = acc(p, b, q0 + h * x0, q1 + h * x1, v0 + h * c0, v1 + h * c1)
+            y0 = v0 + h * c0
+            y1 = v1 + h * c1
+            q0 = q0 + h / 6.0 * (v0 + 2.0 * w0 + 2.0 * x0 + y0)
+            q1 = q1 + h / 6.0 * (v1 + 2.0 * w1 + 2.0 * x1 + y1)
+            v0 = v0 + h / 6.0 * (a0 + 2.0 * b0 + 2.0 * c0 + d0)
+            v1 = v1 + h / 6.0 * (a1 + 2.0 * b1 + 2.0 * c1 + d1)
+            if nv == 1:
+                q1 = 0.0
+                v1 = 0.0
+            lo0 = min(lo0, q0)
+            lo1 = min(lo1, q1)
+            hi0 = max(hi0, q0)
+            hi1 = max(hi1, q1)
+        Q[r, 0], Q[r, 1], V[r, 0], V[r, 1] = q0, q1, v0, v1
+        qmin[r, 0], qmin[r, 1], qmax[r, 0], qmax[r, 1] = lo0, lo1, hi0, hi1
+
+    return kernel
+
+
+def rollout(
+    kind: str, p: Array, b: Array, Q: Array, V: Array, *, dt: float, steps: int
+) -> tuple[Array, Array, Array, Array, float]:
+    """RK4 without torque on the GPU from Q, V (n, nv): (q, v, q_min, q_max), (n, nv) each, and the kernel's time [s].
+
+    ``p`` is the kind's parameter vector (``PARAMS`` order), ``b`` its viscous damping (nv,)
+    [N m s/rad | N s/m]. The wall time covers the kernel alone (compiled beforehand), not the copies.
+    """
+    module = cuda_module()
+    kernel = rk4_kernel(kind)
+    n, nv = Q.shape
+    pad = np.zeros((n, 2))
+    Qp, Vp = pad.copy(), pad.copy()
+    Qp[:, :nv], Vp[:, :nv] = Q, V
+    b2 = np.zeros(2)
+    b2[:nv] = b
+    p_d, b_d = module.to_device(np.ascontiguousarray(p, dtype=np.float64)), module.to_device(b2)
+    Q_d, V_d = module.to_device(Qp), module.to_device(Vp)
+    lo_d, hi_d = module.device_array((n, 2), dtype=np.float64), module.device_array((n, 2), dtype=np.float64)
+    blocks = max(1, -(-n // THREADS_PER_BLOCK))
+    one = [Qp[:1].copy(), Vp[:1].copy(), pad[:1].copy(), pad[:1].copy()]  # compile (or load) outside the timing
+    kernel[1, 1](p_d, b_d, nv, *one, dt, 0)
+    module.synchronize()
+    start = time.perf_counter()
+    kernel[blocks, THREADS_PER_BLOCK](p_d, b_d, nv, Q_d, V_d, lo_d, hi_d, dt, steps)
+    module.synchronize()
+    wall = time.perf_counter() - start
+    out = [a.copy_to_host()[:, :nv].copy() for a in (Q_d, V_d, lo_d, hi_d)]
+    return out[0], out[1], out[2], out[3], wall

@@ -182,3 +182,29 @@ def test_sweep_device_cuda_refuses_a_controller_before_any_work(tmp_path, capsys
     assert code == 2
     assert len(err.strip().splitlines()) == 1 and "device cuda: runs without a controller only" in err
     assert not (tmp_path / "out" / "results").exists()
+
+
+def test_cuda_sweep_lyapunov_equals_cpu_sweep():
+    """Benettin's twins stepped on the GPU give each run the CPU path's estimate (seeded per run)."""
+    out = _simulated(
+        """
+        import dataclasses, json, tempfile
+        import numpy as np
+        import robodyn.sweep as sweep
+        from robodyn.sweep.chunk import execute
+
+        spec = {
+            "model": "pendubot", "duration": 0.3, "dt": 1e-3, "device": "cuda", "chunk": 3, "seed": 5,
+            "measure": ["lyapunov", "final_state"], "q0": {"joint1": [0.5, 2.0, 3.0], "joint2": [0.1, -1.0]},
+        }
+        prepared = sweep.prepare(spec, tempfile.mkdtemp())
+        cpu_job = dataclasses.replace(prepared.job, device="cpu")
+        gpu, cpu = [], []
+        for chunk in prepared.plan.chunks:
+            gpu += execute(chunk, prepared.job)["lyapunov"].tolist()
+            cpu += execute(chunk, cpu_job)["lyapunov"].tolist()
+        print(json.dumps({"gpu": gpu, "cpu": cpu}))
+        """
+    )
+    assert len(out["gpu"]) == 6 and len(set(out["gpu"])) == 6  # six runs, six different exponents
+    np.testing.assert_allclose(out["gpu"], out["cpu"], rtol=0, atol=CUDA_VS_CPU_ATOL)

@@ -36,6 +36,7 @@ Workers keep the loaded robot, compiled dynamics and controllers of the last few
 
 from __future__ import annotations
 
+import inspect
 import json
 import math
 import time
@@ -65,6 +66,11 @@ from robodyn.sweep.source import Model, ModelFile, SceneSource
 from robodyn.sweep.spec import NO_CONTROLLER, SCENE_CONTROLLER
 
 Array = NDArray[np.float64]
+
+# What the cuda path computes: from the final states, and Benettin's twins stepped on the GPU.
+CUDA_MEASURES = ms.BATCH_MEASURES | {"lyapunov"}
+# The twins' starting distance: lyapunov()'s own default, which the other paths use.
+LYAPUNOV_D0: float = inspect.signature(lyapunov).parameters["d0"].default
 
 
 @dataclass(frozen=True)
@@ -182,9 +188,9 @@ def cuda_refusal(model: Model, integrator: str, controller: Any, measures: tuple
         return f"the built-in kinds ({', '.join(KINDS)}) only; {robot_of(model).name} is none of them"
     if np.any(robot_of(model).damping):
         return "lossless runs only; the model has joint damping"
-    other = [m for m in measures if m not in ms.BATCH_MEASURES]
+    other = [m for m in measures if m not in CUDA_MEASURES]
     if other:
-        return f"measures {', '.join(sorted(ms.BATCH_MEASURES))} only, got {', '.join(other)}"
+        return f"measures {', '.join(sorted(CUDA_MEASURES))} only, got {', '.join(other)}"
     return ""
 
 
@@ -390,12 +396,59 @@ def _cuda(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
         fast.kind, fast.param_vector, fast.damping, chunk.q0, chunk.v0, dt=s.dt, steps=step_count(job.duration, s.dt)
     )
     rows = _rows(chunk, job, q, v, None, wall)
+    if "lyapunov" in job.measures:
+        for row, exponent in zip(rows, _cuda_lyapunov(chunk, job), strict=True):
+            row["lyapunov"] = float(exponent)
     K0, P0 = _energy_parts(chunk, chunk.q0, chunk.v0)
     with np.errstate(all="ignore"):  # torque-free and lossless: W = 0, E(T) - E0 is the error (its last sample)
         over = ~(np.abs(_energies(chunk, q, v) - (K0 + P0)) <= energy_bounds(robot, K0, P0))
     for k in np.union1d(stopped(robot, q_min, q_max), np.flatnonzero(over)):
         rows[k] = {**_one(chunk, job, int(k), "simulate"), "path": "simulate"}
     return rows
+
+
+def _cuda_lyapunov(chunk: Chunk, job: Job) -> Array:
+    """Benettin's estimate [1/s] of every run of the chunk (n,), runs and twins stepped together on the GPU.
+
+    The arithmetic of :func:`robodyn.integrators.stability.lyapunov` (as ``_lyapunov`` calls it) over the
+    batch: each run's twin starts ``d0`` away in the direction seeded by the sweep's seed plus the run
+    number, is pulled back to ``d0`` after every interval, and a separation that is not finite or
+    zero makes the run's estimate NaN. Only the norm's summation order may differ: round-off.
+    """
+    from robodyn.sim import cuda_batch
+
+    fast = fast_of(chunk.model)
+    assert fast is not None  # only the cuda path calls this
+    d0 = LYAPUNOV_D0
+    n, nv = chunk.q0.shape
+    interval = min(ms.LYAPUNOV_INTERVAL, job.duration)
+    count, steps = round(job.duration / interval), step_count(interval, chunk.setting.dt)
+    direction = np.empty((n, 2 * nv))
+    for k in range(n):
+        direction[k] = np.random.default_rng(job.seed + int(chunk.runs[k])).normal(size=2 * nv)
+        direction[k] *= d0 / np.linalg.norm(direction[k])
+    q, v = chunk.q0.copy(), chunk.v0.copy()
+    qt, vt = q + direction[:, :nv], v + direction[:, nv:]
+    total, failed = np.zeros(n), np.zeros(n, dtype=bool)
+    with np.errstate(all="ignore"):  # a twin that blows up makes its run's estimate NaN, nothing more
+        for _ in range(count):
+            both = cuda_batch.rollout(
+                fast.kind,
+                fast.param_vector,
+                fast.damping,
+                np.concatenate([q, qt]),
+                np.concatenate([v, vt]),
+                dt=chunk.setting.dt,
+                steps=steps,
+            )
+            q, qt, v, vt = both[0][:n], both[0][n:], both[1][:n], both[1][n:]
+            sep = np.concatenate([qt - q, vt - v], axis=1)
+            d = np.linalg.norm(sep, axis=1)
+            failed |= ~np.isfinite(d) | (d == 0.0)
+            total += np.log(d / d0)
+            sep *= (d0 / d)[:, None]
+            qt, vt = q + sep[:, :nv], v + sep[:, nv:]
+    return np.where(failed, np.nan, total / (count * interval))
 
 
 def _closed_loop(chunk: Chunk, job: Job) -> list[dict[str, Any]]:

@@ -208,3 +208,28 @@ def test_cuda_sweep_lyapunov_equals_cpu_sweep():
     )
     assert len(out["gpu"]) == 6 and len(set(out["gpu"])) == 6  # six runs, six different exponents
     np.testing.assert_allclose(out["gpu"], out["cpu"], rtol=0, atol=CUDA_VS_CPU_ATOL)
+
+
+def test_bench_gpu_prepares_here_and_runs_without_pinocchio(tmp_path):
+    """benchmarks/bench_gpu.py: --prepare with robodyn, --run from the arrays alone (in the simulator, a tiny batch)."""
+    script = SRC.parent / "benchmarks" / "bench_gpu.py"
+    env = {**os.environ, "PYTHONPATH": str(SRC)}
+    prepared = subprocess.run(
+        [sys.executable, str(script), "--prepare", str(tmp_path)], env=env, capture_output=True, text=True
+    )
+    assert prepared.returncode == 0, prepared.stderr
+    ran = subprocess.run(
+        [sys.executable, str(script), "--run", str(tmp_path), "--states", "4", "--steps", "20", "--no-mjx"],
+        env={**env, "NUMBA_ENABLE_CUDASIM": "1"},
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert ran.returncode == 0, ran.stderr
+    result = json.loads((tmp_path / "gpu.json").read_text())
+    assert result["pinocchio_imported"] is False
+    assert result["run"]["gpu"] == "numba CUDA simulator" and result["run"]["steps"] == 20
+    for kind in ("pendubot", "cart_pole"):
+        (row,) = result["kinds"][kind]["batches"]
+        assert row["states"] == 4 and row["gpu_state_steps_per_s"] > 0
+        assert row["gpu_vs_cpu_max_abs_diff"] <= CUDA_VS_CPU_ATOL

@@ -85,19 +85,20 @@ def device_name() -> str:
     return name.decode() if isinstance(name, bytes) else str(name)
 
 
-@cache
-def rk4_kernel(kind: str) -> Any:
-    """The CUDA kernel ``(p, b, nv, Q, V, qmin, qmax, dt, steps)`` of one built-in kind (compiled on first launch)."""
+def _advance(jit: Any, kind: str) -> Any:
+    """``advance(p, b, nv, q0, q1, v0, v1, dt, n)``: n RK4 steps of one state, compiled by ``jit``.
+
+    Returns (q0, q1, v0, v1, lo0, lo1, hi0, hi1): the final state and each coordinate's range.
+    ``jit`` is ``cuda.jit(device=True)`` (the GPU kernel) or ``numba.njit`` (:func:`cpu_rollout`).
+    """
     if kind not in CUDA_KINDS:
         raise InputError(f"device cuda: kind {kind!r} has no GPU kernel; expected one of {', '.join(CUDA_KINDS)}")
-    module = cuda_module()
     form = closed_form(kind)
-    device = module.jit(device=True)
-    mass, coriolis, gravity, solve = (device(f) for f in (form.mass, form.coriolis, form.gravity, solve_2x2))
+    mass, coriolis, gravity, solve = (jit(f) for f in (form.mass, form.coriolis, form.gravity, solve_2x2))
 
     if form.dof == 2:
 
-        @device
+        @jit
         def acc(p, b, q0, q1, v0, v1):  # type: ignore[no-untyped-def]
             m11, m12, m22 = mass(p, q0, q1)
             c11, c12, c21, c22 = coriolis(p, q0, q1, v0, v1)
@@ -108,18 +109,14 @@ def rk4_kernel(kind: str) -> Any:
 
     else:
 
-        @device
+        @jit
         def acc(p, b, q0, q1, v0, v1):  # type: ignore[no-untyped-def]
             m = mass(p, q0)[0]
             return (0.0 - b[0] * v0 - coriolis(p, q0, v0)[0] * v0 - gravity(p, q0)[0]) / m, 0.0
 
-    @module.jit
-    def kernel(p, b, nv, Q, V, qmin, qmax, dt, n):  # type: ignore[no-untyped-def]
-        r = cuda.grid(1)
-        if r >= Q.shape[0]:
-            return
+    @jit
+    def advance(p, b, nv, q0, q1, v0, v1, dt, n):  # type: ignore[no-untyped-def]
         h = dt
-        q0, q1, v0, v1 = Q[r, 0], Q[r, 1], V[r, 0], V[r, 1]
         lo0, lo1, hi0, hi1 = q0, q1, q0, q1
         for _ in range(n):
             a0, a1 = acc(p, b, q0, q1, v0, v1)
@@ -143,8 +140,41 @@ def rk4_kernel(kind: str) -> Any:
             lo1 = min(lo1, q1)
             hi0 = max(hi0, q0)
             hi1 = max(hi1, q1)
-        Q[r, 0], Q[r, 1], V[r, 0], V[r, 1] = q0, q1, v0, v1
-        qmin[r, 0], qmin[r, 1], qmax[r, 0], qmax[r, 1] = lo0, lo1, hi0, hi1
+        return q0, q1, v0, v1, lo0, lo1, hi0, hi1
+
+    return advance
+
+
+@cache
+def rk4_kernel(kind: str) -> Any:
+    """The CUDA kernel ``(p, b, nv, Q, V, qmin, qmax, dt, steps)`` of one built-in kind (compiled on first launch)."""
+    module = cuda_module()
+    advance = _advance(module.jit(device=True), kind)
+
+    @module.jit
+    def kernel(p, b, nv, Q, V, qmin, qmax, dt, n):  # type: ignore[no-untyped-def]
+        r = cuda.grid(1)
+        if r < Q.shape[0]:
+            q0, q1, v0, v1, lo0, lo1, hi0, hi1 = advance(p, b, nv, Q[r, 0], Q[r, 1], V[r, 0], V[r, 1], dt, n)
+            Q[r, 0], Q[r, 1], V[r, 0], V[r, 1] = q0, q1, v0, v1
+            qmin[r, 0], qmin[r, 1], qmax[r, 0], qmax[r, 1] = lo0, lo1, hi0, hi1
+
+    return kernel
+
+
+@cache
+def cpu_kernel(kind: str) -> Any:
+    """The same step on the CPU's cores: numba ``prange`` over the states (the GPU benchmark's CPU column)."""
+    import numba
+
+    advance = _advance(numba.njit, kind)
+
+    @numba.njit(parallel=True)
+    def kernel(p, b, nv, Q, V, qmin, qmax, dt, n):  # type: ignore[no-untyped-def]
+        for r in numba.prange(Q.shape[0]):
+            q0, q1, v0, v1, lo0, lo1, hi0, hi1 = advance(p, b, nv, Q[r, 0], Q[r, 1], V[r, 0], V[r, 1], dt, n)
+            Q[r, 0], Q[r, 1], V[r, 0], V[r, 1] = q0, q1, v0, v1
+            qmin[r, 0], qmin[r, 1], qmax[r, 0], qmax[r, 1] = lo0, lo1, hi0, hi1
 
     return kernel
 
@@ -178,3 +208,20 @@ def rollout(
     wall = time.perf_counter() - start
     out = [a.copy_to_host()[:, :nv].copy() for a in (Q_d, V_d, lo_d, hi_d)]
     return out[0], out[1], out[2], out[3], wall
+
+
+def cpu_rollout(
+    kind: str, p: Array, b: Array, Q: Array, V: Array, *, dt: float, steps: int
+) -> tuple[Array, Array, Array, Array, float]:
+    """:func:`rollout`'s step on the CPU's cores (numba's threads): the same outputs and the loop's wall time [s]."""
+    kernel = cpu_kernel(kind)
+    n, nv = Q.shape
+    Qp, Vp, lo, hi = np.zeros((n, 2)), np.zeros((n, 2)), np.zeros((n, 2)), np.zeros((n, 2))
+    Qp[:, :nv], Vp[:, :nv] = Q, V
+    p_, b2 = np.ascontiguousarray(p, dtype=np.float64), np.zeros(2)
+    b2[:nv] = b
+    kernel(p_, b2, nv, Qp[:1].copy(), Vp[:1].copy(), lo[:1].copy(), hi[:1].copy(), dt, 0)  # compile outside the timing
+    start = time.perf_counter()
+    kernel(p_, b2, nv, Qp, Vp, lo, hi, dt, steps)
+    wall = time.perf_counter() - start
+    return Qp[:, :nv].copy(), Vp[:, :nv].copy(), lo[:, :nv].copy(), hi[:, :nv].copy(), wall

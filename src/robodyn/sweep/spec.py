@@ -13,6 +13,7 @@ value is crossed with every other (a full grid)::
     measure = ["final_state", "time_to_balance", "wall_time", "my_measures.py:peak"]
     chunk = 1000                  # runs per Dask task
     seed = 0                      # the Lyapunov twins' seed (the run's index is added)
+    device = "cpu"                # or "cuda": a built-in kind's runs on an NVIDIA GPU
 
     [q0]                          # initial configuration: joint -> value, list or grid
     joint1 = { from = -3.14, to = 3.14, n = 101 }

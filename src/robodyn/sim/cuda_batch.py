@@ -23,6 +23,7 @@ numba's CUDA simulator on the CPU (slow: a Python thread per state), as the test
 
 from __future__ import annotations
 
+import math
 import time
 import warnings
 from functools import cache
@@ -163,6 +164,43 @@ def rk4_kernel(kind: str) -> Any:
 
 
 @cache
+def benettin_kernel(kind: str) -> Any:
+    """The CUDA kernel ``(p, b, nv, Q, V, D, d0, dt, steps, count, span, out)``: Benettin's estimate, one run a thread.
+
+    Each thread steps its run (Q, V) and a twin started at (Q, V) + D (columns dq0, dq1, dv0, dv1),
+    ``count`` intervals of ``steps`` RK4 steps; after each it measures their separation d, adds
+    ln(d / d0) and pulls the twin back to d0 along it (the order of
+    :func:`robodyn.integrators.stability.lyapunov`). ``out[r]`` is the sum over ``span`` [s], or NaN
+    once a separation is not finite or zero.
+    """
+    module = cuda_module()
+    advance = _advance(module.jit(device=True), kind)
+
+    @module.jit
+    def kernel(p, b, nv, Q, V, D, d0, dt, steps, count, span, out):  # type: ignore[no-untyped-def]
+        r = cuda.grid(1)
+        if r < Q.shape[0]:
+            q0, q1, v0, v1 = Q[r, 0], Q[r, 1], V[r, 0], V[r, 1]
+            t0, t1, u0, u1 = q0 + D[r, 0], q1 + D[r, 1], v0 + D[r, 2], v1 + D[r, 3]
+            total = 0.0
+            failed = False
+            for _ in range(count):
+                q0, q1, v0, v1, _, _, _, _ = advance(p, b, nv, q0, q1, v0, v1, dt, steps)
+                t0, t1, u0, u1, _, _, _, _ = advance(p, b, nv, t0, t1, u0, u1, dt, steps)
+                s0, s1, s2, s3 = t0 - q0, t1 - q1, u0 - v0, u1 - v1
+                d = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2 + s3 * s3)
+                if not (d > 0.0 and d < math.inf):
+                    failed = True
+                    break
+                total += math.log(d / d0)
+                f = d0 / d
+                t0, t1, u0, u1 = q0 + s0 * f, q1 + s1 * f, v0 + s2 * f, v1 + s3 * f
+            out[r] = math.nan if failed else total / span
+
+    return kernel
+
+
+@cache
 def cpu_kernel(kind: str) -> Any:
     """The same step on the CPU's cores: numba ``prange`` over the states (the GPU benchmark's CPU column)."""
     import numba
@@ -225,3 +263,50 @@ def cpu_rollout(
     kernel(p_, b2, nv, Qp, Vp, lo, hi, dt, steps)
     wall = time.perf_counter() - start
     return Qp[:, :nv].copy(), Vp[:, :nv].copy(), lo[:, :nv].copy(), hi[:, :nv].copy(), wall
+
+
+def lyapunov(
+    kind: str,
+    p: Array,
+    b: Array,
+    Q: Array,
+    V: Array,
+    D: Array,
+    *,
+    d0: float,
+    dt: float,
+    steps: int,
+    count: int,
+    interval: float,
+) -> Array:
+    """Benettin's largest Lyapunov exponent [1/s] of every run (n,) on the GPU; only the exponents come back.
+
+    ``D`` (n, 2 nv) is each twin's start offset [dq, dv] of length ``d0``; ``count`` intervals of
+    ``steps`` steps of ``dt`` [s] (``interval`` [s] each). NaN where a separation stopped being
+    finite and positive.
+    """
+    module = cuda_module()
+    kernel = benettin_kernel(kind)
+    n, nv = Q.shape
+    Qp, Vp, Dp = np.zeros((n, 2)), np.zeros((n, 2)), np.zeros((n, 4))
+    Qp[:, :nv], Vp[:, :nv] = Q, V
+    Dp[:, :nv], Dp[:, 2 : 2 + nv] = D[:, :nv], D[:, nv:]
+    b2 = np.zeros(2)
+    b2[:nv] = b
+    out = module.device_array(n, dtype=np.float64)
+    blocks = max(1, -(-n // THREADS_PER_BLOCK))
+    kernel[blocks, THREADS_PER_BLOCK](
+        module.to_device(np.ascontiguousarray(p, dtype=np.float64)),
+        module.to_device(b2),
+        nv,
+        module.to_device(Qp),
+        module.to_device(Vp),
+        module.to_device(Dp),
+        d0,
+        dt,
+        steps,
+        count,
+        count * interval,
+        out,
+    )
+    return np.asarray(out.copy_to_host())

@@ -408,12 +408,13 @@ def _cuda(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
 
 
 def _cuda_lyapunov(chunk: Chunk, job: Job) -> Array:
-    """Benettin's estimate [1/s] of every run of the chunk (n,), runs and twins stepped together on the GPU.
+    """Benettin's estimate [1/s] of every run of the chunk (n,), each run and its twin in one GPU thread.
 
-    The arithmetic of :func:`robodyn.integrators.stability.lyapunov` (as ``_lyapunov`` calls it) over the
-    batch: each run's twin starts ``d0`` away in the direction seeded by the sweep's seed plus the run
-    number, is pulled back to ``d0`` after every interval, and a separation that is not finite or
-    zero makes the run's estimate NaN. Only the norm's summation order may differ: round-off.
+    The arithmetic of :func:`robodyn.integrators.stability.lyapunov` (as ``_lyapunov`` calls it): each
+    run's twin starts ``d0`` away in the direction seeded by the sweep's seed plus the run number (drawn
+    here, with NumPy, as there), is pulled back to ``d0`` after every interval, and a separation that is
+    not finite or zero makes the run's estimate NaN. The separation's norm and logarithm are the GPU's:
+    round-off apart.
     """
     from robodyn.sim import cuda_batch
 
@@ -427,28 +428,19 @@ def _cuda_lyapunov(chunk: Chunk, job: Job) -> Array:
     for k in range(n):
         direction[k] = np.random.default_rng(job.seed + int(chunk.runs[k])).normal(size=2 * nv)
         direction[k] *= d0 / np.linalg.norm(direction[k])
-    q, v = chunk.q0.copy(), chunk.v0.copy()
-    qt, vt = q + direction[:, :nv], v + direction[:, nv:]
-    total, failed = np.zeros(n), np.zeros(n, dtype=bool)
-    with np.errstate(all="ignore"):  # a twin that blows up makes its run's estimate NaN, nothing more
-        for _ in range(count):
-            both = cuda_batch.rollout(
-                fast.kind,
-                fast.param_vector,
-                fast.damping,
-                np.concatenate([q, qt]),
-                np.concatenate([v, vt]),
-                dt=chunk.setting.dt,
-                steps=steps,
-            )
-            q, qt, v, vt = both[0][:n], both[0][n:], both[1][:n], both[1][n:]
-            sep = np.concatenate([qt - q, vt - v], axis=1)
-            d = np.linalg.norm(sep, axis=1)
-            failed |= ~np.isfinite(d) | (d == 0.0)
-            total += np.log(d / d0)
-            sep *= (d0 / d)[:, None]
-            qt, vt = q + sep[:, :nv], v + sep[:, nv:]
-    return np.where(failed, np.nan, total / (count * interval))
+    return cuda_batch.lyapunov(
+        fast.kind,
+        fast.param_vector,
+        fast.damping,
+        chunk.q0,
+        chunk.v0,
+        direction,
+        d0=d0,
+        dt=chunk.setting.dt,
+        steps=steps,
+        count=count,
+        interval=interval,
+    )
 
 
 def _closed_loop(chunk: Chunk, job: Job) -> list[dict[str, Any]]:

@@ -233,3 +233,44 @@ def test_bench_gpu_prepares_here_and_runs_without_pinocchio(tmp_path):
         (row,) = result["kinds"][kind]["batches"]
         assert row["states"] == 4 and row["gpu_state_steps_per_s"] > 0
         assert row["gpu_vs_cpu_max_abs_diff"] <= CUDA_VS_CPU_ATOL
+
+
+def test_cli_sweep_device_cuda_runs_in_process_into_parquet(tmp_path):
+    """robodyn sweep --device cuda end to end in the simulator: no cluster, every chunk written, path cuda."""
+    path = tmp_path / "s.toml"
+    path.write_text(
+        'model = "pendubot"\nduration = 0.05\nchunk = 2\nmeasure = ["final_state", "energy_drift"]\n'
+        "[q0]\njoint1 = [0.1, 0.2, 0.3]\n"
+    )
+    out = tmp_path / "out"
+    code = (
+        "import sys; from robodyn.cli import main; "
+        f"code = main(['sweep', {str(path)!r}, '--out', {str(out)!r}, '--device', 'cuda', '--quiet']); "
+        "print('distributed imported:', 'distributed' in sys.modules); sys.exit(code)"
+    )
+    run = subprocess.run(
+        [sys.executable, "-c", code],
+        env={**os.environ, "NUMBA_ENABLE_CUDASIM": "1", "PYTHONPATH": str(SRC)},
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip().splitlines() == [
+        f"3 runs in 2 chunks (2 computed, 0 already written) -> {out / 'results'}",
+        "distributed imported: False",  # no Dask cluster: the chunks ran in this process
+    ]
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(out / "results").sort_by("run").to_pydict()
+    assert table["path"] == ["cuda"] * 3 and table["run"] == [0, 1, 2]
+    assert all(abs(x) < 1e-6 for x in table["energy_drift"])  # 50 RK4 steps of 1 ms conserve energy closely
+
+
+@pytest.mark.parametrize("value", ["3", '["cuda"]', '"gpu"'])
+def test_sweep_file_device_must_be_cpu_or_cuda(value, tmp_path, capsys):
+    path = tmp_path / "s.toml"
+    path.write_text(f'model = "pendubot"\nduration = 0.01\ndevice = {value}\n')
+    assert main(["sweep", str(path), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "device must be one of 'cpu', 'cuda', got" in err[0]

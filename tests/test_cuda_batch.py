@@ -274,3 +274,33 @@ def test_sweep_file_device_must_be_cpu_or_cuda(value, tmp_path, capsys):
     assert main(["sweep", str(path), "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "device must be one of 'cpu', 'cuda', got" in err[0]
+
+
+def test_device_functions_type_check_in_numbas_cpu_compiler():
+    """The simulator runs the kernels as Python; numba's CPU compiler types the same device functions as the GPU's.
+
+    Benettin's device function, compiled by numba.njit here, gives the estimate of
+    robodyn.integrators.stability.lyapunov over the CPU fast path's runs.
+    """
+    import numba
+
+    from robodyn.integrators.stability import lyapunov
+    from robodyn.sim import cuda_batch
+    from robodyn.sim.fast import FastDynamics
+
+    fast = FastDynamics.from_robot(robodyn.load("pendubot"))
+    benettin = cuda_batch._benettin(numba.njit, "pendubot")
+    q0, v0, d0, dt, interval, count = np.array([0.5, -1.0]), np.array([0.2, 0.0]), 1e-8, DT, 0.05, 4
+    rng = np.random.default_rng(9)
+    e = rng.normal(size=4)
+    e *= d0 / np.linalg.norm(e)
+    got = benettin(
+        fast.param_vector, np.zeros(2), 2, *q0, *v0, *e, d0, dt, round(interval / dt), count, count * interval
+    )
+
+    def step_run(q, v, T):
+        t = fast.simulate(q, v, duration=T, dt=dt)
+        return t.q[-1].copy(), t.v[-1].copy()
+
+    want = lyapunov(step_run, q0, v0, duration=count * interval, interval=interval, seed=9).exponent
+    assert abs(got - want) <= CUDA_VS_CPU_ATOL, (got, want)

@@ -163,39 +163,52 @@ def rk4_kernel(kind: str) -> Any:
     return kernel
 
 
+def _benettin(jit: Any, kind: str) -> Any:
+    """``benettin(p, b, nv, q0, q1, v0, v1, e0, e1, e2, e3, d0, dt, steps, count, span)`` compiled by ``jit``.
+
+    Steps one run (q, v) and its twin started at (q, v) + e (e = dq0, dq1, dv0, dv1) ``count``
+    intervals of ``steps`` RK4 steps; after each it measures their separation d, adds ln(d / d0)
+    and pulls the twin back to d0 along it (the order of
+    :func:`robodyn.integrators.stability.lyapunov`). Returns the sum over ``span`` [s], or NaN once a
+    separation is not finite or zero.
+    """
+    advance = _advance(jit, kind)
+
+    @jit
+    def benettin(p, b, nv, q0, q1, v0, v1, e0, e1, e2, e3, d0, dt, steps, count, span):  # type: ignore[no-untyped-def]
+        t0, t1, u0, u1 = q0 + e0, q1 + e1, v0 + e2, v1 + e3
+        total = 0.0
+        for _ in range(count):
+            q0, q1, v0, v1, _x0, _x1, _x2, _x3 = advance(p, b, nv, q0, q1, v0, v1, dt, steps)
+            t0, t1, u0, u1, _y0, _y1, _y2, _y3 = advance(p, b, nv, t0, t1, u0, u1, dt, steps)
+            s0, s1, s2, s3 = t0 - q0, t1 - q1, u0 - v0, u1 - v1
+            d = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2 + s3 * s3)
+            if not (d > 0.0 and d < math.inf):
+                return math.nan
+            total += math.log(d / d0)
+            f = d0 / d
+            t0, t1, u0, u1 = q0 + s0 * f, q1 + s1 * f, v0 + s2 * f, v1 + s3 * f
+        return total / span
+
+    return benettin
+
+
 @cache
 def benettin_kernel(kind: str) -> Any:
-    """The CUDA kernel ``(p, b, nv, Q, V, D, d0, dt, steps, count, span, out)``: Benettin's estimate, one run a thread.
+    """The CUDA kernel ``(p, b, nv, Q, V, D, d0, dt, steps, count, span, out)``: Benettin's estimate, a run a thread.
 
-    Each thread steps its run (Q, V) and a twin started at (Q, V) + D (columns dq0, dq1, dv0, dv1),
-    ``count`` intervals of ``steps`` RK4 steps; after each it measures their separation d, adds
-    ln(d / d0) and pulls the twin back to d0 along it (the order of
-    :func:`robodyn.integrators.stability.lyapunov`). ``out[r]`` is the sum over ``span`` [s], or NaN
-    once a separation is not finite or zero.
+    ``D`` (n, 4) holds each twin's start offset (dq0, dq1, dv0, dv1); ``out`` (n,) the estimates [1/s].
     """
     module = cuda_module()
-    advance = _advance(module.jit(device=True), kind)
+    benettin = _benettin(module.jit(device=True), kind)
 
     @module.jit
     def kernel(p, b, nv, Q, V, D, d0, dt, steps, count, span, out):  # type: ignore[no-untyped-def]
         r = cuda.grid(1)
         if r < Q.shape[0]:
             q0, q1, v0, v1 = Q[r, 0], Q[r, 1], V[r, 0], V[r, 1]
-            t0, t1, u0, u1 = q0 + D[r, 0], q1 + D[r, 1], v0 + D[r, 2], v1 + D[r, 3]
-            total = 0.0
-            failed = False
-            for _ in range(count):
-                q0, q1, v0, v1, _, _, _, _ = advance(p, b, nv, q0, q1, v0, v1, dt, steps)
-                t0, t1, u0, u1, _, _, _, _ = advance(p, b, nv, t0, t1, u0, u1, dt, steps)
-                s0, s1, s2, s3 = t0 - q0, t1 - q1, u0 - v0, u1 - v1
-                d = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2 + s3 * s3)
-                if not (d > 0.0 and d < math.inf):
-                    failed = True
-                    break
-                total += math.log(d / d0)
-                f = d0 / d
-                t0, t1, u0, u1 = q0 + s0 * f, q1 + s1 * f, v0 + s2 * f, v1 + s3 * f
-            out[r] = math.nan if failed else total / span
+            e0, e1, e2, e3 = D[r, 0], D[r, 1], D[r, 2], D[r, 3]
+            out[r] = benettin(p, b, nv, q0, q1, v0, v1, e0, e1, e2, e3, d0, dt, steps, count, span)
 
     return kernel
 

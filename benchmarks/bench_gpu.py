@@ -2,8 +2,8 @@
 
 Two steps, because the GPU machine has no Pinocchio (its wheels are too big to carry there):
 
-    python benchmarks/bench_gpu.py --prepare gpu-bench     # where robodyn is installed
-    python benchmarks/bench_gpu.py --run gpu-bench         # where numpy and numba-cuda are
+    python benchmarks/bench_gpu.py --prepare bench-out/gpu     # where robodyn is installed
+    python benchmarks/bench_gpu.py --run bench-out/gpu         # where numpy and numba-cuda are
 
 ``--prepare DIR`` writes ``DIR/models.npz``: each kind's closed-form parameter vector (checked
 against Pinocchio's ABA by ``FastDynamics.from_robot``), its damping and degrees of freedom, and

@@ -17,7 +17,10 @@ best of 3) and, up to ``CPU_MAX_STATES``, the same step on all CPU cores (numba 
 reports state-steps per second and the largest difference of the final states (the same
 arithmetic; a GPU's fused multiply-adds round differently). With ``mujoco.mjx`` importable (and
 not ``--no-mjx``) it also runs MJX (float32, ``MJX_STATES`` states) from the same starts and
-reports its speed and its difference from the float64 kernel. Everything goes into
+reports its speed and its difference from the float64 kernel. A Pendubot chaos map follows: Benettin's
+Lyapunov estimate of the largest batch's runs over ``--chaos-seconds`` (20 s), each run and its
+twin in one GPU thread, against the same device function on the CPU's cores for 1,024 of them.
+Everything goes into
 ``DIR/gpu.json`` with the GPU's name. Without a GPU, ``--run`` stops in one line (exit 5);
 ``NUMBA_ENABLE_CUDASIM=1`` runs it in numba's CUDA simulator (use a tiny ``--states``).
 """
@@ -44,6 +47,13 @@ REPEATS = 3
 # Numba on the CPU's cores above this many states would take most of the 5-minute budget (~6e7 state-steps/s).
 CPU_MAX_STATES = 2**17
 MJX_STATES = 2**17
+# The chaos map: Benettin's estimate of the free Pendubot over CHAOS_SECONDS, its twins renormalised every
+# CHAOS_INTERVAL (the sweep's LYAPUNOV_INTERVAL), d0 as robodyn.integrators.stability.lyapunov; the CPU
+# column on CHAOS_CPU_STATES of the runs (all of them would take minutes).
+CHAOS_SECONDS = 20.0
+CHAOS_INTERVAL = 0.1
+CHAOS_D0 = 1e-8
+CHAOS_CPU_STATES = 1024
 SEED = 0
 # The starting states: angles anywhere, the cart within its rail, speeds up to 1 rad/s | m/s.
 START_RANGE = {"pendubot": (np.pi, np.pi), "cart_pole": (2.0, np.pi)}
@@ -86,7 +96,7 @@ def starts(kind: str, n: int, nv: int) -> tuple[np.ndarray, np.ndarray]:
     return Q, V
 
 
-def run(folder: Path, *, sizes: tuple[int, ...], steps: int, mjx: bool) -> int:
+def run(folder: Path, *, sizes: tuple[int, ...], steps: int, mjx: bool, chaos_seconds: float) -> int:
     from robodyn.errors import RobodynError
     from robodyn.sim import cuda_batch
 
@@ -135,6 +145,8 @@ def run(folder: Path, *, sizes: tuple[int, ...], steps: int, mjx: bool) -> int:
             print(line)
             rows.append(row)
         entry: dict[str, Any] = {"batches": rows}
+        if kind == "pendubot":
+            entry["chaos_map"] = _chaos(kind, p, b, max(sizes), chaos_seconds)
         if mjx:
             entry["mjx"] = _mjx(kind, models, p, b, min(MJX_STATES, max(sizes)), steps)
         results["kinds"][kind] = entry
@@ -145,6 +157,48 @@ def run(folder: Path, *, sizes: tuple[int, ...], steps: int, mjx: bool) -> int:
     path.write_text(json.dumps(results, indent=2) + "\n")
     print(f"wrote {path}")
     return 0
+
+
+def _chaos(kind: str, p: np.ndarray, b: np.ndarray, n: int, seconds: float) -> dict[str, Any]:
+    """Benettin's estimate of n runs (each with its twin, one GPU thread) against the same function on CPU cores."""
+    from robodyn.sim import cuda_batch
+
+    nv = b.size
+    Q, V = starts(kind, n, nv)
+    D = np.random.default_rng(SEED + 1).normal(size=(n, 2 * nv))
+    D *= CHAOS_D0 / np.linalg.norm(D, axis=1)[:, None]
+    interval = min(CHAOS_INTERVAL, seconds)
+    count, steps = round(seconds / interval), round(interval / DT)
+    args = {"d0": CHAOS_D0, "dt": DT, "steps": steps, "count": count, "interval": interval}
+    cuda_batch.lyapunov(kind, p, b, Q[:1], V[:1], D[:1], **{**args, "count": 1, "steps": 1})  # compile
+    start = time.perf_counter()
+    gpu = cuda_batch.lyapunov(kind, p, b, Q, V, D, **args)
+    wall = time.perf_counter() - start
+    m = min(n, CHAOS_CPU_STATES)
+    cuda_batch.lyapunov(kind, p, b, Q[:1], V[:1], D[:1], **{**args, "count": 1, "steps": 1}, cpu=True)
+    start = time.perf_counter()
+    cpu = cuda_batch.lyapunov(kind, p, b, Q[:m], V[:m], D[:m], **args, cpu=True)
+    cpu_wall = time.perf_counter() - start
+    state_steps = 2 * count * steps  # a run and its twin
+    diff = float(np.nanmax(np.abs(gpu[:m] - cpu))) if np.isfinite(cpu).any() else float("nan")
+    print(
+        f"{kind:10s} chaos map {n:,} runs x {seconds:g} s: GPU {wall:.3g} s (copies included, "
+        f"{n * state_steps / wall:.3g} state-steps/s), CPU cores {m * state_steps / cpu_wall:.3g} state-steps/s, "
+        f"max |diff| of the exponents {diff:.2g} 1/s, {int(np.isnan(gpu).sum())} NaN"
+    )
+    return {
+        "runs": n,
+        "seconds": seconds,
+        "interval_s": interval,
+        "gpu_s": wall,
+        "gpu_state_steps_per_s": n * state_steps / wall,
+        "cpu_runs": m,
+        "cpu_s": cpu_wall,
+        "cpu_state_steps_per_s": m * state_steps / cpu_wall,
+        "gpu_vs_cpu_max_abs_diff_per_s": diff,
+        "nan_runs": int(np.isnan(gpu).sum()),
+        "median_exponent_per_s": float(np.nanmedian(gpu)) if np.isfinite(gpu).any() else float("nan"),
+    }
 
 
 def _best(rollout: Any, kind: str, p: np.ndarray, b: np.ndarray, Q: np.ndarray, V: np.ndarray, steps: int) -> Any:
@@ -226,18 +280,24 @@ def main() -> int:
     parser.add_argument("--states", type=int, help="one batch of this many states instead of 2^14 to 2^20")
     parser.add_argument("--steps", type=int, default=STEPS, help=f"RK4 steps of {DT * 1e3:g} ms (default {STEPS})")
     parser.add_argument("--no-mjx", action="store_true", help="leave MJX out even where it imports")
+    parser.add_argument(
+        "--chaos-seconds",
+        type=float,
+        default=CHAOS_SECONDS,
+        help=f"the chaos map's duration [s] (default {CHAOS_SECONDS:g}; its runs: the largest batch)",
+    )
     args = parser.parse_args()
     if args.prepare is not None:
         return prepare(args.prepare)
-    if (args.states is not None and args.states < 1) or args.steps < 1:
-        parser.error("--states and --steps must be >= 1")
+    if (args.states is not None and args.states < 1) or args.steps < 1 or not args.chaos_seconds >= DT:
+        parser.error(f"--states and --steps must be >= 1, --chaos-seconds >= {DT:g}")
     if not (args.run / "models.npz").is_file():
         print(
             f"bench_gpu: error: {args.run / 'models.npz'} is missing; run --prepare {args.run} first", file=sys.stderr
         )
         return 2
     sizes = (args.states,) if args.states is not None else SIZES
-    return run(args.run, sizes=sizes, steps=args.steps, mjx=not args.no_mjx)
+    return run(args.run, sizes=sizes, steps=args.steps, mjx=not args.no_mjx, chaos_seconds=args.chaos_seconds)
 
 
 if __name__ == "__main__":

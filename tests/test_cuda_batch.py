@@ -210,6 +210,9 @@ def test_cuda_sweep_lyapunov_equals_cpu_sweep():
     np.testing.assert_allclose(out["gpu"], out["cpu"], rtol=0, atol=CUDA_VS_CPU_ATOL)
 
 
+TINY = ("--states", "4", "--steps", "20", "--chaos-seconds", "0.2")  # bench_gpu.py --run, in the simulator
+
+
 def test_bench_gpu_prepares_here_and_runs_without_pinocchio(tmp_path):
     """benchmarks/bench_gpu.py: --prepare with robodyn, --run from the arrays alone (in the simulator, a tiny batch)."""
     script = SRC.parent / "benchmarks" / "bench_gpu.py"
@@ -219,7 +222,7 @@ def test_bench_gpu_prepares_here_and_runs_without_pinocchio(tmp_path):
     )
     assert prepared.returncode == 0, prepared.stderr
     ran = subprocess.run(
-        [sys.executable, str(script), "--run", str(tmp_path), "--states", "4", "--steps", "20", "--no-mjx"],
+        [sys.executable, str(script), "--run", str(tmp_path), "--no-mjx", *TINY],
         env={**env, "NUMBA_ENABLE_CUDASIM": "1"},
         capture_output=True,
         text=True,
@@ -233,6 +236,9 @@ def test_bench_gpu_prepares_here_and_runs_without_pinocchio(tmp_path):
         (row,) = result["kinds"][kind]["batches"]
         assert row["states"] == 4 and row["gpu_state_steps_per_s"] > 0
         assert row["gpu_vs_cpu_max_abs_diff"] <= CUDA_VS_CPU_ATOL
+    chaos = result["kinds"]["pendubot"]["chaos_map"]
+    assert chaos["runs"] == 4 and chaos["nan_runs"] == 0 and chaos["median_exponent_per_s"] > 0
+    assert chaos["gpu_vs_cpu_max_abs_diff_per_s"] <= CUDA_VS_CPU_ATOL
 
 
 def test_cli_sweep_device_cuda_runs_in_process_into_parquet(tmp_path):

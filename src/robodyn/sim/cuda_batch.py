@@ -214,6 +214,23 @@ def benettin_kernel(kind: str) -> Any:
 
 
 @cache
+def cpu_benettin_kernel(kind: str) -> Any:
+    """Benettin's device function on the CPU's cores: numba ``prange`` over the runs (the benchmark's CPU column)."""
+    import numba
+
+    benettin = _benettin(numba.njit, kind)
+
+    @numba.njit(parallel=True)
+    def kernel(p, b, nv, Q, V, D, d0, dt, steps, count, span, out):  # type: ignore[no-untyped-def]
+        for r in numba.prange(Q.shape[0]):
+            q0, q1, v0, v1 = Q[r, 0], Q[r, 1], V[r, 0], V[r, 1]
+            e0, e1, e2, e3 = D[r, 0], D[r, 1], D[r, 2], D[r, 3]
+            out[r] = benettin(p, b, nv, q0, q1, v0, v1, e0, e1, e2, e3, d0, dt, steps, count, span)
+
+    return kernel
+
+
+@cache
 def cpu_kernel(kind: str) -> Any:
     """The same step on the CPU's cores: numba ``prange`` over the states (the GPU benchmark's CPU column)."""
     import numba
@@ -291,25 +308,31 @@ def lyapunov(
     steps: int,
     count: int,
     interval: float,
+    cpu: bool = False,
 ) -> Array:
     """Benettin's largest Lyapunov exponent [1/s] of every run (n,) on the GPU; only the exponents come back.
 
     ``D`` (n, 2 nv) is each twin's start offset [dq, dv] of length ``d0``; ``count`` intervals of
     ``steps`` steps of ``dt`` [s] (``interval`` [s] each). NaN where a separation stopped being
-    finite and positive.
+    finite and positive. ``cpu=True`` runs the same device function on the CPU's cores instead.
     """
-    module = cuda_module()
-    kernel = benettin_kernel(kind)
     n, nv = Q.shape
     Qp, Vp, Dp = np.zeros((n, 2)), np.zeros((n, 2)), np.zeros((n, 4))
     Qp[:, :nv], Vp[:, :nv] = Q, V
     Dp[:, :nv], Dp[:, 2 : 2 + nv] = D[:, :nv], D[:, nv:]
     b2 = np.zeros(2)
     b2[:nv] = b
+    p_ = np.ascontiguousarray(p, dtype=np.float64)
+    if cpu:
+        result = np.empty(n)
+        cpu_benettin_kernel(kind)(p_, b2, nv, Qp, Vp, Dp, d0, dt, steps, count, count * interval, result)
+        return result
+    module = cuda_module()
+    kernel = benettin_kernel(kind)
     out = module.device_array(n, dtype=np.float64)
     blocks = max(1, -(-n // THREADS_PER_BLOCK))
     kernel[blocks, THREADS_PER_BLOCK](
-        module.to_device(np.ascontiguousarray(p, dtype=np.float64)),
+        module.to_device(p_),
         module.to_device(b2),
         nv,
         module.to_device(Qp),

@@ -199,10 +199,16 @@ def run(
     of ``workers`` processes (default: one per CPU) is started and stopped. ``client`` is an
     existing ``distributed.Client`` to use instead. ``progress`` is a stream for the progress bar.
     ``read_scene`` reads the scene file a sweep may name (default :func:`robodyn.scene.read_scene`).
+    A ``device = "cuda"`` sweep without ``client`` or ``scheduler`` runs its chunks in this process on
+    its GPU (refused at once without one); with them, on the workers' GPUs.
     """
     if client is None:
         check_cluster(scheduler=scheduler, workers=workers)  # before reading anything, let alone submitting
     prepared = prepare(source, out, read_scene=read_scene)
+    if prepared.job.device == "cuda" and client is None and scheduler is None:  # this process's GPU runs the chunks
+        from robodyn.sim import cuda_batch
+
+        cuda_batch.cuda_module()  # no GPU (exit 5) or no numba CUDA target (exit 4): one line, before any work
     store = Store(prepared.out, prepared.spec.digest, prepared.spec.source)
     computed = run_chunks(
         prepared.plan,
@@ -218,11 +224,10 @@ def run(
 
 
 def _check_cuda(spec: SweepSpec, models: Mapping[Setting, Model], gains: str) -> None:
-    """Refuse a ``device = "cuda"`` sweep that has a setting the GPU path cannot run, or no GPU, before any work.
+    """Refuse a ``device = "cuda"`` sweep that has a setting the GPU path cannot run, before any work.
 
     Raises:
         InputError: naming the setting's integrator or controller and what the GPU path takes.
-        MissingDependencyError, UnavailableError: numba's CUDA target or a GPU missing.
     """
     for setting, model in models.items():
         refusal = cuda_refusal(
@@ -230,9 +235,6 @@ def _check_cuda(spec: SweepSpec, models: Mapping[Setting, Model], gains: str) ->
         )
         if refusal:
             raise InputError(f"{spec.source}: device cuda: {refusal}")
-    from robodyn.sim import cuda_batch
-
-    cuda_batch.cuda_module()
 
 
 def _scene(spec: SweepSpec, read_scene: SceneReader | None) -> SceneSource | None:

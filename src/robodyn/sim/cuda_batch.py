@@ -26,6 +26,8 @@ from __future__ import annotations
 import math
 import time
 import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
 from functools import cache
 from typing import Any
 
@@ -77,10 +79,18 @@ def cuda_module() -> Any:
     return cuda
 
 
+@contextmanager
+def _quiet() -> Iterator[None]:
+    """Keep numba's performance warnings (a grid of a few blocks, a host array) off the user's stderr."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        yield
+
+
 def device_name() -> str:
     """The GPU's name (``"simulator"`` in numba's CUDA simulator)."""
     module = cuda_module()
-    if getattr(module, "simulator", None) is not None or not hasattr(module, "get_current_device"):
+    if not hasattr(module, "get_current_device"):  # the simulator's numba.cuda has none
         return "numba CUDA simulator"
     name = module.get_current_device().name
     return name.decode() if isinstance(name, bytes) else str(name)
@@ -267,13 +277,14 @@ def rollout(
     Q_d, V_d = module.to_device(Qp), module.to_device(Vp)
     lo_d, hi_d = module.device_array((n, 2), dtype=np.float64), module.device_array((n, 2), dtype=np.float64)
     blocks = max(1, -(-n // THREADS_PER_BLOCK))
-    one = [Qp[:1].copy(), Vp[:1].copy(), pad[:1].copy(), pad[:1].copy()]  # compile (or load) outside the timing
-    kernel[1, 1](p_d, b_d, nv, *one, dt, 0)
-    module.synchronize()
-    start = time.perf_counter()
-    kernel[blocks, THREADS_PER_BLOCK](p_d, b_d, nv, Q_d, V_d, lo_d, hi_d, dt, steps)
-    module.synchronize()
-    wall = time.perf_counter() - start
+    with _quiet():
+        one = [module.device_array((1, 2), dtype=np.float64) for _ in range(4)]
+        kernel[1, 1](p_d, b_d, nv, *one, dt, 0)  # compile (or load) outside the timing
+        module.synchronize()
+        start = time.perf_counter()
+        kernel[blocks, THREADS_PER_BLOCK](p_d, b_d, nv, Q_d, V_d, lo_d, hi_d, dt, steps)
+        module.synchronize()
+        wall = time.perf_counter() - start
     out = [a.copy_to_host()[:, :nv].copy() for a in (Q_d, V_d, lo_d, hi_d)]
     return out[0], out[1], out[2], out[3], wall
 
@@ -331,18 +342,7 @@ def lyapunov(
     kernel = benettin_kernel(kind)
     out = module.device_array(n, dtype=np.float64)
     blocks = max(1, -(-n // THREADS_PER_BLOCK))
-    kernel[blocks, THREADS_PER_BLOCK](
-        module.to_device(p_),
-        module.to_device(b2),
-        nv,
-        module.to_device(Qp),
-        module.to_device(Vp),
-        module.to_device(Dp),
-        d0,
-        dt,
-        steps,
-        count,
-        count * interval,
-        out,
-    )
+    args = [module.to_device(x) for x in (p_, b2)] + [nv] + [module.to_device(x) for x in (Qp, Vp, Dp)]
+    with _quiet():
+        kernel[blocks, THREADS_PER_BLOCK](*args, d0, dt, steps, count, count * interval, out)
     return np.asarray(out.copy_to_host())

@@ -11,7 +11,8 @@ term for term, so the two paths agree to round-off (to the bit in numba's CUDA s
 
 Each thread also keeps the smallest and largest value of each coordinate it passed through, so
 that a caller can tell which runs left the URDF's position limits on the way (the sweep hands
-those to :func:`robodyn.simulate`, which stops them there).
+those to :func:`robodyn.simulate`, which stops them there). :func:`lyapunov` steps a run and its
+Benettin twin in one thread and returns only the exponents.
 
 This module needs only NumPy, numba's CUDA target and :mod:`robodyn.kinds` (no Pinocchio): a
 GPU worker runs it from a kind's name and parameter vector (``benchmarks/bench_gpu.py --run``).
@@ -88,7 +89,7 @@ def _quiet() -> Iterator[None]:
 
 
 def device_name() -> str:
-    """The GPU's name (``"simulator"`` in numba's CUDA simulator)."""
+    """The GPU's name (``"numba CUDA simulator"`` in numba's CUDA simulator)."""
     module = cuda_module()
     if not hasattr(module, "get_current_device"):  # the simulator's numba.cuda has none
         return "numba CUDA simulator"

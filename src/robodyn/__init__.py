@@ -52,6 +52,8 @@ def __getattr__(name: str) -> Any:
         value = CheckReport
     elif name == "extract_params":
         from robodyn.kinds.params import extract as value
+    elif name == "batch":
+        import robodyn.sim.batch as value
     elif name == "control":
         import robodyn.control as value
     elif name == "formulas":
@@ -88,6 +90,7 @@ __all__ = [
     "UnavailableError",
     "UnknownNameError",
     "__version__",
+    "batch",
     "check",
     "control",
     "extract_params",

@@ -4,9 +4,11 @@ A sweep file that names a scene is read with :func:`robodyn.scene.read_scene`, h
 :func:`robodyn.sweep.run` (the scene package sits above the sweep in robodyn's layers).
 
 Exit codes: 0 every chunk is written; 2 bad input (a bad sweep file, an unknown name, a sweep past
-the bounds, an unwritable --out) or a run that failed in its worker; 4 Dask or pyarrow missing; 5 no
-scheduler at --scheduler, or the scheduler went away mid-sweep; 130 interrupted (in both last cases
-the chunks written so far stay, and the same command resumes from them).
+the bounds, an unwritable --out, a setting ``--device cuda`` cannot run) or a run that failed in its
+worker; 4 Dask or pyarrow missing, or numba's CUDA target for ``--device cuda``; 5 no scheduler at
+--scheduler, the scheduler went away mid-sweep, or no CUDA GPU for ``--device cuda``; 130 interrupted
+(in the cases of a scheduler gone and of an interrupt the chunks written so far stay, and the same
+command resumes from them).
 """
 
 from __future__ import annotations
@@ -29,8 +31,9 @@ def add_parser(sub: Any) -> None:
         "its model or scene file (which supplies what the sweep leaves out) into runs, group them into chunks, "
         "run each chunk as one Dask task (a local cluster, or --scheduler), and "
         "write each finished chunk to DIR/results/ as Parquet with DIR/manifest.json. Run again to resume: "
-        "chunks already written are skipped. Exit 0: done; 2: bad input; 4: Dask or pyarrow missing; 5: no "
-        "scheduler there, or it went away mid-sweep (run again to resume); 130: interrupted.",
+        "chunks already written are skipped. Exit 0: done; 2: bad input; 4: Dask or pyarrow missing (or numba's "
+        "CUDA target, with --device cuda); 5: no scheduler there, or it went away mid-sweep (run again to resume), "
+        "or no CUDA GPU for --device cuda; 130: interrupted.",
     )
     p.add_argument(
         "sweep",
@@ -44,6 +47,12 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--scheduler", metavar="ADDRESS", help="a running Dask scheduler, e.g. tcp://127.0.0.1:8786")
     p.add_argument(
         "--workers", type=positive_int, help="local worker processes (default: one per CPU; at most 4 per CPU)"
+    )
+    p.add_argument(
+        "--device",
+        choices=("cpu", "cuda"),
+        help="where the runs are computed (default: the sweep file's device, else cpu); cuda: an NVIDIA GPU, "
+        "for a built-in kind without controller, rk4, measures final_state, energy_drift, wall_time",
     )
     p.add_argument("--plots", action="store_true", help="also draw maps and sensitivity charts into DIR/plots/")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -68,6 +77,8 @@ def run(args: Any) -> int:
     spec = load(args.sweep)
     if not physics_checked(args):
         spec = dataclasses.replace(spec, physics_check=False)
+    if args.device is not None:
+        spec = dataclasses.replace(spec, device=args.device)
     if args.passive:
         spec = dataclasses.replace(spec, passive=tuple(dict.fromkeys((*spec.passive, *args.passive))))
     if not spec.physics_check:

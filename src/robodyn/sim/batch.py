@@ -43,6 +43,7 @@ BLOCKS_PER_THREAD = 8
 MIN_BLOCK = 4
 
 _BATCH_METHODS = ("rk4", "heun", "euler")
+DEVICES = ("cpu", "cuda")
 
 
 @dataclass(frozen=True, eq=False)
@@ -51,6 +52,8 @@ class BatchResult:
 
     ``path`` is ``"closed_form"`` (a built-in kind's compiled closed form) or ``"tree"`` (the
     compiled tree algorithms); ``evaluations`` counts batch evaluations (stages times steps).
+    ``device`` is ``"cpu"`` or ``"cuda"`` (one GPU thread a state: ``threads`` is then the batch
+    size, and ``wall_time_s`` the kernel's time without the copies to and from the GPU).
     """
 
     q: Array
@@ -62,6 +65,7 @@ class BatchResult:
     wall_time_s: float
     evaluations: int
     path: str = "tree"
+    device: str = "cpu"
 
     @property
     def state_steps_per_second(self) -> float:
@@ -106,15 +110,22 @@ def rollout(
     dt: float,
     integrator: str = "rk4",
     threads: int | None = None,
+    device: str = "cpu",
 ) -> BatchResult:
     """Advance every state of the batch (q0 (n, nq), v0 (n, nv)) by ``duration`` [s] in steps of ``dt`` [s].
 
     ``threads`` defaults to :func:`default_threads`. Only fixed-step explicit integrators
     (rk4, heun, euler) apply; the robot must be torque-free here, lossless and have nq == nv.
+    ``device="cuda"`` runs a built-in kind's closed form with rk4 on an NVIDIA GPU
+    (:mod:`robodyn.sim.cuda_batch`, one thread a state, float64).
 
     Raises:
         InputError: shapes, an integrator or a robot the batch path does not take.
+        MissingDependencyError: ``device="cuda"`` without numba's CUDA target (the ``cuda`` extra).
+        UnavailableError: ``device="cuda"`` on a machine without a CUDA GPU.
     """
+    if device not in DEVICES:
+        raise InputError(f"device {device!r}: expected one of {', '.join(DEVICES)}")
     if not robot.nq_equals_nv:
         raise InputError(f"{robot.name}: the batch path needs nq == nv, got nq={robot.nq}, nv={robot.nv}")
     if np.any(robot.damping) or np.any(robot.friction):
@@ -132,6 +143,8 @@ def rollout(
         raise InputError(f"threads must be a whole number >= 1, got {threads!r}")
     steps = integrators.step_count(duration, dt)
     n, nv = Q.shape
+    if device == "cuda":
+        return _cuda_rollout(robot, Q, V, dt=dt, steps=steps, integrator=method.name)
     threads = threads or default_threads()
     blocks = blocks_for(n, threads)
     fast = _closed_form(robot, method.name)
@@ -174,3 +187,18 @@ def rollout(
     stages = {"rk4": 4, "heun": 2, "euler": 1}[method.name]
     path = "closed_form" if fast is not None else "tree"
     return BatchResult(Q, V, dt, steps, method.name, threads, wall, stages * steps, path)
+
+
+def _cuda_rollout(robot: Robot, Q: Array, V: Array, *, dt: float, steps: int, integrator: str) -> BatchResult:
+    """The batch on the GPU: a built-in kind's closed form (checked against ABA first), rk4."""
+    fast = _closed_form(robot, integrator)
+    if fast is None:
+        raise InputError(
+            f"{robot.name}: device cuda takes the built-in kinds ({', '.join(KINDS)}) with integrator rk4; "
+            f"got integrator {integrator!r} on a model "
+            + ("of no built-in kind" if params_module.detect_kind(robot) not in KINDS else "of a built-in kind")
+        )
+    from robodyn.sim import cuda_batch
+
+    q, v, _, _, wall = cuda_batch.rollout(fast.kind, fast.param_vector, fast.damping, Q, V, dt=dt, steps=steps)
+    return BatchResult(q, v, dt, steps, integrator, Q.shape[0], wall, 4 * steps, "closed_form", "cuda")

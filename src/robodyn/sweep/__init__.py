@@ -38,7 +38,7 @@ from robodyn.kinds.params import detect_kind
 from robodyn.model.load import PASSIVE_JOINT
 from robodyn.model.load import load as load_model
 from robodyn.sweep import measures
-from robodyn.sweep.chunk import Job, controller_of, upright_of
+from robodyn.sweep.chunk import Job, controller_of, cuda_refusal, upright_of
 from robodyn.sweep.engine import check_cluster, run_chunks
 from robodyn.sweep.plan import Chunk, Plan, Setting, make_plan, settings
 from robodyn.sweep.source import (
@@ -177,7 +177,9 @@ def prepare(
         if measures.is_user(m):
             measures.load_user_measure(m)
     models = _models(spec, model, robot, kind, out)
-    job = Job(spec.duration, spec.measures, gains_json, spec.seed, robot.joint_names)
+    job = Job(spec.duration, spec.measures, gains_json, spec.seed, robot.joint_names, spec.device)
+    if spec.device == "cuda":
+        _check_cuda(spec, models, gains_json)
     return Prepared(spec, make_plan(spec, robot.joint_names, models, defaults=(q_default, v_default)), job, out)
 
 
@@ -198,10 +200,16 @@ def run(
     of ``workers`` processes (default: one per CPU) is started and stopped. ``client`` is an
     existing ``distributed.Client`` to use instead. ``progress`` is a stream for the progress bar.
     ``read_scene`` reads the scene file a sweep may name (default :func:`robodyn.scene.read_scene`).
+    A ``device = "cuda"`` sweep without ``client`` or ``scheduler`` runs its chunks in this process on
+    its GPU (refused at once without one); with them, on the workers' GPUs.
     """
     if client is None:
         check_cluster(scheduler=scheduler, workers=workers)  # before reading anything, let alone submitting
     prepared = prepare(source, out, read_scene=read_scene)
+    if prepared.job.device == "cuda" and client is None and scheduler is None:  # this process's GPU runs the chunks
+        from robodyn.sim import cuda_batch
+
+        cuda_batch.cuda_module()  # no GPU (exit 5) or no numba CUDA target (exit 4): one line, before any work
     store = Store(prepared.out, prepared.spec.digest, prepared.spec.source)
     computed = run_chunks(
         prepared.plan,
@@ -214,6 +222,20 @@ def run(
         on_chunk=on_chunk,
     )
     return SweepResult(prepared.out, computed, len(prepared.plan.chunks) - computed, prepared.plan, store)
+
+
+def _check_cuda(spec: SweepSpec, models: Mapping[Setting, Model], gains: str) -> None:
+    """Refuse a ``device = "cuda"`` sweep that has a setting the GPU path cannot run, before any work.
+
+    Raises:
+        InputError: naming the setting's integrator or controller and what the GPU path takes.
+    """
+    for setting, model in models.items():
+        refusal = cuda_refusal(
+            model, setting.integrator, controller_of(model, setting.controller, gains), spec.measures
+        )
+        if refusal:
+            raise InputError(f"{spec.source}: device cuda: {refusal}")
 
 
 def _scene(spec: SweepSpec, read_scene: SceneReader | None) -> SceneSource | None:

@@ -14,6 +14,12 @@ The path is chosen per chunk (all its runs share a setting):
   fixed-step method and only final state, energy drift or wall time asked:
   :func:`robodyn.sim.batch.rollout` (one thread). It has no stops and returns final states only,
   so it cannot see a run pass a limit on the way: a robot with finite limits goes to ``simulate``;
+* ``cuda`` (the sweep's ``device = "cuda"``): a built-in kind, torque-free and lossless, ``rk4``, only
+  final state, energy drift, Lyapunov estimate or wall time asked: :func:`robodyn.sim.cuda_batch.rollout`,
+  one GPU thread a run, which keeps each run's coordinate range, so that a run that passed a URDF
+  position limit is computed again by ``simulate`` (as on the ``fast`` path); its energies are the
+  closed form's, on the CPU, from the final states; the Lyapunov estimate steps each run and its twin
+  in one GPU thread (:func:`robodyn.sim.cuda_batch.lyapunov`);
 * ``simulate``: anything else, :func:`robodyn.simulate` run by run: a user's controller file, a
   scene's constant torque or PD law, a scene with constraints or springs beyond the URDF's stops
   and efforts, or a scene that picks its dynamics backend.
@@ -21,7 +27,7 @@ The path is chosen per chunk (all its runs share a setting):
 Every path applies :func:`robodyn.simulate`'s divergence test: a run whose energy error
 |E - E0 - W| (W the work of its torques and damping) passes ``max_energy_growth`` (1) times its
 energy scale, or whose state is not finite, is ``diverged``. The ``fast`` and ``closed_loop`` paths
-test every step (``batch``, which keeps final states only, tests the last) and hand such a run to
+test every step (``batch`` and ``cuda``, which keep final states only, test the last) and hand such a run to
 ``simulate``, whose row (status, measures up to the failing step) is then the run's.
 
 Every operation in the vectorised paths acts on each run's row alone (no matrix product across
@@ -31,6 +37,7 @@ Workers keep the loaded robot, compiled dynamics and controllers of the last few
 
 from __future__ import annotations
 
+import inspect
 import json
 import math
 import time
@@ -43,7 +50,7 @@ from numpy.typing import NDArray
 
 from robodyn import dynamics
 from robodyn.control import make, plant
-from robodyn.errors import DivergenceError, StepError
+from robodyn.errors import DivergenceError, InputError, StepError
 from robodyn.integrators import FixedStepIntegrator, get, step_count
 from robodyn.integrators.stability import lyapunov
 from robodyn.model.load import load
@@ -61,16 +68,22 @@ from robodyn.sweep.spec import NO_CONTROLLER, SCENE_CONTROLLER
 
 Array = NDArray[np.float64]
 
+# What the cuda path computes: from the final states, and Benettin's twins stepped on the GPU.
+CUDA_MEASURES = ms.BATCH_MEASURES | {"lyapunov"}
+# The twins' starting distance: lyapunov()'s own default, which the other paths use.
+LYAPUNOV_D0: float = inspect.signature(lyapunov).parameters["d0"].default
+
 
 @dataclass(frozen=True)
 class Job:
-    """What every chunk of a sweep shares: duration [s], measures, controller gains (JSON), seed, joints."""
+    """What every chunk of a sweep shares: duration [s], measures, controller gains (JSON), seed, joints, device."""
 
     duration: float
     measures: tuple[str, ...]
     gains: str
     seed: int
     joint_names: tuple[str, ...]
+    device: str = "cpu"
 
 
 @lru_cache(maxsize=8)
@@ -138,6 +151,11 @@ def path_of(chunk: Chunk, job: Job) -> str:
     s = chunk.setting
     wanted = set(job.measures)
     controller = controller_of(chunk.model, s.controller, job.gains)
+    if job.device == "cuda":
+        refusal = cuda_refusal(chunk.model, s.integrator, controller, job.measures)
+        if refusal:
+            raise InputError(f"device cuda: {refusal}")
+        return "cuda"
     if not plain(chunk.model):
         return "simulate"
     if controller is None:
@@ -159,6 +177,24 @@ def path_of(chunk: Chunk, job: Job) -> str:
     return "simulate"
 
 
+def cuda_refusal(model: Model, integrator: str, controller: Any, measures: tuple[str, ...]) -> str:
+    """Why the ``cuda`` path cannot compute runs of this setting ("" when it can)."""
+    if controller is not None:
+        return 'runs without a controller only (controller = "none")'
+    if not plain(model):
+        return "a scene's constraints, springs or backend have no GPU kernel"
+    if integrator != "rk4":
+        return f"integrator rk4 only, got {integrator!r}"
+    if fast_of(model) is None:
+        return f"the built-in kinds ({', '.join(KINDS)}) only; {robot_of(model).name} is none of them"
+    if np.any(robot_of(model).damping):
+        return "lossless runs only; the model has joint damping"
+    other = [m for m in measures if m not in CUDA_MEASURES]
+    if other:
+        return f"measures {', '.join(sorted(CUDA_MEASURES))} only, got {', '.join(other)}"
+    return ""
+
+
 def execute(chunk: Chunk, job: Job) -> dict[str, Any]:
     """Compute every run of ``chunk``: columns ``run``, ``status``, the inputs and the measures, one row a run."""
     path = path_of(chunk, job)
@@ -166,6 +202,8 @@ def execute(chunk: Chunk, job: Job) -> dict[str, Any]:
         rows = _closed_loop(chunk, job)
     elif path == "batch":
         rows = _batch(chunk, job)
+    elif path == "cuda":
+        rows = _cuda(chunk, job)
     else:
         rows = [_one(chunk, job, k, path) for k in range(chunk.runs.size)]
     paths = [row.pop("path", path) for row in rows]
@@ -345,6 +383,65 @@ def _batch(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
     for k in np.flatnonzero(over):
         rows[k] = {**_one(chunk, job, int(k), "simulate"), "path": "simulate"}
     return rows
+
+
+def _cuda(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
+    """The torque-free chunk on the GPU; runs that pass a position limit or diverge go to ``simulate``."""
+    from robodyn.sim import cuda_batch
+
+    s = chunk.setting
+    robot = robot_of(chunk.model)
+    fast = fast_of(chunk.model)
+    assert fast is not None  # path_of chose "cuda" because there is one
+    q, v, q_min, q_max, wall = cuda_batch.rollout(
+        fast.kind, fast.param_vector, fast.damping, chunk.q0, chunk.v0, dt=s.dt, steps=step_count(job.duration, s.dt)
+    )
+    rows = _rows(chunk, job, q, v, None, wall)
+    if "lyapunov" in job.measures:
+        for row, exponent in zip(rows, _cuda_lyapunov(chunk, job), strict=True):
+            row["lyapunov"] = float(exponent)
+    K0, P0 = _energy_parts(chunk, chunk.q0, chunk.v0)
+    with np.errstate(all="ignore"):  # torque-free and lossless: W = 0, E(T) - E0 is the error (its last sample)
+        over = ~(np.abs(_energies(chunk, q, v) - (K0 + P0)) <= energy_bounds(robot, K0, P0))
+    for k in np.union1d(stopped(robot, q_min, q_max), np.flatnonzero(over)):
+        rows[k] = {**_one(chunk, job, int(k), "simulate"), "path": "simulate"}
+    return rows
+
+
+def _cuda_lyapunov(chunk: Chunk, job: Job) -> Array:
+    """Benettin's estimate [1/s] of every run of the chunk (n,), each run and its twin in one GPU thread.
+
+    The arithmetic of :func:`robodyn.integrators.stability.lyapunov` (as ``_lyapunov`` calls it): each
+    run's twin starts ``d0`` away in the direction seeded by the sweep's seed plus the run number (drawn
+    here, with NumPy, as there), is pulled back to ``d0`` after every interval, and a separation that is
+    not finite or zero makes the run's estimate NaN. The separation's norm and logarithm are the GPU's:
+    round-off apart.
+    """
+    from robodyn.sim import cuda_batch
+
+    fast = fast_of(chunk.model)
+    assert fast is not None  # only the cuda path calls this
+    d0 = LYAPUNOV_D0
+    n, nv = chunk.q0.shape
+    interval = min(ms.LYAPUNOV_INTERVAL, job.duration)
+    count, steps = round(job.duration / interval), step_count(interval, chunk.setting.dt)
+    direction = np.empty((n, 2 * nv))
+    for k in range(n):
+        direction[k] = np.random.default_rng(job.seed + int(chunk.runs[k])).normal(size=2 * nv)
+        direction[k] *= d0 / np.linalg.norm(direction[k])
+    return cuda_batch.lyapunov(
+        fast.kind,
+        fast.param_vector,
+        fast.damping,
+        chunk.q0,
+        chunk.v0,
+        direction,
+        d0=d0,
+        dt=chunk.setting.dt,
+        steps=steps,
+        count=count,
+        interval=interval,
+    )
 
 
 def _closed_loop(chunk: Chunk, job: Job) -> list[dict[str, Any]]:

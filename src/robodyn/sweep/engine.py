@@ -11,6 +11,9 @@ Its log lines are silenced (``silence_logs``): what goes wrong is robodyn's one 
 raises in a worker ends the sweep with that error (a robodyn error as it is, anything else named
 with its chunk); a scheduler that goes away mid-sweep ends it with :class:`UnavailableError`
 (exit 5) saying how many chunks are written and that the same command resumes from them.
+
+A ``device = "cuda"`` sweep without ``--scheduler`` starts no cluster: this process runs its chunks
+one after the other on its GPU (each chunk is one kernel launch over all its runs).
 """
 
 from __future__ import annotations
@@ -171,7 +174,9 @@ def run_chunks(
         skipped_runs=sum(c.runs.size for c in skipped),
     )
     try:
-        if pending:
+        if pending and job.device == "cuda" and client is None and scheduler is None:
+            _in_process(pending, job, store, bar, on_chunk)
+        elif pending:
             with quiet_dask(), contextlib.ExitStack() as stack:
                 if client is None:
                     client = stack.enter_context(client_for(scheduler=scheduler, workers=workers))
@@ -187,6 +192,18 @@ def run_chunks(
     finally:
         bar.close()
     return len(pending)
+
+
+def _in_process(
+    pending: list[Chunk], job: Job, store: Store, bar: Progress, on_chunk: Callable[[Chunk], None] | None
+) -> None:
+    """Run the chunks one after the other in this process: a GPU sweep's chunks share the one GPU, no cluster."""
+    for chunk in pending:
+        store.write(chunk.id, execute(chunk, job))
+        bar.update(chunk.runs.size)
+        if on_chunk is not None:
+            on_chunk(chunk)
+        pause_for_test("chunk")
 
 
 def _submit_and_collect(

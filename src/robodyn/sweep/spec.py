@@ -13,6 +13,7 @@ value is crossed with every other (a full grid)::
     measure = ["final_state", "time_to_balance", "wall_time", "my_measures.py:peak"]
     chunk = 1000                  # runs per Dask task
     seed = 0                      # the Lyapunov twins' seed (the run's index is added)
+    device = "cpu"                # or "cuda": a built-in kind's runs on an NVIDIA GPU
 
     [q0]                          # initial configuration: joint -> value, list or grid
     joint1 = { from = -3.14, to = 3.14, n = 101 }
@@ -57,6 +58,7 @@ from robodyn.fileio import is_number, read_user_file
 TOP_KEYS = (
     "chunk",
     "controller",
+    "device",
     "dt",
     "duration",
     "gains",
@@ -89,6 +91,8 @@ SCENE_CONTROLLER = "scene"
 DEFAULT_DURATION = 5.0
 DEFAULT_DT = 1e-3
 DEFAULT_INTEGRATOR = "rk4"
+# Where the runs are computed: "cuda" runs the built-in kinds' closed form on an NVIDIA GPU.
+DEVICES = ("cpu", "cuda")
 
 
 @dataclass(frozen=True)
@@ -122,6 +126,7 @@ class SweepSpec:
     given: frozenset[str] = frozenset()
     physics_check: bool = True  # False: the model's file is loaded with its numbers as written
     passive: tuple[str, ...] = ()
+    device: str = "cpu"  # "cuda": the chunks run on an NVIDIA GPU (robodyn.sim.cuda_batch)
 
 
 def load(source: str | Path | Mapping[str, Any]) -> SweepSpec:
@@ -181,6 +186,9 @@ def parse(data: Mapping[str, Any], *, name: str, base: Path) -> SweepSpec:
     q0 = {k: _axis(v, f"{name}: q0.{k}") for k, v in _table(data.get("q0", {}), f"{name}: q0").items()}
     v0 = {k: _axis(v, f"{name}: v0.{k}") for k, v in _table(data.get("v0", {}), f"{name}: v0").items()}
     params = {k: _axis(v, f"{name}: params.{k}") for k, v in _table(data.get("params", {}), f"{name}: params").items()}
+    device = data.get("device", "cpu")
+    if device not in DEVICES:
+        raise InputError(f"{name}: device must be one of {', '.join(map(repr, DEVICES))}, got {device!r}")
     passive = data.get("passive", [])
     if not isinstance(passive, list) or not all(isinstance(x, str) and x.strip() for x in passive):
         raise InputError(f'{name}: passive must be a list of joint names like ["joint2"], got {passive!r}')
@@ -206,6 +214,7 @@ def parse(data: Mapping[str, Any], *, name: str, base: Path) -> SweepSpec:
         given=frozenset(str(k) for k in data),
         physics_check=physics_check,
         passive=tuple(dict.fromkeys(x.strip() for x in passive)),
+        device=device,
     )
     return spec
 

@@ -1,0 +1,304 @@
+"""The built-in kinds' batch rollout on a GPU (numba-cuda) against numba on the CPU's cores and MJX.
+
+Two steps, because the GPU machine has no Pinocchio (its wheels are too big to carry there):
+
+    python benchmarks/bench_gpu.py --prepare bench-out/gpu     # where robodyn is installed
+    python benchmarks/bench_gpu.py --run bench-out/gpu         # where numpy and numba-cuda are
+
+``--prepare DIR`` writes ``DIR/models.npz``: each kind's closed-form parameter vector (checked
+against Pinocchio's ABA by ``FastDynamics.from_robot``), its damping and degrees of freedom, and
+the URDF text MuJoCo reads (geometry stripped, as ``bench_mujoco.py``) with its joint names.
+
+``--run DIR`` imports NumPy, numba and ``robodyn.sim.cuda_batch`` (with ``robodyn.kinds``'s closed
+forms; no Pinocchio: the run checks that ``pinocchio`` is not in ``sys.modules``). For the Pendubot
+and the cart-pole it runs batches of 2^14 to 2^20 seeded states (``--states N`` for one size),
+``--steps`` (1,000) torque-free RK4 steps of 1 ms each, on the GPU (float64, one thread a state,
+best of 3) and, up to ``CPU_MAX_STATES``, the same step on all CPU cores (numba ``prange``); it
+reports state-steps per second and the largest difference of the final states (the same
+arithmetic; a GPU's fused multiply-adds round differently). With ``mujoco.mjx`` importable (and
+not ``--no-mjx``) it also runs MJX (float32, ``MJX_STATES`` states) from the same starts and
+reports its speed and its difference from the float64 kernel. A Pendubot chaos map follows: Benettin's
+Lyapunov estimate of the largest batch's runs over ``--chaos-seconds`` (20 s), each run and its
+twin in one GPU thread, against the same device function on the CPU's cores for 1,024 of them.
+Everything goes into
+``DIR/gpu.json`` with the GPU's name. Without a GPU, ``--run`` stops in one line (exit 5);
+``NUMBA_ENABLE_CUDASIM=1`` runs it in numba's CUDA simulator (use a tiny ``--states``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import re
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+DT = 1e-3  # [s]
+STEPS = 1000
+SIZES = tuple(2**k for k in range(14, 21))
+KINDS = ("pendubot", "cart_pole")
+REPEATS = 3
+# Numba on the CPU's cores above this many states would take most of the 5-minute budget (~6e7 state-steps/s).
+CPU_MAX_STATES = 2**17
+MJX_STATES = 2**17
+# The chaos map: Benettin's estimate of the free Pendubot over CHAOS_SECONDS, its twins renormalised every
+# CHAOS_INTERVAL (the sweep's LYAPUNOV_INTERVAL), d0 as robodyn.integrators.stability.lyapunov; the CPU
+# column on CHAOS_CPU_STATES of the runs (all of them would take minutes).
+CHAOS_SECONDS = 20.0
+CHAOS_INTERVAL = 0.1
+CHAOS_D0 = 1e-8
+CHAOS_CPU_STATES = 1024
+SEED = 0
+# The starting states: angles anywhere, the cart within its rail, speeds up to 1 rad/s | m/s.
+START_RANGE = {"pendubot": (np.pi, np.pi), "cart_pole": (2.0, np.pi)}
+
+
+def prepare(folder: Path) -> int:
+    import robodyn
+    from robodyn.sim.fast import FastDynamics
+
+    folder.mkdir(parents=True, exist_ok=True)
+    arrays: dict[str, Any] = {}
+    for kind in KINDS:
+        robot = robodyn.load(kind)
+        fast = FastDynamics.from_robot(robot, kind)  # checked against Pinocchio's ABA on seeded states
+        arrays[f"{kind}.params"] = fast.param_vector
+        arrays[f"{kind}.damping"] = fast.damping
+        arrays[f"{kind}.joints"] = np.array(robot.joint_names)
+        arrays[f"{kind}.urdf"] = np.array(_mujoco_text(Path(robot.urdf_path).read_text()))
+    np.savez(folder / "models.npz", **arrays)
+    print(f"wrote {folder / 'models.npz'}: {', '.join(KINDS)} (closed-form parameters, damping, URDF for MuJoCo)")
+    return 0
+
+
+def _mujoco_text(urdf: str) -> str:
+    """The URDF without geometry, with MuJoCo's compiler options (as bench_mujoco.py)."""
+    text = re.sub(r"<(visual|collision)\b.*?</\1>", "", urdf, flags=re.S)
+    start = re.search(r"<robot\b[^>]*>", text)
+    if start is None:
+        raise SystemExit("no <robot> tag in the URDF")
+    compiler = (
+        '<mujoco><compiler discardvisual="true" fusestatic="false" balanceinertia="false" angle="radian"/></mujoco>'
+    )
+    return text[: start.end()] + compiler + text[start.end() :]
+
+
+def starts(kind: str, n: int, nv: int) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(SEED)
+    Q = rng.uniform(-1.0, 1.0, (n, nv)) * np.array(START_RANGE[kind][:nv])
+    V = rng.uniform(-1.0, 1.0, (n, nv))
+    return Q, V
+
+
+def run(folder: Path, *, sizes: tuple[int, ...], steps: int, mjx: bool, chaos_seconds: float) -> int:
+    from robodyn.errors import RobodynError
+    from robodyn.sim import cuda_batch
+
+    models = np.load(folder / "models.npz")
+    try:
+        gpu = cuda_batch.device_name()
+    except RobodynError as exc:
+        print(f"bench_gpu: error: {exc}", file=sys.stderr)
+        return exc.exit_code
+    import numba
+
+    facts = {
+        "date": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
+        "gpu": gpu,
+        "cpu_cores": os.cpu_count(),
+        "numba_threads": int(numba.config.NUMBA_NUM_THREADS),
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "numba": numba.__version__,
+        "simulator": os.environ.get("NUMBA_ENABLE_CUDASIM") == "1",
+        "dt_s": DT,
+        "steps": steps,
+        "command": " ".join(sys.argv),
+    }
+    print(f"GPU: {gpu}; {steps} RK4 steps of {DT * 1e3:g} ms, float64")
+    results: dict[str, Any] = {"run": facts, "kinds": {}}
+    for kind in KINDS:
+        p, b = models[f"{kind}.params"], models[f"{kind}.damping"]
+        nv = b.size
+        rows = []
+        for n in sizes:
+            Q, V = starts(kind, n, nv)
+            wall, out = _best(cuda_batch.rollout, kind, p, b, Q, V, steps)
+            row: dict[str, Any] = {"states": n, "gpu_s": wall, "gpu_state_steps_per_s": n * steps / wall}
+            line = f"{kind:10s} {n:>8,} states  GPU {n * steps / wall:9.3g} state-steps/s"
+            if n <= CPU_MAX_STATES:
+                cpu_wall, cpu = _best(cuda_batch.cpu_rollout, kind, p, b, Q, V, steps)
+                diff = max(float(np.max(np.abs(out[0] - cpu[0]))), float(np.max(np.abs(out[1] - cpu[1]))))
+                row |= {
+                    "cpu_s": cpu_wall,
+                    "cpu_state_steps_per_s": n * steps / cpu_wall,
+                    "gpu_vs_cpu_max_abs_diff": diff,
+                }
+                line += f"  CPU {n * steps / cpu_wall:9.3g} state-steps/s  GPU/CPU {cpu_wall / wall:7.3g}x"
+                line += f"  max |diff| {diff:.2g} rad | m, rad/s | m/s"
+            print(line)
+            rows.append(row)
+        entry: dict[str, Any] = {"batches": rows}
+        if kind == "pendubot":
+            entry["chaos_map"] = _chaos(kind, p, b, max(sizes), chaos_seconds)
+        if mjx:
+            entry["mjx"] = _mjx(kind, models, p, b, min(MJX_STATES, max(sizes)), steps)
+        results["kinds"][kind] = entry
+    results["pinocchio_imported"] = "pinocchio" in sys.modules
+    if results["pinocchio_imported"]:
+        raise SystemExit("bench_gpu --run imported pinocchio: it must run from the saved arrays alone")
+    path = folder / "gpu.json"
+    path.write_text(json.dumps(results, indent=2) + "\n")
+    print(f"wrote {path}")
+    return 0
+
+
+def _chaos(kind: str, p: np.ndarray, b: np.ndarray, n: int, seconds: float) -> dict[str, Any]:
+    """Benettin's estimate of n runs (each with its twin, one GPU thread) against the same function on CPU cores."""
+    from robodyn.sim import cuda_batch
+
+    nv = b.size
+    Q, V = starts(kind, n, nv)
+    D = np.random.default_rng(SEED + 1).normal(size=(n, 2 * nv))
+    D *= CHAOS_D0 / np.linalg.norm(D, axis=1)[:, None]
+    interval = min(CHAOS_INTERVAL, seconds)
+    count, steps = round(seconds / interval), round(interval / DT)
+    args = {"d0": CHAOS_D0, "dt": DT, "steps": steps, "count": count, "interval": interval}
+    cuda_batch.lyapunov(kind, p, b, Q[:1], V[:1], D[:1], **{**args, "count": 1, "steps": 1})  # compile
+    start = time.perf_counter()
+    gpu = cuda_batch.lyapunov(kind, p, b, Q, V, D, **args)
+    wall = time.perf_counter() - start
+    m = min(n, CHAOS_CPU_STATES)
+    cuda_batch.lyapunov(kind, p, b, Q[:1], V[:1], D[:1], **{**args, "count": 1, "steps": 1}, cpu=True)
+    start = time.perf_counter()
+    cpu = cuda_batch.lyapunov(kind, p, b, Q[:m], V[:m], D[:m], **args, cpu=True)
+    cpu_wall = time.perf_counter() - start
+    state_steps = 2 * count * steps  # a run and its twin
+    diff = float(np.nanmax(np.abs(gpu[:m] - cpu))) if np.isfinite(cpu).any() else float("nan")
+    print(
+        f"{kind:10s} chaos map {n:,} runs x {seconds:g} s: GPU {wall:.3g} s (copies included, "
+        f"{n * state_steps / wall:.3g} state-steps/s), CPU cores {m * state_steps / cpu_wall:.3g} state-steps/s, "
+        f"max |diff| of the exponents {diff:.2g} 1/s, {int(np.isnan(gpu).sum())} NaN"
+    )
+    return {
+        "runs": n,
+        "seconds": seconds,
+        "interval_s": interval,
+        "gpu_s": wall,
+        "gpu_state_steps_per_s": n * state_steps / wall,
+        "cpu_runs": m,
+        "cpu_s": cpu_wall,
+        "cpu_state_steps_per_s": m * state_steps / cpu_wall,
+        "gpu_vs_cpu_max_abs_diff_per_s": diff,
+        "nan_runs": int(np.isnan(gpu).sum()),
+        "median_exponent_per_s": float(np.nanmedian(gpu)) if np.isfinite(gpu).any() else float("nan"),
+    }
+
+
+def _best(rollout: Any, kind: str, p: np.ndarray, b: np.ndarray, Q: np.ndarray, V: np.ndarray, steps: int) -> Any:
+    """Best kernel wall time [s] of ``REPEATS`` calls (the rollout's own timing: no copies, no compilation)."""
+    best, out = float("inf"), None
+    for _ in range(REPEATS):
+        out = rollout(kind, p, b, Q, V, dt=DT, steps=steps)
+        best = min(best, out[-1])
+    return best, out
+
+
+def _mjx(kind: str, models: Any, p: np.ndarray, b: np.ndarray, n: int, steps: int) -> dict[str, Any]:
+    """MJX (float32) from the same starts: speed and difference from the float64 kernel, or why it did not run."""
+    try:
+        import jax
+        import mujoco
+        from mujoco import mjx
+    except Exception as exc:  # not installed here: the figure is left out, and the reason is kept
+        print(f"{kind:10s} MJX not run: {type(exc).__name__}: {exc}")
+        return {"skipped": f"{type(exc).__name__}: {exc}"}
+    try:
+        from robodyn.sim import cuda_batch
+
+        m = mujoco.MjModel.from_xml_string(str(models[f"{kind}.urdf"]))
+        m.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
+        m.opt.timestep = DT
+        off = mujoco.mjtDisableBit
+        m.opt.disableflags |= off.mjDSBL_CONTACT | off.mjDSBL_LIMIT | off.mjDSBL_EQUALITY
+        m.dof_damping[:] = 0.0
+        m.dof_frictionloss[:] = 0.0
+        names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(m.njnt)]
+        idx = np.array([int(m.jnt_dofadr[names.index(str(j))]) for j in models[f"{kind}.joints"]])
+        mx = mjx.put_model(m)
+        Q, V = starts(kind, n, b.size)
+        qpos, qvel = np.zeros((n, m.nq), np.float32), np.zeros((n, m.nv), np.float32)
+        qpos[:, idx], qvel[:, idx] = Q, V
+
+        def one(q: Any, v: Any) -> Any:
+            d = mjx.make_data(mx).replace(qpos=q, qvel=v)
+            d = jax.lax.fori_loop(0, steps, lambda _, x: mjx.step(mx, x), d)
+            return d.qpos, d.qvel
+
+        fn = jax.jit(jax.vmap(one))
+        start = time.perf_counter()
+        jax.block_until_ready(fn(qpos, qvel))
+        compile_s = time.perf_counter() - start
+        best = float("inf")
+        for _ in range(REPEATS):
+            start = time.perf_counter()
+            out = jax.block_until_ready(fn(qpos, qvel))
+            best = min(best, time.perf_counter() - start)
+        ref = cuda_batch.rollout(kind, p, b, Q, V, dt=DT, steps=steps)
+        diff = max(
+            float(np.max(np.abs(np.asarray(out[0])[:, idx] - ref[0]))),
+            float(np.max(np.abs(np.asarray(out[1])[:, idx] - ref[1]))),
+        )
+        print(f"{kind:10s} {n:>8,} states  MJX float32 {n * steps / best:9.3g} state-steps/s  "
+              f"max |diff| from the float64 kernel {diff:.2g}")  # fmt: skip
+        return {
+            "states": n,
+            "dtype": "float32",
+            "compile_s": compile_s,
+            "mjx_s": best,
+            "mjx_state_steps_per_s": n * steps / best,
+            "mjx_vs_gpu_float64_max_abs_diff": diff,
+            "jax": jax.__version__,
+            "mujoco": mujoco.__version__,
+        }
+    except Exception as exc:  # MJX failing on this model is a result to report, not a crash of the benchmark
+        print(f"{kind:10s} MJX failed: {type(exc).__name__}: {str(exc)[:200]}")
+        return {"failed": f"{type(exc).__name__}: {str(exc)[:500]}"}
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    what = parser.add_mutually_exclusive_group(required=True)
+    what.add_argument("--prepare", type=Path, metavar="DIR", help="write DIR/models.npz (needs robodyn installed)")
+    what.add_argument("--run", type=Path, metavar="DIR", help="run the batches from DIR/models.npz (no Pinocchio)")
+    parser.add_argument("--states", type=int, help="one batch of this many states instead of 2^14 to 2^20")
+    parser.add_argument("--steps", type=int, default=STEPS, help=f"RK4 steps of {DT * 1e3:g} ms (default {STEPS})")
+    parser.add_argument("--no-mjx", action="store_true", help="leave MJX out even where it imports")
+    parser.add_argument(
+        "--chaos-seconds",
+        type=float,
+        default=CHAOS_SECONDS,
+        help=f"the chaos map's duration [s] (default {CHAOS_SECONDS:g}; its runs: the largest batch)",
+    )
+    args = parser.parse_args()
+    if args.prepare is not None:
+        return prepare(args.prepare)
+    if (args.states is not None and args.states < 1) or args.steps < 1 or not args.chaos_seconds >= DT:
+        parser.error(f"--states and --steps must be >= 1, --chaos-seconds >= {DT:g}")
+    if not (args.run / "models.npz").is_file():
+        print(
+            f"bench_gpu: error: {args.run / 'models.npz'} is missing; run --prepare {args.run} first", file=sys.stderr
+        )
+        return 2
+    sizes = (args.states,) if args.states is not None else SIZES
+    return run(args.run, sizes=sizes, steps=args.steps, mjx=not args.no_mjx, chaos_seconds=args.chaos_seconds)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

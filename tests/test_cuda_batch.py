@@ -1,0 +1,330 @@
+"""device="cuda": the built-in kinds' closed form compiled by numba.cuda, run here in numba's CUDA simulator.
+
+numba reads NUMBA_ENABLE_CUDASIM when it is first imported, and this test process has imported
+numba already (other tests), so the simulator checks run in a subprocess of their own with the
+variable set; the refusals without a GPU run here, with the simulator off.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import robodyn
+from robodyn.cli import main
+from robodyn.errors import InputError, UnavailableError
+from robodyn.sim import batch
+
+SRC = Path(__file__).resolve().parents[1] / "src"
+# The CUDA kernel does the CPU kernel's arithmetic term for term; in the simulator both are numba-free
+# float64 operations in the same order, so they agree to the bit; 1e-12 is the issue's bound for a real GPU
+# (whose fused multiply-adds round differently).
+CUDA_VS_CPU_ATOL = 1e-12
+# The simulator runs a Python thread per state: small batches keep each test well under a minute.
+STATES = 12
+DURATION = 0.2  # [s]: 200 steps of dt
+DT = 1e-3
+SIMULATOR = os.environ.get("NUMBA_ENABLE_CUDASIM") == "1"
+
+
+def _gpu_here() -> bool:
+    """True where numba's CUDA target finds a GPU (or runs its simulator): the refusals cannot be seen there."""
+    if SIMULATOR:
+        return True
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            from numba import cuda
+
+            return bool(cuda.is_available())
+        except Exception:  # no CUDA target at all: no GPU either
+            return False
+
+
+NO_GPU_REASON = "this machine has a CUDA GPU (or runs numba's simulator): the no-GPU refusal cannot happen"
+
+
+def _simulated(code: str) -> dict:
+    """Run ``code`` (which prints one JSON line last) in a subprocess under numba's CUDA simulator."""
+    env = {**os.environ, "NUMBA_ENABLE_CUDASIM": "1", "PYTHONPATH": str(SRC)}
+    run = subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(code)], env=env, capture_output=True, text=True, timeout=300
+    )
+    assert run.returncode == 0, run.stderr[-3000:]
+    return json.loads(run.stdout.strip().splitlines()[-1])
+
+
+def test_cuda_rollout_equals_cpu_rollout_for_every_built_in_kind():
+    out = _simulated(
+        f"""
+        import json
+        import numpy as np
+        import robodyn
+        from robodyn.sim import batch
+
+        out = {{}}
+        for kind in ("pendubot", "cart_pole", "geared_arm"):
+            robot = robodyn.load(kind)
+            rng = np.random.default_rng(11)
+            Q = rng.uniform(-3.0, 3.0, ({STATES}, robot.nv))
+            V = rng.uniform(-2.0, 2.0, ({STATES}, robot.nv))
+            cpu = batch.rollout(robot, Q, V, duration={DURATION}, dt={DT}, threads=1)
+            gpu = batch.rollout(robot, Q, V, duration={DURATION}, dt={DT}, device="cuda")
+            out[kind] = {{
+                "dq": float(np.max(np.abs(gpu.q - cpu.q))),
+                "dv": float(np.max(np.abs(gpu.v - cpu.v))),
+                "moved": float(np.max(np.abs(gpu.q - Q))),
+                "device": gpu.device, "path": gpu.path, "steps": gpu.steps, "n": int(gpu.q.shape[0]),
+            }}
+        print(json.dumps(out))
+        """
+    )
+    for kind, got in out.items():
+        assert got["device"] == "cuda" and got["path"] == "closed_form", kind
+        assert got["n"] == STATES and got["steps"] == round(DURATION / DT), kind
+        assert got["moved"] > 1e-3, kind  # the states did move: the comparison is not of two copies of Q
+        assert got["dq"] <= CUDA_VS_CPU_ATOL and got["dv"] <= CUDA_VS_CPU_ATOL, (kind, got)
+
+
+def test_cuda_coordinate_range_is_the_trajectory_range():
+    """The kernel's (q_min, q_max) per run are those of the CPU fast path's whole trajectory."""
+    out = _simulated(
+        f"""
+        import json
+        import numpy as np
+        import robodyn
+        from robodyn.sim import cuda_batch
+        from robodyn.sim.fast import FastDynamics
+
+        robot = robodyn.load("cart_pole")
+        fast = FastDynamics.from_robot(robot)
+        rng = np.random.default_rng(3)
+        Q, V = rng.uniform(-2.0, 2.0, (8, 2)), rng.uniform(-3.0, 3.0, (8, 2))
+        q, v, lo, hi, wall = cuda_batch.rollout(
+            "cart_pole", fast.param_vector, fast.damping, Q, V, dt={DT}, steps={round(DURATION / DT)}
+        )
+        worst = 0.0
+        for k in range(8):
+            t = fast.simulate(Q[k], V[k], duration={DURATION}, dt={DT})
+            worst = max(worst, float(np.max(np.abs(lo[k] - t.q.min(axis=0)))), float(np.max(np.abs(hi[k] - t.q.max(axis=0)))))
+        print(json.dumps({{"worst": worst, "spread": float(np.min(hi - lo)), "wall": wall >= 0.0}}))
+        """
+    )
+    assert out["spread"] > 0.0 and out["wall"]
+    assert out["worst"] <= CUDA_VS_CPU_ATOL, out
+
+
+def test_cuda_sweep_equals_cpu_sweep_with_stops():
+    """A cart-pole sweep on the cuda path gives the CPU path's rows; runs that reach the rail's stops go to simulate."""
+    out = _simulated(
+        """
+        import dataclasses, json, tempfile
+        import numpy as np
+        import robodyn.sweep as sweep
+        from robodyn.sweep.chunk import execute
+
+        spec = {
+            "model": "cart_pole", "duration": 0.3, "dt": 1e-3, "device": "cuda", "chunk": 6,
+            "measure": ["final_state", "energy_drift"],
+            "q0": {"slider": [-2.3, 0.0, 2.3], "hinge": [0.5, 3.0]}, "v0": {"slider": [0.0, 4.0]},
+        }
+        prepared = sweep.prepare(spec, tempfile.mkdtemp())
+        cpu_job = dataclasses.replace(prepared.job, device="cpu")
+        paths, cpu_paths, worst = [], [], 0.0
+        for chunk in prepared.plan.chunks:
+            gpu, cpu = execute(chunk, prepared.job), execute(chunk, cpu_job)
+            paths += gpu["path"]
+            cpu_paths += cpu["path"]
+            for key, value in gpu.items():
+                if isinstance(value, np.ndarray) and value.dtype.kind == "f":
+                    worst = max(worst, float(np.max(np.abs(value - cpu[key]))))
+        print(json.dumps({"paths": paths, "cpu_paths": cpu_paths, "worst": worst}))
+        """
+    )
+    assert out["worst"] <= CUDA_VS_CPU_ATOL, out
+    assert "simulate" in out["paths"] and "cuda" in out["paths"], out["paths"]  # both kinds of run are here
+    assert [p == "simulate" for p in out["paths"]] == [p == "simulate" for p in out["cpu_paths"]]
+
+
+def test_cuda_module_imports_no_pinocchio():
+    code = "import sys, robodyn.sim.cuda_batch; print('pinocchio' in sys.modules, 'numba' in sys.modules)"
+    run = subprocess.run(
+        [sys.executable, "-c", code], env={**os.environ, "PYTHONPATH": str(SRC)}, capture_output=True, text=True
+    )
+    assert run.stdout.split() == ["False", "False"], run.stderr
+
+
+@pytest.mark.skipif(_gpu_here(), reason=NO_GPU_REASON)
+def test_no_gpu_is_one_line_unavailable():
+    robot = robodyn.load("pendubot")
+    with pytest.raises(UnavailableError, match=r"^device cuda: no CUDA GPU found \(numba.cuda.is_available\(\)"):
+        batch.rollout(robot, np.zeros((2, 2)), np.zeros((2, 2)), duration=0.01, dt=1e-3, device="cuda")
+
+
+def test_bad_device_and_ineligible_robot_are_input_errors():
+    robot = robodyn.load("pendubot")
+    with pytest.raises(InputError, match="device 'gpu': expected one of cpu, cuda"):
+        batch.rollout(robot, np.zeros((2, 2)), np.zeros((2, 2)), duration=0.01, dt=1e-3, device="gpu")
+    with pytest.raises(InputError, match="device cuda takes the built-in kinds"):
+        batch.rollout(
+            robot, np.zeros((2, 2)), np.zeros((2, 2)), duration=0.01, dt=1e-3, integrator="heun", device="cuda"
+        )
+
+
+@pytest.mark.skipif(_gpu_here(), reason=NO_GPU_REASON)
+def test_sweep_device_cuda_without_gpu_exits_5_in_one_line(tmp_path, capsys):
+    path = tmp_path / "s.toml"
+    path.write_text('model = "pendubot"\nduration = 0.01\n[q0]\njoint1 = [0.1, 0.2]\n')
+    code = main(["sweep", str(path), "--out", str(tmp_path / "out"), "--device", "cuda", "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 5
+    assert err.strip().splitlines() == [
+        "robodyn sweep: error: device cuda: no CUDA GPU found (numba.cuda.is_available() is False); "
+        "run without --device cuda or on a machine with an NVIDIA GPU"
+    ]
+
+
+def test_sweep_device_cuda_refuses_a_controller_before_any_work(tmp_path, capsys):
+    path = tmp_path / "s.toml"
+    path.write_text('model = "pendubot"\nduration = 0.01\ncontroller = "lqr"\ndevice = "cuda"\n[q0]\njoint1 = [0.1]\n')
+    code = main(["sweep", str(path), "--out", str(tmp_path / "out"), "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert len(err.strip().splitlines()) == 1 and "device cuda: runs without a controller only" in err
+    assert not (tmp_path / "out" / "results").exists()
+
+
+def test_cuda_sweep_lyapunov_equals_cpu_sweep():
+    """Benettin's twins stepped on the GPU give each run the CPU path's estimate (seeded per run)."""
+    out = _simulated(
+        """
+        import dataclasses, json, tempfile
+        import numpy as np
+        import robodyn.sweep as sweep
+        from robodyn.sweep.chunk import execute
+
+        spec = {
+            "model": "pendubot", "duration": 0.3, "dt": 1e-3, "device": "cuda", "chunk": 3, "seed": 5,
+            "measure": ["lyapunov", "final_state"], "q0": {"joint1": [0.5, 2.0, 3.0], "joint2": [0.1, -1.0]},
+        }
+        prepared = sweep.prepare(spec, tempfile.mkdtemp())
+        cpu_job = dataclasses.replace(prepared.job, device="cpu")
+        gpu, cpu = [], []
+        for chunk in prepared.plan.chunks:
+            gpu += execute(chunk, prepared.job)["lyapunov"].tolist()
+            cpu += execute(chunk, cpu_job)["lyapunov"].tolist()
+        print(json.dumps({"gpu": gpu, "cpu": cpu}))
+        """
+    )
+    assert len(out["gpu"]) == 6 and len(set(out["gpu"])) == 6  # six runs, six different exponents
+    np.testing.assert_allclose(out["gpu"], out["cpu"], rtol=0, atol=CUDA_VS_CPU_ATOL)
+
+
+TINY = ("--states", "4", "--steps", "20", "--chaos-seconds", "0.2")  # bench_gpu.py --run, in the simulator
+
+
+def test_bench_gpu_prepares_here_and_runs_without_pinocchio(tmp_path):
+    """benchmarks/bench_gpu.py: --prepare with robodyn, --run from the arrays alone (in the simulator, a tiny batch)."""
+    script = SRC.parent / "benchmarks" / "bench_gpu.py"
+    env = {**os.environ, "PYTHONPATH": str(SRC)}
+    prepared = subprocess.run(
+        [sys.executable, str(script), "--prepare", str(tmp_path)], env=env, capture_output=True, text=True
+    )
+    assert prepared.returncode == 0, prepared.stderr
+    ran = subprocess.run(
+        [sys.executable, str(script), "--run", str(tmp_path), "--no-mjx", *TINY],
+        env={**env, "NUMBA_ENABLE_CUDASIM": "1"},
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert ran.returncode == 0, ran.stderr
+    result = json.loads((tmp_path / "gpu.json").read_text())
+    assert result["pinocchio_imported"] is False
+    assert result["run"]["gpu"] == "numba CUDA simulator" and result["run"]["steps"] == 20
+    for kind in ("pendubot", "cart_pole"):
+        (row,) = result["kinds"][kind]["batches"]
+        assert row["states"] == 4 and row["gpu_state_steps_per_s"] > 0
+        assert row["gpu_vs_cpu_max_abs_diff"] <= CUDA_VS_CPU_ATOL
+    chaos = result["kinds"]["pendubot"]["chaos_map"]
+    assert chaos["runs"] == 4 and chaos["nan_runs"] == 0 and chaos["median_exponent_per_s"] > 0
+    assert chaos["gpu_vs_cpu_max_abs_diff_per_s"] <= CUDA_VS_CPU_ATOL
+
+
+def test_cli_sweep_device_cuda_runs_in_process_into_parquet(tmp_path):
+    """robodyn sweep --device cuda end to end in the simulator: no cluster, every chunk written, path cuda."""
+    path = tmp_path / "s.toml"
+    path.write_text(
+        'model = "pendubot"\nduration = 0.05\nchunk = 2\nmeasure = ["final_state", "energy_drift"]\n'
+        "[q0]\njoint1 = [0.1, 0.2, 0.3]\n"
+    )
+    out = tmp_path / "out"
+    code = (
+        "import sys; from robodyn.cli import main; "
+        f"code = main(['sweep', {str(path)!r}, '--out', {str(out)!r}, '--device', 'cuda', '--quiet']); "
+        "print('distributed imported:', 'distributed' in sys.modules); sys.exit(code)"
+    )
+    run = subprocess.run(
+        [sys.executable, "-c", code],
+        env={**os.environ, "NUMBA_ENABLE_CUDASIM": "1", "PYTHONPATH": str(SRC)},
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip().splitlines() == [
+        f"3 runs in 2 chunks (2 computed, 0 already written) -> {out / 'results'}",
+        "distributed imported: False",  # no Dask cluster: the chunks ran in this process
+    ]
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(out / "results").sort_by("run").to_pydict()
+    assert table["path"] == ["cuda"] * 3 and table["run"] == [0, 1, 2]
+    assert all(abs(x) < 1e-6 for x in table["energy_drift"])  # 50 RK4 steps of 1 ms conserve energy closely
+
+
+@pytest.mark.parametrize("value", ["3", '["cuda"]', '"gpu"'])
+def test_sweep_file_device_must_be_cpu_or_cuda(value, tmp_path, capsys):
+    path = tmp_path / "s.toml"
+    path.write_text(f'model = "pendubot"\nduration = 0.01\ndevice = {value}\n')
+    assert main(["sweep", str(path), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "device must be one of 'cpu', 'cuda', got" in err[0]
+
+
+def test_device_functions_type_check_in_numbas_cpu_compiler():
+    """The simulator runs the kernels as Python; numba's CPU compiler types the same device functions as the GPU's.
+
+    Benettin's device function, compiled by numba.njit here, gives the estimate of
+    robodyn.integrators.stability.lyapunov over the CPU fast path's runs.
+    """
+    import numba
+
+    from robodyn.integrators.stability import lyapunov
+    from robodyn.sim import cuda_batch
+    from robodyn.sim.fast import FastDynamics
+
+    fast = FastDynamics.from_robot(robodyn.load("pendubot"))
+    benettin = cuda_batch._benettin(numba.njit, "pendubot")
+    q0, v0, d0, dt, interval, count = np.array([0.5, -1.0]), np.array([0.2, 0.0]), 1e-8, DT, 0.05, 4
+    rng = np.random.default_rng(9)
+    e = rng.normal(size=4)
+    e *= d0 / np.linalg.norm(e)
+    got = benettin(
+        fast.param_vector, np.zeros(2), 2, *q0, *v0, *e, d0, dt, round(interval / dt), count, count * interval
+    )
+
+    def step_run(q, v, T):
+        t = fast.simulate(q, v, duration=T, dt=dt)
+        return t.q[-1].copy(), t.v[-1].copy()
+
+    want = lyapunov(step_run, q0, v0, duration=count * interval, interval=interval, seed=9).exponent
+    assert abs(got - want) <= CUDA_VS_CPU_ATOL, (got, want)

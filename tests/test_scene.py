@@ -283,32 +283,32 @@ def test_run_gives_the_exactness_figures_their_units(tmp_path, capsys):
     assert re.search(r"max \|dq\| = \S+ rad, max \|dv\| = \S+ rad/s, lock drift \S+ m \(tolerance", line), line
 
 
-def test_exactness_starts_where_the_run_starts_inside_the_stops(tmp_path):
-    """A q0 far outside a joint's limits is moved onto the limit for the run and for the exactness proof alike.
-
-    Before: the proof integrated from q0 = -1e308 as given and failed with 'tau must be finite' (exit 2).
-    """
-    path = write(
-        tmp_path,
-        """
+# The Panda reduced to three joints under PD control, for 10 steps, with its exactness proof (kd to fill in).
+PANDA_PD = """
 [model]
 name = "panda"
 keep = ["panda_joint2", "panda_joint4", "panda_joint6"]
-[initial]
-q = { panda_joint2 = -1e308, panda_joint4 = -2.0, panda_joint6 = 1.2 }
 [control]
 kind = "pd"
 kp = 40.0
-kd = 4.0
-target = { panda_joint2 = -0.785398, panda_joint4 = -2.35619, panda_joint6 = 1.5707 }
+kd = {kd!r}
+target = {{ panda_joint2 = -0.785398, panda_joint4 = -2.35619, panda_joint6 = 1.5707 }}
 [simulate]
 duration = 0.01
 dt = 1e-3
 [check]
 samples = 2
 exactness = true
-""",
-    )
+"""
+
+
+def test_exactness_starts_where_the_run_starts_inside_the_stops(tmp_path):
+    """A q0 far outside a joint's limits is moved onto the limit for the run and for the exactness proof alike.
+
+    Before: the proof integrated from q0 = -1e308 as given and failed with 'tau must be finite' (exit 2).
+    """
+    start = "[initial]\nq = { panda_joint2 = -1e308, panda_joint4 = -2.0, panda_joint6 = 1.2 }\n"
+    path = write(tmp_path, start + PANDA_PD.format(kd=4.0))
     out = tmp_path / "out"
     assert main(["run", str(path), "--no-view", "--out", str(out)]) == 0
     summary = json.loads((out / "summary.json").read_text())
@@ -340,24 +340,7 @@ def test_run_names_every_mismatching_entry_of_a_formula(tmp_path, capsys):
 
 def test_an_exactness_proof_that_blows_up_says_so_exit_3(tmp_path, capsys):
     """kd = 1e9 makes RK4 at 1 ms unstable: the proof's run diverges; the line says so (before: 'tau must be finite')."""
-    path = write(
-        tmp_path,
-        """
-[model]
-name = "panda"
-keep = ["panda_joint2", "panda_joint4", "panda_joint6"]
-[control]
-kind = "pd"
-kp = 40.0
-kd = 1e9
-[simulate]
-duration = 0.01
-dt = 1e-3
-[check]
-samples = 2
-exactness = true
-""",
-    )
+    path = write(tmp_path, PANDA_PD.format(kd=1e9))
     assert main(["run", str(path), "--no-view", "--out", str(tmp_path / "out")]) == 3
     err = capsys.readouterr().err.strip()
     assert "the exactness proof's run diverged by t = " in err and "\n" not in err, err

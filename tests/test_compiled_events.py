@@ -8,11 +8,17 @@ find the same impacts, in the same order, at the same times, and the same motion
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 import robodyn
+from robodyn.cli._summary import _loop_phrase
 from robodyn.studies.bench import start_state
+
+from .test_constraints import LOOP, closed, linkage_urdf
+from .test_couplings import chain
 
 # Two float64 implementations of the dynamics (compiled world-frame ABA vs Pinocchio) step the
 # same method at the same steps; each event is located to round-off of the step (LOCATE_RTOL
@@ -75,3 +81,17 @@ def test_the_cart_striking_its_rail_end_matches_the_event_stepper(e: float) -> N
     assert ref.meta["impacts"] >= 1
     assert ref.meta["impact_log"][0]["speed_after"] == pytest.approx(-e * ref.meta["impact_log"][0]["speed_before"])
     _same_events(got, ref)
+
+
+def test_loops_and_couplings_go_to_the_python_loop_and_say_why(tmp_path: Path) -> None:
+    # the compiled loop takes trees only: a closed linkage and a coupled chain run in the Python pipeline,
+    # and the metadata and the CLI's summary say why in one line
+    linkage = robodyn.load(linkage_urdf(tmp_path / "linkage.urdf"))
+    looped = robodyn.simulate(linkage, closed(0.3), [0, 0, 0], duration=0.01, dt=1e-3, loops=LOOP)
+    robot = chain(tmp_path)
+    coupling = {"joint": "b_follow", "leader": "a_lead", "ratio": 2.0, "offset": 0.5}
+    coupled = robodyn.simulate(robot, [0.0], [0.0], duration=0.01, dt=1e-3, couplings=[coupling])
+    for traj, why in ((looped, "loop closures are solved by Pinocchio"), (coupled, "couplings are mimic joints")):
+        assert traj.meta["loop"] == "python"
+        assert traj.meta["compiled_loop"] == f"not used: {why}"
+        assert _loop_phrase(traj.meta) == f"Python loop: {why}"

@@ -243,15 +243,8 @@ def kernels() -> ModuleType:
     k.rnea(itree, ftree, grav, one, one, one, ws, np.zeros(1))
     k.crba(itree, ftree, grav, one, ws, np.zeros((1, 1)))
     k.kinematics(itree, ftree, grav, one, one, ws)
-    forces, springs, stops, held = np.zeros((4, 1)), np.zeros((4, 0)), np.zeros((5, 0)), np.zeros((2, 0))
+    forces, springs, held = np.zeros((4, 1)), np.zeros((4, 0)), np.zeros((2, 0))
     forces[3, 0] = 1e-3
-    n = 3
-    ts, hs = 1e-3 * np.arange(n), np.full(n - 1, 1e-3)
-    for code, tab in ((0, np.array([[0.0], [1.0], [0.0]])), (1, np.zeros((6, 4))), (2, np.zeros((3, 1)))):
-        Q, U, A, kin, pot = np.zeros((n, 1)), np.zeros((n, 3)), np.zeros((n, 1)), np.zeros(n), np.zeros(n)
-        k.run_block(
-            itree, ftree, grav, code, tab, ts, hs, 0, n - 1, Q, U, A, kin, pot, forces, springs, -1, stops, held, 1e-12
-        )
     k.sample(itree, ftree, grav, 0.0, one, np.zeros(3), forces, springs, -1, held, 1e-12, np.zeros(3))
     return k
 

@@ -568,7 +568,7 @@ def _events_in_step(md, par, st, held, side, ws, counts, wlim, records, t, q0, u
 def run_events(md, par, st, held, side, counts, wlim, records, ts, hs, lo, hi, Q, U, A, KIN, POT, WL):  # type: ignore[no-untyped-def]
     """Take steps lo .. hi-1 (times ``ts``, sizes ``hs``) from sample lo of Q (n, nq), U (n, nv + 2), events and all.
 
-    ``md``: (itree, ftree, grav, forces, springs, method, tab, cb) as :func:`robodyn.sim.tree_steps.run_block`
+    ``md``: (itree, ftree, grav, forces, springs, method, tab, cb), as :func:`robodyn.sim.tree_steps.step`
     takes them; ``st`` (6, m): every limited joint [index in q; index in v; lower; upper;
     tolerance; tree row]. Fills samples lo+1 .. hi of Q, U and WL (the stops' work [J]), and
     A, KIN, POT (gravity's potential only) of samples lo .. hi-1. Returns (outcome, sample):

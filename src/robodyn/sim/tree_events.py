@@ -208,6 +208,9 @@ def _locate(md, par, st, side, ws, counts, t, q, u, h, q1, u1, watch, wval, n, q
         qo[:] = q
         uo[:] = u
         return 0.0
+    # every trial is a step from (t, q, u): the rates there, evaluated once, start each of them
+    k_start = np.empty(nv + 2)
+    _eval(md, ws, counts, t, q, u, k_start)
     close = np.full(n, par[P_LOCATE_FTOL])
     any_held = False
     for i in range(n):
@@ -215,8 +218,7 @@ def _locate(md, par, st, side, ws, counts, t, q, u, h, q1, u1, watch, wval, n, q
     if any_held:  # a held row's function is its stop force, known to FORCE_NOISE_RTOL sum_i |M_ji a_i|
         M = np.zeros((nv, nv))
         crba(itree, ftree, grav, q, ws, M)
-        a = np.empty(nv + 2)
-        _eval(md, ws, counts, t, q, u, a)
+        a = k_start
         for i in range(n):
             k = watch[i, 0]
             if side[k] != 0:
@@ -238,7 +240,8 @@ def _locate(md, par, st, side, ws, counts, t, q, u, h, q1, u1, watch, wval, n, q
         s = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
         if not lo < s < hi:
             s = 0.5 * (lo + hi)
-        _step(md, par, ws, counts, t, q, u, s, qs, us, k0)
+        k0[:] = k_start
+        _step_from(md, par, ws, counts, t, q, u, s, qs, us, k0)
         _values(md, par, st, side, ws, counts, t + s, qs, us, watch, n, vals, kx)
         f_s, i = _scaled_min(vals, scale, n)
         if -close[i] <= f_s < 0:  # just past the event, by less than its function is known

@@ -15,6 +15,8 @@ import pytest
 
 import robodyn
 from robodyn.cli._summary import _loop_phrase
+from robodyn.errors import DivergenceError
+from robodyn.sim.events import MAX_EVENTS_PER_STEP
 from robodyn.studies.bench import start_state
 
 from .test_constraints import LOOP, closed, linkage_urdf
@@ -95,3 +97,18 @@ def test_loops_and_couplings_go_to_the_python_loop_and_say_why(tmp_path: Path) -
         assert traj.meta["loop"] == "python"
         assert traj.meta["compiled_loop"] == f"not used: {why}"
         assert _loop_phrase(traj.meta) == f"Python loop: {why}"
+
+
+def test_a_joint_chattering_on_its_stop_is_handed_back_with_the_event_steppers_reason() -> None:
+    # Talos from its neutral pose at 0.5 ms: the first step has more than MAX_EVENTS_PER_STEP stop events.
+    # The compiled loop stops there and hands the run to the Python pipeline, which writes the report.
+    robot = robodyn.load("talos")
+    kw = {"duration": 0.002, "dt": 5e-4, "integrator": "rk4"}
+    with pytest.raises(DivergenceError) as got:
+        robodyn.simulate(robot, robot.neutral(), np.zeros(robot.nv), **kw)  # type: ignore[arg-type]
+    with pytest.raises(DivergenceError) as ref:
+        robodyn.simulate(robot, robot.neutral(), np.zeros(robot.nv), backend="aba", **kw)  # type: ignore[arg-type]
+    assert str(got.value) == str(ref.value) and "(chattering)" in str(ref.value)
+    meta = got.value.trajectory.meta
+    assert meta["loop"] == "python" and meta["compiled_loop"].startswith(f"not used: more than {MAX_EVENTS_PER_STEP}")
+    assert meta["compiled_loop"].endswith("(chattering) at step 1 (t = 0.0005 s)")

@@ -270,7 +270,8 @@ def event_kernels() -> ModuleType:
     ts, hs = 1e-3 * np.arange(n), np.full(n - 1, 1e-3)
     for code, tab in ((0, np.array([[0.0], [1.0], [0.0]])), (1, np.zeros((6, 4))), (2, np.zeros((3, 1)))):
         Q, U, A, kin, pot = np.zeros((n, 1)), np.zeros((n, 3)), np.zeros((n, 1)), np.zeros(n), np.zeros(n)
-        held, side, counts = np.zeros(2, dtype=np.int64), np.zeros(1, dtype=np.int64), np.zeros(4, dtype=np.int64)
+        held, side = np.zeros(2, dtype=np.int64), np.zeros(1, dtype=np.int64)
+        counts = np.zeros(k.NCOUNTS, dtype=np.int64)
         md = (itree, ftree, grav, forces, springs, code, tab, -1)
         k.run_events(
             md, par, stops, held, side, counts, np.zeros(1), np.zeros((1, 6)), ts, hs, 0, n - 1, Q, U, A, kin, pot,

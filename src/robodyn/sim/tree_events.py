@@ -21,8 +21,9 @@ stepper does, in the same order and with the same tests:
 The joints held at a stop are locked in the compiled ABA (``W_LOCK``), which leaves each held
 stop's force in ``W_LAMBDA``. The event state lives in small arrays the caller keeps between
 blocks: ``held`` (m + 1,) int64 [count, then the held stops in the order they were held],
-``side`` (m,) int64 (0 free, +1 held at its lower stop, -1 at its upper), ``counts`` (4,)
-int64 (evaluations, impacts, releases, steps with an event), ``wlim`` (1,) the stops' work
+``side`` (m,) int64 (0 free, +1 held at its lower stop, -1 at its upper), ``counts``
+(NCOUNTS,) int64 (evaluations, impacts, releases, steps with an event, and the sample the
+step under way started from: where a LAPACK error raised inside a step came from), ``wlim`` (1,) the stops' work
 [J], ``records`` (R, 6) the first R impacts [time, stop, side, speed before, after, dT].
 The event stepper's constants arrive in ``par`` (see :func:`robodyn.sim.whole_run`), so that
 a cached kernel never runs with old ones.
@@ -39,8 +40,9 @@ from robodyn.sim.tree_steps import _finite, rates, stages, step
 
 # run_events outcomes
 DONE, NOT_FINITE, CHATTER = 0, 1, 2
-# counts
-EVALS, IMPACTS, RELEASES, EVENT_STEPS = 0, 1, 2, 3
+# counts: evaluations, impacts, releases, steps with an event, the sample the step under way started from
+EVALS, IMPACTS, RELEASES, EVENT_STEPS, AT = 0, 1, 2, 3, 4
+NCOUNTS = 5
 # par entries: the event stepper's constants, the restitution and the method's stages per step
 P_LOCATE_RTOL, P_LOCATE_FTOL, P_NOISE_RTOL, P_RELEASE_TOL, P_PULL_RTOL = 0, 1, 2, 3, 4
 P_ITERATIONS, P_MAX_EVENTS, P_RESTITUTION, P_STAGES, P_RCOND = 5, 6, 7, 8, 9
@@ -587,11 +589,12 @@ def run_events(md, par, st, held, side, counts, wlim, records, ts, hs, lo, hi, Q
     cache = np.zeros(4)
     for k in range(lo, hi):
         t, h = ts[k], hs[k]
+        counts[AT] = k
         if held[0] == 0 and _clear(Q[k], st):  # the common case: the method's own step, clear at both ends
             kin, pot = _step(md, par, ws, counts, t, Q[k], U[k], h, Q[k + 1], U[k + 1], k0)
             status = DONE
             cache[0] = 0.0
-            if not _clear(Q[k + 1], st):
+            if _finite(Q[k + 1]) and _finite(U[k + 1]) and not _clear(Q[k + 1], st):
                 status, _, _ = _events_in_step(
                     md, par, st, held, side, ws, counts, wlim, records, t, Q[k], U[k], h, True, Q[k + 1], U[k + 1], k0,
                     kc, cache,

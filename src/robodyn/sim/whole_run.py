@@ -261,7 +261,7 @@ def _setup(plan: Plan, system: RobotSystem, run: Run) -> Work:
         pot=np.full(n, np.nan),
         held=held,
         side=side,
-        counts=np.zeros(4, dtype=np.int64),
+        counts=np.zeros(events.NCOUNTS, dtype=np.int64),
         wlim=np.array([run.stepper.work_limits]),
         records=np.zeros((IMPACTS_KEPT, 6)),
         hs=np.array(step_sizes(run.t)),
@@ -302,6 +302,15 @@ def _classify(w: Work, status: int, last: int) -> Ending:
     if status == ev.CHATTER:
         return Ending(kept, f"{_chattering(w)} at step {kept + 1} (t = {float(t[kept + 1]):.6g} s)")
     return Ending(kept)
+
+
+def _failed_solve(w: Work, exc: Exception) -> str:
+    """Why a block that raised from LAPACK hands back: an energy over the bound before it, or the failed solve."""
+    at = int(w.counts[w.events.AT])  # the step from this sample raised; the samples before it have energies
+    over = _first_over_bound(w.run, w.kin, w.pot, w.U, w.done, at)
+    if over is not None:
+        return over
+    return f"the impact solve failed ({exc}) at step {at + 1} (t = {float(w.run.t[at + 1]):.6g} s)"
 
 
 def _chattering(w: Work) -> str:
@@ -345,8 +354,10 @@ def attempt(plan: Plan, system: RobotSystem, run: Run) -> Outcome:
         _last_sample(w)
     except KeyboardInterrupt:
         interrupted = True
-    except np.linalg.LinAlgError as exc:
-        return _hand_back(w, held0, evaluations0, f"the impact solve failed ({exc}) after step {w.done}")
+    except np.linalg.LinAlgError as exc:  # an impact's solve on a state blown up inside the block
+        failed = _failed_solve(w, exc)
+        w.done = int(w.counts[w.events.AT])  # the steps before the one that raised were taken
+        return _hand_back(w, held0, evaluations0, failed)
     finally:
         w.kernels.CALLBACKS.pop(w.cb, None)
         calls = w.kernels.CALLS.pop(w.cb, 0)

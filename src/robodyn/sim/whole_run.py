@@ -148,14 +148,16 @@ class Plan:
 def prepare(system: RobotSystem, method: Integrator) -> Plan | str:
     """The :class:`Plan` of this run, or why the compiled loop cannot take it (one phrase).
 
-    Loads (or compiles, the first time on a machine) the kernels and checks the compiled
-    algorithms against Pinocchio, so that a timed run pays for neither.
+    Loads (or compiles, the first time on a machine) the kernels, those of the stop events
+    too, and checks the compiled algorithms against Pinocchio, so that a timed run pays for
+    neither.
     """
     reason = refusal(system, method)
     if reason is not None:
         return reason
     try:
         compiled = tree.compiled_of(system.robot)
+        tree.event_kernels()
     except RobodynError as exc:
         return str(exc)
     code = method_code(method)

@@ -1,8 +1,8 @@
-"""Joint stops in the compiled loop: held joints locked in the compiled ABA, events taken by the event stepper.
+"""Joint stops in the compiled loop: held joints locked in the compiled ABA, events taken inside the loop.
 
-The compiled loop steps while every free limited joint is clear of its stops, with the held
-joints locked; the step with an impact, a hold or a release is taken by the Python event
-stepper, and the compiled loop goes on from the next sample (sim/whole_run.py). These tests
+The compiled loop steps with the held joints locked, and takes the step with an impact, a
+hold or a release with the event stepper's arithmetic, compiled (sim/tree_events.py,
+sim/whole_run.py). These tests
 check the locked ABA and its stop force against the Python pipeline's hold solve, and whole
 runs with impacts, holds and releases against the Python pipeline (``backend="aba"``).
 """

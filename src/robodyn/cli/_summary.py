@@ -98,11 +98,7 @@ def _loop_phrase(meta: dict[str, Any]) -> str:
     """'compiled loop', or 'Python loop: <why the compiled loop was not used>' (from the run's metadata)."""
     if meta.get("loop") == "compiled":
         events = int(meta.get("event_steps") or 0)
-        return (
-            f"compiled loop, {count(events, 'step')} with stop events by the event stepper"
-            if events
-            else "compiled loop"
-        )
+        return f"compiled loop, {count(events, 'step')} with stop events" if events else "compiled loop"
     why = str(meta.get("compiled_loop") or "").removeprefix("not used: ")
     return f"Python loop: {why}" if why else "Python loop"
 

@@ -78,7 +78,7 @@ _TYPES: dict[str, tuple[int, tuple[float, float, float] | None]] = {
     "JointModelFreeFlyer": (FREEFLYER, (0.0, 0.0, 0.0)),
 }
 # The compiled kernels' modules, whose numba caches must agree with each other (drop_stale_caches).
-KERNEL_MODULES = ("tree_layout", "tree_body", "tree_flyer", "tree_kernels", "tree_steps")
+KERNEL_MODULES = ("tree_layout", "tree_body", "tree_flyer", "tree_kernels", "tree_steps", "tree_events")
 
 
 @dataclass(frozen=True, eq=False)
@@ -243,16 +243,41 @@ def kernels() -> ModuleType:
     k.rnea(itree, ftree, grav, one, one, one, ws, np.zeros(1))
     k.crba(itree, ftree, grav, one, ws, np.zeros((1, 1)))
     k.kinematics(itree, ftree, grav, one, one, ws)
-    forces, springs, stops, held = np.zeros((4, 1)), np.zeros((4, 0)), np.zeros((5, 0)), np.zeros((2, 0))
+    forces, springs, held = np.zeros((4, 1)), np.zeros((4, 0)), np.zeros((2, 0))
     forces[3, 0] = 1e-3
+    k.sample(itree, ftree, grav, 0.0, one, np.zeros(3), forces, springs, -1, held, 1e-12, np.zeros(3))
+    return k
+
+
+@lru_cache(maxsize=1)
+def event_kernels() -> ModuleType:
+    """The numba kernels of whole runs with stop events (:mod:`robodyn.sim.tree_events`), loaded or compiled.
+
+    A one-joint tree with a stop runs them once here, so that no timed run pays for loading them.
+    """
+    steps = kernels()  # drops the stale caches of every kernel module first
+    from robodyn.sim import tree_events as k
+
+    itree = np.array([[-1, 0, 0, 0]], dtype=np.int64)
+    ftree = np.zeros((1, FCOLS))
+    ftree[0, [2, 3, 7, 11, 15, 19, 23, 27]] = 1.0
+    grav = np.array([0.0, 0.0, -9.81])
+    forces, springs = np.zeros((4, 1)), np.zeros((4, 0))
+    forces[3, 0] = 1e-3
+    stops = np.array([[0.0], [0.0], [-1.0], [1.0], [1e-14], [0.0]])
+    par = np.zeros(k.PCOLS)
     n = 3
     ts, hs = 1e-3 * np.arange(n), np.full(n - 1, 1e-3)
     for code, tab in ((0, np.array([[0.0], [1.0], [0.0]])), (1, np.zeros((6, 4))), (2, np.zeros((3, 1)))):
         Q, U, A, kin, pot = np.zeros((n, 1)), np.zeros((n, 3)), np.zeros((n, 1)), np.zeros(n), np.zeros(n)
-        k.run_block(
-            itree, ftree, grav, code, tab, ts, hs, 0, n - 1, Q, U, A, kin, pot, forces, springs, -1, stops, held, 1e-12
-        )
-    k.sample(itree, ftree, grav, 0.0, one, np.zeros(3), forces, springs, -1, held, 1e-12, np.zeros(3))
+        held, side = np.zeros(2, dtype=np.int64), np.zeros(1, dtype=np.int64)
+        counts = np.zeros(k.NCOUNTS, dtype=np.int64)
+        md = (itree, ftree, grav, forces, springs, code, tab, -1)
+        k.run_events(
+            md, par, stops, held, side, counts, np.zeros(1), np.zeros((1, 6)), ts, hs, 0, n - 1, Q, U, A, kin, pot,
+            np.zeros(n),
+        )  # fmt: skip
+    del steps
     return k
 
 

@@ -4,9 +4,10 @@ Imported only by :mod:`robodyn.sim.tree` (numba is heavy). :func:`rates` is one 
 the pipeline of :class:`robodyn.sim.system.RobotSystem` (springs, losses, actuation, ABA of
 :mod:`robodyn.sim.tree_kernels`) with the powers of the ledger; :func:`step` is one step of a
 fixed-step explicit method (classic RK4 with the integrators' own arithmetic, any explicit
-Runge--Kutta tableau, semi-implicit Euler); :func:`run_block` steps one state through a block of
-steps with the records of a run; :func:`batch_rollout` steps blocks of states in one ``prange``
-(each thread owns a block through all of time).
+Runge--Kutta tableau, semi-implicit Euler); :func:`sample` evaluates one sample of a run with the
+joints held at a stop locked; :func:`batch_rollout` steps blocks of states in one ``prange``
+(each thread owns a block through all of time). The whole runs, stop events and all, are in
+:mod:`robodyn.sim.tree_events`.
 """
 
 from __future__ import annotations
@@ -23,11 +24,8 @@ __all__ = ["WCOLS", "aba", "crba", "integrate", "kinematics", "rnea"]
 
 njit = numba.njit(cache=True, nogil=True, error_model="numpy")
 
-# method codes of run_block / batch_rollout
+# method codes of step / batch_rollout (and of robodyn.sim.tree_events.run_events)
 RK, RK4, SEMI_IMPLICIT_EULER = 0, 1, 2
-
-# run_block outcomes
-DONE, NOT_FINITE, NEAR_STOP, RELEASE, AT_STOP = 0, 1, 2, 3, 4
 
 # Torque callables of the runs under way, by key: key -> f(t, q, v) returning the applied torque (nv,);
 # how many times each was called, and at which call a Ctrl-C (KeyboardInterrupt) came.
@@ -90,41 +88,6 @@ def rates(itree, ftree, grav, t, q, u, forces, springs, cb, ws, tau, k):  # type
     k[nv] = p_in
     k[nv + 1] = p_loss
     return kin, pot
-
-
-@njit
-def _crossed(q, stops):  # type: ignore[no-untyped-def]
-    """True when a free limited coordinate is past a stop by more than its tolerance (as ``Stops.crossed``)."""
-    for s in range(stops.shape[1]):
-        x = q[int(stops[0, s])]
-        tol = stops[4, s]
-        if x - stops[2, s] < -tol or stops[3, s] - x < -tol:
-            return True
-    return False
-
-
-@njit
-def _acts_at_stop(q, u, a, h, stops, release_tol):  # type: ignore[no-untyped-def]
-    """True when the event stepper acts at the start of a step of h [s] from (q, u) with accelerations ``a``.
-
-    For a free joint within its tolerance of a stop (side +1 lower, -1 upper): moving into it
-    (an impact), or pushed into it by more than ``release_tol`` and not leaving it within the
-    step (a hold): the event stepper's ``touching`` and ``_settle``.
-    """
-    for s in range(stops.shape[1]):
-        x = q[int(stops[0, s])]
-        iv = int(stops[1, s])
-        tol = stops[4, s]
-        for side in (1.0, -1.0):
-            bound = stops[2, s] if side > 0.0 else stops[3, s]
-            if abs(x - bound) <= tol:
-                speed = side * u[iv]
-                push = side * a[iv]
-                if speed < 0.0:
-                    return True
-                if push < -release_tol and (speed <= 0.0 or 2.0 * speed < -push * h):
-                    return True
-    return False
 
 
 @njit
@@ -253,71 +216,6 @@ def _pulling(ws, held, release_tol):  # type: ignore[no-untyped-def]
         if held[1, j] * ws[int(held[0, j]), W_LAMBDA] + release_tol < 0.0:
             return True
     return False
-
-
-@numba.njit(cache=True, error_model="numpy")  # holds the GIL: a torque callable runs in object mode
-def run_block(  # type: ignore[no-untyped-def]
-    itree, ftree, grav, method, tab, ts, hs, lo, hi, Q, U, A, KIN, POT, forces, springs, cb, stops, held, release_tol
-):
-    """Take steps lo .. hi-1 (times ``ts``, sizes ``hs``) from sample lo of Q (n, nq), U (n, nv + 2).
-
-    ``stops`` (5, k): the free limited joints [index in q; index in v; lower; upper; tolerance];
-    ``held`` (2, h): the joints held at a stop [tree row; side (+1 lower, -1 upper)], locked
-    through the block.
-    Samples lo+1 .. hi of Q and U are filled;
-    A[k] and KIN[k], POT[k] (energies [J], gravity's potential only) are filled for samples lo .. hi-1
-    (those steps start there). Returns (outcome, a sample k): ``DONE`` (hi); ``NOT_FINITE``
-    (the state of sample k is not finite); events, where the event stepper must take over:
-    ``NEAR_STOP`` (a free joint is past a stop at sample k: the step into it, or the step from
-    it when k is lo), ``RELEASE`` (a held stop pulls by more than ``release_tol`` at sample k:
-    the step into it) and ``AT_STOP`` (a free joint at a stop is moving into it or pushed into
-    it at sample k: the step from it).
-    """
-    nv = forces.shape[1]
-    n = itree.shape[0]
-    s = max(tab.shape[1], 7)
-    ws = np.zeros((n, WCOLS))
-    lock(ws, held)
-    buf = np.zeros((2 * s + 3, nv + 2))
-    qs = np.empty(Q.shape[1])
-    k0 = np.empty(nv + 2)
-    if _crossed(Q[lo], stops):
-        return NEAR_STOP, lo
-    for k in range(lo, hi):
-        kin, pot = rates(itree, ftree, grav, ts[k], Q[k], U[k], forces, springs, cb, ws, buf[-1], k0)
-        if _pulling(ws, held, release_tol):
-            return RELEASE, k
-        if _acts_at_stop(Q[k], U[k], k0, hs[k], stops, release_tol):
-            return AT_STOP, k
-        for j in range(nv):
-            A[k, j] = k0[j]
-        KIN[k] = kin
-        POT[k] = pot
-        stages(
-            itree,
-            ftree,
-            grav,
-            method,
-            tab,
-            ts[k],
-            hs[k],
-            Q[k],
-            U[k],
-            forces,
-            springs,
-            cb,
-            ws,
-            buf,
-            qs,
-            Q[k + 1],
-            U[k + 1],
-            k0,
-        )
-        if not (_finite(Q[k + 1]) and _finite(U[k + 1])):
-            return NOT_FINITE, k + 1
-        if _crossed(Q[k + 1], stops):
-            return NEAR_STOP, k + 1
-    return DONE, hi
 
 
 @njit

@@ -3,7 +3,7 @@
 :func:`prepare` checks that the compiled loop can take a run, and :func:`attempt` takes a
 :class:`~robodyn.sim.run.Run` that :func:`robodyn.simulate` has set up
 and, when the compiled loop can take it, fills its records (q, v, the works, a, T, V) with
-:func:`robodyn.sim.tree_steps.run_block`: the same pipeline as
+:func:`robodyn.sim.tree_events.run_events`: the same pipeline as
 :class:`~robodyn.sim.system.RobotSystem` (springs, losses -D v - F tanh(v / v_friction), the
 constant torque clamped at the efforts, ABA), the works W_input and W_damping integrated in the
 same stages as v, stepped by the same method (classic RK4, any explicit Runge--Kutta tableau,
@@ -13,18 +13,18 @@ It takes a run when the robot is a tree the compiled algorithms serve (checked a
 Pinocchio first, :func:`robodyn.sim.tree.compiled_of`), without loops or couplings, with no
 torque, a constant one or a torque callable, under one of those methods.
 
-Joint stops are shared with the event stepper of :mod:`robodyn.sim.events`: the compiled
-loop steps while every free limited joint is clear of its stops, with the joints held at a
-stop locked (qdd = 0, their stop force computed in the same ABA pass), and stops at the first
-sample where a free joint comes within the stop tolerance or a held stop pulls. The event
-stepper (``run.stepper``, the Python pipeline) then takes that one step (locating the impact
-or the release to round-off, applying the impulse, changing the held set, booking the work of
-the stops), and the compiled loop goes on from the next sample with the new held set.
+Joint stops are taken inside the compiled loop (:func:`robodyn.sim.tree_events.run_events`)
+with the arithmetic of the event stepper of :mod:`robodyn.sim.events` (the Python pipeline's,
+which stays the reference): crossings located to round-off by the same regula falsi on trial
+steps, the same restitution impulse and holds, releases where a held stop pulls, the work of
+the stops booked; the held joints are locked in the compiled ABA (qdd = 0, their stop force
+computed in the same pass). The impacts, releases and held set are handed to the run's event
+stepper at the end, where the run's metadata reads them.
 
 What it does not handle it hands back, and the run is then taken by the Python pipeline
 from its start (``Run.integrate``): a state that is not finite, an energy error above the
-run's bound, or a step the event stepper cannot take (the Python pipeline then writes the
-canonical divergence report).
+run's bound, or a step with more stop events than the event stepper allows (chattering; the
+Python pipeline then writes the canonical divergence report).
 
 Ctrl-C is honoured between blocks of ``BLOCK`` steps.
 """
@@ -39,18 +39,31 @@ from types import ModuleType
 import numpy as np
 from numpy.typing import NDArray
 
-from robodyn.errors import RobodynError, StepError
+from robodyn.errors import RobodynError
 from robodyn.integrators import Integrator
 from robodyn.integrators.explicit import ClassicRK4, ExplicitEuler, ExplicitRungeKutta
 from robodyn.integrators.symplectic import SemiImplicitEuler
 from robodyn.sim import tree
-from robodyn.sim.events import RELEASE_TOL
+from robodyn.sim.events import (
+    FORCE_NOISE_RTOL,
+    IMPACTS_KEPT,
+    LOCATE_FTOL,
+    LOCATE_ITERATIONS,
+    LOCATE_RTOL,
+    MAX_EVENTS_PER_STEP,
+    RELEASE_TOL,
+    ImpactRecord,
+)
+from robodyn.sim.limits import PULL_RTOL
 from robodyn.sim.run import Run, step_sizes
 from robodyn.sim.system import V_FRICTION, RobotSystem
 
 Array = NDArray[np.float64]
 
 _KEYS = itertools.count()
+
+# entries of the event kernels' constants (tree_events.PCOLS, without loading numba here)
+_EK_PCOLS = 10
 
 # Steps per call of the compiled loop: between calls Ctrl-C is seen (Talos: ~0.15 s a block).
 BLOCK = 4096
@@ -74,7 +87,7 @@ class Outcome:
     note: str
     steps: int = 0  # steps the compiled loop took
     wall_time_s: float = 0.0  # its wall time, even when the run was handed back
-    event_steps: int = 0  # steps the event stepper took (stop events) when ``ran``
+    event_steps: int = 0  # steps with a stop event (an impact, a hold, a release) when ``ran``
 
 
 def method_code(method: Integrator) -> tuple[int, Array] | None:
@@ -123,26 +136,6 @@ def _inputs(system: RobotSystem) -> tuple[Array, Array]:
     return forces, np.ascontiguousarray(springs.reshape(4, -1))
 
 
-def _stop_rows(system: RobotSystem, rows: NDArray[np.intp]) -> tuple[Array, Array]:
-    """(stops (5, k), held (2, h)) in the kernels' layout, for the stops held now (``system.held``).
-
-    ``stops``: the free limited joints [index in q; index in v; lower; upper; tolerance];
-    ``held``: the held joints [tree row; side]. ``rows`` maps an index in v to its tree row.
-    """
-    st = system.stops
-    if st.empty:
-        return np.zeros((5, 0)), np.zeros((2, 0))
-    tol = st.tolerance()
-    free = np.array([k for k in range(st.iq.size) if k not in system.held], dtype=np.intp)
-    stops = np.vstack(
-        [st.iq[free].astype(np.float64), st.iv[free].astype(np.float64), st.lower[free], st.upper[free], tol[free]]
-    )
-    held = np.array(
-        [[float(rows[st.iv[k]]) for k in system.held], [float(side) for side in system.held.values()]]
-    ).reshape(2, -1)
-    return np.ascontiguousarray(stops), np.ascontiguousarray(held)
-
-
 @dataclass(frozen=True, eq=False)
 class Plan:
     """A run the compiled loop can take: the checked compiled tree and the method's code and tableau."""
@@ -155,14 +148,16 @@ class Plan:
 def prepare(system: RobotSystem, method: Integrator) -> Plan | str:
     """The :class:`Plan` of this run, or why the compiled loop cannot take it (one phrase).
 
-    Loads (or compiles, the first time on a machine) the kernels and checks the compiled
-    algorithms against Pinocchio, so that a timed run pays for neither.
+    Loads (or compiles, the first time on a machine) the kernels, those of the stop events
+    too, and checks the compiled algorithms against Pinocchio, so that a timed run pays for
+    neither.
     """
     reason = refusal(system, method)
     if reason is not None:
         return reason
     try:
         compiled = tree.compiled_of(system.robot)
+        tree.event_kernels()
     except RobodynError as exc:
         return str(exc)
     code = method_code(method)
@@ -171,207 +166,288 @@ def prepare(system: RobotSystem, method: Integrator) -> Plan | str:
     return Plan(compiled, code[0], code[1])
 
 
-def attempt(plan: Plan, system: RobotSystem, run: Run) -> Outcome:
-    """Run ``run`` in the compiled loop and fill its records; or leave it untouched and say why not.
-
-    Steps with a stop event (an impact, a hold, a release) are taken by the run's event stepper
-    (``run.stepper``, the Python pipeline), one step at a time; the compiled loop takes every
-    other step, with the held joints locked. A Ctrl-C between blocks (or during an event step)
-    marks ``run`` interrupted (its records kept up to the last sample taken) and returns
-    ``ran=True``; the caller raises.
-    """
-    compiled, mcode, tab = plan.compiled, plan.method, plan.tableau
-    kernels = tree.kernels()
-    t = run.t
-    n = t.size
-    nv, nw = system.nv, system.nw
-    hs = np.array(step_sizes(t))
-    forces, springs = _inputs(system)
-    tr = compiled.tree
-    rows = np.empty(nv, dtype=np.intp)  # the tree row of each index in v
+def _event_arrays(system: RobotSystem, tr: tree.TreeModel) -> tuple[Array, Array]:
+    """(stops (6, m), par) in :mod:`robodyn.sim.tree_events`' layout: the limited joints, the stepper's constants."""
+    st = system.stops
+    rows = np.empty(system.nv, dtype=np.intp)  # the tree row of each index in v
     rows[tr.itree[:, 3]] = np.arange(tr.itree.shape[0])
-    held0 = dict(system.held)
-    Q = run.Q
-    U = np.zeros((n, nv + 2))
-    U[0, : nv + nw] = run.U[0]
-    A = np.full((n, nv), np.nan)
-    kin = np.full(n, np.nan)
-    pot = np.full(n, np.nan)
-    wl = run.work_limits
-    stepper = run.stepper
-    stages = 1 if mcode == _SIE else (4 if mcode == _RK4 else tab.shape[1])
+    stops = np.vstack(
+        [st.iq.astype(np.float64), st.iv.astype(np.float64), st.lower, st.upper, st.tolerance(), rows[st.iv]]
+    ).reshape(6, -1)
+    par = np.zeros(_EK_PCOLS)
+    par[:_EK_PCOLS] = [
+        LOCATE_RTOL,
+        LOCATE_FTOL,
+        FORCE_NOISE_RTOL,
+        RELEASE_TOL,
+        PULL_RTOL,
+        LOCATE_ITERATIONS,
+        MAX_EVENTS_PER_STEP,
+        st.restitution,
+        0.0,  # the method's stages per step: set by _setup
+        1e-13,  # lstsq's rcond in limits.impact
+    ]
+    return np.ascontiguousarray(stops), par
+
+
+@dataclass(eq=False)
+class Work:
+    """A compiled run under way: the kernels' inputs, its records, the event state, how far it got."""
+
+    run: Run
+    system: RobotSystem
+    kernels: ModuleType
+    events: ModuleType
+    tree: tree.TreeModel
+    md: tuple[object, ...]  # (itree, ftree, grav, forces, springs, method, tab, cb) of the kernels
+    forces: Array  # (4, nv) and (4, m) in the kernels' layout (_inputs)
+    springs: Array
+    par: Array
+    stops: Array
+    U: Array  # (n, nv + 2): v and the works W_input, W_damping
+    A: Array
+    kin: Array
+    pot: Array
+    held: NDArray[np.int64]  # [count, the held stops in the order they were held]
+    side: NDArray[np.int64]  # per stop: 0 free, +1 held at its lower stop, -1 at its upper
+    counts: NDArray[np.int64]  # evaluations, impacts, releases, steps with an event
+    wlim: Array  # the stops' work so far [J]
+    records: Array  # (IMPACTS_KEPT, 6): the first impacts [time, stop, side, speed before, after, dT]
+    hs: Array  # the step sizes [s]
+    cb: int
+    start: float
+    done: int = 0  # the last sample taken
+
+
+@dataclass(frozen=True)
+class Ending:
+    """How a block ended: the last sample kept, and why the run must be handed back (None: go on)."""
+
+    kept: int
+    why: str | None = None
+
+
+def _setup(plan: Plan, system: RobotSystem, run: Run) -> Work:
+    """Stage 1: the kernels' inputs and records of ``run``; the torque callable registered."""
+    kernels, events = tree.kernels(), tree.event_kernels()
+    tr, n, nv, nw = plan.compiled.tree, run.t.size, system.nv, system.nw
+    forces, springs = _inputs(system)
+    stops, par = _event_arrays(system, tr)
+    par[events.P_STAGES] = 1 if plan.method == _SIE else (4 if plan.method == _RK4 else plan.tableau.shape[1])
     cb = -1
     if system.torque.kind == "callable":  # called in object mode, stage by stage, as RobotSystem.input_torque
         cb = next(_KEYS)
         kernels.CALLBACKS[cb] = system.input_torque
-    start = time.perf_counter()
-    done, interrupted = 0, False
-    compiled_steps = compiled_evals = event_steps = 0
-    events_work = np.zeros(2, dtype=np.int64)  # (evaluations, jacobian evaluations) of the event steps
+    m = system.stops.iq.size
+    held = np.zeros(m + 1, dtype=np.int64)
+    side = np.zeros(m, dtype=np.int64)
+    held[0] = len(system.held)
+    for i, (k, s) in enumerate(system.held.items()):
+        held[1 + i], side[k] = k, s
+    U = np.zeros((n, nv + 2))
+    U[0, : nv + nw] = run.U[0]
+    return Work(
+        run=run,
+        system=system,
+        kernels=kernels,
+        events=events,
+        tree=tr,
+        md=(tr.itree, tr.ftree, tr.grav, forces, springs, plan.method, plan.tableau, cb),
+        forces=forces,
+        springs=springs,
+        par=par,
+        stops=stops,
+        U=U,
+        A=np.full((n, nv), np.nan),
+        kin=np.full(n, np.nan),
+        pot=np.full(n, np.nan),
+        held=held,
+        side=side,
+        counts=np.zeros(events.NCOUNTS, dtype=np.int64),
+        wlim=np.array([run.stepper.work_limits]),
+        records=np.zeros((IMPACTS_KEPT, 6)),
+        hs=np.array(step_sizes(run.t)),
+        cb=cb,
+        start=time.perf_counter(),
+    )
 
-    evaluations0 = (system.evaluations, system.jacobian_evaluations)
-    prev_compiled = False  # the step into sample ``done`` was taken by the compiled loop
 
-    def hand_back(why: str) -> Outcome:
-        if system.held != held0:  # the Python run starts again from q0 with the stops held there
-            system.hold(held0, run.Q[0])
-        # the Python run counts its own work only (Run reads the system's counters)
-        system.evaluations, system.jacobian_evaluations = evaluations0
-        return Outcome(False, why, compiled_steps, time.perf_counter() - start)
+def _block(w: Work) -> tuple[int, int]:
+    """Stage 2: one block of steps from sample ``w.done``, events and all, in the compiled loop: (outcome, sample)."""
+    run = w.run
+    hi = min(w.done + BLOCK, run.t.size - 1)
+    hs, ts = w.hs[w.done : hi], run.t[w.done : hi + 1]
+    return w.events.run_events(  # type: ignore[no-any-return]
+        w.md, w.par, w.stops, w.held, w.side, w.counts, w.wlim, w.records, ts, hs, 0, hi - w.done,
+        run.Q[w.done : hi + 1], w.U[w.done : hi + 1], w.A[w.done : hi + 1], w.kin[w.done : hi + 1],
+        w.pot[w.done : hi + 1], run.work_limits[w.done : hi + 1],
+    )  # fmt: skip
 
+
+def _classify(w: Work, status: int, last: int) -> Ending:
+    """Stage 3: how the block from ``w.done`` ended (``last`` relative to it); a Ctrl-C in the torque raises.
+
+    A state that is not finite, chattering or an energy above the run's bound hands the run back.
+    """
+    ev, run, lo = w.events, w.run, w.done
+    last += lo
+    if status != ev.DONE and w.cb in w.kernels.INTERRUPTED:  # Ctrl-C inside the torque callable
+        w.done = max(last - 1, lo)  # the step from there was begun, not finished
+        raise KeyboardInterrupt
+    kept = last
+    over = _first_over_bound(run, w.kin, w.pot, w.U, lo, kept)
+    if over is not None:
+        return Ending(kept, over)
+    t = run.t
+    if status == ev.NOT_FINITE:
+        return Ending(kept, f"a state that is not finite at step {kept} (t = {float(t[kept]):.6g} s)")
+    if status == ev.CHATTER:
+        return Ending(kept, f"{_chattering(w)} at step {kept + 1} (t = {float(t[kept + 1]):.6g} s)")
+    return Ending(kept)
+
+
+def _failed_solve(w: Work, exc: Exception) -> str:
+    """Why a block that raised from LAPACK hands back: an energy over the bound before it, or the failed solve."""
+    at = int(w.counts[w.events.AT])  # the step from this sample raised; the samples before it have energies
+    over = _first_over_bound(w.run, w.kin, w.pot, w.U, w.done, at)
+    if over is not None:
+        return over
+    return f"the impact solve failed ({exc}) at step {at + 1} (t = {float(w.run.t[at + 1]):.6g} s)"
+
+
+def _chattering(w: Work) -> str:
+    """The event stepper's reason for a step with too many events: the joints held and last struck."""
+    names = w.system.stops.names
+    struck = min(int(w.counts[w.events.IMPACTS]), IMPACTS_KEPT)
+    joints = {names[int(k)] for k in w.held[1 : 1 + int(w.held[0])]}
+    joints |= {names[int(r[1])] for r in w.records[max(struck - 3, 0) : struck]}
+    where = ", ".join(sorted(joints))
+    return f"more than {MAX_EVENTS_PER_STEP} stop events within one step at joint(s) {where} (chattering)"
+
+
+def _hand_back(w: Work, held0: dict[int, int], evaluations0: tuple[int, int], why: str) -> Outcome:
+    """The run goes to the Python pipeline from its start: the held set and counters as they were."""
+    system = w.system
+    if system.held != held0:
+        system.hold(held0, w.run.Q[0])
+    system.evaluations, system.jacobian_evaluations = evaluations0
+    return Outcome(False, why, w.done, time.perf_counter() - w.start)
+
+
+def attempt(plan: Plan, system: RobotSystem, run: Run) -> Outcome:
+    """Run ``run`` in the compiled loop and fill its records; or leave it untouched and say why not.
+
+    The stages: set up the kernels' inputs (:func:`_setup`), then blocks of steps with their stop
+    events (:func:`_block`), each classified (:func:`_classify`: go on, or hand back), the last
+    sample's rates (:func:`_last_sample`), then the books checked and the records filled
+    (:func:`_close`). A Ctrl-C between blocks marks ``run`` interrupted (its records kept up to
+    the last sample taken) and returns ``ran=True``; the caller raises.
+    """
+    held0, evaluations0 = dict(system.held), (system.evaluations, system.jacobian_evaluations)
+    w = _setup(plan, system, run)
+    interrupted = False
     try:
-        while True:
-            if done < n - 1:
-                stops, held = _stop_rows(system, rows)
-                hi = min(done + BLOCK, n - 1)
-                status, last = kernels.run_block(
-                    tr.itree,
-                    tr.ftree,
-                    tr.grav,
-                    mcode,
-                    tab,
-                    t,
-                    hs,
-                    done,
-                    hi,
-                    Q,
-                    U,
-                    A,
-                    kin,
-                    pot,
-                    forces,
-                    springs,
-                    cb,
-                    stops,
-                    held,
-                    RELEASE_TOL,
-                )
-                compiled_evals += stages * (last - done) + (status in (kernels.RELEASE, kernels.AT_STOP))
-                if status != kernels.DONE and cb in kernels.INTERRUPTED:  # Ctrl-C inside the torque callable
-                    keep_to = max(last - 1, done)  # the step from there was begun, not finished
-                    wl[done + 1 : keep_to + 1] = stepper.work_limits
-                    done = keep_to
-                    raise KeyboardInterrupt
-                # DONE, NOT_FINITE, AT_STOP (the event stepper takes the step from ``last``) keep every sample
-                # taken; NEAR_STOP, RELEASE: the step into ``last`` is the event's, when the compiled loop took it
-                redo = status in (kernels.NEAR_STOP, kernels.RELEASE) and (
-                    last > done or (status == kernels.RELEASE and prev_compiled)
-                )
-                kept = last - 1 if redo else last
-            else:  # the last sample: a held stop pulling there is the event of the compiled last step
-                _, held = _stop_rows(system, rows)
-                a_last = np.empty(nv + 2)
-                kin[done], pot[done], pulls = kernels.sample(
-                    tr.itree, tr.ftree, tr.grav, float(t[done]), Q[done], U[done], forces, springs, cb, held,
-                    RELEASE_TOL, a_last,
-                )  # fmt: skip
-                compiled_evals += 1
-                if not (pulls and prev_compiled):
-                    A[done] = a_last[:nv]
-                    break
-                status, kept = kernels.RELEASE, done - 1
-            if kept < done:  # a compiled step to take again: its sample is the event step's now
-                kin[done] = pot[done] = np.nan
-                A[done] = np.nan
-            wl[done + 1 : kept + 1] = stepper.work_limits
-            compiled_steps += kept - done
-            # samples done .. kept - 1 have their energies: the first one over the bound ends the attempt
-            over = _first_over_bound(run, kin, pot, U, done, kept)
-            if over is not None:
-                return hand_back(over)
-            if status == kernels.NOT_FINITE:
-                return hand_back(f"a state that is not finite at step {kept} (t = {float(t[kept]):.6g} s)")
-            prev_compiled = kept > done
-            done = kept
-            if status == kernels.DONE:
-                continue
-            reason = _event_step(run, kernels, tr, forces, springs, U, A, kin, pot, done, hs, events_work)
-            if reason is not None:
-                return hand_back(reason)
-            event_steps += 1
-            prev_compiled = False
-            over = _first_over_bound(run, kin, pot, U, done, done + 1)
-            if over is not None:
-                return hand_back(over)
-            done += 1
+        while w.done < run.t.size - 1:
+            status, last = _block(w)
+            ending = _classify(w, status, last)
+            w.done = ending.kept
+            if ending.why is not None:
+                return _hand_back(w, held0, evaluations0, ending.why)
+        _last_sample(w)
     except KeyboardInterrupt:
         interrupted = True
+    except np.linalg.LinAlgError as exc:  # an impact's solve on a state blown up inside the block
+        failed = _failed_solve(w, exc)
+        w.done = int(w.counts[w.events.AT])  # the steps before the one that raised were taken
+        return _hand_back(w, held0, evaluations0, failed)
     finally:
-        kernels.CALLBACKS.pop(cb, None)
-        calls = kernels.CALLS.pop(cb, 0)
-        stopped_at = kernels.INTERRUPTED.pop(cb, None)
+        w.kernels.CALLBACKS.pop(w.cb, None)
+        calls = w.kernels.CALLS.pop(w.cb, 0)
+        stopped_at = w.kernels.INTERRUPTED.pop(w.cb, None)
     interrupted = interrupted or stopped_at is not None  # (a Ctrl-C in the last sample's torque call too)
-    keep = done + 1
+    why = _energies(w, interrupted)
+    if why is not None:
+        return _hand_back(w, held0, evaluations0, why)
+    evaluations = calls if w.cb >= 0 else int(w.counts[w.events.EVALS])
+    if stopped_at is not None:  # every stage begun called the torque: the interrupted one included
+        evaluations = stopped_at
+    return _close(w, interrupted, evaluations)
+
+
+def _last_sample(w: Work) -> None:
+    """Stage 4: the rates and energies of the last sample, with the joints held there locked."""
+    run, tr, nv = w.run, w.tree, w.system.nv
+    a_last = np.empty(nv + 2)
+    w.kin[w.done], w.pot[w.done], _ = w.kernels.sample(
+        tr.itree, tr.ftree, tr.grav, float(run.t[w.done]), run.Q[w.done], w.U[w.done], w.forces, w.springs, w.cb,
+        _held_rows(w), RELEASE_TOL, a_last,
+    )  # fmt: skip
+    w.counts[w.events.EVALS] += 1
+    w.A[w.done] = a_last[:nv]
+
+
+def _energies(w: Work, interrupted: bool) -> str | None:
+    """Stage 5: the energies of every sample kept (the springs' added); why the books do not close, if so."""
+    run, system, nv = w.run, w.system, w.system.nv
+    keep = w.done + 1
     if interrupted:  # the last kept sample's rates: filled in by Run.trajectory, as the Python run does
-        A[done] = np.nan
-    for k in np.flatnonzero(np.isnan(kin[:keep])):  # samples an event step began from, and an interrupted end
-        kin[k], pot[k] = _energies_at(kernels, tr, Q[k], U[k], forces, springs)
+        w.A[w.done] = np.nan
+    for i in np.flatnonzero(np.isnan(w.kin[:keep])):  # an interrupted end
+        w.kin[i], w.pot[i] = _energies_at(w.kernels, w.tree, run.Q[i], w.U[i], w.forces, w.springs)
     if not system.springs.empty:  # their energy 1/2 k (q - rest)^2 is potential energy, booked by Springs
-        pot[:keep] += system.springs.energy(Q[:keep])
-    wall = time.perf_counter() - start
-    if not interrupted:
-        residual = kin[:keep] + pot[:keep] - (kin[0] + pot[0]) - U[:keep, nv] - U[:keep, nv + 1] - wl[:keep]
-        worst = float(np.max(np.abs(residual)))
-        if not worst <= run.bound:
-            return hand_back(f"an energy error of {worst:.3g} J above the bound {run.bound:.3g} J")
-    run.U[:keep, :nv] = U[:keep, :nv]
+        w.pot[:keep] += system.springs.energy(run.Q[:keep])
+    if interrupted:
+        return None
+    U, kin, pot, wl = w.U, w.kin, w.pot, run.work_limits
+    residual = kin[:keep] + pot[:keep] - (kin[0] + pot[0]) - U[:keep, nv] - U[:keep, nv + 1] - wl[:keep]
+    worst = float(np.max(np.abs(residual)))
+    if not worst <= run.bound:
+        return f"an energy error of {worst:.3g} J above the bound {run.bound:.3g} J"
+    return None
+
+
+def _close(w: Work, interrupted: bool, evaluations: int) -> Outcome:
+    """Stage 6: the run's records, its event counts and impacts, and how the compiled loop went."""
+    run, nv, nw, keep = w.run, w.system.nv, w.system.nw, w.done + 1
+    wall = time.perf_counter() - w.start
+    run.U[:keep, :nv] = w.U[:keep, :nv]
     if nw:
-        run.U[:keep, nv:] = U[:keep, nv:]
-    run.A[:keep] = A[:keep]
-    run.kinetic[:keep] = kin[:keep]
-    run.potential[:keep] = pot[:keep]
+        run.U[:keep, nv:] = w.U[:keep, nv:]
+    run.A[:keep] = w.A[:keep]
+    run.kinetic[:keep] = w.kin[:keep]
+    run.potential[:keep] = w.pot[:keep]
     run.n = keep
     run.checked = keep
-    evaluations = (calls if cb >= 0 else compiled_evals) + int(events_work[0])
-    if stopped_at is not None:  # every stage begun called the torque: the interrupted one included
-        evaluations = stopped_at + int(events_work[0])
-    run.work = (evaluations, int(events_work[1]))
+    run.work = (evaluations, 0)
+    _book_events(w)
     if interrupted:
-        t_stop = float(t[keep - 1])
+        t_stop = float(run.t[keep - 1])
         run.interrupted = (keep - 1, t_stop, f"interrupted after step {keep - 1} (t = {t_stop:.6g} s)")
-    return Outcome(True, "compiled loop", compiled_steps, wall, event_steps)
+    return Outcome(True, "compiled loop", w.done, wall, int(w.counts[w.events.EVENT_STEPS]))
 
 
-def _event_step(
-    run: Run,
-    kernels: ModuleType,
-    tr: tree.TreeModel,
-    forces: Array,
-    springs: Array,
-    U: Array,
-    A: Array,
-    kin: Array,
-    pot: Array,
-    k: int,
-    hs: Array,
-    work: NDArray[np.int64],
-) -> str | None:
-    """Step k (sample k to k + 1) by the run's event stepper, into Q, U, A[k] and the limits' work.
+def _held_rows(w: Work) -> Array:
+    """The held stops in :func:`robodyn.sim.tree_steps.sample`'s layout (2, h): [tree row; side]."""
+    ks = w.held[1 : 1 + int(w.held[0])]
+    return np.ascontiguousarray(np.vstack([w.stops[5, ks], w.side[ks].astype(np.float64)]).reshape(2, -1))
 
-    Returns why the compiled loop must hand the run back (a step the event stepper cannot
-    take), or None. ``work`` gets the evaluations the step spent.
-    """
-    system, stepper, t = run.system, run.stepper, run.t
-    nv, nw = system.nv, system.nw
-    before = (system.evaluations, system.jacobian_evaluations)
-    q, u = run.Q[k].copy(), U[k, : nv + nw].copy()
-    if np.isnan(kin[k]):
-        kin[k], pot[k] = _energies_at(kernels, tr, q, U[k], forces, springs)
-    try:
-        stepper.restart(float(t[k]), q, u)  # a fresh start of the method: no rates kept from a compiled step
-        with np.errstate(all="ignore"):
-            q1, u1, k_start = stepper.advance(float(t[k]), q, u, float(hs[k]))
-    except (StepError, np.linalg.LinAlgError) as exc:
-        what = exc.reason if isinstance(exc, StepError) else f"the forward dynamics failed ({exc})"
-        return f"{what} at step {k + 1} (t = {float(t[k + 1]):.6g} s)"
-    finally:
-        work += (system.evaluations - before[0], system.jacobian_evaluations - before[1])
-    run.Q[k + 1] = q1
-    U[k + 1, : nv + nw] = u1
-    if k_start is not None:
-        A[k] = k_start[:nv]
-    run.work_limits[k + 1] = stepper.work_limits
-    return None
+
+def _book_events(w: Work) -> None:
+    """The event counts, the impacts kept, the stops' work and the held set, where the run reads them."""
+    stepper, system, ev = w.run.stepper, w.system, w.events
+    stops = system.stops
+    stepper.n_impacts = int(w.counts[ev.IMPACTS])
+    stepper.n_releases = int(w.counts[ev.RELEASES])
+    stepper.work_limits = float(w.wlim[0])
+    stepper.impacts = [
+        ImpactRecord(
+            float(r[0]), stops.names[int(r[1])], "lower" if r[2] > 0 else "upper", float(r[3]), float(r[4]), float(r[5])
+        )
+        for r in w.records[: min(stepper.n_impacts, IMPACTS_KEPT)]
+    ]
+    held = {int(k): int(w.side[k]) for k in w.held[1 : 1 + int(w.held[0])]}
+    if held != system.held:
+        system.hold(held, w.run.Q[w.done])
 
 
 def _first_over_bound(run: Run, kin: Array, pot: Array, U: Array, lo: int, hi: int) -> str | None:

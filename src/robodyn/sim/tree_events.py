@@ -1,0 +1,618 @@
+"""numba kernels of the stop events: the arithmetic of :class:`robodyn.sim.events.EventStepper`, compiled.
+
+Imported only by :mod:`robodyn.sim.tree` (numba is heavy). :func:`run_events` steps one state
+through a block of steps of a run, taking every stop event inside its step as the event
+stepper does, in the same order and with the same tests:
+
+* a step from a state clear of every stop, that ends clear, is the method's own step;
+* otherwise the step is taken with its events (``_events_in_step``): a joint sitting on its
+  stop and moving into it is struck first (``_touch``); after each trial of the rest of the
+  step, the rows past their stop (gap + tolerance < 0) or pulling while held (side x stop
+  force + RELEASE_TOL < 0) are watched and their first zero located by regula falsi
+  (Illinois) on the step length, every trial a fresh step of the method from the step's start
+  (``_locate``); there the joints reaching their stop are snapped onto it and get the exact
+  restitution impulse (``_impact``: the Delassus solve of :func:`robodyn.sim.limits.impact`,
+  pulling rows dropped, by the same LAPACK calls), a rebound landing within one step is held
+  instead (``_rests``), and the held set is made consistent (``_settle``: a pulling held stop
+  lets go, a joint pushed onto its stop that would not leave it within a step is brought to
+  rest by a plastic impulse, ``_rest``);
+* more than ``MAX_EVENTS_PER_STEP`` events in one step is chattering: the block stops there.
+
+The joints held at a stop are locked in the compiled ABA (``W_LOCK``), which leaves each held
+stop's force in ``W_LAMBDA``. The event state lives in small arrays the caller keeps between
+blocks: ``held`` (m + 1,) int64 [count, then the held stops in the order they were held],
+``side`` (m,) int64 (0 free, +1 held at its lower stop, -1 at its upper), ``counts``
+(NCOUNTS,) int64 (evaluations, impacts, releases, steps with an event, and the sample the
+step under way started from: where a LAPACK error raised inside a step came from), ``wlim`` (1,) the stops' work
+[J], ``records`` (R, 6) the first R impacts [time, stop, side, speed before, after, dT].
+The event stepper's constants arrive in ``par`` (see :func:`robodyn.sim.whole_run`), so that
+a cached kernel never runs with old ones.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from robodyn.sim.tree_kernels import crba, kinematics
+from robodyn.sim.tree_layout import W_LAMBDA, W_LOCK, WCOLS
+from robodyn.sim.tree_steps import _finite, rates, stages, step
+
+# run_events outcomes
+DONE, NOT_FINITE, CHATTER = 0, 1, 2
+# counts: evaluations, impacts, releases, steps with an event, the sample the step under way started from
+EVALS, IMPACTS, RELEASES, EVENT_STEPS, AT = 0, 1, 2, 3, 4
+NCOUNTS = 5
+# par entries: the event stepper's constants, the restitution and the method's stages per step
+P_LOCATE_RTOL, P_LOCATE_FTOL, P_NOISE_RTOL, P_RELEASE_TOL, P_PULL_RTOL = 0, 1, 2, 3, 4
+P_ITERATIONS, P_MAX_EVENTS, P_RESTITUTION, P_STAGES, P_RCOND = 5, 6, 7, 8, 9
+PCOLS = 10
+# stops rows: index in q, index in v, lower, upper, tolerance, tree row
+S_IQ, S_IV, S_LO, S_HI, S_TOL, S_ROW = 0, 1, 2, 3, 4, 5
+
+njit = numba.njit(cache=True, error_model="numpy")  # holds the GIL: a torque callable runs in object mode
+
+
+@njit
+def _lock(ws, st, held):  # type: ignore[no-untyped-def]
+    for r in range(ws.shape[0]):
+        ws[r, W_LOCK] = 0.0
+    for i in range(held[0]):
+        ws[int(st[S_ROW, held[1 + i]]), W_LOCK] = 1.0
+
+
+@njit
+def _set_held(ws, st, held, side, rows, n):  # type: ignore[no-untyped-def]
+    """Hold exactly the stop rows rows[:n] (k, side), in that order (``system.hold``)."""
+    for k in range(side.shape[0]):
+        side[k] = 0
+    held[0] = n
+    for i in range(n):
+        held[1 + i] = rows[i, 0]
+        side[rows[i, 0]] = rows[i, 1]
+    _lock(ws, st, held)
+
+
+@njit
+def _eval(md, ws, counts, t, q, u, out):  # type: ignore[no-untyped-def]
+    """The rates (into ``out``) at (t, q, u) with the held joints locked; one evaluation counted."""
+    itree, ftree, grav, forces, springs, cb = md[0], md[1], md[2], md[3], md[4], md[7]
+    counts[EVALS] += 1
+    return rates(itree, ftree, grav, t, q, u, forces, springs, cb, ws, np.empty(forces.shape[1]), out)
+
+
+@njit
+def _step(md, par, ws, counts, t, q, u, h, q1, u1, k0):  # type: ignore[no-untyped-def]
+    """One step of the method from (t, q, u) into (q1, u1); k0 the rates at its start; returns (T, V) there."""
+    itree, ftree, grav, forces, springs, method, tab, cb = md
+    nv = forces.shape[1]
+    s = max(tab.shape[1], 7)
+    buf = np.zeros((2 * s + 3, nv + 2))
+    counts[EVALS] += int(par[P_STAGES])
+    return step(itree, ftree, grav, method, tab, t, h, q, u, forces, springs, cb, ws, buf, np.empty(q.size), q1, u1, k0)
+
+
+@njit
+def _step_from(md, par, ws, counts, t, q, u, h, q1, u1, k0):  # type: ignore[no-untyped-def]
+    """:func:`_step` when k0 already holds the rates at (t, q, u)."""
+    itree, ftree, grav, forces, springs, method, tab, cb = md
+    nv = forces.shape[1]
+    s = max(tab.shape[1], 7)
+    buf = np.zeros((2 * s + 3, nv + 2))
+    counts[EVALS] += int(par[P_STAGES]) - 1
+    stages(itree, ftree, grav, method, tab, t, h, q, u, forces, springs, cb, ws, buf, np.empty(q.size), q1, u1, k0)
+
+
+@njit
+def _clear(q, st):  # type: ignore[no-untyped-def]
+    """True when every limited joint is clear of its stops (``EventStepper._clear``)."""
+    for k in range(st.shape[1]):
+        x = q[int(st[S_IQ, k])]
+        if not (x > st[S_LO, k] + st[S_TOL, k] and x < st[S_HI, k] - st[S_TOL, k]):
+            return False
+    return True
+
+
+@njit
+def _crossed(q, st, side, rows, n):  # type: ignore[no-untyped-def]
+    """Append to rows[n:] the rows past their stop of the joints not held (``Stops.crossed``); the new n."""
+    m = st.shape[1]
+    for k in range(m):
+        if side[k] == 0 and q[int(st[S_IQ, k])] - st[S_LO, k] < -st[S_TOL, k]:
+            rows[n, 0], rows[n, 1] = k, 1
+            n += 1
+    for k in range(m):
+        if side[k] == 0 and st[S_HI, k] - q[int(st[S_IQ, k])] < -st[S_TOL, k]:
+            rows[n, 0], rows[n, 1] = k, -1
+            n += 1
+    return n
+
+
+@njit
+def _bound(st, k, s):  # type: ignore[no-untyped-def]
+    return st[S_LO, k] if s > 0 else st[S_HI, k]
+
+
+@njit
+def _values(md, par, st, side, ws, counts, t, q, u, rows, n, out, kout):  # type: ignore[no-untyped-def]
+    """The event functions of rows[:n] at (t, q, u) into ``out`` (``EventStepper._values``).
+
+    A held row's function is its stop force, from the rates at (t, q, u) (into ``kout``).
+    Returns (whether the rates were evaluated, T, V [J]).
+    """
+    evaluated, kin, pot = False, 0.0, 0.0
+    for i in range(n):
+        if side[rows[i, 0]] != 0:
+            kin, pot = _eval(md, ws, counts, t, q, u, kout)
+            evaluated = True
+            break
+    for i in range(n):
+        k, s = rows[i, 0], rows[i, 1]
+        if side[k] != 0:
+            out[i] = s * ws[int(st[S_ROW, k]), W_LAMBDA] + par[P_RELEASE_TOL]
+        else:
+            out[i] = s * (q[int(st[S_IQ, k])] - _bound(st, k, s)) + st[S_TOL, k]
+    return evaluated, kin, pot
+
+
+@njit
+def _events(md, par, st, held, side, ws, counts, t, q, u, watch, wval, kout):  # type: ignore[no-untyped-def]
+    """The rows whose event function is negative at (t, q, u) into watch, wval.
+
+    Returns (their number, whether the rates at (t, q, u) were evaluated (into ``kout``), T, V [J]).
+    """
+    m = st.shape[1]
+    rows = np.empty((2 * m + 1, 2), dtype=np.int64)
+    n = _crossed(q, st, side, rows, 0)
+    for i in range(held[0]):
+        rows[n, 0], rows[n, 1] = held[1 + i], side[held[1 + i]]
+        n += 1
+    if n == 0:
+        return 0, False, 0.0, 0.0
+    vals = np.empty(n)
+    evaluated, kin, pot = _values(md, par, st, side, ws, counts, t, q, u, rows, n, vals, kout)
+    w = 0
+    for i in range(n):
+        if vals[i] < 0:
+            watch[w, 0], watch[w, 1] = rows[i, 0], rows[i, 1]
+            wval[w] = vals[i]
+            w += 1
+    return w, evaluated, kin, pot
+
+
+@njit
+def _scaled_min(vals, scale, n):  # type: ignore[no-untyped-def]
+    """(min over i of vals[i] / scale[i], its first index)."""
+    best = vals[0] / scale[0]
+    at = 0
+    for i in range(1, n):
+        f = vals[i] / scale[i]
+        if f < best:
+            best, at = f, i
+    return best, at
+
+
+@njit
+def _locate(md, par, st, side, ws, counts, t, q, u, h, q1, u1, watch, wval, n, qo, uo):  # type: ignore[no-untyped-def]
+    """The first s in [0, h] where a watched function reaches 0, the state there into (qo, uo) (``_locate``)."""
+    itree, ftree, grav = md[0], md[1], md[2]
+    nv = md[3].shape[1]
+    scale = np.empty(n)
+    for i in range(n):
+        scale[i] = abs(wval[i])
+        if scale[i] == 0:
+            scale[i] = 1.0
+    vals = np.empty(n)
+    kx = np.empty(u.size)
+    _values(md, par, st, side, ws, counts, t, q, u, watch, n, vals, kx)
+    f_start, _ = _scaled_min(vals, scale, n)
+    if f_start <= 0:
+        qo[:] = q
+        uo[:] = u
+        return 0.0
+    # every trial is a step from (t, q, u): the rates there, evaluated once, start each of them
+    k_start = np.empty(nv + 2)
+    _eval(md, ws, counts, t, q, u, k_start)
+    close = np.full(n, par[P_LOCATE_FTOL])
+    any_held = False
+    for i in range(n):
+        any_held = any_held or side[watch[i, 0]] != 0
+    if any_held:  # a held row's function is its stop force, known to FORCE_NOISE_RTOL sum_i |M_ji a_i|
+        M = np.zeros((nv, nv))
+        crba(itree, ftree, grav, q, ws, M)
+        a = k_start
+        for i in range(n):
+            k = watch[i, 0]
+            if side[k] != 0:
+                iv = int(st[S_IV, k])
+                size = 0.0
+                for j in range(nv):
+                    size += abs(M[iv, j]) * abs(a[j])
+                close[i] = max(par[P_LOCATE_FTOL], par[P_NOISE_RTOL] * size / scale[i])
+    lo, f_lo = 0.0, f_start
+    hi, f_hi = h, -1.0
+    qo[:] = q1
+    uo[:] = u1
+    qs, us, k0 = np.empty(q.size), np.empty(u.size), np.empty(u.size)
+    turn = 0
+    floor = par[P_LOCATE_RTOL] * h
+    for _ in range(int(par[P_ITERATIONS])):
+        if hi - lo <= floor:
+            break
+        s = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
+        if not lo < s < hi:
+            s = 0.5 * (lo + hi)
+        k0[:] = k_start
+        _step_from(md, par, ws, counts, t, q, u, s, qs, us, k0)
+        _values(md, par, st, side, ws, counts, t + s, qs, us, watch, n, vals, kx)
+        f_s, i = _scaled_min(vals, scale, n)
+        if -close[i] <= f_s < 0:  # just past the event, by less than its function is known
+            qo[:] = qs
+            uo[:] = us
+            return s
+        if f_s < 0:
+            hi, f_hi = s, f_s
+            qo[:] = qs
+            uo[:] = us
+            f_lo = f_lo * 0.5 if turn == -1 else f_lo
+            turn = -1
+        else:
+            lo, f_lo = s, f_s
+            f_hi = f_hi * 0.5 if turn == 1 else f_hi
+            turn = 1
+    return hi
+
+
+@njit
+def _solve(M, v, st, rows, n, hit, e, plastic, par):  # type: ignore[no-untyped-def]
+    """:func:`robodyn.sim.limits.impact` on stop rows rows[:n] (``hit[i]``: a hitting row, else held).
+
+    Returns (v+, the number of rows kept, dT [J]); the kept rows (those that pushed, unless
+    ``plastic``) are moved to the front of ``rows`` and ``hit``.
+    """
+    nv = v.size
+    if n == 0:
+        return v.copy(), 0, 0.0
+    while True:
+        JT = np.zeros((nv, n))
+        J = np.zeros((n, nv))
+        target = np.zeros(n)
+        for i in range(n):
+            iv = int(st[S_IV, rows[i, 0]])
+            J[i, iv] = rows[i, 1]
+            JT[iv, i] = rows[i, 1]
+            if hit[i]:
+                target[i] = -e * (J[i] @ v)
+        MiJt = np.linalg.solve(M, JT)
+        D = J @ MiJt
+        L = np.linalg.lstsq(D, target - J @ v, rcond=par[P_RCOND])[0]
+        big = 1.0
+        for i in range(n):
+            big = max(big, abs(L[i]))
+        kept = 0
+        for i in range(n):
+            if plastic or not L[i] < -par[P_PULL_RTOL] * big:
+                rows[kept, 0], rows[kept, 1], hit[kept] = rows[i, 0], rows[i, 1], hit[i]
+                kept += 1
+        if kept == n:
+            break
+        n = kept
+        if n == 0:
+            return v.copy(), 0, 0.0
+    vp = v + MiJt @ L
+    dT = 0.5 * ((vp @ M) @ vp) - 0.5 * ((v @ M) @ v)
+    return vp, n, dT
+
+
+@njit
+def _rests(md, par, st, ws, counts, t, q, vp, k, s, h, e):  # type: ignore[no-untyped-def]
+    """True when stop row (k, s) stays at its stop after the impulse: e = 0, or its rebound lands within h."""
+    if e == 0.0:
+        return True
+    iv = int(st[S_IV, k])
+    speed = s * vp[iv]
+    if speed <= 0.0:
+        return True
+    nv = vp.size
+    u = np.zeros(nv + 2)
+    u[:nv] = vp
+    a = np.empty(nv + 2)
+    _eval(md, ws, counts, t, q, u, a)
+    pull = -s * a[iv]
+    return pull > 0 and 2.0 * speed / pull < h
+
+
+@njit
+def _impact(md, par, st, held, side, ws, counts, wlim, records, t, q, u, h, hitting, nh):  # type: ignore[no-untyped-def]
+    """The impulse of hitting[:nh] with the held rows holding, into u; the held set updated (``_impact``)."""
+    itree, ftree, grav = md[0], md[1], md[2]
+    nv = md[3].shape[1]
+    e = par[P_RESTITUTION]
+    M = np.zeros((nv, nv))
+    crba(itree, ftree, grav, q, ws, M)
+    v = u[:nv].copy()
+    nheld = held[0]
+    m = st.shape[1]
+    rows = np.empty((nh + nheld, 2), dtype=np.int64)
+    hit = np.zeros(nh + nheld, dtype=np.bool_)
+    for i in range(nh):
+        rows[i, 0], rows[i, 1], hit[i] = hitting[i, 0], hitting[i, 1], True
+    for i in range(nheld):
+        rows[nh + i, 0], rows[nh + i, 1] = held[1 + i], side[held[1 + i]]
+    vp, nc, dT = _solve(M, v, st, rows, nh + nheld, hit, e, False, par)
+    # rows in contact after it: the first nc of rows; resting: hitting rows in contact whose rebound lands soon
+    resting = np.zeros(m, dtype=np.int64)  # side of a resting row, by stop
+    nrest = 0
+    for i in range(nh):
+        k, s = hitting[i, 0], hitting[i, 1]
+        inside = False
+        for j in range(nc):
+            inside = inside or (rows[j, 0] == k and rows[j, 1] == s)
+        if inside and _rests(md, par, st, ws, counts, t, q, vp, k, s, h, e):
+            resting[k] = s
+            nrest += 1
+    if nrest and e > 0:  # rebounds that land within a step: held now
+        n2 = 0
+        for i in range(nh):
+            if resting[hitting[i, 0]] != hitting[i, 1]:
+                rows[n2, 0], rows[n2, 1], hit[n2] = hitting[i, 0], hitting[i, 1], True
+                n2 += 1
+        for i in range(nheld):
+            rows[n2, 0], rows[n2, 1], hit[n2] = held[1 + i], side[held[1 + i]], False
+            n2 += 1
+        for i in range(nh):
+            if resting[hitting[i, 0]] == hitting[i, 1]:
+                rows[n2, 0], rows[n2, 1], hit[n2] = hitting[i, 0], hitting[i, 1], False
+                n2 += 1
+        vp, nc, dT = _solve(M, v, st, rows, n2, hit, e, False, par)
+    # the record (EventStepper._record)
+    wlim[0] += dT
+    for i in range(nh):
+        r = counts[IMPACTS]
+        counts[IMPACTS] += 1
+        if r < records.shape[0]:
+            k, s = hitting[i, 0], hitting[i, 1]
+            iv = int(st[S_IV, k])
+            records[r, 0], records[r, 1], records[r, 2] = t, k, s
+            records[r, 3], records[r, 4], records[r, 5] = v[iv], vp[iv], dT
+    # held from now on: the contact rows that were held or rest; a held row not in contact let go
+    new = np.empty((nc, 2), dtype=np.int64)
+    nn = 0
+    for j in range(nc):
+        k, s = rows[j, 0], rows[j, 1]
+        if (side[k] == s) or resting[k] == s:
+            new[nn, 0], new[nn, 1] = k, s
+            nn += 1
+    for i in range(nheld):
+        k = held[1 + i]
+        inside = False
+        for j in range(nc):
+            inside = inside or (rows[j, 0] == k and rows[j, 1] == side[k])
+        if not inside:
+            counts[RELEASES] += 1
+    u[:nv] = vp
+    for j in range(nn):
+        u[int(st[S_IV, new[j, 0]])] = 0.0
+    _set_held(ws, st, held, side, new, nn)
+
+
+@njit
+def _rest(md, par, st, held, side, ws, counts, wlim, q, u, k, s):  # type: ignore[no-untyped-def]
+    """Bring stop row (k, s) to rest with the held rows: a plastic impulse (booked), into u (``_rest``)."""
+    itree, ftree, grav = md[0], md[1], md[2]
+    nv = md[3].shape[1]
+    M = np.zeros((nv, nv))
+    crba(itree, ftree, grav, q, ws, M)
+    nheld = held[0]
+    rows = np.empty((nheld + 1, 2), dtype=np.int64)
+    for i in range(nheld):
+        rows[i, 0], rows[i, 1] = held[1 + i], side[held[1 + i]]
+    rows[nheld, 0], rows[nheld, 1] = k, s
+    keep = rows.copy()
+    vp, _, dT = _solve(M, u[:nv].copy(), st, rows, nheld + 1, np.zeros(nheld + 1, dtype=np.bool_), 0.0, True, par)
+    wlim[0] += dT
+    u[:nv] = vp
+    for i in range(nheld + 1):
+        u[int(st[S_IV, keep[i, 0]])] = 0.0
+    _set_held(ws, st, held, side, keep, nheld + 1)
+
+
+@njit
+def _settle(md, par, st, held, side, ws, counts, wlim, t, q, u, h):  # type: ignore[no-untyped-def]
+    """Make the held set consistent at t, one row at a time, u updated in place (``_settle``)."""
+    nv = md[3].shape[1]
+    m = st.shape[1]
+    rel = par[P_RELEASE_TOL]
+    a = np.empty(nv + 2)
+    for _ in range(2 * m + 2):
+        if held[0]:
+            _eval(md, ws, counts, t, q, u, a)
+            at, least = -1, 0.0
+            for i in range(held[0]):
+                k = held[1 + i]
+                pull = side[k] * ws[int(st[S_ROW, k]), W_LAMBDA]
+                if at < 0 or pull < least:
+                    at, least = i, pull
+            if least < -rel:  # that stop pulls: let it go
+                side[held[1 + at]] = 0
+                for i in range(at, held[0] - 1):
+                    held[1 + i] = held[2 + i]
+                held[0] -= 1
+                _lock(ws, st, held)
+                counts[RELEASES] += 1
+                continue
+        found = False
+        for k in range(m):
+            if side[k] == 0:
+                for s in (1, -1):
+                    if abs(s * (q[int(st[S_IQ, k])] - _bound(st, k, s))) <= st[S_TOL, k]:
+                        found = True
+        if not found:
+            return
+        _eval(md, ws, counts, t, q, u, a)
+        best_k, best_s, best = -1, 0, 0.0
+        for k in range(m):
+            if side[k] != 0:
+                continue
+            for s in (1, -1):
+                if abs(s * (q[int(st[S_IQ, k])] - _bound(st, k, s))) <= st[S_TOL, k]:
+                    iv = int(st[S_IV, k])
+                    push = s * a[iv]  # < 0: pushed into the stop
+                    speed = s * u[iv]  # > 0: leaving it
+                    if push < -rel and (speed <= 0 or 2.0 * speed < -push * h):
+                        if best_k < 0 or push < best:
+                            best_k, best_s, best = k, s, push
+        if best_k < 0:
+            return
+        _rest(md, par, st, held, side, ws, counts, wlim, q, u, best_k, best_s)
+
+
+@njit
+def _take(md, par, st, held, side, ws, counts, wlim, records, t, q, u, h):  # type: ignore[no-untyped-def]
+    """At t: the impact of the stops reached (snapped onto them), then the held set settled (``_take``)."""
+    m = st.shape[1]
+    hitting = np.empty((2 * m + 1, 2), dtype=np.int64)
+    nh = _crossed(q, st, side, hitting, 0)
+    for k in range(m):  # Stops.touching: at a stop, moving into it
+        if side[k] != 0:
+            continue
+        x = q[int(st[S_IQ, k])]
+        for s in (1, -1):
+            if abs(x - _bound(st, k, s)) <= st[S_TOL, k] and s * u[int(st[S_IV, k])] < 0:
+                new = True
+                for i in range(nh):
+                    new = new and not (hitting[i, 0] == k and hitting[i, 1] == s)
+                if new:
+                    hitting[nh, 0], hitting[nh, 1] = k, s
+                    nh += 1
+    if nh:
+        for i in range(nh):
+            q[int(st[S_IQ, hitting[i, 0]])] = _bound(st, hitting[i, 0], hitting[i, 1])
+        _impact(md, par, st, held, side, ws, counts, wlim, records, t, q, u, h, hitting, nh)
+    _settle(md, par, st, held, side, ws, counts, wlim, t, q, u, h)
+
+
+@njit
+def _touch(md, par, st, held, side, ws, counts, wlim, records, t, q, u, h):  # type: ignore[no-untyped-def]
+    """Before a step: a free joint on a stop gets taken there (``_touch``); True when it was looked at."""
+    for k in range(st.shape[1]):
+        if side[k] != 0:
+            continue
+        x = q[int(st[S_IQ, k])]
+        if abs(x - st[S_LO, k]) <= st[S_TOL, k] or abs(x - st[S_HI, k]) <= st[S_TOL, k]:
+            _take(md, par, st, held, side, ws, counts, wlim, records, t, q, u, h)
+            return True
+    return False
+
+
+@njit
+def _events_in_step(md, par, st, held, side, ws, counts, wlim, records, t, q0, u0, h, first, q1, u1, k0, kc, cache):  # type: ignore[no-untyped-def]
+    """The step from t to t + h with its events into (q1, u1) (``_events_in_step``).
+
+    ``first``: (q1, u1, k0) already hold the method's step from (t, q0, u0). k0 gets the rates
+    at the start of the first step taken. ``kc`` and ``cache`` [valid, t, T, V]: the rates at
+    (t, q0, u0) with the same held set when the previous step ended by evaluating them (its
+    held stops' forces), and are set for the next step the same way. Returns (CHATTER or DONE,
+    T, V [J] of (q0, u0) when the first step started there, else NaN).
+    """
+    cached = cache[0] != 0.0 and cache[1] == t and not first
+    cache[0] = 0.0
+    q, u = q0.copy(), u0.copy()
+    before = (counts[IMPACTS], counts[RELEASES], held[0], wlim[0])
+    if not first:
+        _touch(md, par, st, held, side, ws, counts, wlim, records, t, q, u, h)
+    touched = before != (counts[IMPACTS], counts[RELEASES], held[0], wlim[0])
+    kin, pot = np.nan, np.nan
+    m = st.shape[1]
+    watch = np.empty((2 * m + 1, 2), dtype=np.int64)
+    wval = np.empty(2 * m + 1)
+    qa, ua = np.empty(q.size), np.empty(u.size)
+    kk = np.empty(u.size)
+    t_stop = t + h
+    remaining = h
+    kset = first
+    for _ in range(int(par[P_MAX_EVENTS])):
+        if first:
+            first = False
+        elif cached and not kset and not touched:  # the rates at the start are the last step's end's
+            k0[:] = kc
+            _step_from(md, par, ws, counts, t, q, u, remaining, q1, u1, k0)
+            kset = True
+            kin, pot = cache[2], cache[3]
+        else:
+            kin_s, pot_s = _step(md, par, ws, counts, t, q, u, remaining, q1, u1, kk)
+            if not kset:
+                k0[:] = kk
+                kset = True
+                if not touched:
+                    kin, pot = kin_s, pot_s
+        t1 = t + remaining
+        n, evaluated, kin_e, pot_e = _events(md, par, st, held, side, ws, counts, t1, q1, u1, watch, wval, kc)
+        if n == 0:
+            counts[EVENT_STEPS] += touched
+            if evaluated:
+                cache[0], cache[1], cache[2], cache[3] = 1.0, t1, kin_e, pot_e
+            return DONE, kin, pot
+        touched = True
+        s = _locate(md, par, st, side, ws, counts, t, q, u, remaining, q1, u1, watch, wval, n, qa, ua)
+        q[:] = qa
+        u[:] = ua
+        t = t_stop if remaining - s <= par[P_LOCATE_RTOL] * h else t + s
+        _take(md, par, st, held, side, ws, counts, wlim, records, t, q, u, h)
+        if t >= t_stop:
+            q1[:] = q
+            u1[:] = u
+            counts[EVENT_STEPS] += 1
+            return DONE, kin, pot
+        remaining = t_stop - t
+    counts[EVENT_STEPS] += 1
+    return CHATTER, kin, pot
+
+
+@njit
+def run_events(md, par, st, held, side, counts, wlim, records, ts, hs, lo, hi, Q, U, A, KIN, POT, WL):  # type: ignore[no-untyped-def]
+    """Take steps lo .. hi-1 (times ``ts``, sizes ``hs``) from sample lo of Q (n, nq), U (n, nv + 2), events and all.
+
+    ``md``: (itree, ftree, grav, forces, springs, method, tab, cb), as :func:`robodyn.sim.tree_steps.step`
+    takes them; ``st`` (6, m): every limited joint [index in q; index in v; lower; upper;
+    tolerance; tree row]. Fills samples lo+1 .. hi of Q, U and WL (the stops' work [J]), and
+    A, KIN, POT (gravity's potential only) of samples lo .. hi-1. Returns (outcome, sample):
+    ``DONE`` (hi), ``NOT_FINITE`` (the state of that sample is not finite) or ``CHATTER``
+    (more than the events allowed in the step from that sample).
+    """
+    itree, ftree, grav = md[0], md[1], md[2]
+    nv = md[3].shape[1]
+    ws = np.zeros((itree.shape[0], WCOLS))
+    _lock(ws, st, held)
+    k0 = np.empty(nv + 2)
+    kc = np.empty(nv + 2)
+    cache = np.zeros(4)
+    for k in range(lo, hi):
+        t, h = ts[k], hs[k]
+        counts[AT] = k
+        if held[0] == 0 and _clear(Q[k], st):  # the common case: the method's own step, clear at both ends
+            kin, pot = _step(md, par, ws, counts, t, Q[k], U[k], h, Q[k + 1], U[k + 1], k0)
+            status = DONE
+            cache[0] = 0.0
+            if _finite(Q[k + 1]) and _finite(U[k + 1]) and not _clear(Q[k + 1], st):
+                status, _, _ = _events_in_step(
+                    md, par, st, held, side, ws, counts, wlim, records, t, Q[k], U[k], h, True, Q[k + 1], U[k + 1], k0,
+                    kc, cache,
+                )  # fmt: skip
+        else:
+            status, kin, pot = _events_in_step(
+                md, par, st, held, side, ws, counts, wlim, records, t, Q[k], U[k], h, False, Q[k + 1], U[k + 1], k0,
+                kc, cache,
+            )  # fmt: skip
+            if np.isnan(kin):
+                kin, pot = kinematics(itree, ftree, grav, Q[k], U[k], ws)
+        if status == CHATTER:
+            return CHATTER, k
+        for j in range(nv):
+            A[k, j] = k0[j]
+        KIN[k] = kin
+        POT[k] = pot
+        WL[k + 1] = wlim[0]
+        if not (_finite(Q[k + 1]) and _finite(U[k + 1])):
+            return NOT_FINITE, k + 1
+    return DONE, hi

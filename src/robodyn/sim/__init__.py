@@ -9,5 +9,5 @@
 * what a run is warned of before it starts: ``stiffness`` (Coulomb friction too stiff for the
   method's step);
 * many states at once (``batch``), the compiled closed forms (``fast``) and the compiled path for
-  any tree (``tree``, ``tree_kernels``, ``tree_steps``, ``tree_events``, ``whole_run``).
+  any tree (``tree``, ``tree_kernels``, ``tree_steps``, ``tree_events``, ``tree_impacts``, ``whole_run``).
 """

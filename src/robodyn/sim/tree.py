@@ -78,7 +78,7 @@ _TYPES: dict[str, tuple[int, tuple[float, float, float] | None]] = {
     "JointModelFreeFlyer": (FREEFLYER, (0.0, 0.0, 0.0)),
 }
 # The compiled kernels' modules, whose numba caches must agree with each other (drop_stale_caches).
-KERNEL_MODULES = ("tree_layout", "tree_body", "tree_flyer", "tree_kernels", "tree_steps", "tree_events")
+KERNEL_MODULES = ("tree_layout", "tree_body", "tree_flyer", "tree_kernels", "tree_steps", "tree_impacts", "tree_events")
 
 
 @dataclass(frozen=True, eq=False)

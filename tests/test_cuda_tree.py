@@ -1,0 +1,145 @@
+"""device="cuda" for any robot the compiled tree path takes (sim/cuda_tree.py), run here in numba's CUDA simulator.
+
+The CUDA kernel is the CPU batch path's kernels (tree_kernels, tree_flyer, tree_body, tree_steps)
+rebuilt over their device versions; in the simulator both are float64 operations in the same order,
+so the two paths agree to the bit, and CUDA_VS_CPU_ATOL (1e-12) is the issue's bound for a real GPU.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+import pytest
+
+import robodyn
+from robodyn.errors import AssumptionError, InputError
+from robodyn.sim import batch, cuda_tree, tree
+from tests.test_cuda_batch import CUDA_VS_CPU_ATOL, _simulated
+
+# The simulator runs every kernel as Python, a thread a state: a few states and steps keep each test
+# under a minute here (the Panda's ABA is a few ms of Python; Talos's 32 joints about four times that).
+DT = 1e-3
+
+
+def test_no_rebuilt_kernel_still_calls_a_cpu_kernel():
+    """Every callee of every rebuilt function is its device version: none is a numba CPU dispatcher."""
+    made = cuda_tree.device_functions(lambda f: f)  # the identity: the plain rebuilt Python functions
+    called = set()
+    for name, function in made.items():
+        for callee in function.__code__.co_names:
+            value = function.__globals__.get(callee)
+            assert not isinstance(value, numba.core.dispatcher.Dispatcher), f"{name} calls the CPU kernel {callee}"
+            if callee in made:
+                assert value is made[callee], f"{name} calls another {callee} than the one built here"
+                called.add(callee)
+    # the whole chain under step is reached: each kernel is called by another one (step by the CUDA kernel)
+    assert called == set(made) - {"step"}
+
+
+def _compare(robot_code: str, integrator: str, states: int, steps: int) -> dict:
+    return _simulated(
+        f"""
+        import json
+        import numpy as np
+        import robodyn
+        from robodyn.sim import batch
+
+        robot = {robot_code}
+        robot.model.damping[:] = 0.0  # the batch path is lossless
+        robot.model.friction[:] = 0.0
+        rng = np.random.default_rng(7)
+        lo, hi = robot.model.lowerPositionLimit, robot.model.upperPositionLimit
+        Q = lo + (hi - lo) * rng.uniform(0.2, 0.8, ({states}, robot.nq))  # inside the limits: no stop in the way
+        V = rng.uniform(-1.0, 1.0, ({states}, robot.nv))
+        kw = dict(duration={steps} * {DT}, dt={DT}, integrator="{integrator}")
+        cpu = batch.rollout(robot, Q, V, threads=1, **kw)
+        gpu = batch.rollout(robot, Q, V, device="cuda", **kw)
+        moved = float(np.max(np.abs(cpu.q - Q)))
+        dq, dv = float(np.max(np.abs(gpu.q - cpu.q))), float(np.max(np.abs(gpu.v - cpu.v)))
+        print(json.dumps({{"dq": dq, "dv": dv, "moved": moved, "path": gpu.path, "device": gpu.device,
+                          "evaluations": [cpu.evaluations, gpu.evaluations]}}))
+        """
+    )
+
+
+@pytest.mark.parametrize(("integrator", "states", "steps"), [("rk4", 4, 100), ("heun", 2, 50)])
+def test_panda_on_cuda_equals_the_cpu_batch_path(integrator, states, steps):
+    out = _compare('robodyn.load("panda")', integrator, states, steps)
+    assert out["path"] == "tree" and out["device"] == "cuda"
+    assert out["moved"] > 1e-3  # the arm fell: the comparison is about motion, not a state at rest
+    assert out["dq"] <= CUDA_VS_CPU_ATOL and out["dv"] <= CUDA_VS_CPU_ATOL
+    assert out["evaluations"][0] == out["evaluations"][1]
+
+
+def test_talos_with_a_fixed_base_on_cuda_equals_the_cpu_batch_path():
+    out = _compare('robodyn.load("talos")', "rk4", 2, 50)
+    assert out["path"] == "tree" and out["moved"] > 1e-4
+    assert out["dq"] <= CUDA_VS_CPU_ATOL and out["dv"] <= CUDA_VS_CPU_ATOL
+
+
+def test_a_free_flyer_on_cuda_equals_the_cpu_kernel_and_its_range_is_the_steps_range():
+    """The Panda on a free-flyer base (q 16, v 15) through cuda_tree.rollout against tree_steps.batch_rollout.
+
+    batch.rollout takes nq == nv only; the kernels take the free flyer, so the module is compared with
+    the CPU kernel itself, stepped one step a call to record each coordinate's range on the way.
+    """
+    out = _simulated(
+        f"""
+        import json
+        import numpy as np
+        import robodyn
+        from robodyn.sim import cuda_tree, tree
+
+        robot = robodyn.load("panda", free_flyer=True)
+        t = tree.compiled_of(robot).tree
+        k = tree.kernels()
+        rng = np.random.default_rng(3)
+        n, steps = 2, 60
+        Q = np.tile(robot.neutral(), (n, 1))
+        Q[:, 3:7] = rng.normal(size=(n, 4))
+        Q[:, 3:7] /= np.linalg.norm(Q[:, 3:7], axis=1, keepdims=True)
+        Q[:, 7:14] += rng.uniform(-0.5, 0.5, (n, 7))
+        V = rng.uniform(-1.0, 1.0, (n, robot.nv))
+        forces, springs = np.zeros((4, robot.nv)), np.zeros((4, 0))
+        forces[3, 0] = 1.0
+        q, v = Q.copy(), V.copy()
+        lo, hi = Q.copy(), Q.copy()
+        for _ in range(steps):
+            k.batch_rollout(t.itree, t.ftree, t.grav, 1, np.zeros((6, 4)), {DT}, 1, q, v, forces, springs,
+                            np.array([0, n]))
+            lo, hi = np.minimum(lo, q), np.maximum(hi, q)
+        gq, gv, glo, ghi, wall = cuda_tree.rollout(t.itree, t.ftree, t.grav, Q, V, dt={DT}, steps=steps)
+        print(json.dumps({{
+            "shape": list(gq.shape) + list(gv.shape),
+            "dq": float(np.max(np.abs(gq - q))), "dv": float(np.max(np.abs(gv - v))),
+            "dlo": float(np.max(np.abs(glo - lo))), "dhi": float(np.max(np.abs(ghi - hi))),
+            "fell": float(q[0, 2] - Q[0, 2]), "wall": wall,
+        }}))
+        """
+    )
+    assert out["shape"] == [2, 16, 2, 15]
+    assert out["fell"] < -1e-3  # the base fell under gravity
+    for key in ("dq", "dv", "dlo", "dhi"):
+        assert out[key] <= CUDA_VS_CPU_ATOL, key
+    assert out["wall"] > 0
+
+
+def test_a_launch_holds_whole_blocks_of_threads_within_the_workspace_bound():
+    per_state = cuda_tree.bytes_per_state(7, 9, 9)
+    assert per_state == 8 * (7 * 139 + 17 * 11 + 8 * 11)
+    assert cuda_tree.launch_size(10, 7, 9, 9) == 10  # a small batch: one launch of all of it
+    size = cuda_tree.launch_size(2**20, 7, 9, 9)
+    assert size % cuda_tree.THREADS_PER_BLOCK == 0 and size * per_state <= cuda_tree.WORKSPACE_BYTES
+
+
+def test_a_robot_neither_path_takes_is_one_input_error(monkeypatch):
+    robot = robodyn.load("double_pendulum")  # no built-in kind: the tree path, refused here by a failing check
+    robot.model.damping[:] = 0.0
+    robot.model.friction[:] = 0.0
+
+    def refuse(_robot):
+        raise AssumptionError("the compiled ABA differs from Pinocchio's by 1e-3")
+
+    monkeypatch.setattr(tree, "compiled_of", refuse)
+    with pytest.raises(InputError, match=r"device cuda takes the built-in kinds .* this one is neither: the compiled"):
+        batch.rollout(robot, np.zeros((2, 2)), np.zeros((2, 2)), duration=0.01, dt=1e-3, device="cuda")

@@ -124,6 +124,37 @@ def test_a_free_flyer_on_cuda_equals_the_cpu_kernel_and_its_range_is_the_steps_r
     assert out["wall"] > 0
 
 
+def test_a_batch_split_into_launches_equals_one_launch_and_the_cpu_batch_path():
+    """With the workspace bound shrunk to one block of threads, 300 states run in three launches over one workspace."""
+    out = _simulated(
+        f"""
+        import json
+        import numpy as np
+        import robodyn
+        from robodyn.sim import cuda_tree, tree
+
+        robot = robodyn.load("double_pendulum")
+        t = tree.compiled_of(robot).tree
+        k = tree.kernels()
+        rng = np.random.default_rng(5)
+        n, steps = 300, 3
+        Q, V = rng.uniform(-3.0, 3.0, (n, 2)), rng.uniform(-1.0, 1.0, (n, 2))
+        forces, springs = np.zeros((4, 2)), np.zeros((4, 0))
+        forces[3, 0] = 1.0
+        q, v = Q.copy(), V.copy()
+        k.batch_rollout(t.itree, t.ftree, t.grav, 1, np.zeros((6, 4)), {DT}, steps, q, v, forces, springs,
+                        np.array([0, n]))
+        cuda_tree.WORKSPACE_BYTES = cuda_tree.bytes_per_state(2, 2, 2)  # one state fits: a block a launch
+        size = cuda_tree.launch_size(n, 2, 2, 2)
+        gq, gv, lo, hi, wall = cuda_tree.rollout(t.itree, t.ftree, t.grav, Q, V, dt={DT}, steps=steps)
+        print(json.dumps({{"size": size, "dq": float(np.max(np.abs(gq - q))), "dv": float(np.max(np.abs(gv - v))),
+                          "inside": bool(np.all(lo <= gq) and np.all(gq <= hi) and np.all(lo <= Q) and np.all(Q <= hi))}}))
+        """
+    )
+    assert out["size"] == 128  # three launches: 128, 128, 44 states
+    assert out["dq"] <= CUDA_VS_CPU_ATOL and out["dv"] <= CUDA_VS_CPU_ATOL and out["inside"]
+
+
 def test_a_launch_holds_whole_blocks_of_threads_within_the_workspace_bound():
     per_state = cuda_tree.bytes_per_state(7, 9, 9)
     assert per_state == 8 * (7 * 139 + 17 * 11 + 8 * 11)
@@ -143,3 +174,76 @@ def test_a_robot_neither_path_takes_is_one_input_error(monkeypatch):
     monkeypatch.setattr(tree, "compiled_of", refuse)
     with pytest.raises(InputError, match=r"device cuda takes the built-in kinds .* this one is neither: the compiled"):
         batch.rollout(robot, np.zeros((2, 2)), np.zeros((2, 2)), duration=0.01, dt=1e-3, device="cuda")
+
+
+# A slider carrying a two-link arm: no built-in kind, lossless, the slider's travel limited to +-0.3 m.
+SLIDER_ARM_URDF = """<?xml version="1.0"?>
+<robot name="slider_arm">
+  <link name="base"/>
+  <link name="carriage"><inertial><origin xyz="0 0 0"/><mass value="2.0"/>
+    <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="upper"><inertial><origin xyz="0 0 -0.2"/><mass value="0.7"/>
+    <inertia ixx="0.005" iyy="0.005" izz="0.001" ixy="0.0002" ixz="0" iyz="0"/></inertial></link>
+  <link name="lower"><inertial><origin xyz="0.01 0 -0.15"/><mass value="0.4"/>
+    <inertia ixx="0.003" iyy="0.003" izz="0.0008" ixy="0" ixz="0.0001" iyz="0"/></inertial></link>
+  <joint name="slider" type="prismatic"><parent link="base"/><child link="carriage"/>
+    <axis xyz="1 0 0"/><limit lower="-0.3" upper="0.3" effort="10" velocity="10"/></joint>
+  <joint name="shoulder" type="revolute"><parent link="carriage"/><child link="upper"/>
+    <axis xyz="0 1 0"/><limit lower="-100" upper="100" effort="10" velocity="10"/></joint>
+  <joint name="elbow" type="revolute"><parent link="upper"/><child link="lower"/>
+    <origin xyz="0 0 -0.4"/><axis xyz="0.3 0.9 0.1"/><limit lower="-100" upper="100" effort="10" velocity="10"/></joint>
+</robot>
+"""
+
+
+def test_a_tree_robot_sweep_on_cuda_gives_the_cpu_rows_and_hands_stopped_runs_to_simulate(tmp_path):
+    """device = "cuda" for a robot of no built-in kind: final states and energy drifts as the CPU's rows.
+
+    The CPU sweep runs this robot (finite limits) through simulate, run by run; on cuda the runs whose
+    slider reached its stop within 0.2 s are handed to simulate too, the others stay on the GPU's rows.
+    """
+    urdf = tmp_path / "slider_arm.urdf"
+    urdf.write_text(SLIDER_ARM_URDF)
+    out = _simulated(
+        f"""
+        import dataclasses, json, tempfile
+        import numpy as np
+        import robodyn.sweep as sweep
+        from robodyn.sweep.chunk import execute
+
+        spec = {{
+            "model": {str(urdf)!r}, "duration": 0.2, "dt": {DT}, "device": "cuda", "chunk": 4,
+            "measure": ["final_state", "energy_drift"],
+            "q0": {{"slider": [-0.28, 0.0], "shoulder": [0.5, 2.0]}}, "v0": {{"slider": [-1.0, 0.5]}},
+        }}
+        prepared = sweep.prepare(spec, tempfile.mkdtemp())
+        cpu_job = dataclasses.replace(prepared.job, device="cpu")
+        paths, worst = [], 0.0
+        for chunk in prepared.plan.chunks:
+            gpu, cpu = execute(chunk, prepared.job), execute(chunk, cpu_job)
+            paths += gpu["path"]
+            for key, value in gpu.items():
+                if isinstance(value, np.ndarray) and value.dtype.kind == "f":
+                    worst = max(worst, float(np.max(np.abs(value - cpu[key]))))
+        print(json.dumps({{"paths": paths, "worst": worst}}))
+        """
+    )
+    assert out["worst"] <= CUDA_VS_CPU_ATOL, out
+    assert len(out["paths"]) == 8
+    assert "simulate" in out["paths"] and "cuda" in out["paths"], out["paths"]  # both kinds of run are here
+
+
+def test_the_cuda_sweep_refuses_what_the_tree_path_cannot_compute(tmp_path):
+    from robodyn.sweep.chunk import cuda_refusal
+
+    lossy = "double_pendulum"  # no built-in kind, with joint damping
+    assert cuda_refusal(lossy, "rk4", None, ("final_state",)) == (
+        "lossless runs only; the model has joint damping or friction"
+    )
+    assert cuda_refusal(lossy, "rk45", None, ("final_state",)).startswith("integrator rk4, heun, euler only")
+    urdf = tmp_path / "slider_arm.urdf"
+    urdf.write_text(SLIDER_ARM_URDF)
+    assert cuda_refusal(str(urdf), "heun", None, ("final_state", "energy_drift")) == ""
+    assert "(lyapunov: the built-in kinds with rk4), got lyapunov" in cuda_refusal(
+        str(urdf), "rk4", None, ("lyapunov",)
+    )

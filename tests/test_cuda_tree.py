@@ -7,6 +7,11 @@ so the two paths agree to the bit, and CUDA_VS_CPU_ATOL (1e-12) is the issue's b
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+import textwrap
+
 import numba
 import numpy as np
 import pytest
@@ -14,7 +19,7 @@ import pytest
 import robodyn
 from robodyn.errors import AssumptionError, InputError
 from robodyn.sim import batch, cuda_tree, tree
-from tests.test_cuda_batch import CUDA_VS_CPU_ATOL, _simulated
+from tests.test_cuda_batch import CUDA_VS_CPU_ATOL, SRC, _simulated
 
 # The simulator runs every kernel as Python, a thread a state: a few states and steps keep each test
 # under a minute here (the Panda's ABA is a few ms of Python; Talos's 32 joints about four times that).
@@ -34,6 +39,48 @@ def test_no_rebuilt_kernel_still_calls_a_cpu_kernel():
                 called.add(callee)
     # the whole chain under step is reached: each kernel is called by another one (step by the CUDA kernel)
     assert called == set(made) - {"step"}
+
+
+def test_the_kernel_types_and_lowers_for_the_real_cuda_target():
+    """numba's CUDA target (not the simulator) types the whole kernel and lowers it to LLVM IR: no GPU needed.
+
+    The simulator runs the kernels as Python, so a construct CUDA cannot compile (an allocation, object
+    mode) would pass there; this check types what a GPU would compile. It stops before NVVM (absent here).
+    """
+    code = textwrap.dedent(
+        """
+        import types as pytypes, warnings
+        warnings.simplefilter("ignore")
+        from numba import cuda, types
+        try:
+            from numba.cuda import compiler, dispatcher
+            compile_cuda = compiler.compile_cuda
+        except (ImportError, AttributeError):
+            print("SKIP")
+            raise SystemExit(0)
+        from robodyn.sim import cuda_batch, cuda_tree
+        # no GPU: a compute capability for the device functions, and numba.cuda without is_available()
+        dispatcher.get_current_device = lambda: pytypes.SimpleNamespace(compute_capability=(8, 0))
+        cuda_batch.cuda_module = lambda: cuda
+        # numba 0.68's own CUDA target cannot type min/max's *args overload (numba-cuda can: the built-in
+        # kinds' kernel uses them on the GPU): two-argument stand-ins for this check only
+        cuda_tree.min = cuda.jit(device=True)(lambda a, b: a if a < b else b)
+        cuda_tree.max = cuda.jit(device=True)(lambda a, b: a if a > b else b)
+        a2, a3 = types.Array(types.float64, 2, "C"), types.Array(types.float64, 3, "C")
+        args = (types.Array(types.int64, 2, "C"), a2, types.Array(types.float64, 1, "C"), types.int64, a2,
+                types.float64, types.int64, a2, a2, a2, a2, a3, a3, a3, types.int64)
+        result = compile_cuda(cuda_tree.rollout_kernel().py_func, types.void, args, cc=(8, 0))
+        print("OK", len(result.library.get_llvm_str()))
+        """
+    )
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_ENABLE_CUDASIM"}
+    run = subprocess.run(
+        [sys.executable, "-c", code], env={**env, "PYTHONPATH": str(SRC)}, capture_output=True, text=True, timeout=300
+    )
+    assert run.returncode == 0, run.stderr[-3000:]
+    if run.stdout.split()[0] == "SKIP":
+        pytest.skip("this numba has no numba.cuda.compiler.compile_cuda to type the kernel with")
+    assert run.stdout.split()[0] == "OK" and int(run.stdout.split()[1]) > 0
 
 
 def _compare(robot_code: str, integrator: str, states: int, steps: int) -> dict:

@@ -7,6 +7,7 @@ so the two paths agree to the bit, and CUDA_VS_CPU_ATOL (1e-12) is the issue's b
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -294,3 +295,37 @@ def test_the_cuda_sweep_refuses_what_the_tree_path_cannot_compute(tmp_path):
     assert "(lyapunov: the built-in kinds with rk4), got lyapunov" in cuda_refusal(
         str(urdf), "rk4", None, ("lyapunov",)
     )
+
+
+def test_bench_gpu_panda_prepares_the_tree_arrays_and_runs_them_without_pinocchio(tmp_path):
+    """benchmarks/_gpu_panda.py (bench_gpu.py's Panda): --prepare's arrays, then a tiny run in the simulator."""
+    bench = SRC.parent / "benchmarks"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(SRC), str(bench)])}
+    env.pop("NUMBA_ENABLE_CUDASIM", None)
+    prepare = f"import pathlib, _gpu_panda; print(_gpu_panda.prepare(pathlib.Path({str(tmp_path)!r})))"
+    made = subprocess.run([sys.executable, "-c", prepare], env=env, capture_output=True, text=True, timeout=300)
+    assert made.returncode == 0, made.stderr[-3000:]
+    assert "7 joints, fingers fixed" in made.stdout
+    run = textwrap.dedent(
+        f"""
+        import json, pathlib, sys
+        import _gpu_panda
+        entry = _gpu_panda.run(pathlib.Path({str(tmp_path)!r}), sizes=(3,), steps=15, mjx=False)
+        print(json.dumps({{"entry": entry, "pinocchio": "pinocchio" in sys.modules}}))
+        """
+    )
+    ran = subprocess.run(
+        [sys.executable, "-c", run],
+        env={**env, "NUMBA_ENABLE_CUDASIM": "1"},
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert ran.returncode == 0, ran.stderr[-3000:]
+    out = json.loads(ran.stdout.strip().splitlines()[-1])
+    assert out["pinocchio"] is False
+    entry = out["entry"]
+    assert entry["joints"] == [f"panda_joint{k}" for k in range(1, 8)] and entry["steps"] == 15
+    (row,) = entry["batches"]
+    assert row["states"] == 3 and row["gpu_state_steps_per_s"] > 0 and row["cpu_state_steps_per_s"] > 0
+    assert row["gpu_vs_cpu_max_abs_diff"] <= CUDA_VS_CPU_ATOL

@@ -292,9 +292,10 @@ def test_the_cuda_sweep_refuses_what_the_tree_path_cannot_compute(tmp_path):
     urdf = tmp_path / "slider_arm.urdf"
     urdf.write_text(SLIDER_ARM_URDF)
     assert cuda_refusal(str(urdf), "heun", None, ("final_state", "energy_drift")) == ""
-    assert "(lyapunov: the built-in kinds with rk4), got lyapunov" in cuda_refusal(
-        str(urdf), "rk4", None, ("lyapunov",)
+    assert cuda_refusal(str(urdf), "rk4", None, ("lyapunov",)) == (
+        "measures energy_drift, final_state, wall_time only (lyapunov: kinds, rk4), got lyapunov"
     )
+    assert cuda_refusal("pendubot", "heun", None, ("final_state",)) == ""  # a kind with heun: the tree path
 
 
 def test_bench_gpu_panda_prepares_the_tree_arrays_and_runs_them_without_pinocchio(tmp_path):

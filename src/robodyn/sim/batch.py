@@ -203,20 +203,14 @@ def _cuda_rollout(robot: Robot, Q: Array, V: Array, *, dt: float, steps: int, in
         q, v, _, _, wall = cuda_batch.rollout(fast.kind, fast.param_vector, fast.damping, Q, V, dt=dt, steps=steps)
         return BatchResult(q, v, dt, steps, integrator, Q.shape[0], wall, 4 * steps, "closed_form", "cuda")
     from robodyn.sim import cuda_tree
-    from robodyn.sim.whole_run import method_code
 
     try:
-        t = tree.compiled_of(robot).tree
+        tree.compiled_of(robot)  # checked against Pinocchio once (robot_rollout takes it from the cache)
     except RobodynError as exc:
         raise InputError(
             f"{robot.name}: device cuda takes the built-in kinds ({', '.join(KINDS)}) and the robots "
             f"the compiled tree path takes; this one is neither: {exc}"
         ) from None
-    code = method_code(integrators.get(integrator))
-    if code is None:  # pragma: no cover - rk4, heun and euler are the kernels' own
-        raise InputError(f"integrator {integrator!r}: its step is not the one the batch kernels mirror")
-    q, v, _, _, wall = cuda_tree.rollout(
-        t.itree, t.ftree, t.grav, Q, V, dt=dt, steps=steps, method=code[0], tab=code[1]
-    )
+    q, v, _, _, wall = cuda_tree.robot_rollout(robot, Q, V, dt=dt, steps=steps, integrator=integrator)
     stages = {"rk4": 4, "heun": 2, "euler": 1}[integrator]
     return BatchResult(q, v, dt, steps, integrator, Q.shape[0], wall, stages * steps, "tree", "cuda")

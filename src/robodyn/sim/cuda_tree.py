@@ -31,18 +31,21 @@ numba is first imported runs the same kernels in numba's CUDA simulator (a Pytho
 
 from __future__ import annotations
 
-import importlib
 import time
 import types
 from collections.abc import Callable
 from functools import cache
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from robodyn.errors import InputError
 from robodyn.sim import cuda_batch
 from robodyn.sim.tree_layout import WCOLS
+
+if TYPE_CHECKING:
+    from robodyn.robot import Robot
 
 Array = NDArray[np.float64]
 
@@ -53,6 +56,8 @@ THREADS_PER_BLOCK = cuda_batch.THREADS_PER_BLOCK
 WORKSPACE_BYTES = 8 * 2**30
 # The stage buffer's stages: tree_steps.batch_rollout's max(tableau stages, 7).
 MIN_STAGES = 7
+# The methods, as the CPU batch path's (robodyn.sim.batch): explicit, fixed-step, their kernels' own arithmetic.
+METHODS = ("rk4", "heun", "euler")
 # Rows of the per-thread vectors: qs, k0, q, u, q1, u1, q_min, q_max.
 VECTORS = 8
 
@@ -91,12 +96,50 @@ def device_functions(jit: Callable[[Any], Any]) -> dict[str, Any]:
     ``jit`` is ``cuda.jit(device=True)``; the identity gives the plain Python functions (the tests
     check that none of them still calls a CPU kernel).
     """
+    from robodyn.sim import tree_body, tree_flyer, tree_kernels, tree_steps
+
+    modules = {"tree_body": tree_body, "tree_flyer": tree_flyer, "tree_kernels": tree_kernels, "tree_steps": tree_steps}
     made: dict[str, Any] = {"_callable_torque": jit(_no_torque)}
     for module_name, names in CHAIN:
-        module = importlib.import_module(f"robodyn.sim.{module_name}")
+        module = modules[module_name]
         for name in names:
             made[name] = jit(rebuilt(getattr(module, name), made))
     return made
+
+
+def refusal(robot: Robot, integrator: str) -> str:
+    """Why this path cannot run ``robot`` torque-free with ``integrator`` as the CPU batch would ("" when it can)."""
+    from robodyn.sim import tree
+
+    if integrator not in METHODS:
+        return f"integrator {', '.join(METHODS)} only, got {integrator!r}"
+    why = tree.unsupported(robot)
+    if why is not None:
+        return f"the built-in kinds and the robots the compiled tree path takes only; {robot.name}: {why}"
+    if not robot.nq_equals_nv:
+        return f"robots with nq == nv only; {robot.name} has nq={robot.nq}, nv={robot.nv}"
+    if np.any(robot.damping) or np.any(robot.friction):
+        return "lossless runs only; the model has joint damping or friction"
+    return ""
+
+
+def robot_rollout(
+    robot: Robot, Q: Array, V: Array, *, dt: float, steps: int, integrator: str
+) -> tuple[Array, Array, Array, Array, float]:
+    """:func:`rollout` of ``robot``'s tree arrays (checked against Pinocchio) with the CPU batch path's ``integrator``.
+
+    Raises:
+        AssumptionError: the compiled tree path cannot take the robot (:func:`robodyn.sim.tree.compiled_of`).
+    """
+    from robodyn import integrators
+    from robodyn.sim import tree
+    from robodyn.sim.whole_run import method_code
+
+    t = tree.compiled_of(robot).tree
+    code = method_code(integrators.get(integrator))
+    if code is None or integrator not in METHODS:
+        raise InputError(f"integrator {integrator!r}: device cuda takes {', '.join(METHODS)} on this path")
+    return rollout(t.itree, t.ftree, t.grav, Q, V, dt=dt, steps=steps, method=code[0], tab=code[1])
 
 
 def _cuda() -> Any:

@@ -16,8 +16,7 @@ The path is chosen per chunk (all its runs share a setting):
   so it cannot see a run pass a limit on the way: a robot with finite limits goes to ``simulate``;
 * ``cuda`` (the sweep's ``device = "cuda"``): a built-in kind, torque-free and lossless, ``rk4``, only
   final state, energy drift, Lyapunov estimate or wall time asked: :func:`robodyn.sim.cuda_batch.rollout`
-  (any other torque-free lossless robot the compiled tree path takes, nq == nv, rk4, heun or euler, with
-  final state, energy drift or wall time: :func:`robodyn.sim.cuda_tree.rollout`),
+  (any other robot :func:`robodyn.sim.cuda_tree.refusal` lets through, without Lyapunov: ``robot_rollout``),
   one GPU thread a run, which keeps each run's coordinate range, so that a run that passed a URDF
   position limit is computed again by ``simulate`` (as on the ``fast`` path); its energies are the
   closed form's, on the CPU, from the final states; the Lyapunov estimate steps each run and its twin
@@ -57,7 +56,7 @@ from robodyn.integrators import FixedStepIntegrator, get, step_count
 from robodyn.integrators.stability import lyapunov
 from robodyn.model.load import load
 from robodyn.robot import Robot
-from robodyn.sim import batch, tree
+from robodyn.sim import batch
 from robodyn.sim.energy import reference_energy
 from robodyn.sim.fast import KINDS, METHODS, FastDynamics
 from robodyn.sim.simulation import DEFAULT_MAX_ENERGY_GROWTH, simulate
@@ -72,8 +71,6 @@ Array = NDArray[np.float64]
 
 # What the cuda path computes: from the final states, and Benettin's twins stepped on the GPU.
 CUDA_MEASURES = ms.BATCH_MEASURES | {"lyapunov"}
-# The methods of the cuda path's compiled tree algorithms (a robot of no built-in kind): the CPU batch's.
-CUDA_TREE_METHODS = ("rk4", "heun", "euler")
 # The twins' starting distance: lyapunov()'s own default, which the other paths use.
 LYAPUNOV_D0: float = inspect.signature(lyapunov).parameters["d0"].default
 
@@ -188,27 +185,19 @@ def cuda_refusal(model: Model, integrator: str, controller: Any, measures: tuple
     if not plain(model):
         return "a scene's constraints, springs or backend have no GPU kernel"
     robot = robot_of(model)
-    if fast_of(model) is not None and integrator == "rk4":  # a built-in kind's closed form
-        if np.any(robot.damping):
-            return "lossless runs only; the model has joint damping"
-        other = [m for m in measures if m not in CUDA_MEASURES]
-        return f"measures {', '.join(sorted(CUDA_MEASURES))} only, got {', '.join(other)}" if other else ""
-    # the compiled tree algorithms (robodyn.sim.cuda_tree), as the CPU batch path takes them
-    if integrator not in CUDA_TREE_METHODS:
-        return f"integrator {', '.join(CUDA_TREE_METHODS)} only, got {integrator!r}"
-    why = tree.unsupported(robot)
-    if why is not None:
-        return f"the built-in kinds and the robots the compiled tree path takes only; {robot.name}: {why}"
-    if not robot.nq_equals_nv:
-        return f"robots with nq == nv only; {robot.name} has nq={robot.nq}, nv={robot.nv}"
-    if np.any(robot.damping) or np.any(robot.friction):
-        return "lossless runs only; the model has joint damping or friction"
-    other = [m for m in measures if m not in ms.BATCH_MEASURES]
+    if fast_of(model) is None or integrator != "rk4":  # the compiled tree algorithms (robodyn.sim.cuda_tree)
+        from robodyn.sim import cuda_tree
+
+        other = [m for m in measures if m not in ms.BATCH_MEASURES]
+        why = cuda_tree.refusal(robot, integrator)
+        if not why and other:
+            why = f"measures {', '.join(sorted(ms.BATCH_MEASURES))} only (lyapunov: kinds, rk4), got {', '.join(other)}"
+        return why
+    if np.any(robot.damping):
+        return "lossless runs only; the model has joint damping"
+    other = [m for m in measures if m not in CUDA_MEASURES]
     if other:
-        return (
-            f"measures {', '.join(sorted(ms.BATCH_MEASURES))} only on a robot of no built-in kind "
-            f"(lyapunov: the built-in kinds with rk4), got {', '.join(other)}"
-        )
+        return f"measures {', '.join(sorted(CUDA_MEASURES))} only, got {', '.join(other)}"
     return ""
 
 
@@ -403,29 +392,19 @@ def _batch(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
 
 
 def _cuda(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
-    """The torque-free chunk on the GPU; runs that pass a position limit or diverge go to ``simulate``.
-
-    A built-in kind with rk4 runs its closed form (:mod:`robodyn.sim.cuda_batch`), any other robot the
-    compiled tree algorithms (:mod:`robodyn.sim.cuda_tree`, checked against Pinocchio first).
-    """
-    from robodyn.sim import cuda_batch
+    """The torque-free chunk on the GPU; runs that pass a position limit or diverge go to ``simulate``."""
+    from robodyn.sim import cuda_batch, cuda_tree
 
     s = chunk.setting
     robot = robot_of(chunk.model)
     fast = fast_of(chunk.model)
     steps = step_count(job.duration, s.dt)
-    if fast is not None and s.integrator == "rk4":
+    if fast is None or s.integrator != "rk4":  # the compiled tree algorithms (cuda_refusal let them through)
+        tree_run = cuda_tree.robot_rollout(robot, chunk.q0, chunk.v0, dt=s.dt, steps=steps, integrator=s.integrator)
+        q, v, q_min, q_max, wall = tree_run
+    else:
         q, v, q_min, q_max, wall = cuda_batch.rollout(
             fast.kind, fast.param_vector, fast.damping, chunk.q0, chunk.v0, dt=s.dt, steps=steps
-        )
-    else:  # path_of chose "cuda": the tree path takes this robot and method (cuda_refusal)
-        from robodyn.sim import cuda_tree
-        from robodyn.sim.whole_run import method_code
-
-        t, code = tree.compiled_of(robot).tree, method_code(get(s.integrator))
-        assert code is not None  # rk4, heun and euler are the kernels' own
-        q, v, q_min, q_max, wall = cuda_tree.rollout(
-            t.itree, t.ftree, t.grav, chunk.q0, chunk.v0, dt=s.dt, steps=steps, method=code[0], tab=code[1]
         )
     rows = _rows(chunk, job, q, v, None, wall)
     if "lyapunov" in job.measures:

@@ -20,8 +20,9 @@ runs that passed a URDF position limit to :func:`robodyn.simulate`).
 Memory: each thread's workspace ``ws`` (n_bodies, WCOLS), stage buffer (2 s + 3, nv + 2) and eight
 vectors live in global device arrays with the state index last (``WS[:, :, r]``), so that the
 threads of a warp touch consecutive addresses. Per state that is
-8 (139 n_bodies + 17 (nv + 2) + 8 max(nq, nv + 2)) bytes: 9.2 kB for the Panda (7 bodies), 38 kB for
-Talos with a fixed base (32); plus (n, nq + nv) float64 in and out. A batch whose workspace would pass
+8 (139 n_bodies + 17 (nv + 2) + 8 max(nq, nv + 2)) bytes (:func:`bytes_per_state`): 9.6 kB for the
+Panda with its fingers fixed (7 joints), 42 kB for Talos with a fixed base (32); plus (n, nq + nv)
+float64 in and out. A batch whose workspace would pass
 :data:`WORKSPACE_BYTES` runs in several launches over one workspace.
 
 Needs only NumPy, numba's CUDA target and the tree kernels' modules (no Pinocchio): a GPU worker
@@ -51,8 +52,8 @@ Array = NDArray[np.float64]
 
 # Threads per CUDA block, as the built-in kinds' kernel.
 THREADS_PER_BLOCK = cuda_batch.THREADS_PER_BLOCK
-# The largest workspace of one launch [bytes]: 2^20 Panda states (9.6 GB) in two launches, Talos's
-# (40 GB) in five, well inside an 80 GB GPU beside the batch's own arrays.
+# The largest workspace of one launch [bytes]: 2^20 Panda states (10 GB) in two launches, Talos's
+# (44 GB) in six, well inside an 80 GB GPU beside the batch's own arrays.
 WORKSPACE_BYTES = 8 * 2**30
 # The stage buffer's stages: tree_steps.batch_rollout's max(tableau stages, 7).
 MIN_STAGES = 7

@@ -54,6 +54,12 @@ def add_parser(sub: Any) -> None:
         help="where the runs are computed (default: the sweep file's device, else cpu); cuda: an NVIDIA GPU, "
         "for a built-in kind without controller, rk4, measures final_state, energy_drift, wall_time",
     )
+    p.add_argument(
+        "--precision",
+        choices=("float64", "float32"),
+        help="what the runs compute in (default: the sweep file's precision, else float64); float32 with "
+        "--device cuda only, without lyapunov",
+    )
     p.add_argument("--plots", action="store_true", help="also draw maps and sensitivity charts into DIR/plots/")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     add_physics_argument(p)
@@ -79,6 +85,8 @@ def run(args: Any) -> int:
         spec = dataclasses.replace(spec, physics_check=False)
     if args.device is not None:
         spec = dataclasses.replace(spec, device=args.device)
+    if args.precision is not None:
+        spec = dataclasses.replace(spec, precision=args.precision)
     if args.passive:
         spec = dataclasses.replace(spec, passive=tuple(dict.fromkeys((*spec.passive, *args.passive))))
     if not spec.physics_check:

@@ -20,7 +20,7 @@ from __future__ import annotations
 import os
 import time
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -111,13 +111,17 @@ def rollout(
     integrator: str = "rk4",
     threads: int | None = None,
     device: str = "cpu",
+    dtype: Any = np.float64,
 ) -> BatchResult:
     """Advance every state of the batch (q0 (n, nq), v0 (n, nv)) by ``duration`` [s] in steps of ``dt`` [s].
 
     ``threads`` defaults to :func:`default_threads`. Only fixed-step explicit integrators
     (rk4, heun, euler) apply; the robot must be torque-free here, lossless and have nq == nv.
     ``device="cuda"`` runs a built-in kind's closed form with rk4 on an NVIDIA GPU
-    (:mod:`robodyn.sim.cuda_batch`, one thread a state, float64).
+    (:mod:`robodyn.sim.cuda_batch`, one thread a state, float64). ``dtype=np.float32`` (or
+    ``"float32"``) runs that kernel in single precision, compiled from the same source, and returns
+    float32 states (``benchmarks/bench_gpu.py`` states its error against float64); the CPU paths
+    are float64 only.
 
     Raises:
         InputError: shapes, an integrator or a robot the batch path does not take.
@@ -126,6 +130,7 @@ def rollout(
     """
     if device not in DEVICES:
         raise InputError(f"device {device!r}: expected one of {', '.join(DEVICES)}")
+    precision = _precision(dtype, device)
     if not robot.nq_equals_nv:
         raise InputError(f"{robot.name}: the batch path needs nq == nv, got nq={robot.nq}, nv={robot.nv}")
     if np.any(robot.damping) or np.any(robot.friction):
@@ -144,7 +149,7 @@ def rollout(
     steps = integrators.step_count(duration, dt)
     n, nv = Q.shape
     if device == "cuda":
-        return _cuda_rollout(robot, Q, V, dt=dt, steps=steps, integrator=method.name)
+        return _cuda_rollout(robot, Q, V, dt=dt, steps=steps, integrator=method.name, precision=precision)
     threads = threads or default_threads()
     blocks = blocks_for(n, threads)
     fast = _closed_form(robot, method.name)
@@ -189,7 +194,22 @@ def rollout(
     return BatchResult(Q, V, dt, steps, method.name, threads, wall, stages * steps, path)
 
 
-def _cuda_rollout(robot: Robot, Q: Array, V: Array, *, dt: float, steps: int, integrator: str) -> BatchResult:
+def _precision(dtype: Any, device: str) -> str:
+    """``dtype`` as "float64" or "float32"; float32 on device cuda only (one line naming what was given)."""
+    try:
+        name = np.dtype(dtype).name
+    except TypeError:
+        name = ""
+    if name not in ("float64", "float32"):
+        raise InputError(f"dtype {dtype!r}: expected float64 (the default) or float32 (device cuda)")
+    if name == "float32" and device != "cuda":
+        raise InputError("dtype float32 runs on device cuda only; the CPU batch paths compute in float64")
+    return name
+
+
+def _cuda_rollout(
+    robot: Robot, Q: Array, V: Array, *, dt: float, steps: int, integrator: str, precision: str = "float64"
+) -> BatchResult:
     """The batch on the GPU: a built-in kind's closed form (checked against ABA first), rk4."""
     fast = _closed_form(robot, integrator)
     if fast is None:
@@ -200,5 +220,7 @@ def _cuda_rollout(robot: Robot, Q: Array, V: Array, *, dt: float, steps: int, in
         )
     from robodyn.sim import cuda_batch
 
-    q, v, _, _, wall = cuda_batch.rollout(fast.kind, fast.param_vector, fast.damping, Q, V, dt=dt, steps=steps)
+    q, v, _, _, wall = cuda_batch.rollout(
+        fast.kind, fast.param_vector, fast.damping, Q, V, dt=dt, steps=steps, precision=precision
+    )
     return BatchResult(q, v, dt, steps, integrator, Q.shape[0], wall, 4 * steps, "closed_form", "cuda")

@@ -76,7 +76,10 @@ LYAPUNOV_D0: float = inspect.signature(lyapunov).parameters["d0"].default
 
 @dataclass(frozen=True)
 class Job:
-    """What every chunk of a sweep shares: duration [s], measures, controller gains (JSON), seed, joints, device."""
+    """What every chunk of a sweep shares: duration [s], measures, controller gains (JSON), seed, joints, device.
+
+    ``precision`` is what the ``cuda`` path steps in ("float64", or "float32" on request).
+    """
 
     duration: float
     measures: tuple[str, ...]
@@ -84,6 +87,7 @@ class Job:
     seed: int
     joint_names: tuple[str, ...]
     device: str = "cpu"
+    precision: str = "float64"
 
 
 @lru_cache(maxsize=8)
@@ -152,7 +156,7 @@ def path_of(chunk: Chunk, job: Job) -> str:
     wanted = set(job.measures)
     controller = controller_of(chunk.model, s.controller, job.gains)
     if job.device == "cuda":
-        refusal = cuda_refusal(chunk.model, s.integrator, controller, job.measures)
+        refusal = cuda_refusal(chunk.model, s.integrator, controller, job.measures, job.precision)
         if refusal:
             raise InputError(f"device cuda: {refusal}")
         return "cuda"
@@ -177,7 +181,9 @@ def path_of(chunk: Chunk, job: Job) -> str:
     return "simulate"
 
 
-def cuda_refusal(model: Model, integrator: str, controller: Any, measures: tuple[str, ...]) -> str:
+def cuda_refusal(
+    model: Model, integrator: str, controller: Any, measures: tuple[str, ...], precision: str = "float64"
+) -> str:
     """Why the ``cuda`` path cannot compute runs of this setting ("" when it can)."""
     if controller is not None:
         return 'runs without a controller only (controller = "none")'
@@ -192,21 +198,25 @@ def cuda_refusal(model: Model, integrator: str, controller: Any, measures: tuple
     other = [m for m in measures if m not in CUDA_MEASURES]
     if other:
         return f"measures {', '.join(sorted(CUDA_MEASURES))} only, got {', '.join(other)}"
+    if precision == "float32" and "lyapunov" in measures:
+        return "precision float32 has no Lyapunov estimate (its twins start 1e-8 apart, below float32's resolution)"
     return ""
 
 
 def execute(chunk: Chunk, job: Job) -> dict[str, Any]:
     """Compute every run of ``chunk``: columns ``run``, ``status``, the inputs and the measures, one row a run."""
     path = path_of(chunk, job)
-    if path == "closed_loop":
-        rows = _closed_loop(chunk, job)
-    elif path == "batch":
-        rows = _batch(chunk, job)
-    elif path == "cuda":
-        rows = _cuda(chunk, job)
+    if path == "cuda":
+        paths, measured = _cuda(chunk, job)
     else:
-        rows = [_one(chunk, job, k, path) for k in range(chunk.runs.size)]
-    paths = [row.pop("path", path) for row in rows]
+        if path == "closed_loop":
+            rows = _closed_loop(chunk, job)
+        elif path == "batch":
+            rows = _batch(chunk, job)
+        else:
+            rows = [_one(chunk, job, k, path) for k in range(chunk.runs.size)]
+        paths = [row.pop("path", path) for row in rows]
+        measured = _columns_of(rows)
     columns: dict[str, Any] = {"run": chunk.runs.copy(), "path": paths}
     for name, value in chunk.setting.params:
         columns[f"params.{name}"] = np.full(chunk.runs.size, value)
@@ -216,7 +226,14 @@ def execute(chunk: Chunk, job: Job) -> dict[str, Any]:
     for j, joint in enumerate(job.joint_names):
         columns[f"q0.{joint}"] = chunk.q0[:, j].copy()
         columns[f"v0.{joint}"] = chunk.v0[:, j].copy()
+    columns.update(measured)
+    return columns
+
+
+def _columns_of(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """The rows' measures as columns: ``status`` a list, the rest float64 arrays."""
     keys = list(rows[0]) if rows else []
+    columns: dict[str, Any] = {}
     for key in keys:
         values = [row[key] for row in rows]
         columns[key] = values if key == "status" else np.asarray(values, dtype=np.float64)
@@ -385,63 +402,54 @@ def _batch(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
     return rows
 
 
-def _cuda(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
-    """The torque-free chunk on the GPU; runs that pass a position limit or diverge go to ``simulate``."""
-    from robodyn.sim import cuda_batch
+@lru_cache(maxsize=8)
+def device_model_of(model: Model) -> Any:
+    """The arrays a GPU worker needs of a built-in kind's model (:class:`robodyn.sim.cuda_sweep.DeviceModel`)."""
+    from robodyn.sim.cuda_sweep import DeviceModel
 
-    s = chunk.setting
-    robot = robot_of(chunk.model)
-    fast = fast_of(chunk.model)
-    assert fast is not None  # path_of chose "cuda" because there is one
-    q, v, q_min, q_max, wall = cuda_batch.rollout(
-        fast.kind, fast.param_vector, fast.damping, chunk.q0, chunk.v0, dt=s.dt, steps=step_count(job.duration, s.dt)
-    )
-    rows = _rows(chunk, job, q, v, None, wall)
-    if "lyapunov" in job.measures:
-        for row, exponent in zip(rows, _cuda_lyapunov(chunk, job), strict=True):
-            row["lyapunov"] = float(exponent)
-    K0, P0 = _energy_parts(chunk, chunk.q0, chunk.v0)
-    with np.errstate(all="ignore"):  # torque-free and lossless: W = 0, E(T) - E0 is the error (its last sample)
-        over = ~(np.abs(_energies(chunk, q, v) - (K0 + P0)) <= energy_bounds(robot, K0, P0))
-    for k in np.union1d(stopped(robot, q_min, q_max), np.flatnonzero(over)):
-        rows[k] = {**_one(chunk, job, int(k), "simulate"), "path": "simulate"}
-    return rows
-
-
-def _cuda_lyapunov(chunk: Chunk, job: Job) -> Array:
-    """Benettin's estimate [1/s] of every run of the chunk (n,), each run and its twin in one GPU thread.
-
-    The arithmetic of :func:`robodyn.integrators.stability.lyapunov` (as ``_lyapunov`` calls it): each
-    run's twin starts ``d0`` away in the direction seeded by the sweep's seed plus the run number (drawn
-    here, with NumPy, as there), is pulled back to ``d0`` after every interval, and a separation that is
-    not finite or zero makes the run's estimate NaN. The separation's norm and logarithm are the GPU's:
-    round-off apart.
-    """
-    from robodyn.sim import cuda_batch
-
-    fast = fast_of(chunk.model)
-    assert fast is not None  # only the cuda path calls this
-    d0 = LYAPUNOV_D0
-    n, nv = chunk.q0.shape
-    interval = min(ms.LYAPUNOV_INTERVAL, job.duration)
-    count, steps = round(job.duration / interval), step_count(interval, chunk.setting.dt)
-    direction = np.empty((n, 2 * nv))
-    for k in range(n):
-        direction[k] = np.random.default_rng(job.seed + int(chunk.runs[k])).normal(size=2 * nv)
-        direction[k] *= d0 / np.linalg.norm(direction[k])
-    return cuda_batch.lyapunov(
+    robot, fast = robot_of(model), fast_of(model)
+    assert fast is not None  # only the cuda path, which has a closed form, asks
+    return DeviceModel(
         fast.kind,
         fast.param_vector,
         fast.damping,
+        np.asarray(robot.model.lowerPositionLimit, dtype=np.float64),
+        np.asarray(robot.model.upperPositionLimit, dtype=np.float64),
+        fast.potential_offset,
+        float(reference_energy(robot)),
+        float(DEFAULT_MAX_ENERGY_GROWTH),
+    )
+
+
+def _cuda(chunk: Chunk, job: Job) -> tuple[list[str], dict[str, Any]]:
+    """The torque-free chunk on the GPU, as columns; runs that pass a position limit or diverge go to ``simulate``.
+
+    The device computes every measure (:func:`robodyn.sim.cuda_sweep.measures`); the host builds
+    the columns from its arrays (:func:`robodyn.sim.cuda_sweep.columns`) and only the flagged runs
+    are computed again here, one by one. Returns (paths, measure columns).
+    """
+    from robodyn.sim import cuda_batch, cuda_sweep
+
+    streams = cuda_batch.streams_of(job.seed, chunk.runs) if "lyapunov" in job.measures else None
+    measured = cuda_sweep.measures(
+        device_model_of(chunk.model),
         chunk.q0,
         chunk.v0,
-        direction,
-        d0=d0,
         dt=chunk.setting.dt,
-        steps=steps,
-        count=count,
-        interval=interval,
+        steps=step_count(job.duration, chunk.setting.dt),
+        streams=streams,
+        lyapunov_interval=ms.LYAPUNOV_INTERVAL,
+        d0=LYAPUNOV_D0,
+        precision=job.precision,
     )
+    columns = cuda_sweep.columns(measured, job.measures, job.joint_names)
+    paths = ["cuda"] * chunk.runs.size
+    for k in measured.again:
+        row = _one(chunk, job, int(k), "simulate")
+        paths[k] = "simulate"
+        for key, values in columns.items():
+            values[k] = row.get(key, math.nan)
+    return paths, columns
 
 
 def _closed_loop(chunk: Chunk, job: Job) -> list[dict[str, Any]]:

@@ -17,9 +17,14 @@ best of 3) and, up to ``CPU_MAX_STATES``, the same step on all CPU cores (numba 
 reports state-steps per second and the largest difference of the final states (the same
 arithmetic; a GPU's fused multiply-adds round differently). With ``mujoco.mjx`` importable (and
 not ``--no-mjx``) it also runs MJX (float32, ``MJX_STATES`` states) from the same starts and
-reports its speed and its difference from the float64 kernel. A Pendubot chaos map follows: Benettin's
-Lyapunov estimate of the largest batch's runs over ``--chaos-seconds`` (20 s), each run and its
-twin in one GPU thread, against the same device function on the CPU's cores for 1,024 of them.
+reports its speed and its difference from the float64 kernel. Each batch also runs the float32 kernel
+(the same source, its literals float32) and reports its speed and its error against float64. A
+Pendubot chaos map follows, end to end as a ``device = "cuda"`` sweep computes one chunk from arrays
+alone (``robodyn.sim.cuda_sweep``, the model's ``DeviceModel`` saved by ``--prepare``): the largest
+batch's runs over ``--chaos-seconds`` (20 s), timed part by part (starts and twin streams, the
+measures kernel, Benettin's kernel with each run and its twin in one GPU thread and the twin's
+direction drawn there, the columns, the Parquet file where pyarrow imports), against the same
+device functions on the CPU's cores for 1,024 of them.
 Everything goes into
 ``DIR/gpu.json`` with the GPU's name. Without a GPU, ``--run`` stops in one line (exit 5);
 ``NUMBA_ENABLE_CUDASIM=1`` runs it in numba's CUDA simulator (use a tiny ``--states``).

@@ -15,11 +15,14 @@ The path is chosen per chunk (all its runs share a setting):
   :func:`robodyn.sim.batch.rollout` (one thread). It has no stops and returns final states only,
   so it cannot see a run pass a limit on the way: a robot with finite limits goes to ``simulate``;
 * ``cuda`` (the sweep's ``device = "cuda"``): a built-in kind, torque-free and lossless, ``rk4``, only
-  final state, energy drift, Lyapunov estimate or wall time asked: :func:`robodyn.sim.cuda_batch.rollout`,
-  one GPU thread a run, which keeps each run's coordinate range, so that a run that passed a URDF
-  position limit is computed again by ``simulate`` (as on the ``fast`` path); its energies are the
-  closed form's, on the CPU, from the final states; the Lyapunov estimate steps each run and its twin
-  in one GPU thread (:func:`robodyn.sim.cuda_batch.lyapunov`);
+  final state, energy drift, Lyapunov estimate or wall time asked: :func:`robodyn.sim.cuda_sweep.measures`,
+  one GPU thread a run, which computes the final state, the energy drift and whether the run passed a
+  URDF position limit or the divergence bound on the device, from the model's arrays
+  (:func:`device_model_of`); the host builds the columns without a per-run loop, and the flagged runs
+  are computed again by ``simulate`` (as on the ``fast`` path). The Lyapunov estimate steps each run
+  and its twin in one GPU thread, the twin's direction drawn there
+  (:func:`robodyn.sim.cuda_batch.lyapunov`, :mod:`robodyn.integrators.twins`). ``Job.precision``
+  "float32" steps in single precision;
 * ``simulate``: anything else, :func:`robodyn.simulate` run by run: a user's controller file, a
   scene's constant torque or PD law, a scene with constraints or springs beyond the URDF's stops
   and efforts, or a scene that picks its dynamics backend.

@@ -192,3 +192,28 @@ def test_streams_are_seed_plus_run():
     with pytest.raises(InputError):
         cuda_batch.streams_of(-1, np.arange(3))
     assert math.isfinite(float(cuda_batch.streams_of(2**32 - 1, np.array([10**6]))[0]))
+
+
+def test_float32_sweep_chunk_steps_in_float32():
+    """A cuda sweep with precision float32 (in numba's simulator): its final states part from float64's as float32's."""
+    out = _simulated(
+        f"""
+        import dataclasses, json, tempfile
+        import numpy as np
+        import robodyn.sweep as sweep
+        from robodyn.sweep.chunk import execute
+
+        spec = {{
+            "model": "pendubot", "duration": {FLOAT32_STEPS * DT}, "dt": {DT}, "device": "cuda",
+            "precision": "float32", "measure": ["final_state", "energy_drift"], "q0": {{"joint1": [0.5, 2.0]}},
+        }}
+        prepared = sweep.prepare(spec, tempfile.mkdtemp())
+        (chunk,) = prepared.plan.chunks
+        single = execute(chunk, prepared.job)
+        double = execute(chunk, dataclasses.replace(prepared.job, precision="float64"))
+        part = max(float(np.max(np.abs(single[k] - double[k]))) for k in ("q.joint1", "q.joint2", "v.joint1"))
+        print(json.dumps({{"paths": single["path"], "part": part, "digest": prepared.spec.digest}}))
+        """
+    )
+    assert out["paths"] == ["cuda", "cuda"]
+    assert FLOAT32_PARTS_BY[0] < out["part"] < FLOAT32_PARTS_BY[1], out

@@ -93,7 +93,9 @@ def _advance_pair(kind):
     """(numba float32 advance, the same source as plain Python on NumPy float32 scalars)."""
     import numba
 
-    return cuda_batch._advance(numba.njit, kind, "float32"), cuda_batch._advance(lambda f: f, kind, "float32")
+    return cuda_batch._advance(numba.njit, kind, precision="float32"), cuda_batch._advance(
+        lambda f: f, kind, precision="float32"
+    )
 
 
 @pytest.mark.parametrize("kind", ["pendubot", "cart_pole", "geared_arm"])
@@ -112,7 +114,7 @@ def test_float32_kernel_computes_in_float32(kind):
     numpy_ref = python(p32, b32, fast.nv, *start, f32(DT), FLOAT32_STEPS)
     assert all(type(x) is np.float32 for x in numpy_ref[:4]), [type(x) for x in numpy_ref]
     np.testing.assert_allclose(np.array(got[:4], f64), np.array(numpy_ref[:4], f64), rtol=NUMPY_FLOAT32_RTOL, atol=0)
-    double = cuda_batch._advance(numba.njit, kind, "float64")(
+    double = cuda_batch._advance(numba.njit, kind, precision="float64")(
         fast.param_vector, np.zeros(2), fast.nv, *map(f64, start), DT, FLOAT32_STEPS
     )
     part = np.max(np.abs(np.array(got[:4], f64) - np.array(double[:4])) / np.maximum(np.abs(double[:4]), 1.0))
@@ -134,7 +136,7 @@ def test_float32_cuda_rollout_in_the_simulator_is_numpys_float32():
         Q, V = np.array([[0.9, -0.7], [2.0, 0.3]]), np.array([[1.3, -0.4], [0.0, 0.5]])
         r32 = batch.rollout(robot, Q, V, duration={FLOAT32_STEPS * DT}, dt={DT}, device="cuda", dtype=np.float32)
         r64 = batch.rollout(robot, Q, V, duration={FLOAT32_STEPS * DT}, dt={DT}, device="cuda")
-        python = cuda_batch._advance(lambda f: f, "pendubot", "float32")
+        python = cuda_batch._advance(lambda f: f, "pendubot", precision="float32")
         f32 = np.float32
         p32 = fast.param_vector.astype(f32)
         worst = 0.0

@@ -103,7 +103,7 @@ def device_name() -> str:
     return name.decode() if isinstance(name, bytes) else str(name)
 
 
-def _advance(jit: Any, kind: str, precision: str = "float64") -> Any:
+def _advance(jit: Any, kind: str, *, precision: str = "float64") -> Any:
     """``advance(p, b, nv, q0, q1, v0, v1, dt, n)``: n RK4 steps of one state, compiled by ``jit``.
 
     Returns (q0, q1, v0, v1, lo0, lo1, hi0, hi1): the final state and each coordinate's range.
@@ -219,7 +219,7 @@ def _dtype(precision: str) -> Any:
 def rk4_kernel(kind: str, precision: str = "float64") -> Any:
     """The CUDA kernel ``(p, b, nv, Q, V, qmin, qmax, dt, steps)`` of one built-in kind (compiled on first launch)."""
     module = cuda_module()
-    advance = _advance(module.jit(device=True), kind, precision)
+    advance = _advance(module.jit(device=True), kind, precision=precision)
 
     @module.jit
     def kernel(p, b, nv, Q, V, qmin, qmax, dt, n):  # type: ignore[no-untyped-def]
@@ -332,7 +332,7 @@ def cpu_kernel(kind: str, precision: str = "float64") -> Any:
     """The same step on the CPU's cores: numba ``prange`` over the states (the GPU benchmark's CPU column)."""
     import numba
 
-    advance = _advance(numba.njit, kind, precision)
+    advance = _advance(numba.njit, kind, precision=precision)
 
     @numba.njit(parallel=True)
     def kernel(p, b, nv, Q, V, qmin, qmax, dt, n):  # type: ignore[no-untyped-def]

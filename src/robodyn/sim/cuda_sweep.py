@@ -110,7 +110,7 @@ def _thread(jit: Any, kind: str, precision: str) -> Any:
     ``limits`` = (offset, growth, reference energy, lower0, lower1, upper0, upper1) serve the
     energies and flags, in float64 from the state's float64 value.
     """
-    advance = cuda_batch._advance(jit, kind, precision)
+    advance = cuda_batch._advance(jit, kind, precision=precision)
     energy = _energy(jit, kind)
 
     @jit

@@ -219,3 +219,67 @@ def test_float32_sweep_chunk_steps_in_float32():
     )
     assert out["paths"] == ["cuda", "cuda"]
     assert FLOAT32_PARTS_BY[0] < out["part"] < FLOAT32_PARTS_BY[1], out
+
+
+def test_a_gpu_worker_runs_a_chunk_from_arrays_without_pinocchio(tmp_path):
+    """device_task pickled here, run_task in a fresh process (numba's simulator) that never imports Pinocchio."""
+    import pickle
+
+    import robodyn.sweep as sweep
+    from robodyn.sweep.chunk import device_task
+
+    spec = {
+        "model": "cart_pole", "duration": 0.2, "dt": DT, "device": "cuda", "seed": 3,
+        "measure": ["final_state", "energy_drift", "lyapunov"],
+        "q0": {"slider": [0.0, 2.3], "hinge": [0.5, 3.0]}, "v0": {"slider": [4.0]},
+    }  # fmt: skip
+    prepared = sweep.prepare(spec, tmp_path / "out")
+    (chunk,) = prepared.plan.chunks
+    task = device_task(chunk, prepared.job)
+    (tmp_path / "task.pkl").write_bytes(pickle.dumps(task))
+    out = _simulated(
+        f"""
+        import json, pickle, sys
+        from robodyn.sim import cuda_sweep
+
+        task = pickle.loads(open({str(tmp_path / "task.pkl")!r}, "rb").read())
+        measured = cuda_sweep.run_task(task)
+        open({str(tmp_path / "measured.pkl")!r}, "wb").write(pickle.dumps(measured))
+        print(json.dumps({{"pinocchio": "pinocchio" in sys.modules, "robot": "robodyn.robot" in sys.modules}}))
+        """
+    )
+    assert out == {"pinocchio": False, "robot": False}
+    measured = pickle.loads((tmp_path / "measured.pkl").read_bytes())
+    here = cuda_sweep.measures(  # the same device functions through numba's CPU compiler
+        task.model, task.q0, task.v0, dt=task.dt, steps=task.steps, streams=task.streams,
+        lyapunov_interval=task.lyapunov_interval, d0=task.d0, cpu=True,
+    )  # fmt: skip
+    for name in ("q", "v", "drift", "flags", "lyapunov"):
+        np.testing.assert_allclose(getattr(measured, name), getattr(here, name), rtol=0, atol=SAME_BITS)
+    assert 0 < measured.again.size < 4  # the cart that starts at 2.3 m moving at 4 m/s meets the rail's stop
+
+
+def test_a_cuda_sweep_on_dask_equals_the_in_process_one(tmp_path):
+    """With a Dask client the workers get device_task's arrays; the written table is the in-process sweep's."""
+    out = _simulated(
+        f"""
+        import json
+        import distributed
+        import pyarrow.parquet as pq
+        import robodyn.sweep as sweep
+
+        spec = {{
+            "model": "cart_pole", "duration": 0.2, "dt": {DT}, "device": "cuda", "chunk": 2, "seed": 3,
+            "measure": ["final_state", "energy_drift", "lyapunov"],
+            "q0": {{"slider": [0.0, 2.3], "hinge": [0.5, 3.0]}}, "v0": {{"slider": [4.0]}},
+        }}
+        sweep.run(spec, out={str(tmp_path / "here")!r})
+        with distributed.Client(processes=False, n_workers=1, threads_per_worker=1, dashboard_address=None) as client:
+            sweep.run(spec, out={str(tmp_path / "dask")!r}, client=client)
+        here = pq.read_table({str(tmp_path / "here" / "results")!r}).sort_by("run").to_pydict()
+        dask = pq.read_table({str(tmp_path / "dask" / "results")!r}).sort_by("run").to_pydict()
+        print(json.dumps({{"same": here == dask, "paths": dask["path"], "n": len(dask["run"])}}))
+        """
+    )
+    assert out["n"] == 4 and out["same"], out
+    assert "simulate" in out["paths"] and "cuda" in out["paths"], out

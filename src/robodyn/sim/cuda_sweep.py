@@ -295,6 +295,36 @@ def columns(measured: DeviceMeasures, names: tuple[str, ...], joint_names: tuple
     return out
 
 
+@dataclass(frozen=True, eq=False)
+class DeviceTask:
+    """A chunk's work for a GPU worker, as arrays: :func:`measures`'s arguments (see there)."""
+
+    model: DeviceModel
+    q0: Array
+    v0: Array
+    dt: float
+    steps: int
+    streams: NDArray[np.uint64] | None
+    lyapunov_interval: float
+    d0: float
+    precision: str
+
+
+def run_task(task: DeviceTask) -> DeviceMeasures:
+    """Run a :class:`DeviceTask` on this process's GPU (what a sweep's GPU worker calls; no Pinocchio)."""
+    return measures(
+        task.model,
+        task.q0,
+        task.v0,
+        dt=task.dt,
+        steps=task.steps,
+        streams=task.streams,
+        lyapunov_interval=task.lyapunov_interval,
+        d0=task.d0,
+        precision=task.precision,
+    )
+
+
 def compile_measures(kind: str, precision: str = "float64", *, lyapunov: bool = False, cpu: bool = False) -> None:
     """Compile (or load) the kernels of :func:`measures` on one run of one step, outside any timing."""
     form = closed_form(kind)

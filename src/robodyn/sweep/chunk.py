@@ -210,16 +210,21 @@ def execute(chunk: Chunk, job: Job) -> dict[str, Any]:
     """Compute every run of ``chunk``: columns ``run``, ``status``, the inputs and the measures, one row a run."""
     path = path_of(chunk, job)
     if path == "cuda":
-        paths, measured = _cuda(chunk, job)
+        from robodyn.sim import cuda_sweep
+
+        return finish_device(chunk, job, cuda_sweep.run_task(device_task(chunk, job)))
+    if path == "closed_loop":
+        rows = _closed_loop(chunk, job)
+    elif path == "batch":
+        rows = _batch(chunk, job)
     else:
-        if path == "closed_loop":
-            rows = _closed_loop(chunk, job)
-        elif path == "batch":
-            rows = _batch(chunk, job)
-        else:
-            rows = [_one(chunk, job, k, path) for k in range(chunk.runs.size)]
-        paths = [row.pop("path", path) for row in rows]
-        measured = _columns_of(rows)
+        rows = [_one(chunk, job, k, path) for k in range(chunk.runs.size)]
+    paths = [row.pop("path", path) for row in rows]
+    return _with_inputs(chunk, job, paths, _columns_of(rows))
+
+
+def _with_inputs(chunk: Chunk, job: Job, paths: list[str], measured: dict[str, Any]) -> dict[str, Any]:
+    """The columns: ``run``, ``path``, the inputs (parameters, integrator, dt, controller, q0, v0), the measures."""
     columns: dict[str, Any] = {"run": chunk.runs.copy(), "path": paths}
     for name, value in chunk.setting.params:
         columns[f"params.{name}"] = np.full(chunk.runs.size, value)
@@ -424,27 +429,42 @@ def device_model_of(model: Model) -> Any:
     )
 
 
-def _cuda(chunk: Chunk, job: Job) -> tuple[list[str], dict[str, Any]]:
-    """The torque-free chunk on the GPU, as columns; runs that pass a position limit or diverge go to ``simulate``.
+def device_task(chunk: Chunk, job: Job) -> Any:
+    """What a GPU worker computes of a ``cuda`` chunk, as arrays (:class:`robodyn.sim.cuda_sweep.DeviceTask`).
 
-    The device computes every measure (:func:`robodyn.sim.cuda_sweep.measures`); the host builds
-    the columns from its arrays (:func:`robodyn.sim.cuda_sweep.columns`) and only the flagged runs
-    are computed again here, one by one. Returns (paths, measure columns).
+    Built where robodyn and Pinocchio are (the sweep's own process): the model's arrays, the
+    states, the step and each run's twin stream. The worker runs it with
+    :func:`robodyn.sim.cuda_sweep.run_task`, which needs NumPy and numba alone.
+
+    Raises:
+        InputError: the chunk's setting is one the GPU path does not take.
     """
     from robodyn.sim import cuda_batch, cuda_sweep
 
+    path_of(chunk, job)  # refuses what the cuda path cannot run
     streams = cuda_batch.streams_of(job.seed, chunk.runs) if "lyapunov" in job.measures else None
-    measured = cuda_sweep.measures(
+    return cuda_sweep.DeviceTask(
         device_model_of(chunk.model),
         chunk.q0,
         chunk.v0,
-        dt=chunk.setting.dt,
-        steps=step_count(job.duration, chunk.setting.dt),
-        streams=streams,
-        lyapunov_interval=ms.LYAPUNOV_INTERVAL,
-        d0=LYAPUNOV_D0,
-        precision=job.precision,
+        chunk.setting.dt,
+        step_count(job.duration, chunk.setting.dt),
+        streams,
+        ms.LYAPUNOV_INTERVAL,
+        LYAPUNOV_D0,
+        job.precision,
     )
+
+
+def finish_device(chunk: Chunk, job: Job, measured: Any) -> dict[str, Any]:
+    """A ``cuda`` chunk's columns from what its worker computed (:class:`robodyn.sim.cuda_sweep.DeviceMeasures`).
+
+    The host builds the columns from the arrays (:func:`robodyn.sim.cuda_sweep.columns`, no
+    per-run loop) and computes again, one by one with ``simulate``, only the runs the device
+    flagged (a position limit passed, or the divergence bound).
+    """
+    from robodyn.sim import cuda_sweep
+
     columns = cuda_sweep.columns(measured, job.measures, job.joint_names)
     paths = ["cuda"] * chunk.runs.size
     for k in measured.again:
@@ -452,7 +472,7 @@ def _cuda(chunk: Chunk, job: Job) -> tuple[list[str], dict[str, Any]]:
         paths[k] = "simulate"
         for key, values in columns.items():
             values[k] = row.get(key, math.nan)
-    return paths, columns
+    return _with_inputs(chunk, job, paths, columns)
 
 
 def _closed_loop(chunk: Chunk, job: Job) -> list[dict[str, Any]]:

@@ -52,7 +52,7 @@ def add_parser(sub: Any) -> None:
         "--device",
         choices=("cpu", "cuda"),
         help="where the runs are computed (default: the sweep file's device, else cpu); cuda: an NVIDIA GPU, "
-        "for a built-in kind without controller, rk4, measures final_state, energy_drift, wall_time",
+        "for a built-in kind without controller, rk4, measures final_state, energy_drift, lyapunov, wall_time",
     )
     p.add_argument(
         "--precision",

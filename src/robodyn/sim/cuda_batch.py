@@ -12,7 +12,13 @@ term for term, so the two paths agree to round-off (to the bit in numba's CUDA s
 Each thread also keeps the smallest and largest value of each coordinate it passed through, so
 that a caller can tell which runs left the URDF's position limits on the way (the sweep hands
 those to :func:`robodyn.simulate`, which stops them there). :func:`lyapunov` steps a run and its
-Benettin twin in one thread and returns only the exponents.
+Benettin twin in one thread and returns only the exponents; the thread draws its twin's direction
+itself, from the counter-based generator of :mod:`robodyn.integrators.twins` keyed by the run's
+stream (:func:`streams_of`), the direction every other path draws for that run.
+
+float32 on request (``precision="float32"``): the same functions, re-made from their source with
+every float literal a float32 constant (:func:`float32_source`), so that numba does not promote
+the step to float64; torque-free float64 kernels are unchanged.
 
 This module needs only NumPy, numba's CUDA target and :mod:`robodyn.kinds` (no Pinocchio): a
 GPU worker runs it from a kind's name and parameter vector (``benchmarks/bench_gpu.py --run``).

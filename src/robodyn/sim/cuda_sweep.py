@@ -104,7 +104,7 @@ def _energy(jit: Any, kind: str) -> Any:
 
 
 def _thread(jit: Any, kind: str, precision: str) -> Any:
-    """``run(p, pe, b, nv, limits, scale, q0, q1, v0, v1, dt, n)``: one run's final state, drift and flags.
+    """``run(p, pe, b, nv, limits, q0, q1, v0, v1, dt, n)``: one run's final state, drift and flags.
 
     ``p``, ``b``, the state and ``dt`` are in ``precision``; ``pe`` (the float64 parameters) and
     ``limits`` = (offset, growth, reference energy, lower0, lower1, upper0, upper1) serve the

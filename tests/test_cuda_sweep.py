@@ -283,3 +283,35 @@ def test_a_cuda_sweep_on_dask_equals_the_in_process_one(tmp_path):
     )
     assert out["n"] == 4 and out["same"], out
     assert "simulate" in out["paths"] and "cuda" in out["paths"], out
+
+
+@pytest.mark.parametrize("kind", ["cart_pole", "geared_arm"])
+def test_run_and_twin_in_one_pass_equal_two_launches(kind):
+    """The fused thread (run and twin together) gives the measures kernel's and Benettin's numbers to the bit."""
+    robot = robodyn.load(kind)
+    rng = np.random.default_rng(4)  # the starts of test_device_columns_equal_the_per_run_rows: some meet the rail
+    Q, V = rng.uniform(-2.3, 2.3, (10, robot.nv)), rng.uniform(-4.0, 4.0, (10, robot.nv))
+    streams = cuda_batch.streams_of(2, np.arange(10))
+    args = {"dt": DT, "steps": STEPS, "streams": streams, "lyapunov_interval": 0.1, "cpu": True}
+    one = cuda_sweep.measures(device_model_of(kind), Q, V, **args)
+    two = cuda_sweep.measures(device_model_of(kind), Q, V, **args, fused=False)
+    assert one.lyapunov_s == 0.0 and two.lyapunov_s > 0.0  # one launch, then two
+    for name in ("q", "v", "drift", "flags", "lyapunov"):
+        np.testing.assert_allclose(getattr(one, name), getattr(two, name), rtol=0, atol=SAME_BITS, err_msg=name)
+    assert np.isfinite(one.lyapunov).all()
+    if kind == "cart_pole":
+        assert 0 < np.count_nonzero(one.flags & cuda_sweep.LEFT_LIMITS) < 10
+
+
+def test_a_run_past_its_limit_only_at_the_start_is_flagged_on_both_passes():
+    """The range a thread keeps covers every interval: a pendulum released beyond a limit, back inside later."""
+    import dataclasses
+
+    model = dataclasses.replace(device_model_of("geared_arm"), upper=np.array([0.45]))
+    Q, V = np.array([[0.5], [0.1]]), np.zeros((2, 1))
+    streams = cuda_batch.streams_of(0, np.arange(2))
+    args = {"dt": DT, "steps": STEPS, "streams": streams, "lyapunov_interval": 0.1, "cpu": True}
+    for fused in (True, False):
+        measured = cuda_sweep.measures(model, Q, V, **args, fused=fused)
+        assert measured.q[0, 0] < 0.45  # back inside the limit at the end
+        assert measured.flags.tolist() == [cuda_sweep.LEFT_LIMITS, 0], fused

@@ -103,6 +103,27 @@ def _energy(jit: Any, kind: str) -> Any:
     return energy
 
 
+def _verdict(jit: Any) -> Any:
+    """``verdict(limits, k0, u0, k1, u1, lo0, lo1, hi0, hi1) -> (drift, flag)``: the run's drift [J] and flag bits.
+
+    ``limits`` = (offset, growth, reference energy, lower0, lower1, upper0, upper1); the bound is
+    ``simulate``'s, growth x max(K0 + |V0|, reference energy), and a drift that is not finite fails it.
+    """
+
+    @jit
+    def verdict(limits, k0, u0, k1, u1, lo0, lo1, hi0, hi1):  # type: ignore[no-untyped-def]
+        drift = (k1 + u1) - (k0 + u0)
+        bound = limits[1] * max(k0 + abs(u0), limits[2])
+        flag = 0
+        if lo0 < limits[3] or lo1 < limits[4] or hi0 > limits[5] or hi1 > limits[6]:
+            flag += 1
+        if not abs(drift) <= bound:
+            flag += 2
+        return drift, flag
+
+    return verdict
+
+
 def _thread(jit: Any, kind: str, precision: str) -> Any:
     """``run(p, pe, b, nv, limits, q0, q1, v0, v1, dt, n)``: one run's final state, drift and flags.
 
@@ -111,24 +132,98 @@ def _thread(jit: Any, kind: str, precision: str) -> Any:
     energies and flags, in float64 from the state's float64 value.
     """
     advance = cuda_batch._advance(jit, kind, precision=precision)
-    energy = _energy(jit, kind)
+    energy, verdict = _energy(jit, kind), _verdict(jit)
 
     @jit
     def run(p, pe, b, nv, limits, q0, q1, v0, v1, dt, n):  # type: ignore[no-untyped-def]
-        offset, growth, ref = limits[0], limits[1], limits[2]
+        offset = limits[0]
         k0, u0 = energy(pe, offset, np.float64(q0), np.float64(q1), np.float64(v0), np.float64(v1))
         q0, q1, v0, v1, lo0, lo1, hi0, hi1 = advance(p, b, nv, q0, q1, v0, v1, dt, n)
         k1, u1 = energy(pe, offset, np.float64(q0), np.float64(q1), np.float64(v0), np.float64(v1))
-        drift = (k1 + u1) - (k0 + u0)
-        bound = growth * max(k0 + abs(u0), ref)
-        flag = 0
-        if lo0 < limits[3] or lo1 < limits[4] or hi0 > limits[5] or hi1 > limits[6]:
-            flag += 1
-        if not abs(drift) <= bound:
-            flag += 2
+        drift, flag = verdict(limits, k0, u0, k1, u1, lo0, lo1, hi0, hi1)
         return q0, q1, v0, v1, drift, flag
 
     return run
+
+
+def _thread_with_twin(jit: Any, kind: str) -> Any:
+    """``run(p, b, nv, limits, q0, q1, v0, v1, dt, steps, count, span, stream, d0)``: a run, its twin, its measures.
+
+    One thread steps the run ``count`` intervals of ``steps`` steps (the run's whole duration) and
+    its Benettin twin beside it, in the order of :func:`robodyn.sim.cuda_batch._benettin` (the twin
+    drawn from ``stream``, pulled back to ``d0`` after each interval); once a separation is not
+    finite and positive the twin stops and the estimate is NaN, while the run goes on. Returns
+    (q0, q1, v0, v1, drift, flag, exponent): :func:`_thread`'s and Benettin's numbers in one pass.
+    """
+    advance = cuda_batch._advance(jit, kind)
+    energy, verdict, offset = _energy(jit, kind), _verdict(jit), cuda_batch._twin_offset(jit)
+
+    @jit
+    def run(p, b, nv, limits, q0, q1, v0, v1, dt, steps, count, span, stream, d0):  # type: ignore[no-untyped-def]
+        e0, e1, e2, e3 = offset(nv, stream, d0)
+        t0, t1, u0, u1 = q0 + e0, q1 + e1, v0 + e2, v1 + e3
+        k0, w0 = energy(p, limits[0], q0, q1, v0, v1)
+        lo0, lo1, hi0, hi1 = q0, q1, q0, q1
+        total = 0.0
+        alive = True
+        for _ in range(count):
+            q0, q1, v0, v1, a0, a1, c0, c1 = advance(p, b, nv, q0, q1, v0, v1, dt, steps)
+            lo0, lo1, hi0, hi1 = min(lo0, a0), min(lo1, a1), max(hi0, c0), max(hi1, c1)
+            if alive:
+                t0, t1, u0, u1, _y0, _y1, _y2, _y3 = advance(p, b, nv, t0, t1, u0, u1, dt, steps)
+                s0, s1, s2, s3 = t0 - q0, t1 - q1, u0 - v0, u1 - v1
+                d = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2 + s3 * s3)
+                if d > 0.0 and d < math.inf:
+                    total += math.log(d / d0)
+                    f = d0 / d
+                    t0, t1, u0, u1 = q0 + s0 * f, q1 + s1 * f, v0 + s2 * f, v1 + s3 * f
+                else:
+                    alive = False
+        exponent = total / span if alive else math.nan
+        k1, w1 = energy(p, limits[0], q0, q1, v0, v1)
+        drift, flag = verdict(limits, k0, w0, k1, w1, lo0, lo1, hi0, hi1)
+        return q0, q1, v0, v1, drift, flag, exponent
+
+    return run
+
+
+@cache
+def twin_kernel(kind: str) -> Any:
+    """The CUDA kernel ``(p, b, nv, limits, Q, V, S, drift, flags, out, dt, steps, count, span, d0)``, in place."""
+    global cuda
+    module = cuda = cuda_batch.cuda_module()
+    run = _thread_with_twin(module.jit(device=True), kind)
+
+    @module.jit
+    def kernel(p, b, nv, limits, Q, V, S, drift, flags, out, dt, steps, count, span, d0):  # type: ignore[no-untyped-def]
+        r = cuda.grid(1)
+        if r < Q.shape[0]:
+            q0, q1, v0, v1, d, f, x = run(
+                p, b, nv, limits, Q[r, 0], Q[r, 1], V[r, 0], V[r, 1], dt, steps, count, span, S[r], d0
+            )
+            Q[r, 0], Q[r, 1], V[r, 0], V[r, 1] = q0, q1, v0, v1
+            drift[r], flags[r], out[r] = d, f, x
+
+    return kernel
+
+
+@cache
+def cpu_twin_kernel(kind: str) -> Any:
+    """:func:`twin_kernel`'s thread on the CPU's cores (numba ``prange``)."""
+    import numba
+
+    run = _thread_with_twin(numba.njit, kind)
+
+    @numba.njit(parallel=True)
+    def kernel(p, b, nv, limits, Q, V, S, drift, flags, out, dt, steps, count, span, d0):  # type: ignore[no-untyped-def]
+        for r in numba.prange(Q.shape[0]):
+            q0, q1, v0, v1, d, f, x = run(
+                p, b, nv, limits, Q[r, 0], Q[r, 1], V[r, 0], V[r, 1], dt, steps, count, span, S[r], d0
+            )
+            Q[r, 0], Q[r, 1], V[r, 0], V[r, 1] = q0, q1, v0, v1
+            drift[r], flags[r], out[r] = d, f, x
+
+    return kernel
 
 
 @cache
@@ -206,6 +301,7 @@ def measures(
     d0: float = 1e-8,
     precision: str = "float64",
     cpu: bool = False,
+    fused: bool = True,
 ) -> DeviceMeasures:
     """Every run (q0 (n, nv), v0 (n, nv)) stepped ``steps`` RK4 steps of ``dt`` [s]: its measures, computed on the GPU.
 
@@ -213,10 +309,18 @@ def measures(
     of each run is computed too, over the same duration in intervals of ``lyapunov_interval`` [s]
     (shortened to the duration), twins ``d0`` away. ``cpu=True`` runs the same device functions on
     the CPU's cores. ``precision="float32"`` steps in float32 (the energies stay float64; no Lyapunov).
+    When the twin's intervals make up the run's ``steps`` exactly, one launch steps each run and its
+    twin together (:func:`_thread_with_twin`: the same numbers, a third less work); ``fused=False``
+    (or intervals that do not fit) launches the measures kernel, then Benettin's.
     """
     dtype = cuda_batch._dtype(precision)
     if streams is not None and precision != "float64":
         raise InputError("the Lyapunov estimate is float64 only: twins 1e-8 apart are below float32's resolution")
+    if streams is not None:
+        interval = min(lyapunov_interval, steps * dt)
+        count, interval_steps = round(steps * dt / interval), round(interval / dt)
+        if fused and count * interval_steps == steps:  # the twin's intervals cover the run: one pass
+            return _with_twin(model, q0, v0, streams, dt, interval_steps, count, count * interval, d0, cpu)
     n, nv = q0.shape
     p, b, Q, V = cuda_batch._padded(model.params, model.damping, q0, v0, dtype)
     pe = np.ascontiguousarray(model.params, dtype=np.float64)
@@ -246,8 +350,6 @@ def measures(
         drift, flags = drift_d.copy_to_host(), flags_d.copy_to_host()
     exponents, lyapunov_s = None, 0.0
     if streams is not None:
-        interval = min(lyapunov_interval, steps * dt)
-        count = round(steps * dt / interval)
         start = time.perf_counter()
         exponents = cuda_batch.lyapunov(
             model.kind,
@@ -258,7 +360,7 @@ def measures(
             streams,
             d0=d0,
             dt=dt,
-            steps=round(interval / dt),
+            steps=interval_steps,
             count=count,
             interval=interval,
             cpu=cpu,
@@ -267,6 +369,54 @@ def measures(
     q = np.asarray(Q[:, :nv], dtype=np.float64)
     v = np.asarray(V[:, :nv], dtype=np.float64)
     return DeviceMeasures(q, v, np.asarray(drift), np.asarray(flags), exponents, wall, lyapunov_s)
+
+
+def _with_twin(
+    model: DeviceModel,
+    q0: Array,
+    v0: Array,
+    streams: NDArray[np.uint64],
+    dt: float,
+    steps: int,
+    count: int,
+    span: float,
+    d0: float,
+    cpu: bool,
+) -> DeviceMeasures:
+    """:func:`measures` in one launch of :func:`twin_kernel` (float64): each run and its twin in one thread."""
+    n, nv = q0.shape
+    p, b, Q, V = cuda_batch._padded(model.params, model.damping, q0, v0, np.float64)
+    lower, upper = np.full(2, -np.inf), np.full(2, np.inf)
+    lower[:nv], upper[:nv] = model.lower, model.upper
+    limits = np.array([model.potential_offset, model.growth, model.reference_energy, *lower, *upper])
+    S = np.ascontiguousarray(streams, dtype=np.uint64)
+    if S.shape != (n,):
+        raise InputError(f"streams must have shape ({n},), got {S.shape}")
+    drift, flags, out = np.empty(n), np.empty(n, dtype=np.int8), np.empty(n)
+    if cpu:
+        kernel = cpu_twin_kernel(model.kind)
+        start = time.perf_counter()
+        kernel(p, b, nv, limits, Q, V, S, drift, flags, out, dt, steps, count, span, d0)
+        wall = time.perf_counter() - start
+    else:
+        module = cuda_batch.cuda_module()
+        kernel = twin_kernel(model.kind)
+        p_d, b_d, limits_d, Q_d, V_d, S_d = (module.to_device(x) for x in (p, b, limits, Q, V, S))
+        drift_d, flags_d = module.device_array(n, dtype=np.float64), module.device_array(n, dtype=np.int8)
+        out_d = module.device_array(n, dtype=np.float64)
+        blocks = max(1, -(-n // cuda_batch.THREADS_PER_BLOCK))
+        with cuda_batch._quiet():
+            module.synchronize()
+            start = time.perf_counter()
+            kernel[blocks, cuda_batch.THREADS_PER_BLOCK](
+                p_d, b_d, nv, limits_d, Q_d, V_d, S_d, drift_d, flags_d, out_d, dt, steps, count, span, d0
+            )
+            module.synchronize()
+            wall = time.perf_counter() - start
+        Q, V = Q_d.copy_to_host(), V_d.copy_to_host()
+        drift, flags, out = drift_d.copy_to_host(), flags_d.copy_to_host(), out_d.copy_to_host()
+    q, v = np.asarray(Q[:, :nv], dtype=np.float64), np.asarray(V[:, :nv], dtype=np.float64)
+    return DeviceMeasures(q, v, np.asarray(drift), np.asarray(flags), np.asarray(out), wall, 0.0)
 
 
 def columns(measured: DeviceMeasures, names: tuple[str, ...], joint_names: tuple[str, ...]) -> dict[str, Any]:

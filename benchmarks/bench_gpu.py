@@ -22,9 +22,9 @@ reports its speed and its difference from the float64 kernel. Each batch also ru
 Pendubot chaos map follows, end to end as a ``device = "cuda"`` sweep computes one chunk from arrays
 alone (``robodyn.sim.cuda_sweep``, the model's ``DeviceModel`` saved by ``--prepare``): the largest
 batch's runs over ``--chaos-seconds`` (20 s), timed part by part (starts and twin streams, the
-measures kernel, Benettin's kernel with each run and its twin in one GPU thread and the twin's
-direction drawn there, the columns, the Parquet file where pyarrow imports), against the same
-device functions on the CPU's cores for 1,024 of them.
+kernel that steps each run and its Benettin twin in one GPU thread, the twin's direction drawn
+there, and computes the measures, the columns, the Parquet file where pyarrow imports), against
+the same device functions on the CPU's cores for 1,024 of them.
 Everything goes into
 ``DIR/gpu.json`` with the GPU's name. Without a GPU, ``--run`` stops in one line (exit 5);
 ``NUMBA_ENABLE_CUDASIM=1`` runs it in numba's CUDA simulator (use a tiny ``--states``).
@@ -240,14 +240,17 @@ def _chaos_map(folder: Path, models: Any, kind: str, n: int, seconds: float) -> 
     )  # fmt: skip
     cpu_wall = time.perf_counter() - mark
     assert cpu.lyapunov is not None
-    state_steps = 3 * steps  # the run in the measures kernel, then the run and its twin in Benettin's
+    fused = measured.lyapunov_s == 0.0  # one launch stepped each run and its twin (else a run again in Benettin's)
+    state_steps = (2 if fused else 3) * steps
     finite = np.isfinite(cpu.lyapunov) & np.isfinite(gpu[:m])
     diff = float(np.max(np.abs(gpu[:m] - cpu.lyapunov)[finite])) if finite.any() else float("nan")
     drift_diff = float(np.nanmax(np.abs(measured.drift[:m] - cpu.drift))) if m else float("nan")
     print(
         f"{kind:10s} chaos map {n:,} runs x {seconds:g} s end to end {total:.3g} s "
-        f"(starts {parts['starts_s']:.2g} s, device {parts['device_s']:.3g} s: measures kernel "
-        f"{parts['measures_kernel_s']:.3g} s + Lyapunov {parts['lyapunov_launch_s']:.3g} s, columns "
+        f"(starts {parts['starts_s']:.2g} s, device {parts['device_s']:.3g} s: "
+        + (f"one kernel, each run with its twin, {parts['measures_kernel_s']:.3g} s" if fused else
+           f"measures kernel {parts['measures_kernel_s']:.3g} s + Lyapunov {parts['lyapunov_launch_s']:.3g} s")
+        + f", columns "
         f"{parts['columns_s']:.2g} s" + (f", Parquet {parts['parquet_s']:.2g} s" if written is not None else "")
         + f"); {n * state_steps / parts['device_s']:.3g} state-steps/s; CPU cores "
         f"{m * state_steps / cpu_wall:.3g} state-steps/s; max |diff| of the exponents {diff:.2g} 1/s, "
@@ -260,6 +263,7 @@ def _chaos_map(folder: Path, models: Any, kind: str, n: int, seconds: float) -> 
         "end_to_end_s": total,
         **parts,
         "parquet": written is not None,
+        "one_launch": fused,
         "gpu_s": parts["device_s"],
         "gpu_state_steps_per_s": n * state_steps / parts["device_s"],
         "cpu_runs": m,

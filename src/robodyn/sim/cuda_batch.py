@@ -191,6 +191,7 @@ def float32_source(f: Callable[..., Any]) -> Callable[..., Any]:
     ``x * 2.0`` to float64 and silently compute the whole step in double).
     """
     tree = ast.parse(textwrap.dedent(inspect.getsource(f)))
+    ast.increment_lineno(tree, f.__code__.co_firstlineno - 1)  # errors point at the lines of the source file
     node = tree.body[0]
     if not isinstance(node, ast.FunctionDef):  # pragma: no cover - only functions are passed
         raise TypeError(f"{f!r} is not a function")

@@ -17,13 +17,19 @@ best of 3) and, up to ``CPU_MAX_STATES``, the same step on all CPU cores (numba 
 reports state-steps per second and the largest difference of the final states (the same
 arithmetic; a GPU's fused multiply-adds round differently). With ``mujoco.mjx`` importable (and
 not ``--no-mjx``) it also runs MJX (float32, ``MJX_STATES`` states) from the same starts and
-reports its speed and its difference from the float64 kernel. A Pendubot chaos map follows: Benettin's
-Lyapunov estimate of the largest batch's runs over ``--chaos-seconds`` (20 s), each run and its
-twin in one GPU thread, against the same device function on the CPU's cores for 1,024 of them.
+reports its speed and its difference from the float64 kernel. Each batch also runs the float32 kernel
+(the same source, its literals float32) and reports its speed and its error against float64. A
+Pendubot chaos map follows, end to end as a ``device = "cuda"`` sweep computes one chunk from arrays
+alone (``robodyn.sim.cuda_sweep``, the model's ``DeviceModel`` saved by ``--prepare``): the largest
+batch's runs over ``--chaos-seconds`` (20 s), timed part by part (starts and twin streams, the
+kernel that steps each run and its Benettin twin in one GPU thread, the twin's direction drawn
+there, and computes the measures, the columns, the Parquet file where pyarrow imports), against
+the same device functions on the CPU's cores for 1,024 of them.
 The Panda (fingers fixed, stops off; ``DIR/panda.npz``, the tree's arrays) follows through
 ``robodyn.sim.cuda_tree`` (the compiled tree algorithms, one thread a state) for the same batch sizes
 and ``min(--steps, 200)`` steps, beside the CPU batch kernel on all cores and MJX float32 for one
-size (``benchmarks/_gpu_panda.py``). Everything goes into
+size (``benchmarks/_gpu_panda.py``).
+Everything goes into
 ``DIR/gpu.json`` with the GPU's name. Without a GPU, ``--run`` stops in one line (exit 5);
 ``NUMBA_ENABLE_CUDASIM=1`` runs it in numba's CUDA simulator (use a tiny ``--states``).
 """
@@ -66,6 +72,7 @@ START_RANGE = {"pendubot": (np.pi, np.pi), "cart_pole": (2.0, np.pi)}
 def prepare(folder: Path) -> int:
     import robodyn
     from robodyn.sim.fast import FastDynamics
+    from robodyn.sweep.chunk import device_model_of
 
     folder.mkdir(parents=True, exist_ok=True)
     arrays: dict[str, Any] = {}
@@ -76,8 +83,10 @@ def prepare(folder: Path) -> int:
         arrays[f"{kind}.damping"] = fast.damping
         arrays[f"{kind}.joints"] = np.array(robot.joint_names)
         arrays[f"{kind}.urdf"] = np.array(_mujoco_text(Path(robot.urdf_path).read_text()))
+        arrays |= device_model_of(kind).arrays(f"{kind}.device")  # what a sweep ships to a GPU worker
     np.savez(folder / "models.npz", **arrays)
-    print(f"wrote {folder / 'models.npz'}: {', '.join(KINDS)} (closed-form parameters, damping, URDF for MuJoCo)")
+    what = "closed-form parameters, damping, limits, URDF for MuJoCo"
+    print(f"wrote {folder / 'models.npz'}: {', '.join(KINDS)} ({what})")
     print(f"wrote {folder / 'panda.npz'}: {_gpu_panda.prepare(folder)}")
     return 0
 
@@ -137,6 +146,9 @@ def run(folder: Path, *, sizes: tuple[int, ...], steps: int, mjx: bool, chaos_se
             wall, out = _best(cuda_batch.rollout, kind, p, b, Q, V, steps)
             row: dict[str, Any] = {"states": n, "gpu_s": wall, "gpu_state_steps_per_s": n * steps / wall}
             line = f"{kind:10s} {n:>8,} states  GPU {n * steps / wall:9.3g} state-steps/s"
+            row |= _float32(kind, p, b, Q, V, steps, out)
+            line += f"  float32 {row['float32_state_steps_per_s']:9.3g} state-steps/s"
+            line += f" (max |diff| from float64 {row['float32_vs_float64_max_abs_diff']:.2g})"
             if n <= CPU_MAX_STATES:
                 cpu_wall, cpu = _best(cuda_batch.cpu_rollout, kind, p, b, Q, V, steps)
                 diff = max(float(np.max(np.abs(out[0] - cpu[0]))), float(np.max(np.abs(out[1] - cpu[1]))))
@@ -151,7 +163,7 @@ def run(folder: Path, *, sizes: tuple[int, ...], steps: int, mjx: bool, chaos_se
             rows.append(row)
         entry: dict[str, Any] = {"batches": rows}
         if kind == "pendubot":
-            entry["chaos_map"] = _chaos(kind, p, b, max(sizes), chaos_seconds)
+            entry["chaos_map"] = _chaos_map(folder, models, kind, max(sizes), chaos_seconds)
         if mjx:
             entry["mjx"] = _mjx(kind, models, p, b, min(MJX_STATES, max(sizes)), steps)
         results["kinds"][kind] = entry
@@ -168,46 +180,124 @@ def run(folder: Path, *, sizes: tuple[int, ...], steps: int, mjx: bool, chaos_se
     return 0
 
 
-def _chaos(kind: str, p: np.ndarray, b: np.ndarray, n: int, seconds: float) -> dict[str, Any]:
-    """Benettin's estimate of n runs (each with its twin, one GPU thread) against the same function on CPU cores."""
+def _float32(kind: str, p: np.ndarray, b: np.ndarray, Q: np.ndarray, V: np.ndarray, steps: int, ref: Any) -> dict:
+    """The float32 kernel (the same source, literals float32) from the same starts: speed and error against float64."""
     from robodyn.sim import cuda_batch
 
-    nv = b.size
-    Q, V = starts(kind, n, nv)
-    D = np.random.default_rng(SEED + 1).normal(size=(n, 2 * nv))
-    D *= CHAOS_D0 / np.linalg.norm(D, axis=1)[:, None]
-    interval = min(CHAOS_INTERVAL, seconds)
-    count, steps = round(seconds / interval), round(interval / DT)
-    args = {"d0": CHAOS_D0, "dt": DT, "steps": steps, "count": count, "interval": interval}
-    cuda_batch.lyapunov(kind, p, b, Q[:1], V[:1], D[:1], **{**args, "count": 1, "steps": 1})  # compile
+    wall, out = float("inf"), None
+    for _ in range(REPEATS):
+        out = cuda_batch.rollout(kind, p, b, Q, V, dt=DT, steps=steps, precision="float32")
+        wall = min(wall, out[-1])
+    assert out is not None
+    error = np.concatenate([np.abs(out[0] - ref[0]).ravel(), np.abs(out[1] - ref[1]).ravel()])
+    return {
+        "float32_s": wall,
+        "float32_state_steps_per_s": Q.shape[0] * steps / wall,
+        "float32_speedup_over_float64": ref[-1] / wall,
+        "float32_vs_float64_max_abs_diff": float(np.max(error)),
+        "float32_vs_float64_median_abs_diff": float(np.median(error)),
+    }
+
+
+def _chaos_map(folder: Path, models: Any, kind: str, n: int, seconds: float) -> dict[str, Any]:
+    """A sweep's chaos map on the GPU end to end, from arrays alone: starts, kernels, columns, written result.
+
+    What ``robodyn sweep --device cuda`` does with one chunk of n runs (measures final_state,
+    energy_drift, lyapunov), timed part by part: the starts and each twin's stream (host), the
+    measures kernel (each run stepped, its drift and flags on the device), Benettin's kernel
+    (each run and its twin, the twin's direction drawn in the thread), the columns (host), and
+    the Parquet file (where pyarrow imports). The same device functions on the CPU's cores for
+    ``CHAOS_CPU_STATES`` of the runs give the agreement.
+    """
+    from robodyn.sim import cuda_batch, cuda_sweep
+
+    model = cuda_sweep.DeviceModel.from_arrays(models, f"{kind}.device")
+    joints = [str(j) for j in models[f"{kind}.joints"]]
+    names = ("final_state", "energy_drift", "lyapunov")
+    steps = round(seconds / DT)
+    cuda_sweep.compile_measures(kind, lyapunov=True)
+    parts: dict[str, float] = {}
     start = time.perf_counter()
-    gpu = cuda_batch.lyapunov(kind, p, b, Q, V, D, **args)
-    wall = time.perf_counter() - start
-    m = min(n, CHAOS_CPU_STATES)
-    cuda_batch.lyapunov(kind, p, b, Q[:1], V[:1], D[:1], **{**args, "count": 1, "steps": 1}, cpu=True)
-    start = time.perf_counter()
-    cpu = cuda_batch.lyapunov(kind, p, b, Q[:m], V[:m], D[:m], **args, cpu=True)
-    cpu_wall = time.perf_counter() - start
-    state_steps = 2 * count * steps  # a run and its twin
-    diff = float(np.nanmax(np.abs(gpu[:m] - cpu))) if np.isfinite(cpu).any() else float("nan")
-    print(
-        f"{kind:10s} chaos map {n:,} runs x {seconds:g} s: GPU {wall:.3g} s (copies included, "
-        f"{n * state_steps / wall:.3g} state-steps/s), CPU cores {m * state_steps / cpu_wall:.3g} state-steps/s, "
-        f"max |diff| of the exponents {diff:.2g} 1/s, {int(np.isnan(gpu).sum())} NaN"
+    Q, V = starts(kind, n, model.damping.size)
+    runs = np.arange(n, dtype=np.int64)
+    streams = cuda_batch.streams_of(SEED, runs)
+    parts["starts_s"] = time.perf_counter() - start
+    mark = time.perf_counter()
+    measured = cuda_sweep.measures(
+        model, Q, V, dt=DT, steps=steps, streams=streams, lyapunov_interval=CHAOS_INTERVAL, d0=CHAOS_D0
     )
+    parts["device_s"] = time.perf_counter() - mark
+    parts["measures_kernel_s"], parts["lyapunov_launch_s"] = measured.kernel_s, measured.lyapunov_s
+    mark = time.perf_counter()
+    columns: dict[str, Any] = {"run": runs, "path": ["cuda"] * n}
+    for j, joint in enumerate(joints):
+        columns[f"q0.{joint}"], columns[f"v0.{joint}"] = Q[:, j], V[:, j]
+    columns |= cuda_sweep.columns(measured, names, tuple(joints))
+    again = measured.again
+    parts["columns_s"] = time.perf_counter() - mark
+    written = _write_parquet(folder / "chaos.parquet", columns)
+    if written is not None:
+        parts["parquet_s"] = written
+    total = time.perf_counter() - start
+    gpu = measured.lyapunov
+    assert gpu is not None
+    m = min(n, CHAOS_CPU_STATES)
+    cuda_sweep.compile_measures(kind, lyapunov=True, cpu=True)
+    mark = time.perf_counter()
+    cpu = cuda_sweep.measures(
+        model, Q[:m], V[:m], dt=DT, steps=steps, streams=streams[:m], lyapunov_interval=CHAOS_INTERVAL,
+        d0=CHAOS_D0, cpu=True,
+    )  # fmt: skip
+    cpu_wall = time.perf_counter() - mark
+    assert cpu.lyapunov is not None
+    fused = measured.lyapunov_s == 0.0  # one launch stepped each run and its twin (else a run again in Benettin's)
+    state_steps = (2 if fused else 3) * steps
+    finite = np.isfinite(cpu.lyapunov) & np.isfinite(gpu[:m])
+    diff = float(np.max(np.abs(gpu[:m] - cpu.lyapunov)[finite])) if finite.any() else float("nan")
+    drift_diff = float(np.nanmax(np.abs(measured.drift[:m] - cpu.drift))) if m else float("nan")
+    print(
+        f"{kind:10s} chaos map {n:,} runs x {seconds:g} s end to end {total:.3g} s "
+        f"(starts {parts['starts_s']:.2g} s, device {parts['device_s']:.3g} s: "
+        + (f"one kernel, each run with its twin, {parts['measures_kernel_s']:.3g} s" if fused else
+           f"measures kernel {parts['measures_kernel_s']:.3g} s + Lyapunov {parts['lyapunov_launch_s']:.3g} s")
+        + f", columns "
+        f"{parts['columns_s']:.2g} s" + (f", Parquet {parts['parquet_s']:.2g} s" if written is not None else "")
+        + f"); {n * state_steps / parts['device_s']:.3g} state-steps/s; CPU cores "
+        f"{m * state_steps / cpu_wall:.3g} state-steps/s; max |diff| of the exponents {diff:.2g} 1/s, "
+        f"of the drift {drift_diff:.2g} J; {int(np.isnan(gpu).sum())} NaN, {again.size} runs for simulate"
+    )  # fmt: skip
     return {
         "runs": n,
         "seconds": seconds,
-        "interval_s": interval,
-        "gpu_s": wall,
-        "gpu_state_steps_per_s": n * state_steps / wall,
+        "interval_s": min(CHAOS_INTERVAL, seconds),
+        "end_to_end_s": total,
+        **parts,
+        "parquet": written is not None,
+        "one_launch": fused,
+        "gpu_s": parts["device_s"],
+        "gpu_state_steps_per_s": n * state_steps / parts["device_s"],
         "cpu_runs": m,
         "cpu_s": cpu_wall,
         "cpu_state_steps_per_s": m * state_steps / cpu_wall,
         "gpu_vs_cpu_max_abs_diff_per_s": diff,
+        "gpu_vs_cpu_drift_max_abs_diff_J": drift_diff,
+        "runs_for_simulate": int(again.size),
         "nan_runs": int(np.isnan(gpu).sum()),
         "median_exponent_per_s": float(np.nanmedian(gpu)) if np.isfinite(gpu).any() else float("nan"),
     }
+
+
+def _write_parquet(path: Path, columns: dict[str, Any]) -> float | None:
+    """Seconds to write the columns as one Parquet file (as the sweep's store does), or None without pyarrow."""
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError:
+        print("pyarrow is not installed here: the chaos map's Parquet file is not written")
+        return None
+    start = time.perf_counter()
+    pq.write_table(pa.table(columns), path)
+    return time.perf_counter() - start
 
 
 def _best(rollout: Any, kind: str, p: np.ndarray, b: np.ndarray, Q: np.ndarray, V: np.ndarray, steps: int) -> Any:

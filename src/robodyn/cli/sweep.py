@@ -55,6 +55,12 @@ def add_parser(sub: Any) -> None:
         "without controller: a built-in kind with rk4, or any robot the compiled tree path takes (rk4, heun, "
         "euler); measures final_state, energy_drift, wall_time (and lyapunov for a built-in kind)",
     )
+    p.add_argument(
+        "--precision",
+        choices=("float64", "float32"),
+        help="what the runs compute in (default: the sweep file's precision, else float64); float32 with "
+        "--device cuda only, without lyapunov",
+    )
     p.add_argument("--plots", action="store_true", help="also draw maps and sensitivity charts into DIR/plots/")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     add_physics_argument(p)
@@ -80,6 +86,8 @@ def run(args: Any) -> int:
         spec = dataclasses.replace(spec, physics_check=False)
     if args.device is not None:
         spec = dataclasses.replace(spec, device=args.device)
+    if args.precision is not None:
+        spec = dataclasses.replace(spec, precision=args.precision)
     if args.passive:
         spec = dataclasses.replace(spec, passive=tuple(dict.fromkeys((*spec.passive, *args.passive))))
     if not spec.physics_check:

@@ -34,6 +34,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robodyn.errors import InputError, RobodynError, StepError, UnknownNameError
+from robodyn.integrators import twins
 from robodyn.integrators.base import FixedStepIntegrator
 from robodyn.integrators.problem import Array, ArrayProblem
 from robodyn.integrators.registry import get
@@ -353,17 +354,18 @@ def lyapunov(
 
     ``step_run(q, v, T) -> (q_T, v_T)`` advances a state by T [s] (accurately: the twin
     separation d0 must stay far above its error). A twin starts d0 away in a seeded random
-    direction of (q, v); after each ``interval`` the separation d is measured, ln(d / d0)
-    accumulated, and the twin pulled back to distance d0 along the separation.
+    direction of (q, v) (:func:`robodyn.integrators.twins.direction` of stream ``seed``, the
+    generator the GPU kernels draw from in the thread); after each ``interval`` the separation d
+    is measured, ln(d / d0) accumulated, and the twin pulled back to distance d0 along the separation.
     """
     q = np.asarray(q0, dtype=np.float64).copy()
     v = np.asarray(v0, dtype=np.float64).copy()
     n = q.size
     if not (duration > 0 and 0 < interval <= duration):
         raise InputError(f"need 0 < interval <= duration, got interval={interval!r}, duration={duration!r}")
-    rng = np.random.default_rng(seed)
-    direction = rng.normal(size=2 * n)
-    direction *= d0 / np.linalg.norm(direction)
+    if not (isinstance(seed, (int, np.integer)) and 0 <= seed < 2**64):
+        raise InputError(f"seed must be a whole number in [0, 2^64), got {seed!r}")
+    direction = twins.direction(int(seed), 2 * n, d0)
     qt, vt = q + direction[:n], v + direction[n:]
     count = round(duration / interval)
     total = 0.0

@@ -20,7 +20,7 @@ from __future__ import annotations
 import os
 import time
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -111,6 +111,7 @@ def rollout(
     integrator: str = "rk4",
     threads: int | None = None,
     device: str = "cpu",
+    dtype: Any = np.float64,
 ) -> BatchResult:
     """Advance every state of the batch (q0 (n, nq), v0 (n, nv)) by ``duration`` [s] in steps of ``dt`` [s].
 
@@ -119,6 +120,10 @@ def rollout(
     ``device="cuda"`` runs on an NVIDIA GPU, one thread a state, float64: a built-in kind's closed
     form with rk4 (:mod:`robodyn.sim.cuda_batch`), any other robot the compiled tree path takes
     with rk4, heun or euler (:mod:`robodyn.sim.cuda_tree`, the CPU batch's kernels compiled for CUDA).
+    ``dtype=np.float32`` (or ``"float32"``) runs a built-in kind's closed-form kernel in single
+    precision, compiled from the same source, and returns float32 states
+    (``benchmarks/bench_gpu.py`` states its error against float64); the tree kernels and the CPU
+    paths are float64 only.
 
     Raises:
         InputError: shapes, an integrator or a robot the batch path does not take.
@@ -127,6 +132,7 @@ def rollout(
     """
     if device not in DEVICES:
         raise InputError(f"device {device!r}: expected one of {', '.join(DEVICES)}")
+    precision = _precision(dtype, device)
     if not robot.nq_equals_nv:
         raise InputError(f"{robot.name}: the batch path needs nq == nv, got nq={robot.nq}, nv={robot.nv}")
     if np.any(robot.damping) or np.any(robot.friction):
@@ -145,7 +151,7 @@ def rollout(
     steps = integrators.step_count(duration, dt)
     n, nv = Q.shape
     if device == "cuda":
-        return _cuda_rollout(robot, Q, V, dt=dt, steps=steps, integrator=method.name)
+        return _cuda_rollout(robot, Q, V, dt=dt, steps=steps, integrator=method.name, precision=precision)
     threads = threads or default_threads()
     blocks = blocks_for(n, threads)
     fast = _closed_form(robot, method.name)
@@ -190,18 +196,41 @@ def rollout(
     return BatchResult(Q, V, dt, steps, method.name, threads, wall, stages * steps, path)
 
 
-def _cuda_rollout(robot: Robot, Q: Array, V: Array, *, dt: float, steps: int, integrator: str) -> BatchResult:
+def _precision(dtype: Any, device: str) -> str:
+    """``dtype`` as "float64" or "float32"; float32 on device cuda only (one line naming what was given)."""
+    try:
+        name = np.dtype(dtype).name
+    except TypeError:
+        name = ""
+    if name not in ("float64", "float32"):
+        raise InputError(f"dtype {dtype!r}: expected float64 (the default) or float32 (device cuda)")
+    if name == "float32" and device != "cuda":
+        raise InputError("dtype float32 runs on device cuda only; the CPU batch paths compute in float64")
+    return name
+
+
+def _cuda_rollout(
+    robot: Robot, Q: Array, V: Array, *, dt: float, steps: int, integrator: str, precision: str = "float64"
+) -> BatchResult:
     """The batch on the GPU: a built-in kind's closed form with rk4 (checked against ABA first), else the tree path.
 
     Any other robot the compiled tree path takes (checked against Pinocchio first) runs on
-    :mod:`robodyn.sim.cuda_tree`, with the method the CPU batch would use (rk4, heun or euler).
+    :mod:`robodyn.sim.cuda_tree`, with the method the CPU batch would use (rk4, heun or euler),
+    in float64 only.
     """
     fast = _closed_form(robot, integrator)
     if fast is not None:
         from robodyn.sim import cuda_batch
 
-        q, v, _, _, wall = cuda_batch.rollout(fast.kind, fast.param_vector, fast.damping, Q, V, dt=dt, steps=steps)
+        q, v, _, _, wall = cuda_batch.rollout(
+            fast.kind, fast.param_vector, fast.damping, Q, V, dt=dt, steps=steps, precision=precision
+        )
         return BatchResult(q, v, dt, steps, integrator, Q.shape[0], wall, 4 * steps, "closed_form", "cuda")
+    if precision != "float64":
+        raise InputError(
+            f"{robot.name}: dtype {precision} runs a built-in kind's closed form with rk4 only "
+            f"({', '.join(KINDS)}); the compiled tree kernels on device cuda are float64"
+        )
     from robodyn.sim import cuda_tree
 
     try:

@@ -112,6 +112,11 @@ def prepare(
     if scene is not None:
         spec = _with_scene_defaults(spec, scene)
     check_bounds(spec)  # before loading anything: a grid or a duration past the bounds is a typo
+    if spec.precision != "float64" and spec.device != "cuda":
+        raise InputError(
+            f"{spec.source}: precision {spec.precision} runs on device cuda only (the CPU paths compute in float64); "
+            "add --device cuda or drop precision"
+        )
     if scene is not None:
         scene = scene.with_passive(spec.passive)
         robot, reduction = scene.build()
@@ -177,7 +182,7 @@ def prepare(
         if measures.is_user(m):
             measures.load_user_measure(m)
     models = _models(spec, model, robot, kind, out)
-    job = Job(spec.duration, spec.measures, gains_json, spec.seed, robot.joint_names, spec.device)
+    job = Job(spec.duration, spec.measures, gains_json, spec.seed, robot.joint_names, spec.device, spec.precision)
     if spec.device == "cuda":
         _check_cuda(spec, models, gains_json)
     return Prepared(spec, make_plan(spec, robot.joint_names, models, defaults=(q_default, v_default)), job, out)
@@ -232,7 +237,7 @@ def _check_cuda(spec: SweepSpec, models: Mapping[Setting, Model], gains: str) ->
     """
     for setting, model in models.items():
         refusal = cuda_refusal(
-            model, setting.integrator, controller_of(model, setting.controller, gains), spec.measures
+            model, setting.integrator, controller_of(model, setting.controller, gains), spec.measures, spec.precision
         )
         if refusal:
             raise InputError(f"{spec.source}: device cuda: {refusal}")

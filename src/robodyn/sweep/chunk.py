@@ -15,12 +15,17 @@ The path is chosen per chunk (all its runs share a setting):
   :func:`robodyn.sim.batch.rollout` (one thread). It has no stops and returns final states only,
   so it cannot see a run pass a limit on the way: a robot with finite limits goes to ``simulate``;
 * ``cuda`` (the sweep's ``device = "cuda"``): a built-in kind, torque-free and lossless, ``rk4``, only
-  final state, energy drift, Lyapunov estimate or wall time asked: :func:`robodyn.sim.cuda_batch.rollout`
-  (any other robot :func:`robodyn.sim.cuda_tree.refusal` lets through, without Lyapunov: ``robot_rollout``),
-  one GPU thread a run, which keeps each run's coordinate range, so that a run that passed a URDF
-  position limit is computed again by ``simulate`` (as on the ``fast`` path); its energies are the
-  closed form's, on the CPU, from the final states; the Lyapunov estimate steps each run and its twin
-  in one GPU thread (:func:`robodyn.sim.cuda_batch.lyapunov`);
+  final state, energy drift, Lyapunov estimate or wall time asked: :func:`robodyn.sim.cuda_sweep.measures`,
+  one GPU thread a run, which computes the final state, the energy drift and whether the run passed a
+  URDF position limit or the divergence bound on the device, from the model's arrays
+  (:func:`device_model_of`); the host builds the columns without a per-run loop, and the flagged runs
+  are computed again by ``simulate`` (as on the ``fast`` path). Any other robot
+  :func:`robodyn.sim.cuda_tree.refusal` lets through (and a kind with heun or euler) runs on
+  :func:`robodyn.sim.cuda_tree.robot_rollout`, without Lyapunov, in float64, its energies checked on the
+  host (:func:`_cuda_tree`). The Lyapunov estimate steps each run
+  and its twin in one GPU thread, the twin's direction drawn there
+  (:func:`robodyn.sim.cuda_batch.lyapunov`, :mod:`robodyn.integrators.twins`). ``Job.precision``
+  "float32" steps in single precision;
 * ``simulate``: anything else, :func:`robodyn.simulate` run by run: a user's controller file, a
   scene's constant torque or PD law, a scene with constraints or springs beyond the URDF's stops
   and efforts, or a scene that picks its dynamics backend.
@@ -77,7 +82,10 @@ LYAPUNOV_D0: float = inspect.signature(lyapunov).parameters["d0"].default
 
 @dataclass(frozen=True)
 class Job:
-    """What every chunk of a sweep shares: duration [s], measures, controller gains (JSON), seed, joints, device."""
+    """What every chunk of a sweep shares: duration [s], measures, controller gains (JSON), seed, joints, device.
+
+    ``precision`` is what the ``cuda`` path steps in ("float64", or "float32" on request).
+    """
 
     duration: float
     measures: tuple[str, ...]
@@ -85,6 +93,7 @@ class Job:
     seed: int
     joint_names: tuple[str, ...]
     device: str = "cpu"
+    precision: str = "float64"
 
 
 @lru_cache(maxsize=8)
@@ -153,7 +162,7 @@ def path_of(chunk: Chunk, job: Job) -> str:
     wanted = set(job.measures)
     controller = controller_of(chunk.model, s.controller, job.gains)
     if job.device == "cuda":
-        refusal = cuda_refusal(chunk.model, s.integrator, controller, job.measures)
+        refusal = cuda_refusal(chunk.model, s.integrator, controller, job.measures, job.precision)
         if refusal:
             raise InputError(f"device cuda: {refusal}")
         return "cuda"
@@ -178,7 +187,9 @@ def path_of(chunk: Chunk, job: Job) -> str:
     return "simulate"
 
 
-def cuda_refusal(model: Model, integrator: str, controller: Any, measures: tuple[str, ...]) -> str:
+def cuda_refusal(
+    model: Model, integrator: str, controller: Any, measures: tuple[str, ...], precision: str = "float64"
+) -> str:
     """Why the ``cuda`` path cannot compute runs of this setting ("" when it can)."""
     if controller is not None:
         return 'runs without a controller only (controller = "none")'
@@ -190,6 +201,8 @@ def cuda_refusal(model: Model, integrator: str, controller: Any, measures: tuple
 
         other = [m for m in measures if m not in ms.BATCH_MEASURES]
         why = cuda_tree.refusal(robot, integrator)
+        if not why and precision == "float32":
+            why = "precision float32 runs a built-in kind's closed form with rk4 only; the tree kernels are float64"
         if not why and other:
             why = f"measures {', '.join(sorted(ms.BATCH_MEASURES))} only (lyapunov: kinds, rk4), got {', '.join(other)}"
         return why
@@ -198,21 +211,32 @@ def cuda_refusal(model: Model, integrator: str, controller: Any, measures: tuple
     other = [m for m in measures if m not in CUDA_MEASURES]
     if other:
         return f"measures {', '.join(sorted(CUDA_MEASURES))} only, got {', '.join(other)}"
+    if precision == "float32" and "lyapunov" in measures:
+        return "precision float32 has no Lyapunov estimate (its twins start 1e-8 apart, below float32's resolution)"
     return ""
 
 
 def execute(chunk: Chunk, job: Job) -> dict[str, Any]:
     """Compute every run of ``chunk``: columns ``run``, ``status``, the inputs and the measures, one row a run."""
     path = path_of(chunk, job)
-    if path == "closed_loop":
+    if path == "cuda" and on_arrays(chunk, job):
+        from robodyn.sim import cuda_sweep
+
+        return finish_device(chunk, job, cuda_sweep.run_task(device_task(chunk, job)))
+    if path == "cuda":
+        rows = _cuda_tree(chunk, job)
+    elif path == "closed_loop":
         rows = _closed_loop(chunk, job)
     elif path == "batch":
         rows = _batch(chunk, job)
-    elif path == "cuda":
-        rows = _cuda(chunk, job)
     else:
         rows = [_one(chunk, job, k, path) for k in range(chunk.runs.size)]
     paths = [row.pop("path", path) for row in rows]
+    return _with_inputs(chunk, job, paths, _columns_of(rows))
+
+
+def _with_inputs(chunk: Chunk, job: Job, paths: list[str], measured: dict[str, Any]) -> dict[str, Any]:
+    """The columns: ``run``, ``path``, the inputs (parameters, integrator, dt, controller, q0, v0), the measures."""
     columns: dict[str, Any] = {"run": chunk.runs.copy(), "path": paths}
     for name, value in chunk.setting.params:
         columns[f"params.{name}"] = np.full(chunk.runs.size, value)
@@ -222,7 +246,14 @@ def execute(chunk: Chunk, job: Job) -> dict[str, Any]:
     for j, joint in enumerate(job.joint_names):
         columns[f"q0.{joint}"] = chunk.q0[:, j].copy()
         columns[f"v0.{joint}"] = chunk.v0[:, j].copy()
+    columns.update(measured)
+    return columns
+
+
+def _columns_of(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """The rows' measures as columns: ``status`` a list, the rest float64 arrays."""
     keys = list(rows[0]) if rows else []
+    columns: dict[str, Any] = {}
     for key in keys:
         values = [row[key] for row in rows]
         columns[key] = values if key == "status" else np.asarray(values, dtype=np.float64)
@@ -391,25 +422,17 @@ def _batch(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
     return rows
 
 
-def _cuda(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
-    """The torque-free chunk on the GPU; runs that pass a position limit or diverge go to ``simulate``."""
-    from robodyn.sim import cuda_batch, cuda_tree
+def _cuda_tree(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
+    """A torque-free chunk on the GPU by the compiled tree kernels; runs past a limit or the bound: ``simulate``."""
+    from robodyn.sim import cuda_tree
 
     s = chunk.setting
     robot = robot_of(chunk.model)
-    fast = fast_of(chunk.model)
     steps = step_count(job.duration, s.dt)
-    if fast is None or s.integrator != "rk4":  # the compiled tree algorithms (cuda_refusal let them through)
-        tree_run = cuda_tree.robot_rollout(robot, chunk.q0, chunk.v0, dt=s.dt, steps=steps, integrator=s.integrator)
-        q, v, q_min, q_max, wall = tree_run
-    else:
-        q, v, q_min, q_max, wall = cuda_batch.rollout(
-            fast.kind, fast.param_vector, fast.damping, chunk.q0, chunk.v0, dt=s.dt, steps=steps
-        )
+    q, v, q_min, q_max, wall = cuda_tree.robot_rollout(
+        robot, chunk.q0, chunk.v0, dt=s.dt, steps=steps, integrator=s.integrator
+    )
     rows = _rows(chunk, job, q, v, None, wall)
-    if "lyapunov" in job.measures:
-        for row, exponent in zip(rows, _cuda_lyapunov(chunk, job), strict=True):
-            row["lyapunov"] = float(exponent)
     K0, P0 = _energy_parts(chunk, chunk.q0, chunk.v0)
     with np.errstate(all="ignore"):  # torque-free and lossless: W = 0, E(T) - E0 is the error (its last sample)
         over = ~(np.abs(_energies(chunk, q, v) - (K0 + P0)) <= energy_bounds(robot, K0, P0))
@@ -418,40 +441,74 @@ def _cuda(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
     return rows
 
 
-def _cuda_lyapunov(chunk: Chunk, job: Job) -> Array:
-    """Benettin's estimate [1/s] of every run of the chunk (n,), each run and its twin in one GPU thread.
+def on_arrays(chunk: Chunk, job: Job) -> bool:
+    """True when a ``cuda`` chunk runs from arrays alone (:func:`device_task`): a built-in kind's closed form, rk4."""
+    return job.device == "cuda" and chunk.setting.integrator == "rk4" and fast_of(chunk.model) is not None
 
-    The arithmetic of :func:`robodyn.integrators.stability.lyapunov` (as ``_lyapunov`` calls it): each
-    run's twin starts ``d0`` away in the direction seeded by the sweep's seed plus the run number (drawn
-    here, with NumPy, as there), is pulled back to ``d0`` after every interval, and a separation that is
-    not finite or zero makes the run's estimate NaN. The separation's norm and logarithm are the GPU's:
-    round-off apart.
-    """
-    from robodyn.sim import cuda_batch
 
-    fast = fast_of(chunk.model)
-    assert fast is not None  # only the cuda path calls this
-    d0 = LYAPUNOV_D0
-    n, nv = chunk.q0.shape
-    interval = min(ms.LYAPUNOV_INTERVAL, job.duration)
-    count, steps = round(job.duration / interval), step_count(interval, chunk.setting.dt)
-    direction = np.empty((n, 2 * nv))
-    for k in range(n):
-        direction[k] = np.random.default_rng(job.seed + int(chunk.runs[k])).normal(size=2 * nv)
-        direction[k] *= d0 / np.linalg.norm(direction[k])
-    return cuda_batch.lyapunov(
+@lru_cache(maxsize=8)
+def device_model_of(model: Model) -> Any:
+    """The arrays a GPU worker needs of a built-in kind's model (:class:`robodyn.sim.cuda_sweep.DeviceModel`)."""
+    from robodyn.sim.cuda_sweep import DeviceModel
+
+    robot, fast = robot_of(model), fast_of(model)
+    assert fast is not None  # only the cuda path, which has a closed form, asks
+    return DeviceModel(
         fast.kind,
         fast.param_vector,
         fast.damping,
+        np.asarray(robot.model.lowerPositionLimit, dtype=np.float64),
+        np.asarray(robot.model.upperPositionLimit, dtype=np.float64),
+        fast.potential_offset,
+        float(reference_energy(robot)),
+        float(DEFAULT_MAX_ENERGY_GROWTH),
+    )
+
+
+def device_task(chunk: Chunk, job: Job) -> Any:
+    """What a GPU worker computes of a ``cuda`` chunk, as arrays (:class:`robodyn.sim.cuda_sweep.DeviceTask`).
+
+    Built where robodyn and Pinocchio are (the sweep's own process): the model's arrays, the
+    states, the step and each run's twin stream. The worker runs it with
+    :func:`robodyn.sim.cuda_sweep.run_task`, which needs NumPy and numba alone.
+
+    Raises:
+        InputError: the chunk's setting is one the GPU path does not take.
+    """
+    from robodyn.sim import cuda_batch, cuda_sweep
+
+    path_of(chunk, job)  # refuses what the cuda path cannot run
+    streams = cuda_batch.streams_of(job.seed, chunk.runs) if "lyapunov" in job.measures else None
+    return cuda_sweep.DeviceTask(
+        device_model_of(chunk.model),
         chunk.q0,
         chunk.v0,
-        direction,
-        d0=d0,
-        dt=chunk.setting.dt,
-        steps=steps,
-        count=count,
-        interval=interval,
+        chunk.setting.dt,
+        step_count(job.duration, chunk.setting.dt),
+        streams,
+        ms.LYAPUNOV_INTERVAL,
+        LYAPUNOV_D0,
+        job.precision,
     )
+
+
+def finish_device(chunk: Chunk, job: Job, measured: Any) -> dict[str, Any]:
+    """A ``cuda`` chunk's columns from what its worker computed (:class:`robodyn.sim.cuda_sweep.DeviceMeasures`).
+
+    The host builds the columns from the arrays (:func:`robodyn.sim.cuda_sweep.columns`, no
+    per-run loop) and computes again, one by one with ``simulate``, only the runs the device
+    flagged (a position limit passed, or the divergence bound).
+    """
+    from robodyn.sim import cuda_sweep
+
+    columns = cuda_sweep.columns(measured, job.measures, job.joint_names)
+    paths = ["cuda"] * chunk.runs.size
+    for k in measured.again:
+        row = _one(chunk, job, int(k), "simulate")
+        paths[k] = "simulate"
+        for key, values in columns.items():
+            values[k] = row.get(key, math.nan)
+    return _with_inputs(chunk, job, paths, columns)
 
 
 def _closed_loop(chunk: Chunk, job: Job) -> list[dict[str, Any]]:

@@ -13,7 +13,12 @@ with its chunk); a scheduler that goes away mid-sweep ends it with :class:`Unava
 (exit 5) saying how many chunks are written and that the same command resumes from them.
 
 A ``device = "cuda"`` sweep without ``--scheduler`` starts no cluster: this process runs its chunks
-one after the other on its GPU (each chunk is one kernel launch over all its runs).
+one after the other on its GPU (each chunk is one kernel launch over all its runs). With a
+scheduler, each chunk goes to a worker as arrays (:func:`robodyn.sweep.chunk.device_task`): the
+worker runs the kernels (:func:`robodyn.sim.cuda_sweep.run_task`, NumPy and numba alone, no
+Pinocchio) and sends the measures back (a tree robot's chunk, which the compiled tree kernels run, goes
+as a whole: its worker needs robodyn); the columns, and the few runs the device flagged for
+``simulate``, are made here.
 """
 
 from __future__ import annotations
@@ -28,8 +33,9 @@ from typing import Any, TextIO
 
 from robodyn.errors import InputError, MissingDependencyError, RobodynError, SweepInterrupted, UnavailableError
 from robodyn.fileio import pause_for_test
+from robodyn.sim.cuda_sweep import run_task
 from robodyn.sweep import lifetime
-from robodyn.sweep.chunk import Job, execute
+from robodyn.sweep.chunk import Job, device_task, execute, finish_device, on_arrays
 from robodyn.sweep.plan import Chunk, Plan
 from robodyn.sweep.progress import Progress
 from robodyn.sweep.store import Store
@@ -225,14 +231,21 @@ def _submit_and_collect(
     run_tag = uuid.uuid4().hex[:8]  # a key of its own per submission: a cancelled earlier one cannot hit it
     by_key = {}
     futures = []
+    shipped = {chunk.id for chunk in pending if on_arrays(chunk, job)}  # a built-in kind's cuda chunks
     for chunk in pending:
-        future = client.submit(execute, chunk, job, key=f"robodyn-sweep-{chunk.id}-{run_tag}", pure=False)
+        key = f"robodyn-sweep-{chunk.id}-{run_tag}"
+        if chunk.id in shipped:  # the worker gets arrays and runs the kernels: it needs no Pinocchio
+            future = client.submit(run_task, device_task(chunk, job), key=key, pure=False)
+        else:
+            future = client.submit(execute, chunk, job, key=key, pure=False)
         by_key[future.key] = chunk
         futures.append(future)
     try:
         for future in dd.as_completed(futures):
             chunk = by_key[future.key]
             columns = _result(dd, future, chunk, store)
+            if chunk.id in shipped:  # the columns, and the runs the device flagged, on this side
+                columns = finish_device(chunk, job, columns)
             store.write(chunk.id, columns)
             future.release()
             bar.update(chunk.runs.size)

@@ -14,6 +14,7 @@ value is crossed with every other (a full grid)::
     chunk = 1000                  # runs per Dask task
     seed = 0                      # the Lyapunov twins' seed (the run's index is added)
     device = "cpu"                # or "cuda": the runs on an NVIDIA GPU (a kind's closed form, else the tree)
+    precision = "float64"         # or "float32" (device "cuda", a built-in kind, no Lyapunov)
 
     [q0]                          # initial configuration: joint -> value, list or grid
     joint1 = { from = -3.14, to = 3.14, n = 101 }
@@ -68,6 +69,7 @@ TOP_KEYS = (
     "params",
     "passive",
     "physics_check",
+    "precision",
     "q0",
     "scene",
     "seed",
@@ -94,6 +96,8 @@ DEFAULT_INTEGRATOR = "rk4"
 # Where the runs are computed: "cuda" runs the built-in kinds' closed form, or the compiled tree algorithms
 # of any other robot they take, on an NVIDIA GPU.
 DEVICES = ("cpu", "cuda")
+# What the runs compute in: float32 only on request, and only on device "cuda".
+PRECISIONS = ("float64", "float32")
 
 
 @dataclass(frozen=True)
@@ -128,6 +132,7 @@ class SweepSpec:
     physics_check: bool = True  # False: the model's file is loaded with its numbers as written
     passive: tuple[str, ...] = ()
     device: str = "cpu"  # "cuda": the chunks run on an NVIDIA GPU (robodyn.sim.cuda_batch)
+    precision: str = "float64"  # "float32": the cuda path steps in single precision
 
 
 def load(source: str | Path | Mapping[str, Any]) -> SweepSpec:
@@ -190,6 +195,9 @@ def parse(data: Mapping[str, Any], *, name: str, base: Path) -> SweepSpec:
     device = data.get("device", "cpu")
     if device not in DEVICES:
         raise InputError(f"{name}: device must be one of {', '.join(map(repr, DEVICES))}, got {device!r}")
+    precision = data.get("precision", "float64")
+    if precision not in PRECISIONS:
+        raise InputError(f"{name}: precision must be one of {', '.join(map(repr, PRECISIONS))}, got {precision!r}")
     passive = data.get("passive", [])
     if not isinstance(passive, list) or not all(isinstance(x, str) and x.strip() for x in passive):
         raise InputError(f'{name}: passive must be a list of joint names like ["joint2"], got {passive!r}')
@@ -216,6 +224,7 @@ def parse(data: Mapping[str, Any], *, name: str, base: Path) -> SweepSpec:
         physics_check=physics_check,
         passive=tuple(dict.fromkeys(x.strip() for x in passive)),
         device=device,
+        precision=precision,
     )
     return spec
 
@@ -236,6 +245,8 @@ def with_digest(spec: SweepSpec, files: Mapping[str, bytes]) -> SweepSpec:
         repr(spec.seed),
         *(() if spec.physics_check else ("physics as written",)),  # absent by default: old digests hold
     )
+    if spec.precision != "float64":  # only when asked: float64 sweeps keep their digests (and folders)
+        parts = (*parts, "precision=" + spec.precision)
     if spec.passive:  # only when given: the digests (and resumable folders) of other sweeps stay as they were
         parts = (*parts, "passive=" + ",".join(sorted(spec.passive)))
     for part in parts:

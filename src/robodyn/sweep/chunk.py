@@ -19,7 +19,10 @@ The path is chosen per chunk (all its runs share a setting):
   one GPU thread a run, which keeps each run's coordinate range, so that a run that passed a URDF
   position limit is computed again by ``simulate`` (as on the ``fast`` path); its energies are the
   closed form's, on the CPU, from the final states; the Lyapunov estimate steps each run and its twin
-  in one GPU thread (:func:`robodyn.sim.cuda_batch.lyapunov`);
+  in one GPU thread (:func:`robodyn.sim.cuda_batch.lyapunov`). With an LQR or a swing-up to LQR on the
+  cart-pole or the Pendubot (damping allowed; final state, energy drift, time to balance or wall time):
+  :func:`robodyn.sim.cuda_batch.closed_loop`, the ``closed_loop`` path's step, law
+  (:mod:`robodyn.sim.torque_laws`), energy ledger and balance test on the GPU, a run a thread;
 * ``simulate``: anything else, :func:`robodyn.simulate` run by run: a user's controller file, a
   scene's constant torque or PD law, a scene with constraints or springs beyond the URDF's stops
   and efforts, or a scene that picks its dynamics backend.
@@ -62,7 +65,7 @@ from robodyn.sim.simulation import DEFAULT_MAX_ENERGY_GROWTH, simulate
 from robodyn.sim.trajectory import Trajectory
 from robodyn.sweep import measures as ms
 from robodyn.sweep.plan import Chunk
-from robodyn.sweep.policy import Policy, batch_policy
+from robodyn.sweep.policy import Policy, batch_policy, law_of
 from robodyn.sweep.source import Model, ModelFile, SceneSource
 from robodyn.sweep.spec import NO_CONTROLLER, SCENE_CONTROLLER
 
@@ -70,6 +73,8 @@ Array = NDArray[np.float64]
 
 # What the cuda path computes: from the final states, and Benettin's twins stepped on the GPU.
 CUDA_MEASURES = ms.BATCH_MEASURES | {"lyapunov"}
+# With a controller (LQR, swing-up to LQR): the closed loop's, time to balance counted on the GPU.
+CUDA_CLOSED_LOOP_MEASURES = ms.CLOSED_LOOP_MEASURES
 # The twins' starting distance: lyapunov()'s own default, which the other paths use.
 LYAPUNOV_D0: float = inspect.signature(lyapunov).parameters["d0"].default
 
@@ -179,19 +184,24 @@ def path_of(chunk: Chunk, job: Job) -> str:
 
 def cuda_refusal(model: Model, integrator: str, controller: Any, measures: tuple[str, ...]) -> str:
     """Why the ``cuda`` path cannot compute runs of this setting ("" when it can)."""
-    if controller is not None:
-        return 'runs without a controller only (controller = "none")'
     if not plain(model):
         return "a scene's constraints, springs or backend have no GPU kernel"
     if integrator != "rk4":
         return f"integrator rk4 only, got {integrator!r}"
-    if fast_of(model) is None:
+    fast = fast_of(model)
+    if fast is None:
         return f"the built-in kinds ({', '.join(KINDS)}) only; {robot_of(model).name} is none of them"
-    if np.any(robot_of(model).damping):
-        return "lossless runs only; the model has joint damping"
-    other = [m for m in measures if m not in CUDA_MEASURES]
+    if controller is not None and law_of(controller, fast) is None:
+        return (
+            "the controllers lqr and swing_up of the cart-pole and the Pendubot only "
+            "(a controller file, a scene's [control] or another controller runs with device cpu)"
+        )
+    if controller is None and np.any(robot_of(model).damping):
+        return "lossless runs only without a controller; the model has joint damping"
+    allowed = CUDA_MEASURES if controller is None else CUDA_CLOSED_LOOP_MEASURES
+    other = [m for m in measures if m not in allowed]
     if other:
-        return f"measures {', '.join(sorted(CUDA_MEASURES))} only, got {', '.join(other)}"
+        return f"measures {', '.join(sorted(allowed))} only, got {', '.join(other)}"
     return ""
 
 
@@ -202,6 +212,8 @@ def execute(chunk: Chunk, job: Job) -> dict[str, Any]:
         rows = _closed_loop(chunk, job)
     elif path == "batch":
         rows = _batch(chunk, job)
+    elif path == "cuda" and controller_of(chunk.model, chunk.setting.controller, job.gains) is not None:
+        rows = _cuda_closed_loop(chunk, job)
     elif path == "cuda":
         rows = _cuda(chunk, job)
     else:
@@ -442,6 +454,46 @@ def _cuda_lyapunov(chunk: Chunk, job: Job) -> Array:
         count=count,
         interval=interval,
     )
+
+
+def _cuda_closed_loop(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
+    """The chunk under its controller on the GPU (``_closed_loop``'s step, law, ledger and balance, a run a thread).
+
+    Runs that reach a URDF position limit or diverge are computed again one by one by ``simulate``.
+    """
+    from robodyn.sim import cuda_batch
+
+    s = chunk.setting
+    robot = robot_of(chunk.model)
+    fast = fast_of(chunk.model)
+    found = law_of(controller_of(chunk.model, s.controller, job.gains), fast)
+    assert fast is not None and found is not None  # cuda_refusal let this chunk through
+    name, c = found
+    upright = upright_of(robot)
+    up, angular = (upright[0], upright[1].astype(np.float64)) if upright is not None else (np.zeros(2), np.zeros(2))
+    K0, P0 = _energy_parts(chunk, chunk.q0, chunk.v0)
+    damping = np.zeros(2)
+    damping[: fast.nv] = fast.damping
+    q, v, q_min, q_max, balance, diverged, wall = cuda_batch.closed_loop(
+        fast.kind,
+        name,
+        fast.param_vector,
+        damping,
+        c,
+        chunk.q0,
+        chunk.v0,
+        upright=up,
+        angular=angular,
+        tol=ms.BALANCE_TOL,
+        bound=energy_bounds(robot, K0, P0),
+        offset=fast.potential_offset,
+        dt=s.dt,
+        steps=step_count(job.duration, s.dt),
+    )
+    rows = _rows(chunk, job, q, v, balance if upright is not None else None, wall)
+    for k in np.union1d(stopped(robot, q_min, q_max), np.flatnonzero(diverged)):
+        rows[k] = {**_one(chunk, job, int(k), "simulate"), "path": "simulate"}
+    return rows
 
 
 def _closed_loop(chunk: Chunk, job: Job) -> list[dict[str, Any]]:

@@ -65,15 +65,19 @@ def test_cart_pole_rail_guard_brakes_in_the_scalar_law():
     """Near the rail's end and moving out, the cart brakes at accel_max whatever the energy law asks."""
     robot = robodyn.load("cart_pole")
     fast = FastDynamics.from_robot(robot)
-    controller = robodyn.control.make("swing_up", robot)
+    # No centring terms: the energy law alone would push on towards the end, so the guard decides.
+    controller = robodyn.control.make("swing_up", robot, k_position=0.0, k_velocity=0.0)
     law, c = law_of(controller, fast)
+    unguarded = c.copy()
+    unguarded[tl.GAINS + tl.GAIN_NAMES[law].index("rail")] = 0.0
     scalar = tl.law("cart_pole", law, numba.njit)
-    q = np.array([[1.9, np.pi], [-1.9, np.pi], [1.9, 2.0], [-1.9, -2.0]])
-    v = np.array([[1.5, 0.5], [-1.5, 0.5], [1.5, -1.0], [-1.5, 2.0]])
-    got = [scalar(c, fast.param_vector, np.zeros(2), *q[k], *v[k]) for k in range(4)]
-    ref = [controller(0.0, q[k], v[k])[0] for k in range(4)]
+    q = np.array([[1.9, np.pi - 0.5], [-1.9, np.pi + 0.5]])
+    v = np.array([[3.0, 0.0], [-3.0, 0.0]])  # each would stop past the rail's usable end
+    got = [scalar(c, fast.param_vector, np.zeros(2), *q[k], *v[k]) for k in range(2)]
+    free = [scalar(unguarded, fast.param_vector, np.zeros(2), *q[k], *v[k]) for k in range(2)]
+    ref = [controller(0.0, q[k], v[k])[0] for k in range(2)]
     np.testing.assert_allclose(got, ref, rtol=0, atol=POLICY_ATOL * 20.0)
-    assert got[0] < 0 < got[1]  # braking away from each end
+    assert got[0] < free[0] and got[1] > free[1], (got, free)  # braking away from each end
 
 
 def test_law_of_refuses_what_it_has_no_law_for():

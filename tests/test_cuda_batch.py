@@ -218,7 +218,16 @@ def test_cuda_sweep_lyapunov_equals_cpu_sweep():
     np.testing.assert_allclose(out["gpu"], out["cpu"], rtol=0, atol=CUDA_VS_CPU_ATOL)
 
 
-TINY = ("--states", "4", "--steps", "20", "--chaos-seconds", "0.2")  # bench_gpu.py --run, in the simulator
+TINY = (
+    "--states",
+    "4",
+    "--steps",
+    "20",
+    "--chaos-seconds",
+    "0.2",
+    "--basin-seconds",
+    "0.05",
+)  # bench_gpu.py --run, in the simulator
 
 
 def test_bench_gpu_prepares_here_and_runs_without_pinocchio(tmp_path):

@@ -146,3 +146,27 @@ def test_sweep_device_cuda_refuses_a_controller_file_before_any_work(tmp_path, c
         "only (a controller file, a scene's [control] or another controller runs with device cpu)"
     )
     assert not (tmp_path / "out" / "results").exists()
+
+
+def test_bench_gpu_basin_map_runs_from_the_arrays_alone(tmp_path):
+    """benchmarks/bench_gpu.py's swing-up basin map: --prepare packs the controller, --run needs no Pinocchio."""
+    script = SRC.parent / "benchmarks" / "bench_gpu.py"
+    env = {**os.environ, "PYTHONPATH": str(SRC)}
+    prepared = subprocess.run([sys.executable, str(script), "--prepare", str(tmp_path)], env=env, capture_output=True)
+    assert prepared.returncode == 0, prepared.stderr
+    tiny = ["--states", "3", "--steps", "2", "--chaos-seconds", "0.01", "--basin-seconds", "0.2", "--no-mjx"]
+    ran = subprocess.run(
+        [sys.executable, str(script), "--run", str(tmp_path), *tiny],
+        env={**env, "NUMBA_ENABLE_CUDASIM": "1"},
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert ran.returncode == 0, ran.stderr
+    result = json.loads((tmp_path / "gpu.json").read_text())
+    assert result["pinocchio_imported"] is False
+    for kind, law in (("pendubot", "pendubot_energy"), ("cart_pole", "cart_pole_energy")):
+        basin = result["kinds"][kind]["basin_map"]
+        assert basin["runs"] == basin["cpu_runs"] == 3 and basin["law"] == law and basin["seconds"] == 0.2
+        assert basin["gpu_vs_cpu_max_abs_diff"] <= CUDA_VS_CPU_ATOL and basin["gpu_vs_cpu_same_time_to_balance"]
+        assert basin["gpu_state_steps_per_s"] > 0 and basin["diverged_runs"] == 0

@@ -107,14 +107,20 @@ def law(kind: str, name: str, jit: Any = None) -> Callable[..., Any]:
         return c[U_EQ] - e0 * c[K] - e1 * c[K + 1] - e2 * c[K + 2] - e3 * c[K + 3]
 
     @use
+    def row(c, s, i, ei, e0, e1, e2, e3):  # type: ignore[no-untyped-def]
+        """S plus row i of e^T P e (ei = e[i]), term by term (no tuple indexed at run time: a GPU's registers)."""
+        s = s + ei * c[P + 4 * i] * e0
+        s = s + ei * c[P + 4 * i + 1] * e1
+        s = s + ei * c[P + 4 * i + 2] * e2
+        return s + ei * c[P + 4 * i + 3] * e3
+
+    @use
     def quadratic(c, e0, e1, e2, e3):  # type: ignore[no-untyped-def]
-        """e^T P e, summed term by term (row by row)."""
-        e = (e0, e1, e2, e3)
-        s = 0.0
-        for i in range(4):
-            for j in range(4):
-                s = s + e[i] * c[P + 4 * i + j] * e[j]
-        return s
+        """e^T P e, summed term by term, row by row."""
+        s = row(c, 0.0, 0, e0, e0, e1, e2, e3)
+        s = row(c, s, 1, e1, e0, e1, e2, e3)
+        s = row(c, s, 2, e2, e0, e1, e2, e3)
+        return row(c, s, 3, e3, e0, e1, e2, e3)
 
     @use
     def reduced(c, p, b, q0, q1, v0, v1):  # type: ignore[no-untyped-def]

@@ -216,11 +216,11 @@ def _chaos(kind: str, p: np.ndarray, b: np.ndarray, n: int, seconds: float) -> d
 def _prepare_basin(robot: Any, kind: str, fast: Any) -> dict[str, Any]:
     """The swing-up to LQR's law and numbers for the basin map (robodyn's controller, packed as the sweep packs it)."""
     import robodyn.control
+    from robodyn.control.compiled import law_of
     from robodyn.sim.energy import reference_energy
     from robodyn.sim.simulation import DEFAULT_MAX_ENERGY_GROWTH
     from robodyn.sweep.chunk import upright_of
     from robodyn.sweep.measures import BALANCE_TOL
-    from robodyn.sweep.policy import law_of
 
     found = law_of(robodyn.control.make("swing_up", robot), fast)
     upright = upright_of(robot)

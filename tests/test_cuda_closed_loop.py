@@ -143,7 +143,7 @@ def test_sweep_device_cuda_refuses_a_controller_file_before_any_work(tmp_path, c
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].endswith(
         "s.toml: device cuda: the controllers lqr and swing_up of the cart-pole and the Pendubot "
-        "only (a controller file, a scene's [control] or another controller runs with device cpu)"
+        "only (a controller file, a scene's constant torque or PD law runs with device cpu)"
     )
     assert not (tmp_path / "out" / "results").exists()
 
@@ -170,3 +170,45 @@ def test_bench_gpu_basin_map_runs_from_the_arrays_alone(tmp_path):
         assert basin["runs"] == basin["cpu_runs"] == 3 and basin["law"] == law and basin["seconds"] == 0.2
         assert basin["gpu_vs_cpu_max_abs_diff"] <= CUDA_VS_CPU_ATOL and basin["gpu_vs_cpu_same_time_to_balance"]
         assert basin["gpu_state_steps_per_s"] > 0 and basin["diverged_runs"] == 0
+
+
+def test_rollout_closed_loop_backend_cuda_equals_backend_fast():
+    """robodyn.control.rollout.closed_loop(controller, backend="cuda") against "fast" with the controller's batch form."""
+    out = _simulated(
+        """
+        import json
+        import numpy as np
+        import robodyn, robodyn.control
+        from robodyn.control import rollout
+        from robodyn.sim.fast import FastDynamics
+        from robodyn.sweep.policy import batch_policy
+
+        out = {}
+        for kind, name in (("pendubot", "swing_up"), ("cart_pole", "lqr")):
+            robot = robodyn.load(kind)
+            controller = robodyn.control.make(name, robot)
+            rng = np.random.default_rng(5)
+            q0, v0 = rng.uniform(-1.0, 1.0, (5, 2)), rng.uniform(-1.0, 1.0, (5, 2))
+            gpu = rollout.closed_loop(robot, controller, q0, v0, duration=0.2, dt=1e-3, backend="cuda")
+            policy = batch_policy(controller, FastDynamics.from_robot(robot))
+            cpu = rollout.closed_loop(robot, policy, q0, v0, duration=0.2, dt=1e-3, backend="fast")
+            worst = max(float(np.max(np.abs(getattr(gpu, k) - getattr(cpu, k)))) for k in ("q", "v", "q_min", "q_max"))
+            spread = float(np.max(np.abs(gpu.q - q0)))
+            out[kind] = {"worst": worst, "spread": spread, "backend": gpu.backend, "steps": gpu.steps}
+        print(json.dumps(out))
+        """
+    )
+    for kind in ("pendubot", "cart_pole"):
+        assert out[kind]["backend"] == "cuda" and out[kind]["steps"] == 200
+        assert out[kind]["worst"] <= CUDA_VS_CPU_ATOL and out[kind]["spread"] > 1e-3, out
+
+
+def test_rollout_backend_cuda_refuses_a_policy_it_has_no_law_for():
+    import robodyn
+    from robodyn.control import rollout
+    from robodyn.errors import InputError
+
+    robot = robodyn.load("pendubot")
+    with pytest.raises(InputError, match="backend 'cuda' runs the controllers robodyn.control.make"):
+        rollout.closed_loop(robot, lambda q, v: np.zeros((q.shape[0], 1)), np.zeros((1, 2)), np.zeros((1, 2)),
+                            duration=0.01, dt=1e-3, backend="cuda")  # fmt: skip

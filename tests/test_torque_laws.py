@@ -15,13 +15,14 @@ import pytest
 import robodyn
 import robodyn.control
 import robodyn.sweep as sweep
+from robodyn.control.compiled import law_of
 from robodyn.errors import InputError
 from robodyn.sim import cuda_batch
 from robodyn.sim import torque_laws as tl
 from robodyn.sim.fast import FastDynamics
 from robodyn.sweep import chunk as chunk_module
 from robodyn.sweep import measures as ms
-from robodyn.sweep.policy import batch_policy, law_of
+from robodyn.sweep.policy import batch_policy
 
 # The controller's own __call__ takes M, C v, G from Pinocchio's CRBA/RNEA, the law from the closed
 # form: round-off, a few ulps of the largest torque (2 N m, 20 N) (as tests/test_sweep_policy.py).

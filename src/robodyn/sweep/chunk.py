@@ -53,6 +53,7 @@ from numpy.typing import NDArray
 
 from robodyn import dynamics
 from robodyn.control import make, plant
+from robodyn.control.compiled import law_of
 from robodyn.errors import DivergenceError, InputError, StepError
 from robodyn.integrators import FixedStepIntegrator, get, step_count
 from robodyn.integrators.stability import lyapunov
@@ -65,7 +66,7 @@ from robodyn.sim.simulation import DEFAULT_MAX_ENERGY_GROWTH, simulate
 from robodyn.sim.trajectory import Trajectory
 from robodyn.sweep import measures as ms
 from robodyn.sweep.plan import Chunk
-from robodyn.sweep.policy import Policy, batch_policy, law_of
+from robodyn.sweep.policy import Policy, batch_policy
 from robodyn.sweep.source import Model, ModelFile, SceneSource
 from robodyn.sweep.spec import NO_CONTROLLER, SCENE_CONTROLLER
 
@@ -194,7 +195,7 @@ def cuda_refusal(model: Model, integrator: str, controller: Any, measures: tuple
     if controller is not None and law_of(controller, fast) is None:
         return (
             "the controllers lqr and swing_up of the cart-pole and the Pendubot only "
-            "(a controller file, a scene's [control] or another controller runs with device cpu)"
+            "(a controller file, a scene's constant torque or PD law runs with device cpu)"
         )
     if controller is None and np.any(robot_of(model).damping):
         return "lossless runs only without a controller; the model has joint damping"

@@ -1,4 +1,4 @@
-"""The built-in kinds' batch rollout on a GPU (numba-cuda) against numba on the CPU's cores and MJX.
+"""The built-in kinds' and the Panda's batch rollout on a GPU (numba-cuda) against numba on the CPU's cores and MJX.
 
 Two steps, because the GPU machine has no Pinocchio (its wheels are too big to carry there):
 
@@ -20,10 +20,13 @@ not ``--no-mjx``) it also runs MJX (float32, ``MJX_STATES`` states) from the sam
 reports its speed and its difference from the float64 kernel. A Pendubot chaos map follows: Benettin's
 Lyapunov estimate of the largest batch's runs over ``--chaos-seconds`` (20 s), each run and its
 twin in one GPU thread, against the same device function on the CPU's cores for 1,024 of them.
-A swing-up basin map of each kind follows: the largest batch's starts under the swing-up to LQR
-(the controller's numbers saved by ``--prepare``, the law of ``robodyn.sim.torque_laws``) for
-``--basin-seconds`` (10 s), the time to balance counted on the GPU, against the same device function
-on the CPU's cores for 1,024 of them. Everything goes into
+The Panda (fingers fixed, stops off; ``DIR/panda.npz``, the tree's arrays) follows through
+``robodyn.sim.cuda_tree`` (the compiled tree algorithms, one thread a state) for the same batch sizes
+and ``min(--steps, 200)`` steps, beside the CPU batch kernel on all cores and MJX float32 for one
+size (``benchmarks/_gpu_panda.py``). A swing-up basin map of each built-in kind follows: the
+largest batch's starts under the swing-up to LQR (the controller's numbers saved by ``--prepare``,
+the law of ``robodyn.sim.torque_laws``) for ``--basin-seconds`` (10 s), the time to balance counted
+on the GPU, against the same device function on the CPU's cores for 1,024 of them. Everything goes into
 ``DIR/gpu.json`` with the GPU's name. Without a GPU, ``--run`` stops in one line (exit 5);
 ``NUMBA_ENABLE_CUDASIM=1`` runs it in numba's CUDA simulator (use a tiny ``--states``).
 """
@@ -40,6 +43,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+import _gpu_panda  # the Panda's part (benchmarks/ is on sys.path when this script runs)
 import numpy as np
 
 DT = 1e-3  # [s]
@@ -82,6 +86,7 @@ def prepare(folder: Path) -> int:
         arrays |= _prepare_basin(robot, kind, fast)
     np.savez(folder / "models.npz", **arrays)
     print(f"wrote {folder / 'models.npz'}: {', '.join(KINDS)} (closed-form parameters, damping, URDF for MuJoCo)")
+    print(f"wrote {folder / 'panda.npz'}: {_gpu_panda.prepare(folder)}")
     return 0
 
 
@@ -162,6 +167,10 @@ def run(
         if mjx:
             entry["mjx"] = _mjx(kind, models, p, b, min(MJX_STATES, max(sizes)), steps)
         results["kinds"][kind] = entry
+    if (folder / "panda.npz").is_file():  # the Panda: robodyn.sim.cuda_tree (benchmarks/_gpu_panda.py)
+        results["panda"] = _gpu_panda.run(folder, sizes=sizes, steps=steps, mjx=mjx)
+    else:
+        print(f"panda: {folder / 'panda.npz'} is missing (written by --prepare): left out")
     results["pinocchio_imported"] = "pinocchio" in sys.modules
     if results["pinocchio_imported"]:
         raise SystemExit("bench_gpu --run imported pinocchio: it must run from the saved arrays alone")

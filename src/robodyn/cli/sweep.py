@@ -52,7 +52,8 @@ def add_parser(sub: Any) -> None:
         "--device",
         choices=("cpu", "cuda"),
         help="where the runs are computed (default: the sweep file's device, else cpu); cuda: an NVIDIA GPU, "
-        "for a built-in kind without controller, rk4, measures final_state, energy_drift, wall_time",
+        "without controller: a built-in kind with rk4, or any robot the compiled tree path takes (rk4, heun, "
+        "euler); measures final_state, energy_drift, wall_time (and lyapunov for a built-in kind)",
     )
     p.add_argument("--plots", action="store_true", help="also draw maps and sensitivity charts into DIR/plots/")
     p.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -116,8 +116,9 @@ def rollout(
 
     ``threads`` defaults to :func:`default_threads`. Only fixed-step explicit integrators
     (rk4, heun, euler) apply; the robot must be torque-free here, lossless and have nq == nv.
-    ``device="cuda"`` runs a built-in kind's closed form with rk4 on an NVIDIA GPU
-    (:mod:`robodyn.sim.cuda_batch`, one thread a state, float64).
+    ``device="cuda"`` runs on an NVIDIA GPU, one thread a state, float64: a built-in kind's closed
+    form with rk4 (:mod:`robodyn.sim.cuda_batch`), any other robot the compiled tree path takes
+    with rk4, heun or euler (:mod:`robodyn.sim.cuda_tree`, the CPU batch's kernels compiled for CUDA).
 
     Raises:
         InputError: shapes, an integrator or a robot the batch path does not take.
@@ -190,15 +191,26 @@ def rollout(
 
 
 def _cuda_rollout(robot: Robot, Q: Array, V: Array, *, dt: float, steps: int, integrator: str) -> BatchResult:
-    """The batch on the GPU: a built-in kind's closed form (checked against ABA first), rk4."""
-    fast = _closed_form(robot, integrator)
-    if fast is None:
-        raise InputError(
-            f"{robot.name}: device cuda takes the built-in kinds ({', '.join(KINDS)}) with integrator rk4; "
-            f"got integrator {integrator!r} on a model "
-            + ("of no built-in kind" if params_module.detect_kind(robot) not in KINDS else "of a built-in kind")
-        )
-    from robodyn.sim import cuda_batch
+    """The batch on the GPU: a built-in kind's closed form with rk4 (checked against ABA first), else the tree path.
 
-    q, v, _, _, wall = cuda_batch.rollout(fast.kind, fast.param_vector, fast.damping, Q, V, dt=dt, steps=steps)
-    return BatchResult(q, v, dt, steps, integrator, Q.shape[0], wall, 4 * steps, "closed_form", "cuda")
+    Any other robot the compiled tree path takes (checked against Pinocchio first) runs on
+    :mod:`robodyn.sim.cuda_tree`, with the method the CPU batch would use (rk4, heun or euler).
+    """
+    fast = _closed_form(robot, integrator)
+    if fast is not None:
+        from robodyn.sim import cuda_batch
+
+        q, v, _, _, wall = cuda_batch.rollout(fast.kind, fast.param_vector, fast.damping, Q, V, dt=dt, steps=steps)
+        return BatchResult(q, v, dt, steps, integrator, Q.shape[0], wall, 4 * steps, "closed_form", "cuda")
+    from robodyn.sim import cuda_tree
+
+    try:
+        tree.compiled_of(robot)  # checked against Pinocchio once (robot_rollout takes it from the cache)
+    except RobodynError as exc:
+        raise InputError(
+            f"{robot.name}: device cuda takes the built-in kinds ({', '.join(KINDS)}) and the robots "
+            f"the compiled tree path takes; this one is neither: {exc}"
+        ) from None
+    q, v, _, _, wall = cuda_tree.robot_rollout(robot, Q, V, dt=dt, steps=steps, integrator=integrator)
+    stages = {"rk4": 4, "heun": 2, "euler": 1}[integrator]
+    return BatchResult(q, v, dt, steps, integrator, Q.shape[0], wall, stages * steps, "tree", "cuda")

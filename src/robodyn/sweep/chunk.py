@@ -15,14 +15,12 @@ The path is chosen per chunk (all its runs share a setting):
   :func:`robodyn.sim.batch.rollout` (one thread). It has no stops and returns final states only,
   so it cannot see a run pass a limit on the way: a robot with finite limits goes to ``simulate``;
 * ``cuda`` (the sweep's ``device = "cuda"``): a built-in kind, torque-free and lossless, ``rk4``, only
-  final state, energy drift, Lyapunov estimate or wall time asked: :func:`robodyn.sim.cuda_batch.rollout`,
+  final state, energy drift, Lyapunov estimate or wall time asked: :func:`robodyn.sim.cuda_batch.rollout`
+  (any other robot :func:`robodyn.sim.cuda_tree.refusal` lets through, without Lyapunov: ``robot_rollout``),
   one GPU thread a run, which keeps each run's coordinate range, so that a run that passed a URDF
   position limit is computed again by ``simulate`` (as on the ``fast`` path); its energies are the
   closed form's, on the CPU, from the final states; the Lyapunov estimate steps each run and its twin
-  in one GPU thread (:func:`robodyn.sim.cuda_batch.lyapunov`). With an LQR or a swing-up to LQR on the
-  cart-pole or the Pendubot (damping allowed; final state, energy drift, time to balance or wall time):
-  :func:`robodyn.sim.cuda_batch.closed_loop`, the ``closed_loop`` path's step, law
-  (:mod:`robodyn.sim.torque_laws`), energy ledger and balance test on the GPU, a run a thread;
+  in one GPU thread (:func:`robodyn.sim.cuda_batch.lyapunov`); under a controller, :mod:`robodyn.sweep.cuda_loop`;
 * ``simulate``: anything else, :func:`robodyn.simulate` run by run: a user's controller file, a
   scene's constant torque or PD law, a scene with constraints or springs beyond the URDF's stops
   and efforts, or a scene that picks its dynamics backend.
@@ -53,7 +51,6 @@ from numpy.typing import NDArray
 
 from robodyn import dynamics
 from robodyn.control import make, plant
-from robodyn.control.compiled import law_of
 from robodyn.errors import DivergenceError, InputError, StepError
 from robodyn.integrators import FixedStepIntegrator, get, step_count
 from robodyn.integrators.stability import lyapunov
@@ -74,8 +71,6 @@ Array = NDArray[np.float64]
 
 # What the cuda path computes: from the final states, and Benettin's twins stepped on the GPU.
 CUDA_MEASURES = ms.BATCH_MEASURES | {"lyapunov"}
-# With a controller (LQR, swing-up to LQR): the closed loop's, time to balance counted on the GPU.
-CUDA_CLOSED_LOOP_MEASURES = ms.CLOSED_LOOP_MEASURES
 # The twins' starting distance: lyapunov()'s own default, which the other paths use.
 LYAPUNOV_D0: float = inspect.signature(lyapunov).parameters["d0"].default
 
@@ -187,22 +182,24 @@ def cuda_refusal(model: Model, integrator: str, controller: Any, measures: tuple
     """Why the ``cuda`` path cannot compute runs of this setting ("" when it can)."""
     if not plain(model):
         return "a scene's constraints, springs or backend have no GPU kernel"
-    if integrator != "rk4":
-        return f"integrator rk4 only, got {integrator!r}"
-    fast = fast_of(model)
-    if fast is None:
-        return f"the built-in kinds ({', '.join(KINDS)}) only; {robot_of(model).name} is none of them"
-    if controller is not None and law_of(controller, fast) is None:
-        return (
-            "the controllers lqr and swing_up of the cart-pole and the Pendubot only "
-            "(a controller file, a scene's constant torque or PD law runs with device cpu)"
-        )
-    if controller is None and np.any(robot_of(model).damping):
-        return "lossless runs only without a controller; the model has joint damping"
-    allowed = CUDA_MEASURES if controller is None else CUDA_CLOSED_LOOP_MEASURES
-    other = [m for m in measures if m not in allowed]
+    robot = robot_of(model)
+    if controller is not None:  # an LQR or a swing-up to LQR (robodyn.sweep.cuda_loop)
+        from robodyn.sweep import cuda_loop
+
+        return cuda_loop.refusal(controller, fast_of(model), integrator, measures)
+    if fast_of(model) is None or integrator != "rk4":  # the compiled tree algorithms (robodyn.sim.cuda_tree)
+        from robodyn.sim import cuda_tree
+
+        other = [m for m in measures if m not in ms.BATCH_MEASURES]
+        why = cuda_tree.refusal(robot, integrator)
+        if not why and other:
+            why = f"measures {', '.join(sorted(ms.BATCH_MEASURES))} only (lyapunov: kinds, rk4), got {', '.join(other)}"
+        return why
+    if np.any(robot.damping):
+        return "lossless runs only; the model has joint damping"
+    other = [m for m in measures if m not in CUDA_MEASURES]
     if other:
-        return f"measures {', '.join(sorted(allowed))} only, got {', '.join(other)}"
+        return f"measures {', '.join(sorted(CUDA_MEASURES))} only, got {', '.join(other)}"
     return ""
 
 
@@ -214,7 +211,9 @@ def execute(chunk: Chunk, job: Job) -> dict[str, Any]:
     elif path == "batch":
         rows = _batch(chunk, job)
     elif path == "cuda" and controller_of(chunk.model, chunk.setting.controller, job.gains) is not None:
-        rows = _cuda_closed_loop(chunk, job)
+        from robodyn.sweep import cuda_loop  # it reads this module's helpers
+
+        rows = cuda_loop.rows(chunk, job)
     elif path == "cuda":
         rows = _cuda(chunk, job)
     else:
@@ -400,15 +399,19 @@ def _batch(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
 
 def _cuda(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
     """The torque-free chunk on the GPU; runs that pass a position limit or diverge go to ``simulate``."""
-    from robodyn.sim import cuda_batch
+    from robodyn.sim import cuda_batch, cuda_tree
 
     s = chunk.setting
     robot = robot_of(chunk.model)
     fast = fast_of(chunk.model)
-    assert fast is not None  # path_of chose "cuda" because there is one
-    q, v, q_min, q_max, wall = cuda_batch.rollout(
-        fast.kind, fast.param_vector, fast.damping, chunk.q0, chunk.v0, dt=s.dt, steps=step_count(job.duration, s.dt)
-    )
+    steps = step_count(job.duration, s.dt)
+    if fast is None or s.integrator != "rk4":  # the compiled tree algorithms (cuda_refusal let them through)
+        tree_run = cuda_tree.robot_rollout(robot, chunk.q0, chunk.v0, dt=s.dt, steps=steps, integrator=s.integrator)
+        q, v, q_min, q_max, wall = tree_run
+    else:
+        q, v, q_min, q_max, wall = cuda_batch.rollout(
+            fast.kind, fast.param_vector, fast.damping, chunk.q0, chunk.v0, dt=s.dt, steps=steps
+        )
     rows = _rows(chunk, job, q, v, None, wall)
     if "lyapunov" in job.measures:
         for row, exponent in zip(rows, _cuda_lyapunov(chunk, job), strict=True):
@@ -455,46 +458,6 @@ def _cuda_lyapunov(chunk: Chunk, job: Job) -> Array:
         count=count,
         interval=interval,
     )
-
-
-def _cuda_closed_loop(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
-    """The chunk under its controller on the GPU (``_closed_loop``'s step, law, ledger and balance, a run a thread).
-
-    Runs that reach a URDF position limit or diverge are computed again one by one by ``simulate``.
-    """
-    from robodyn.sim import cuda_batch
-
-    s = chunk.setting
-    robot = robot_of(chunk.model)
-    fast = fast_of(chunk.model)
-    found = law_of(controller_of(chunk.model, s.controller, job.gains), fast)
-    assert fast is not None and found is not None  # cuda_refusal let this chunk through
-    name, c = found
-    upright = upright_of(robot)
-    up, angular = (upright[0], upright[1].astype(np.float64)) if upright is not None else (np.zeros(2), np.zeros(2))
-    K0, P0 = _energy_parts(chunk, chunk.q0, chunk.v0)
-    damping = np.zeros(2)
-    damping[: fast.nv] = fast.damping
-    q, v, q_min, q_max, balance, diverged, wall = cuda_batch.closed_loop(
-        fast.kind,
-        name,
-        fast.param_vector,
-        damping,
-        c,
-        chunk.q0,
-        chunk.v0,
-        upright=up,
-        angular=angular,
-        tol=ms.BALANCE_TOL,
-        bound=energy_bounds(robot, K0, P0),
-        offset=fast.potential_offset,
-        dt=s.dt,
-        steps=step_count(job.duration, s.dt),
-    )
-    rows = _rows(chunk, job, q, v, balance if upright is not None else None, wall)
-    for k in np.union1d(stopped(robot, q_min, q_max), np.flatnonzero(diverged)):
-        rows[k] = {**_one(chunk, job, int(k), "simulate"), "path": "simulate"}
-    return rows
 
 
 def _closed_loop(chunk: Chunk, job: Job) -> list[dict[str, Any]]:

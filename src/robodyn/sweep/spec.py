@@ -13,7 +13,7 @@ value is crossed with every other (a full grid)::
     measure = ["final_state", "time_to_balance", "wall_time", "my_measures.py:peak"]
     chunk = 1000                  # runs per Dask task
     seed = 0                      # the Lyapunov twins' seed (the run's index is added)
-    device = "cpu"                # or "cuda": a built-in kind's runs on an NVIDIA GPU
+    device = "cpu"                # or "cuda": the runs on an NVIDIA GPU (a kind's closed form, else the tree)
 
     [q0]                          # initial configuration: joint -> value, list or grid
     joint1 = { from = -3.14, to = 3.14, n = 101 }
@@ -91,7 +91,8 @@ SCENE_CONTROLLER = "scene"
 DEFAULT_DURATION = 5.0
 DEFAULT_DT = 1e-3
 DEFAULT_INTEGRATOR = "rk4"
-# Where the runs are computed: "cuda" runs the built-in kinds' closed form on an NVIDIA GPU.
+# Where the runs are computed: "cuda" runs the built-in kinds' closed form, or the compiled tree algorithms
+# of any other robot they take, on an NVIDIA GPU.
 DEVICES = ("cpu", "cuda")
 
 

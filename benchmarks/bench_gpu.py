@@ -28,8 +28,10 @@ the same device functions on the CPU's cores for 1,024 of them.
 The Panda (fingers fixed, stops off; ``DIR/panda.npz``, the tree's arrays) follows through
 ``robodyn.sim.cuda_tree`` (the compiled tree algorithms, one thread a state) for the same batch sizes
 and ``min(--steps, 200)`` steps, beside the CPU batch kernel on all cores and MJX float32 for one
-size (``benchmarks/_gpu_panda.py``).
-Everything goes into
+size (``benchmarks/_gpu_panda.py``). A swing-up basin map of each built-in kind follows: the
+largest batch's starts under the swing-up to LQR (the controller's numbers saved by ``--prepare``,
+the law of ``robodyn.sim.torque_laws``) for ``--basin-seconds`` (10 s), the time to balance counted
+on the GPU, against the same device function on the CPU's cores for 1,024 of them. Everything goes into
 ``DIR/gpu.json`` with the GPU's name. Without a GPU, ``--run`` stops in one line (exit 5);
 ``NUMBA_ENABLE_CUDASIM=1`` runs it in numba's CUDA simulator (use a tiny ``--states``).
 """
@@ -64,6 +66,10 @@ CHAOS_SECONDS = 20.0
 CHAOS_INTERVAL = 0.1
 CHAOS_D0 = 1e-8
 CHAOS_CPU_STATES = 1024
+# The basin map: the swing-up to LQR from the batches' starts over BASIN_SECONDS; the CPU column on
+# BASIN_CPU_STATES of the runs.
+BASIN_SECONDS = 10.0
+BASIN_CPU_STATES = 1024
 SEED = 0
 # The starting states: angles anywhere, the cart within its rail, speeds up to 1 rad/s | m/s.
 START_RANGE = {"pendubot": (np.pi, np.pi), "cart_pole": (2.0, np.pi)}
@@ -72,7 +78,7 @@ START_RANGE = {"pendubot": (np.pi, np.pi), "cart_pole": (2.0, np.pi)}
 def prepare(folder: Path) -> int:
     import robodyn
     from robodyn.sim.fast import FastDynamics
-    from robodyn.sweep.chunk import device_model_of
+    from robodyn.sweep.cuda_chunk import device_model_of
 
     folder.mkdir(parents=True, exist_ok=True)
     arrays: dict[str, Any] = {}
@@ -84,6 +90,7 @@ def prepare(folder: Path) -> int:
         arrays[f"{kind}.joints"] = np.array(robot.joint_names)
         arrays[f"{kind}.urdf"] = np.array(_mujoco_text(Path(robot.urdf_path).read_text()))
         arrays |= device_model_of(kind).arrays(f"{kind}.device")  # what a sweep ships to a GPU worker
+        arrays |= _prepare_basin(robot, kind, fast)
     np.savez(folder / "models.npz", **arrays)
     what = "closed-form parameters, damping, limits, URDF for MuJoCo"
     print(f"wrote {folder / 'models.npz'}: {', '.join(KINDS)} ({what})")
@@ -110,7 +117,9 @@ def starts(kind: str, n: int, nv: int) -> tuple[np.ndarray, np.ndarray]:
     return Q, V
 
 
-def run(folder: Path, *, sizes: tuple[int, ...], steps: int, mjx: bool, chaos_seconds: float) -> int:
+def run(
+    folder: Path, *, sizes: tuple[int, ...], steps: int, mjx: bool, chaos_seconds: float, basin_seconds: float
+) -> int:
     from robodyn.errors import RobodynError
     from robodyn.sim import cuda_batch
 
@@ -164,6 +173,8 @@ def run(folder: Path, *, sizes: tuple[int, ...], steps: int, mjx: bool, chaos_se
         entry: dict[str, Any] = {"batches": rows}
         if kind == "pendubot":
             entry["chaos_map"] = _chaos_map(folder, models, kind, max(sizes), chaos_seconds)
+        if basin_seconds > 0:
+            entry["basin_map"] = _basin(kind, models, max(sizes), basin_seconds)
         if mjx:
             entry["mjx"] = _mjx(kind, models, p, b, min(MJX_STATES, max(sizes)), steps)
         results["kinds"][kind] = entry
@@ -300,6 +311,94 @@ def _write_parquet(path: Path, columns: dict[str, Any]) -> float | None:
     return time.perf_counter() - start
 
 
+def _prepare_basin(robot: Any, kind: str, fast: Any) -> dict[str, Any]:
+    """The swing-up to LQR's law and numbers for the basin map (robodyn's controller, packed as the sweep packs it)."""
+    import robodyn.control
+    from robodyn.control.compiled import law_of
+    from robodyn.sim.energy import reference_energy
+    from robodyn.sim.simulation import DEFAULT_MAX_ENERGY_GROWTH
+    from robodyn.sweep.chunk import upright_of
+    from robodyn.sweep.measures import BALANCE_TOL
+
+    found = law_of(robodyn.control.make("swing_up", robot), fast)
+    upright = upright_of(robot)
+    if found is None or upright is None:
+        raise SystemExit(f"no GPU swing-up law for {kind}")
+    law, c = found
+    return {
+        f"{kind}.swing_up.law": np.array(law),
+        f"{kind}.swing_up.c": c,
+        f"{kind}.upright": upright[0],
+        f"{kind}.angular": upright[1].astype(np.float64),
+        f"{kind}.balance_tol": np.array(BALANCE_TOL),
+        f"{kind}.potential_offset": np.array(fast.potential_offset),
+        f"{kind}.energy_growth": np.array(DEFAULT_MAX_ENERGY_GROWTH),
+        f"{kind}.reference_energy": np.array(reference_energy(robot)),
+        f"{kind}.lower": np.asarray(robot.model.lowerPositionLimit, dtype=np.float64),
+        f"{kind}.upper": np.asarray(robot.model.upperPositionLimit, dtype=np.float64),
+    }
+
+
+def _basin(kind: str, models: Any, n: int, seconds: float) -> dict[str, Any]:
+    """The swing-up basin map of n runs on the GPU (time to balance on the device) against the CPU's cores."""
+    from robodyn.kinds.formulas import closed_form
+    from robodyn.sim import cuda_batch
+
+    p, b = models[f"{kind}.params"], np.zeros(2)
+    b[: models[f"{kind}.damping"].size] = models[f"{kind}.damping"]
+    law, c = str(models[f"{kind}.swing_up.law"]), models[f"{kind}.swing_up.c"]
+    offset = float(models[f"{kind}.potential_offset"])
+    Q, V = starts(kind, n, 2)
+    form = closed_form(kind)
+    m11, m12, m22 = form.mass(p, Q[:, 0], Q[:, 1])
+    K0 = 0.5 * (m11 * V[:, 0] ** 2 + 2.0 * m12 * V[:, 0] * V[:, 1] + m22 * V[:, 1] ** 2)
+    P0 = form.potential(p, Q[:, 0], Q[:, 1]) + offset
+    bound = float(models[f"{kind}.energy_growth"]) * np.maximum(
+        K0 + np.abs(P0), float(models[f"{kind}.reference_energy"])
+    )
+    steps = round(seconds / DT)
+    args = {"upright": models[f"{kind}.upright"], "angular": models[f"{kind}.angular"], "offset": offset, "dt": DT}
+    args["tol"] = float(models[f"{kind}.balance_tol"])
+    start = time.perf_counter()
+    q, v, q_min, q_max, balance, diverged, wall = cuda_batch.closed_loop(
+        kind, law, p, b, c, Q, V, bound=bound, steps=steps, **args
+    )
+    total = time.perf_counter() - start  # the first call compiles: the kernel's own time is ``wall``
+    m = min(n, BASIN_CPU_STATES)
+    cpu = cuda_batch.closed_loop(kind, law, p, b, c, Q[:m], V[:m], bound=bound[:m], steps=steps, cpu=True, **args)
+    diff = max(
+        float(np.nanmax(np.abs(q[:m] - cpu[0]), initial=0.0)), float(np.nanmax(np.abs(v[:m] - cpu[1]), initial=0.0))
+    )
+    same_balance = bool(np.array_equal(balance[:m], cpu[4], equal_nan=True))
+    rail = int(np.sum(np.any((q_min < models[f"{kind}.lower"]) | (q_max > models[f"{kind}.upper"]), axis=1)))
+    balanced = np.isfinite(balance) & ~diverged
+    print(
+        f"{kind:10s} swing-up basin map {n:,} runs x {seconds:g} s: GPU kernel {wall:.3g} s "
+        f"({n * steps / wall:.3g} state-steps/s), CPU cores {m * steps / cpu[-1]:.3g} state-steps/s, "
+        f"{int(balanced.sum()):,} balanced by the end, {int(diverged.sum())} diverged, "
+        f"{rail} reached a position limit, "
+        f"max |diff| {diff:.2g} rad | m, rad/s | m/s, time to balance {'equal' if same_balance else 'DIFFERENT'}"
+    )
+    return {
+        "runs": n,
+        "seconds": seconds,
+        "controller": "swing_up",
+        "law": law,
+        "gpu_s": wall,
+        "gpu_with_copies_and_compile_s": total,
+        "gpu_state_steps_per_s": n * steps / wall,
+        "cpu_runs": m,
+        "cpu_s": cpu[-1],
+        "cpu_state_steps_per_s": m * steps / cpu[-1],
+        "gpu_vs_cpu_max_abs_diff": diff,
+        "gpu_vs_cpu_same_time_to_balance": same_balance,
+        "balanced_runs": int(balanced.sum()),
+        "median_time_to_balance_s": float(np.median(balance[balanced])) if balanced.any() else float("nan"),
+        "diverged_runs": int(diverged.sum()),
+        "runs_reaching_a_position_limit": rail,
+    }
+
+
 def _best(rollout: Any, kind: str, p: np.ndarray, b: np.ndarray, Q: np.ndarray, V: np.ndarray, steps: int) -> Any:
     """Best kernel wall time [s] of ``REPEATS`` calls (the rollout's own timing: no copies, no compilation)."""
     best, out = float("inf"), None
@@ -385,18 +484,33 @@ def main() -> int:
         default=CHAOS_SECONDS,
         help=f"the chaos map's duration [s] (default {CHAOS_SECONDS:g}; its runs: the largest batch)",
     )
+    parser.add_argument(
+        "--basin-seconds",
+        type=float,
+        default=BASIN_SECONDS,
+        help=f"the swing-up basin map's duration [s] (default {BASIN_SECONDS:g}; 0 leaves it out)",
+    )
     args = parser.parse_args()
     if args.prepare is not None:
         return prepare(args.prepare)
     if (args.states is not None and args.states < 1) or args.steps < 1 or not args.chaos_seconds >= DT:
         parser.error(f"--states and --steps must be >= 1, --chaos-seconds >= {DT:g}")
+    if not args.basin_seconds >= 0:
+        parser.error("--basin-seconds must be >= 0")
     if not (args.run / "models.npz").is_file():
         print(
             f"bench_gpu: error: {args.run / 'models.npz'} is missing; run --prepare {args.run} first", file=sys.stderr
         )
         return 2
     sizes = (args.states,) if args.states is not None else SIZES
-    return run(args.run, sizes=sizes, steps=args.steps, mjx=not args.no_mjx, chaos_seconds=args.chaos_seconds)
+    return run(
+        args.run,
+        sizes=sizes,
+        steps=args.steps,
+        mjx=not args.no_mjx,
+        chaos_seconds=args.chaos_seconds,
+        basin_seconds=args.basin_seconds,
+    )
 
 
 if __name__ == "__main__":

@@ -20,7 +20,7 @@ from robodyn.sim import batch, cuda_batch, cuda_sweep
 from robodyn.sim.energy import reference_energy
 from robodyn.sim.fast import FastDynamics
 from robodyn.sim.simulation import DEFAULT_MAX_ENERGY_GROWTH
-from robodyn.sweep.chunk import device_model_of
+from robodyn.sweep.cuda_chunk import device_model_of
 
 from .test_cuda_batch import _simulated
 
@@ -226,7 +226,7 @@ def test_a_gpu_worker_runs_a_chunk_from_arrays_without_pinocchio(tmp_path):
     import pickle
 
     import robodyn.sweep as sweep
-    from robodyn.sweep.chunk import device_task
+    from robodyn.sweep.cuda_chunk import device_task
 
     spec = {
         "model": "cart_pole", "duration": 0.2, "dt": DT, "device": "cuda", "seed": 3,

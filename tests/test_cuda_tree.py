@@ -282,7 +282,7 @@ def test_a_tree_robot_sweep_on_cuda_gives_the_cpu_rows_and_hands_stopped_runs_to
 
 
 def test_the_cuda_sweep_refuses_what_the_tree_path_cannot_compute(tmp_path):
-    from robodyn.sweep.chunk import cuda_refusal
+    from robodyn.sweep.cuda_chunk import refusal as cuda_refusal
 
     lossy = "double_pendulum"  # no built-in kind, with joint damping
     assert cuda_refusal(lossy, "rk4", None, ("final_state",)) == (

@@ -53,7 +53,8 @@ def add_parser(sub: Any) -> None:
         choices=("cpu", "cuda"),
         help="where the runs are computed (default: the sweep file's device, else cpu); cuda: an NVIDIA GPU, "
         "without controller: a built-in kind with rk4, or any robot the compiled tree path takes (rk4, heun, "
-        "euler); measures final_state, energy_drift, wall_time (and lyapunov for a built-in kind)",
+        "euler); measures final_state, energy_drift, wall_time (and lyapunov for a built-in kind); with the "
+        "controller lqr or swing_up: the Pendubot or the cart-pole, rk4, and time_to_balance too",
     )
     p.add_argument(
         "--precision",

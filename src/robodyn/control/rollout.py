@@ -7,7 +7,13 @@ the accelerations of the whole batch come from one call per RK4 stage:
 * ``"fast"``: the built-in kinds' compiled closed form (:class:`robodyn.sim.fast.FastDynamics`,
   checked against Pinocchio's ABA when built), joint damping included;
 * ``"aba"``: Pinocchio's ABA state by state (any robot with nq == nv), the slow, obviously
-  correct oracle.
+  correct oracle;
+* ``"cuda"``: an NVIDIA GPU, one thread a state (:func:`robodyn.sim.cuda_batch.closed_loop`), for
+  the controllers of ``robodyn.control.make("lqr" | "swing_up", robot)`` on the cart-pole and the
+  Pendubot: their laws are written once (:mod:`robodyn.sim.torque_laws`) and compiled by numba for
+  the GPU, the same arithmetic as ``"fast"`` with the sweep's batch form of the controller
+  (:func:`robodyn.sweep.policy.batch_policy`). Needs the ``cuda`` extra and a GPU (numba's CUDA
+  simulator, ``NUMBA_ENABLE_CUDASIM=1``, runs it on the CPU, slowly).
 
 The step is classical RK4 with the torque re-evaluated at every stage, as
 :func:`robodyn.simulate` does with ``integrator="rk4"``, so the two agree to round-off on the
@@ -26,13 +32,14 @@ from numpy.typing import ArrayLike, NDArray
 from robodyn import dynamics
 from robodyn.errors import InputError, UnknownNameError
 from robodyn.integrators import step_count
+from robodyn.kinds import params
 from robodyn.robot import Robot
 from robodyn.sim.fast import FastDynamics
 
 Array = NDArray[np.float64]
 Policy = Callable[[Array, Array], Array]
 
-BACKENDS = ("fast", "aba")
+BACKENDS = ("fast", "aba", "cuda")
 
 
 @dataclass(frozen=True, eq=False)
@@ -63,6 +70,12 @@ def closed_loop(
 
     ``policy`` maps a batch of states to the actuated torques (m, n_act) [N m | N]; ``backend`` is
     ``"fast"`` (built-in kinds) or ``"aba"``. A state that blows up stays non-finite (NaN) from then on.
+    With ``backend="cuda"``, ``policy`` is the controller itself (an LQR or a swing-up to LQR that
+    :func:`robodyn.control.make` built for a cart-pole or a Pendubot), or its ``batch`` method.
+
+    Raises:
+        InputError: bad shapes, nq != nv, or a ``policy`` the GPU has no law for.
+        MissingDependencyError, UnavailableError: ``backend="cuda"`` without the ``cuda`` extra or a GPU.
     """
     if backend not in BACKENDS:
         raise UnknownNameError("rollout backend", backend, BACKENDS)
@@ -73,6 +86,8 @@ def closed_loop(
     if Q.shape[1] != robot.nq or V.shape != Q.shape:
         raise InputError(f"q0 and v0 must both have shape (m, {robot.nq}), got {Q.shape} and {V.shape}")
     steps = step_count(duration, dt)
+    if backend == "cuda":
+        return _cuda(robot, policy, Q, V, dt, steps)
     accel = _accelerations(robot, backend)
     S = robot.input_matrix()
 
@@ -113,3 +128,41 @@ def _accelerations(robot: Robot, backend: str) -> Callable[[Array, Array, Array]
         return out
 
     return aba
+
+
+def _cuda(robot: Robot, policy: object, Q: Array, V: Array, dt: float, steps: int) -> Rollout:
+    """:func:`closed_loop` on the GPU: the controller's law (its parameter vector) in one thread a state."""
+    from robodyn.control.compiled import law_of
+    from robodyn.sim import cuda_batch
+
+    controller = getattr(policy, "__self__", policy)  # lqr.batch -> the LQR
+    kind = params.detect_kind(robot)
+    fast = FastDynamics.from_robot(robot, kind) if kind in ("pendubot", "cart_pole") else None
+    found = law_of(controller, fast)
+    if fast is None or found is None:
+        raise InputError(
+            "backend 'cuda' runs the controllers robodyn.control.make('lqr' | 'swing_up', robot) builds for a "
+            f"cart-pole or a Pendubot; got {type(controller).__name__} for {robot.name}"
+        )
+    name, c = found
+    b = np.zeros(2)
+    b[: fast.nv] = fast.damping
+    n = Q.shape[0]
+    q, v, q_min, q_max, _, blown, wall = cuda_batch.closed_loop(
+        fast.kind,
+        name,
+        fast.param_vector,
+        b,
+        c,
+        Q,
+        V,
+        upright=np.zeros(2),
+        angular=np.zeros(2),
+        tol=0.0,
+        bound=np.full(n, np.inf),  # no energy bound: only a state that stops being finite ends a run
+        offset=fast.potential_offset,
+        dt=dt,
+        steps=steps,
+    )
+    q[blown], v[blown] = np.nan, np.nan
+    return Rollout(q, v, q_min, q_max, dt, steps, "cuda", wall)

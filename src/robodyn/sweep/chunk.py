@@ -14,18 +14,9 @@ The path is chosen per chunk (all its runs share a setting):
   fixed-step method and only final state, energy drift or wall time asked:
   :func:`robodyn.sim.batch.rollout` (one thread). It has no stops and returns final states only,
   so it cannot see a run pass a limit on the way: a robot with finite limits goes to ``simulate``;
-* ``cuda`` (the sweep's ``device = "cuda"``): a built-in kind, torque-free and lossless, ``rk4``, only
-  final state, energy drift, Lyapunov estimate or wall time asked: :func:`robodyn.sim.cuda_sweep.measures`,
-  one GPU thread a run, which computes the final state, the energy drift and whether the run passed a
-  URDF position limit or the divergence bound on the device, from the model's arrays
-  (:func:`device_model_of`); the host builds the columns without a per-run loop, and the flagged runs
-  are computed again by ``simulate`` (as on the ``fast`` path). Any other robot
-  :func:`robodyn.sim.cuda_tree.refusal` lets through (and a kind with heun or euler) runs on
-  :func:`robodyn.sim.cuda_tree.robot_rollout`, without Lyapunov, in float64, its energies checked on the
-  host (:func:`_cuda_tree`). The Lyapunov estimate steps each run
-  and its twin in one GPU thread, the twin's direction drawn there
-  (:func:`robodyn.sim.cuda_batch.lyapunov`, :mod:`robodyn.integrators.twins`). ``Job.precision``
-  "float32" steps in single precision;
+* ``cuda`` (the sweep's ``device = "cuda"``): the runs on an NVIDIA GPU, one thread a run
+  (:mod:`robodyn.sweep.cuda_chunk`: a built-in kind from its arrays, measures on the device; any
+  other robot the compiled tree kernels take; an LQR or a swing-up to LQR of a built-in kind);
 * ``simulate``: anything else, :func:`robodyn.simulate` run by run: a user's controller file, a
   scene's constant torque or PD law, a scene with constraints or springs beyond the URDF's stops
   and efforts, or a scene that picks its dynamics backend.
@@ -162,7 +153,9 @@ def path_of(chunk: Chunk, job: Job) -> str:
     wanted = set(job.measures)
     controller = controller_of(chunk.model, s.controller, job.gains)
     if job.device == "cuda":
-        refusal = cuda_refusal(chunk.model, s.integrator, controller, job.measures, job.precision)
+        from robodyn.sweep import cuda_chunk  # it reads this module's helpers
+
+        refusal = cuda_chunk.refusal(chunk.model, s.integrator, controller, job.measures, job.precision)
         if refusal:
             raise InputError(f"device cuda: {refusal}")
         return "cuda"
@@ -187,45 +180,14 @@ def path_of(chunk: Chunk, job: Job) -> str:
     return "simulate"
 
 
-def cuda_refusal(
-    model: Model, integrator: str, controller: Any, measures: tuple[str, ...], precision: str = "float64"
-) -> str:
-    """Why the ``cuda`` path cannot compute runs of this setting ("" when it can)."""
-    if controller is not None:
-        return 'runs without a controller only (controller = "none")'
-    if not plain(model):
-        return "a scene's constraints, springs or backend have no GPU kernel"
-    robot = robot_of(model)
-    if fast_of(model) is None or integrator != "rk4":  # the compiled tree algorithms (robodyn.sim.cuda_tree)
-        from robodyn.sim import cuda_tree
-
-        other = [m for m in measures if m not in ms.BATCH_MEASURES]
-        why = cuda_tree.refusal(robot, integrator)
-        if not why and precision == "float32":
-            why = "precision float32 runs a built-in kind's closed form with rk4 only; the tree kernels are float64"
-        if not why and other:
-            why = f"measures {', '.join(sorted(ms.BATCH_MEASURES))} only (lyapunov: kinds, rk4), got {', '.join(other)}"
-        return why
-    if np.any(robot.damping):
-        return "lossless runs only; the model has joint damping"
-    other = [m for m in measures if m not in CUDA_MEASURES]
-    if other:
-        return f"measures {', '.join(sorted(CUDA_MEASURES))} only, got {', '.join(other)}"
-    if precision == "float32" and "lyapunov" in measures:
-        return "precision float32 has no Lyapunov estimate (its twins start 1e-8 apart, below float32's resolution)"
-    return ""
-
-
 def execute(chunk: Chunk, job: Job) -> dict[str, Any]:
     """Compute every run of ``chunk``: columns ``run``, ``status``, the inputs and the measures, one row a run."""
     path = path_of(chunk, job)
-    if path == "cuda" and on_arrays(chunk, job):
-        from robodyn.sim import cuda_sweep
-
-        return finish_device(chunk, job, cuda_sweep.run_task(device_task(chunk, job)))
     if path == "cuda":
-        rows = _cuda_tree(chunk, job)
-    elif path == "closed_loop":
+        from robodyn.sweep import cuda_chunk  # it reads this module's helpers
+
+        return cuda_chunk.execute(chunk, job)
+    if path == "closed_loop":
         rows = _closed_loop(chunk, job)
     elif path == "batch":
         rows = _batch(chunk, job)
@@ -420,95 +382,6 @@ def _batch(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
     for k in np.flatnonzero(over):
         rows[k] = {**_one(chunk, job, int(k), "simulate"), "path": "simulate"}
     return rows
-
-
-def _cuda_tree(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
-    """A torque-free chunk on the GPU by the compiled tree kernels; runs past a limit or the bound: ``simulate``."""
-    from robodyn.sim import cuda_tree
-
-    s = chunk.setting
-    robot = robot_of(chunk.model)
-    steps = step_count(job.duration, s.dt)
-    q, v, q_min, q_max, wall = cuda_tree.robot_rollout(
-        robot, chunk.q0, chunk.v0, dt=s.dt, steps=steps, integrator=s.integrator
-    )
-    rows = _rows(chunk, job, q, v, None, wall)
-    K0, P0 = _energy_parts(chunk, chunk.q0, chunk.v0)
-    with np.errstate(all="ignore"):  # torque-free and lossless: W = 0, E(T) - E0 is the error (its last sample)
-        over = ~(np.abs(_energies(chunk, q, v) - (K0 + P0)) <= energy_bounds(robot, K0, P0))
-    for k in np.union1d(stopped(robot, q_min, q_max), np.flatnonzero(over)):
-        rows[k] = {**_one(chunk, job, int(k), "simulate"), "path": "simulate"}
-    return rows
-
-
-def on_arrays(chunk: Chunk, job: Job) -> bool:
-    """True when a ``cuda`` chunk runs from arrays alone (:func:`device_task`): a built-in kind's closed form, rk4."""
-    return job.device == "cuda" and chunk.setting.integrator == "rk4" and fast_of(chunk.model) is not None
-
-
-@lru_cache(maxsize=8)
-def device_model_of(model: Model) -> Any:
-    """The arrays a GPU worker needs of a built-in kind's model (:class:`robodyn.sim.cuda_sweep.DeviceModel`)."""
-    from robodyn.sim.cuda_sweep import DeviceModel
-
-    robot, fast = robot_of(model), fast_of(model)
-    assert fast is not None  # only the cuda path, which has a closed form, asks
-    return DeviceModel(
-        fast.kind,
-        fast.param_vector,
-        fast.damping,
-        np.asarray(robot.model.lowerPositionLimit, dtype=np.float64),
-        np.asarray(robot.model.upperPositionLimit, dtype=np.float64),
-        fast.potential_offset,
-        float(reference_energy(robot)),
-        float(DEFAULT_MAX_ENERGY_GROWTH),
-    )
-
-
-def device_task(chunk: Chunk, job: Job) -> Any:
-    """What a GPU worker computes of a ``cuda`` chunk, as arrays (:class:`robodyn.sim.cuda_sweep.DeviceTask`).
-
-    Built where robodyn and Pinocchio are (the sweep's own process): the model's arrays, the
-    states, the step and each run's twin stream. The worker runs it with
-    :func:`robodyn.sim.cuda_sweep.run_task`, which needs NumPy and numba alone.
-
-    Raises:
-        InputError: the chunk's setting is one the GPU path does not take.
-    """
-    from robodyn.sim import cuda_batch, cuda_sweep
-
-    path_of(chunk, job)  # refuses what the cuda path cannot run
-    streams = cuda_batch.streams_of(job.seed, chunk.runs) if "lyapunov" in job.measures else None
-    return cuda_sweep.DeviceTask(
-        device_model_of(chunk.model),
-        chunk.q0,
-        chunk.v0,
-        chunk.setting.dt,
-        step_count(job.duration, chunk.setting.dt),
-        streams,
-        ms.LYAPUNOV_INTERVAL,
-        LYAPUNOV_D0,
-        job.precision,
-    )
-
-
-def finish_device(chunk: Chunk, job: Job, measured: Any) -> dict[str, Any]:
-    """A ``cuda`` chunk's columns from what its worker computed (:class:`robodyn.sim.cuda_sweep.DeviceMeasures`).
-
-    The host builds the columns from the arrays (:func:`robodyn.sim.cuda_sweep.columns`, no
-    per-run loop) and computes again, one by one with ``simulate``, only the runs the device
-    flagged (a position limit passed, or the divergence bound).
-    """
-    from robodyn.sim import cuda_sweep
-
-    columns = cuda_sweep.columns(measured, job.measures, job.joint_names)
-    paths = ["cuda"] * chunk.runs.size
-    for k in measured.again:
-        row = _one(chunk, job, int(k), "simulate")
-        paths[k] = "simulate"
-        for key, values in columns.items():
-            values[k] = row.get(key, math.nan)
-    return _with_inputs(chunk, job, paths, columns)
 
 
 def _closed_loop(chunk: Chunk, job: Job) -> list[dict[str, Any]]:

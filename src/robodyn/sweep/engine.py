@@ -14,7 +14,7 @@ with its chunk); a scheduler that goes away mid-sweep ends it with :class:`Unava
 
 A ``device = "cuda"`` sweep without ``--scheduler`` starts no cluster: this process runs its chunks
 one after the other on its GPU (each chunk is one kernel launch over all its runs). With a
-scheduler, each chunk goes to a worker as arrays (:func:`robodyn.sweep.chunk.device_task`): the
+scheduler, each chunk goes to a worker as arrays (:func:`robodyn.sweep.cuda_chunk.device_task`): the
 worker runs the kernels (:func:`robodyn.sim.cuda_sweep.run_task`, NumPy and numba alone, no
 Pinocchio) and sends the measures back (a tree robot's chunk, which the compiled tree kernels run, goes
 as a whole: its worker needs robodyn); the columns, and the few runs the device flagged for
@@ -35,7 +35,8 @@ from robodyn.errors import InputError, MissingDependencyError, RobodynError, Swe
 from robodyn.fileio import pause_for_test
 from robodyn.sim.cuda_sweep import run_task
 from robodyn.sweep import lifetime
-from robodyn.sweep.chunk import Job, device_task, execute, finish_device, on_arrays
+from robodyn.sweep.chunk import Job, execute
+from robodyn.sweep.cuda_chunk import device_task, finish_device, on_arrays
 from robodyn.sweep.plan import Chunk, Plan
 from robodyn.sweep.progress import Progress
 from robodyn.sweep.store import Store

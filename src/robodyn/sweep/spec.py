@@ -93,8 +93,8 @@ SCENE_CONTROLLER = "scene"
 DEFAULT_DURATION = 5.0
 DEFAULT_DT = 1e-3
 DEFAULT_INTEGRATOR = "rk4"
-# Where the runs are computed: "cuda" runs the built-in kinds' closed form, or the compiled tree algorithms
-# of any other robot they take, on an NVIDIA GPU.
+# Where the runs are computed: "cuda" runs the built-in kinds' closed form (under the lqr or swing_up
+# controller too), or the compiled tree algorithms of any other robot they take, on an NVIDIA GPU.
 DEVICES = ("cpu", "cuda")
 # What the runs compute in: float32 only on request, and only on device "cuda".
 PRECISIONS = ("float64", "float32")

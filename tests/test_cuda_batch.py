@@ -255,6 +255,29 @@ def test_bench_gpu_prepares_here_and_runs_without_pinocchio(tmp_path):
     assert chaos["gpu_vs_cpu_max_abs_diff_per_s"] <= CUDA_VS_CPU_ATOL
 
 
+def test_bench_gpu_past_its_budget_names_the_sections_it_skipped(tmp_path):
+    """--budget 0: the first section runs, every later one is named in gpu.json's "skipped", and gpu.json is written."""
+    script = SRC.parent / "benchmarks" / "bench_gpu.py"
+    env = {**os.environ, "PYTHONPATH": str(SRC)}
+    prepared = subprocess.run(
+        [sys.executable, str(script), "--prepare", str(tmp_path)], env=env, capture_output=True, text=True
+    )
+    assert prepared.returncode == 0, prepared.stderr
+    ran = subprocess.run(
+        [sys.executable, str(script), "--run", str(tmp_path), "--no-mjx", *TINY, "--budget", "0"],
+        env={**env, "NUMBA_ENABLE_CUDASIM": "1"},
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert ran.returncode == 0, ran.stderr
+    result = json.loads((tmp_path / "gpu.json").read_text())
+    assert [row["states"] for row in result["kinds"]["pendubot"]["batches"]] == [4]
+    skipped = [line.split(":")[0] for line in result["skipped"]]
+    assert skipped == ["pendubot chaos map", "panda", "cart_pole batches", "pendubot basin map", "cart_pole basin map"]
+    assert "panda" not in result and "chaos_map" not in result["kinds"]["pendubot"]
+
+
 def test_cli_sweep_device_cuda_runs_in_process_into_parquet(tmp_path):
     """robodyn sweep --device cuda end to end in the simulator: no cluster, every chunk written, path cuda."""
     path = tmp_path / "s.toml"

@@ -154,71 +154,18 @@ def _cpu(itree: np.ndarray, ftree: np.ndarray, grav: np.ndarray, Q: np.ndarray, 
 
 
 def _mjx(model: Any, n: int, steps: int) -> dict[str, Any]:
-    """MJX (float32) from the same starts: speed and difference from the float64 GPU kernel, or why it did not run."""
-    try:
-        import jax
-        import mujoco
-        from mujoco import mjx
-    except Exception as exc:  # not installed here: the figure is left out, and the reason is kept
-        print(f"panda      MJX not run: {type(exc).__name__}: {exc}")
-        return {"skipped": f"{type(exc).__name__}: {exc}"}
-    try:
-        from robodyn.sim import cuda_tree
+    """MJX (float32) from the float64 GPU kernel's starts, the tree's armatures in (benchmarks/_gpu_mjx.py)."""
+    import _gpu_mjx  # beside this file, on sys.path when bench_gpu.py runs
 
-        m = mujoco.MjModel.from_xml_string(str(model["urdf"]))
-        m.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
-        m.opt.timestep = 1e-3
-        off = mujoco.mjtDisableBit
-        m.opt.disableflags |= off.mjDSBL_CONTACT | off.mjDSBL_LIMIT | off.mjDSBL_EQUALITY
-        names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(m.njnt)]
-        idx = np.array([int(m.jnt_dofadr[names.index(str(j))]) for j in model["joints"]])
-        if m.nv != idx.size:
-            raise ValueError(f"MuJoCo has {m.nv} degrees of freedom, the tree {idx.size}")
-        m.dof_damping[:] = 0.0
-        m.dof_frictionloss[:] = 0.0
-        m.dof_armature[idx] = model["armature"]
-        mx = mjx.put_model(m)
-        Q, V = starts(n, idx.size)
-        qpos, qvel = np.zeros((n, m.nq), np.float32), np.zeros((n, m.nv), np.float32)
-        qpos[:, idx], qvel[:, idx] = Q, V
+    from robodyn.sim import cuda_tree
 
-        def one(q: Any, v: Any) -> Any:
-            d = mjx.make_data(mx).replace(qpos=q, qvel=v)
-            d = jax.lax.fori_loop(0, steps, lambda _, x: mjx.step(mx, x), d)
-            return d.qpos, d.qvel
+    Q, V = starts(n, int(model["nv"]))
 
-        fn = jax.jit(jax.vmap(one))
-        start = time.perf_counter()
-        jax.block_until_ready(fn(qpos, qvel))
-        compile_s = time.perf_counter() - start
-        best = float("inf")
-        for _ in range(REPEATS):
-            start = time.perf_counter()
-            out = jax.block_until_ready(fn(qpos, qvel))
-            best = min(best, time.perf_counter() - start)
-        ref = cuda_tree.rollout(model["itree"], model["ftree"], model["grav"], Q, V, dt=1e-3, steps=steps)
-        diff = max(
-            float(np.max(np.abs(np.asarray(out[0])[:, idx] - ref[0]))),
-            float(np.max(np.abs(np.asarray(out[1])[:, idx] - ref[1]))),
-        )
-        ratio = (n * steps / ref[-1]) / (n * steps / best)
-        print(f"panda      {n:>8,} states  MJX float32 {n * steps / best:9.3g} state-steps/s (compiled in "
-              f"{compile_s:.3g} s)  GPU float64 / MJX {ratio:.3g}x  max |diff| {diff:.2g}")  # fmt: skip
-        return {
-            "states": n,
-            "dtype": "float32",
-            "compile_s": compile_s,
-            "mjx_s": best,
-            "mjx_state_steps_per_s": n * steps / best,
-            "gpu_float64_s": ref[-1],
-            "gpu_float64_over_mjx_float32": ratio,
-            "mjx_vs_gpu_float64_max_abs_diff": diff,
-            "jax": jax.__version__,
-            "mujoco": mujoco.__version__,
-        }
-    except Exception as exc:  # MJX failing on this model is a result to report, not a crash of the benchmark
-        print(f"panda      MJX failed: {type(exc).__name__}: {str(exc)[:200]}")
-        return {"failed": f"{type(exc).__name__}: {str(exc)[:500]}"}
+    def reference(Q: np.ndarray, V: np.ndarray) -> Any:
+        return cuda_tree.rollout(model["itree"], model["ftree"], model["grav"], Q, V, dt=1e-3, steps=steps)
+
+    urdf, joints, armature = str(model["urdf"]), model["joints"], model["armature"]
+    return _gpu_mjx.run("panda", urdf, joints, Q, V, steps=steps, dt=1e-3, reference=reference, armature=armature)
 
 
 if __name__ == "__main__":  # pragma: no cover - a helper of bench_gpu.py

@@ -51,7 +51,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-import _gpu_panda  # the Panda's part (benchmarks/ is on sys.path when this script runs)
+import _gpu_mjx  # MJX's column (benchmarks/ is on sys.path when this script runs)
+import _gpu_panda  # the Panda's part
 import numpy as np
 
 DT = 1e-3  # [s]
@@ -201,7 +202,9 @@ def run(
     results["seconds"] = 0.0
     for i, (name, work) in enumerate(sections):
         spent = time.perf_counter() - start
-        if i > 0 and spent > budget:  # the first (the Pendubot's batches) always runs  # what is left is named in gpu.json, not silently dropped
+        if (
+            i > 0 and spent > budget
+        ):  # the first (the Pendubot's batches) always runs  # what is left is named in gpu.json, not silently dropped
             results["skipped"].append(f"{name}: {spent:.0f} s of the {budget:g} s budget spent before it")
             print(f"{name}: skipped, {spent:.0f} s of the {budget:g} s budget spent")
             continue
@@ -468,65 +471,16 @@ def _best(rollout: Any, kind: str, p: np.ndarray, b: np.ndarray, Q: np.ndarray, 
 
 
 def _mjx(kind: str, models: Any, p: np.ndarray, b: np.ndarray, n: int, steps: int) -> dict[str, Any]:
-    """MJX (float32) from the same starts: speed and difference from the float64 kernel, or why it did not run."""
-    try:
-        import jax
-        import mujoco
-        from mujoco import mjx
-    except Exception as exc:  # not installed here: the figure is left out, and the reason is kept
-        print(f"{kind:10s} MJX not run: {type(exc).__name__}: {exc}")
-        return {"skipped": f"{type(exc).__name__}: {exc}"}
-    try:
-        from robodyn.sim import cuda_batch
+    """MJX (float32) from the same starts as the kind's float64 kernel (benchmarks/_gpu_mjx.py)."""
+    from robodyn.sim import cuda_batch
 
-        m = mujoco.MjModel.from_xml_string(str(models[f"{kind}.urdf"]))
-        m.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
-        m.opt.timestep = DT
-        off = mujoco.mjtDisableBit
-        m.opt.disableflags |= off.mjDSBL_CONTACT | off.mjDSBL_LIMIT | off.mjDSBL_EQUALITY
-        m.dof_damping[:] = 0.0
-        m.dof_frictionloss[:] = 0.0
-        names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(m.njnt)]
-        idx = np.array([int(m.jnt_dofadr[names.index(str(j))]) for j in models[f"{kind}.joints"]])
-        mx = mjx.put_model(m)
-        Q, V = starts(kind, n, b.size)
-        qpos, qvel = np.zeros((n, m.nq), np.float32), np.zeros((n, m.nv), np.float32)
-        qpos[:, idx], qvel[:, idx] = Q, V
+    Q, V = starts(kind, n, b.size)
 
-        def one(q: Any, v: Any) -> Any:
-            d = mjx.make_data(mx).replace(qpos=q, qvel=v)
-            d = jax.lax.fori_loop(0, steps, lambda _, x: mjx.step(mx, x), d)
-            return d.qpos, d.qvel
+    def reference(Q: np.ndarray, V: np.ndarray) -> Any:
+        return cuda_batch.rollout(kind, p, b, Q, V, dt=DT, steps=steps)
 
-        fn = jax.jit(jax.vmap(one))
-        start = time.perf_counter()
-        jax.block_until_ready(fn(qpos, qvel))
-        compile_s = time.perf_counter() - start
-        best = float("inf")
-        for _ in range(REPEATS):
-            start = time.perf_counter()
-            out = jax.block_until_ready(fn(qpos, qvel))
-            best = min(best, time.perf_counter() - start)
-        ref = cuda_batch.rollout(kind, p, b, Q, V, dt=DT, steps=steps)
-        diff = max(
-            float(np.max(np.abs(np.asarray(out[0])[:, idx] - ref[0]))),
-            float(np.max(np.abs(np.asarray(out[1])[:, idx] - ref[1]))),
-        )
-        print(f"{kind:10s} {n:>8,} states  MJX float32 {n * steps / best:9.3g} state-steps/s  "
-              f"max |diff| from the float64 kernel {diff:.2g}")  # fmt: skip
-        return {
-            "states": n,
-            "dtype": "float32",
-            "compile_s": compile_s,
-            "mjx_s": best,
-            "mjx_state_steps_per_s": n * steps / best,
-            "mjx_vs_gpu_float64_max_abs_diff": diff,
-            "jax": jax.__version__,
-            "mujoco": mujoco.__version__,
-        }
-    except Exception as exc:  # MJX failing on this model is a result to report, not a crash of the benchmark
-        print(f"{kind:10s} MJX failed: {type(exc).__name__}: {str(exc)[:200]}")
-        return {"failed": f"{type(exc).__name__}: {str(exc)[:500]}"}
+    urdf, joints = str(models[f"{kind}.urdf"]), models[f"{kind}.joints"]
+    return _gpu_mjx.run(kind, urdf, joints, Q, V, steps=steps, dt=DT, reference=reference)
 
 
 def main() -> int:

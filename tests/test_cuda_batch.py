@@ -227,6 +227,77 @@ TINY = (
 )  # bench_gpu.py --run, in the simulator
 
 
+LOWER_EVERY_KERNEL = """
+import types as pytypes, warnings
+warnings.simplefilter("ignore")
+from numba import cuda, types
+try:
+    from numba.cuda import compiler, dispatcher
+    compile_cuda = compiler.compile_cuda
+except (ImportError, AttributeError):
+    print("SKIP")
+    raise SystemExit(0)
+from robodyn.sim import cuda_batch, cuda_sweep
+# no GPU: a compute capability for the device functions, and numba.cuda without is_available()
+dispatcher.get_current_device = lambda: pytypes.SimpleNamespace(compute_capability=(8, 0))
+cuda_batch.cuda_module = lambda: cuda
+for module in (cuda_batch, cuda_sweep):
+    module.cuda = cuda
+    # numba 0.68's own CUDA target cannot type min/max's *args overload (numba-cuda can): stand-ins here only
+    module.min = cuda.jit(device=True)(lambda a, b: a if a < b else b)
+    module.max = cuda.jit(device=True)(lambda a, b: a if a > b else b)
+f8, f4, i8, u8, i1 = types.float64, types.float32, types.int64, types.uint64, types.int8
+A = lambda t, nd: types.Array(t, nd, "C")
+kernels = []
+for kind in cuda_batch.CUDA_KINDS:
+    for name, t in (("float64", f8), ("float32", f4)):
+        kernels.append((f"rk4 {kind} {name}", cuda_batch.rk4_kernel(kind, name),
+                        (A(t, 1), A(t, 1), i8, A(t, 2), A(t, 2), A(t, 2), A(t, 2), t, i8)))
+        kernels.append((f"measures {kind} {name}", cuda_sweep.measures_kernel(kind, name),
+                        (A(t, 1), A(f8, 1), A(t, 1), i8, A(f8, 1), A(t, 2), A(t, 2), A(f8, 1), A(i1, 1), t, i8)))
+    kernels.append((f"benettin {kind}", cuda_batch.benettin_kernel(kind),
+                    (A(f8, 1), A(f8, 1), i8, A(f8, 2), A(f8, 2), A(u8, 1), f8, f8, i8, i8, f8, A(f8, 1))))
+    kernels.append((f"twin {kind}", cuda_sweep.twin_kernel(kind),
+                    (A(f8, 1), A(f8, 1), i8, A(f8, 1), A(f8, 2), A(f8, 2), A(u8, 1), A(f8, 1), A(i1, 1), A(f8, 1),
+                     f8, i8, i8, f8, f8)))
+for kind, law in (("pendubot", "lqr"), ("pendubot", "pendubot_energy"), ("cart_pole", "lqr"),
+                  ("cart_pole", "cart_pole_energy")):
+    kernels.append((f"closed {kind} {law}", cuda_batch.closed_kernel(kind, law),
+                    (A(f8, 1), A(f8, 1), A(f8, 1), A(f8, 1), A(f8, 1), f8, A(f8, 2), A(f8, 2), A(f8, 1), f8, f8, i8,
+                     A(f8, 2), A(f8, 2), A(f8, 2))))
+for name, kernel, args in kernels:
+    try:
+        size = len(compile_cuda(kernel.py_func, types.void, args, cc=(8, 0)).library.get_llvm_str())
+        print(f"{name}: OK {size}")
+    except Exception as exc:
+        print(f"{name}: FAIL {type(exc).__name__}: {str(exc)[:300]!r}")
+"""
+
+
+def test_every_closed_form_kernel_types_and_lowers_for_the_real_cuda_target():
+    """Every kernel of cuda_batch and cuda_sweep (each kind, float64 and float32, Benettin, the measures, the
+    closed loops) is typed by numba's real CUDA target and lowered to LLVM IR, with no GPU here.
+
+    The simulator runs kernels as Python, so a construct CUDA cannot compile (an allocation, object mode,
+    a type that does not unify) would pass it; this is what a GPU would compile, short of NVVM.
+    """
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_ENABLE_CUDASIM"}
+    run = subprocess.run(
+        [sys.executable, "-c", LOWER_EVERY_KERNEL],
+        env={**env, "PYTHONPATH": str(SRC)},
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert run.returncode == 0, run.stderr[-3000:]
+    if run.stdout.split()[0] == "SKIP":
+        pytest.skip("this numba has no numba.cuda.compiler.compile_cuda to type the kernels with")
+    lines = run.stdout.strip().splitlines()
+    assert len(lines) == 6 * 3 + 4, lines
+    failed = [line for line in lines if ": OK " not in line]
+    assert not failed, failed
+
+
 def test_bench_gpu_prepares_here_and_runs_without_pinocchio(tmp_path):
     """benchmarks/bench_gpu.py: --prepare with robodyn, --run from the arrays alone (in the simulator, a tiny batch)."""
     script = SRC.parent / "benchmarks" / "bench_gpu.py"

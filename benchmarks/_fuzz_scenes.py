@@ -366,7 +366,7 @@ def _sweep_oracle(code: int) -> list[str]:
 
     import robodyn.sweep as sweep
     from robodyn.scene import read_scene
-    from robodyn.sweep import chunk as chunk_module
+    from robodyn.sweep import runs as runs_module
 
     table = pq.read_table("out/results").to_pydict()
     status = dict(zip(table["run"], table["status"], strict=True))
@@ -374,7 +374,7 @@ def _sweep_oracle(code: int) -> list[str]:
     wrong = []
     for c in prepared.plan.chunks:
         for k in range(c.runs.size):
-            alone = chunk_module._one(c, prepared.job, k, "simulate")["status"]
+            alone = runs_module.one_run(c, prepared.job, k, "simulate")["status"]
             run = int(c.runs[k])
             if status.get(run) != alone:
                 wrong.append(f"run {run}: status {status.get(run)!r} in the sweep, {alone!r} from simulate")

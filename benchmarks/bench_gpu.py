@@ -404,7 +404,7 @@ def _prepare_basin(robot: Any, kind: str, fast: Any) -> dict[str, Any]:
 def _basin(kind: str, models: Any, n: int, seconds: float) -> dict[str, Any]:
     """The swing-up basin map of n runs on the GPU (time to balance on the device) against the CPU's cores."""
     from robodyn.kinds.formulas import closed_form
-    from robodyn.sim import cuda_batch
+    from robodyn.sim import cuda_closed
 
     p, b = models[f"{kind}.params"], np.zeros(2)
     b[: models[f"{kind}.damping"].size] = models[f"{kind}.damping"]
@@ -422,12 +422,12 @@ def _basin(kind: str, models: Any, n: int, seconds: float) -> dict[str, Any]:
     args = {"upright": models[f"{kind}.upright"], "angular": models[f"{kind}.angular"], "offset": offset, "dt": DT}
     args["tol"] = float(models[f"{kind}.balance_tol"])
     start = time.perf_counter()
-    q, v, q_min, q_max, balance, diverged, wall = cuda_batch.closed_loop(
+    q, v, q_min, q_max, balance, diverged, wall = cuda_closed.closed_loop(
         kind, law, p, b, c, Q, V, bound=bound, steps=steps, **args
     )
     total = time.perf_counter() - start  # the first call compiles: the kernel's own time is ``wall``
     m = min(n, BASIN_CPU_STATES)
-    cpu = cuda_batch.closed_loop(kind, law, p, b, c, Q[:m], V[:m], bound=bound[:m], steps=steps, cpu=True, **args)
+    cpu = cuda_closed.closed_loop(kind, law, p, b, c, Q[:m], V[:m], bound=bound[:m], steps=steps, cpu=True, **args)
     diff = max(
         float(np.nanmax(np.abs(q[:m] - cpu[0]), initial=0.0)), float(np.nanmax(np.abs(v[:m] - cpu[1]), initial=0.0))
     )

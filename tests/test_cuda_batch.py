@@ -237,11 +237,11 @@ try:
 except (ImportError, AttributeError):
     print("SKIP")
     raise SystemExit(0)
-from robodyn.sim import cuda_batch, cuda_sweep
+from robodyn.sim import cuda_batch, cuda_closed, cuda_sweep
 # no GPU: a compute capability for the device functions, and numba.cuda without is_available()
 dispatcher.get_current_device = lambda: pytypes.SimpleNamespace(compute_capability=(8, 0))
 cuda_batch.cuda_module = lambda: cuda
-for module in (cuda_batch, cuda_sweep):
+for module in (cuda_batch, cuda_closed, cuda_sweep):
     module.cuda = cuda
     # numba 0.68's own CUDA target cannot type min/max's *args overload (numba-cuda can): stand-ins here only
     module.min = cuda.jit(device=True)(lambda a, b: a if a < b else b)
@@ -262,7 +262,7 @@ for kind in cuda_batch.CUDA_KINDS:
                      f8, i8, i8, f8, f8)))
 for kind, law in (("pendubot", "lqr"), ("pendubot", "pendubot_energy"), ("cart_pole", "lqr"),
                   ("cart_pole", "cart_pole_energy")):
-    kernels.append((f"closed {kind} {law}", cuda_batch.closed_kernel(kind, law),
+    kernels.append((f"closed {kind} {law}", cuda_closed.closed_kernel(kind, law),
                     (A(f8, 1), A(f8, 1), A(f8, 1), A(f8, 1), A(f8, 1), f8, A(f8, 2), A(f8, 2), A(f8, 1), f8, f8, i8,
                      A(f8, 2), A(f8, 2), A(f8, 2))))
 for name, kernel, args in kernels:

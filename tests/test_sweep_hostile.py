@@ -20,6 +20,7 @@ import robodyn.sweep as sweep
 from robodyn.cli import main
 from robodyn.errors import InputError
 from robodyn.sweep import chunk as chunk_module
+from robodyn.sweep import runs as runs_module
 from robodyn.sweep.store import Store
 
 # robodyn simulate pendubot --q0 1.2,0.9 --duration 3 --dt 0.1 exits 3 (issue 28): RK4 at 0.1 s is unstable there.
@@ -77,7 +78,7 @@ def test_a_batch_chunk_that_ends_past_the_energy_bound_is_diverged(tmp_path, mon
             "q0": {"joint1": [1.2], "joint2": [0.9]}}  # fmt: skip
     prepared = sweep.prepare(spec, tmp_path)
     (c,) = prepared.plan.chunks
-    monkeypatch.setattr(chunk_module, "fast_of", lambda model: None)  # no compiled form: as a URDF of another lab
+    monkeypatch.setattr(runs_module, "fast_of", lambda model: None)  # no compiled form: as a URDF of another lab
     columns = chunk_module._batch(c, prepared.job)
     assert columns[0]["status"] == "diverged"
 

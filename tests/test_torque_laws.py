@@ -17,7 +17,7 @@ import robodyn.control
 import robodyn.sweep as sweep
 from robodyn.control.compiled import law_of
 from robodyn.errors import InputError
-from robodyn.sim import cuda_batch
+from robodyn.sim import cuda_closed
 from robodyn.sim import torque_laws as tl
 from robodyn.sim.fast import FastDynamics
 from robodyn.sweep import chunk as chunk_module
@@ -110,7 +110,7 @@ def test_closed_loop_device_function_on_cpu_cores_equals_the_sweeps_cpu_path(kin
     law, c = law_of(robodyn.control.make(name, robot), fast)
     up, angular = chunk_module.upright_of(robot)
     K0, P0 = fast.energies_batch(chunk.q0, chunk.v0)
-    q, v, _, _, balance, diverged, _ = cuda_batch.closed_loop(
+    q, v, _, _, balance, diverged, _ = cuda_closed.closed_loop(
         kind,
         law,
         fast.param_vector,

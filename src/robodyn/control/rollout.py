@@ -8,7 +8,7 @@ the accelerations of the whole batch come from one call per RK4 stage:
   checked against Pinocchio's ABA when built), joint damping included;
 * ``"aba"``: Pinocchio's ABA state by state (any robot with nq == nv), the slow, obviously
   correct oracle;
-* ``"cuda"``: an NVIDIA GPU, one thread a state (:func:`robodyn.sim.cuda_batch.closed_loop`), for
+* ``"cuda"``: an NVIDIA GPU, one thread a state (:func:`robodyn.sim.cuda_closed.closed_loop`), for
   the controllers of ``robodyn.control.make("lqr" | "swing_up", robot)`` on the cart-pole and the
   Pendubot: their laws are written once (:mod:`robodyn.sim.torque_laws`) and compiled by numba for
   the GPU, the same arithmetic as ``"fast"`` with the sweep's batch form of the controller
@@ -133,7 +133,7 @@ def _accelerations(robot: Robot, backend: str) -> Callable[[Array, Array, Array]
 def _cuda(robot: Robot, policy: object, Q: Array, V: Array, dt: float, steps: int) -> Rollout:
     """:func:`closed_loop` on the GPU: the controller's law (its parameter vector) in one thread a state."""
     from robodyn.control.compiled import law_of
-    from robodyn.sim import cuda_batch
+    from robodyn.sim import cuda_closed
 
     controller = getattr(policy, "__self__", policy)  # lqr.batch -> the LQR
     kind = params.detect_kind(robot)
@@ -148,7 +148,7 @@ def _cuda(robot: Robot, policy: object, Q: Array, V: Array, dt: float, steps: in
     b = np.zeros(2)
     b[: fast.nv] = fast.damping
     n = Q.shape[0]
-    q, v, q_min, q_max, _, blown, wall = cuda_batch.closed_loop(
+    q, v, q_min, q_max, _, blown, wall = cuda_closed.closed_loop(
         fast.kind,
         name,
         fast.param_vector,

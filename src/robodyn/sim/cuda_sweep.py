@@ -187,22 +187,33 @@ def _thread_with_twin(jit: Any, kind: str) -> Any:
     return run
 
 
+def _twin_row(jit: Any, kind: str) -> Any:
+    """``row(r, p, b, nv, limits, Q, V, S, drift, flags, out, dt, steps, count, span, d0)``: run r with its twin."""
+    run = _thread_with_twin(jit, kind)
+
+    @jit
+    def row(r, p, b, nv, limits, Q, V, S, drift, flags, out, dt, steps, count, span, d0):  # type: ignore[no-untyped-def]
+        q0, q1, v0, v1, d, f, x = run(
+            p, b, nv, limits, Q[r, 0], Q[r, 1], V[r, 0], V[r, 1], dt, steps, count, span, S[r], d0
+        )
+        Q[r, 0], Q[r, 1], V[r, 0], V[r, 1] = q0, q1, v0, v1
+        drift[r], flags[r], out[r] = d, f, x
+
+    return row
+
+
 @cache
 def twin_kernel(kind: str) -> Any:
     """The CUDA kernel ``(p, b, nv, limits, Q, V, S, drift, flags, out, dt, steps, count, span, d0)``, in place."""
     global cuda
     module = cuda = cuda_batch.cuda_module()
-    run = _thread_with_twin(module.jit(device=True), kind)
+    row = _twin_row(module.jit(device=True), kind)
 
     @module.jit
     def kernel(p, b, nv, limits, Q, V, S, drift, flags, out, dt, steps, count, span, d0):  # type: ignore[no-untyped-def]
         r = cuda.grid(1)
         if r < Q.shape[0]:
-            q0, q1, v0, v1, d, f, x = run(
-                p, b, nv, limits, Q[r, 0], Q[r, 1], V[r, 0], V[r, 1], dt, steps, count, span, S[r], d0
-            )
-            Q[r, 0], Q[r, 1], V[r, 0], V[r, 1] = q0, q1, v0, v1
-            drift[r], flags[r], out[r] = d, f, x
+            row(r, p, b, nv, limits, Q, V, S, drift, flags, out, dt, steps, count, span, d0)
 
     return kernel
 
@@ -212,18 +223,27 @@ def cpu_twin_kernel(kind: str) -> Any:
     """:func:`twin_kernel`'s thread on the CPU's cores (numba ``prange``)."""
     import numba
 
-    run = _thread_with_twin(numba.njit, kind)
+    row = _twin_row(numba.njit, kind)
 
     @numba.njit(parallel=True)
     def kernel(p, b, nv, limits, Q, V, S, drift, flags, out, dt, steps, count, span, d0):  # type: ignore[no-untyped-def]
         for r in numba.prange(Q.shape[0]):
-            q0, q1, v0, v1, d, f, x = run(
-                p, b, nv, limits, Q[r, 0], Q[r, 1], V[r, 0], V[r, 1], dt, steps, count, span, S[r], d0
-            )
-            Q[r, 0], Q[r, 1], V[r, 0], V[r, 1] = q0, q1, v0, v1
-            drift[r], flags[r], out[r] = d, f, x
+            row(r, p, b, nv, limits, Q, V, S, drift, flags, out, dt, steps, count, span, d0)
 
     return kernel
+
+
+def _measures_row(jit: Any, kind: str, precision: str) -> Any:
+    """``row(r, p, pe, b, nv, limits, Q, V, drift, flags, dt, n)``: run r's measures, in place, compiled by ``jit``."""
+    run = _thread(jit, kind, precision)
+
+    @jit
+    def row(r, p, pe, b, nv, limits, Q, V, drift, flags, dt, n):  # type: ignore[no-untyped-def]
+        q0, q1, v0, v1, d, f = run(p, pe, b, nv, limits, Q[r, 0], Q[r, 1], V[r, 0], V[r, 1], dt, n)
+        Q[r, 0], Q[r, 1], V[r, 0], V[r, 1] = q0, q1, v0, v1
+        drift[r], flags[r] = d, f
+
+    return row
 
 
 @cache
@@ -231,15 +251,13 @@ def measures_kernel(kind: str, precision: str = "float64") -> Any:
     """The CUDA kernel ``(p, pe, b, nv, limits, Q, V, drift, flags, dt, steps)``: a run a thread, in place."""
     global cuda
     module = cuda = cuda_batch.cuda_module()
-    run = _thread(module.jit(device=True), kind, precision)
+    row = _measures_row(module.jit(device=True), kind, precision)
 
     @module.jit
     def kernel(p, pe, b, nv, limits, Q, V, drift, flags, dt, n):  # type: ignore[no-untyped-def]
         r = cuda.grid(1)
         if r < Q.shape[0]:
-            q0, q1, v0, v1, d, f = run(p, pe, b, nv, limits, Q[r, 0], Q[r, 1], V[r, 0], V[r, 1], dt, n)
-            Q[r, 0], Q[r, 1], V[r, 0], V[r, 1] = q0, q1, v0, v1
-            drift[r], flags[r] = d, f
+            row(r, p, pe, b, nv, limits, Q, V, drift, flags, dt, n)
 
     return kernel
 
@@ -249,14 +267,12 @@ def cpu_measures_kernel(kind: str, precision: str = "float64") -> Any:
     """The same thread on the CPU's cores (numba ``prange``): the GPU worker's CPU twin, for tests and benchmarks."""
     import numba
 
-    run = _thread(numba.njit, kind, precision)
+    row = _measures_row(numba.njit, kind, precision)
 
     @numba.njit(parallel=True)
     def kernel(p, pe, b, nv, limits, Q, V, drift, flags, dt, n):  # type: ignore[no-untyped-def]
         for r in numba.prange(Q.shape[0]):
-            q0, q1, v0, v1, d, f = run(p, pe, b, nv, limits, Q[r, 0], Q[r, 1], V[r, 0], V[r, 1], dt, n)
-            Q[r, 0], Q[r, 1], V[r, 0], V[r, 1] = q0, q1, v0, v1
-            drift[r], flags[r] = d, f
+            row(r, p, pe, b, nv, limits, Q, V, drift, flags, dt, n)
 
     return kernel
 
@@ -340,7 +356,7 @@ def measures(
         args = [module.to_device(x) for x in (p, pe, b)] + [nv] + [module.to_device(x) for x in (limits, Q, V)]
         drift_d, flags_d = module.device_array(n, dtype=np.float64), module.device_array(n, dtype=np.int8)
         blocks = max(1, -(-n // cuda_batch.THREADS_PER_BLOCK))
-        with cuda_batch._quiet():
+        with cuda_batch.quiet():
             module.synchronize()
             start = time.perf_counter()
             kernel[blocks, cuda_batch.THREADS_PER_BLOCK](*args, drift_d, flags_d, h, steps)
@@ -405,7 +421,7 @@ def _with_twin(
         drift_d, flags_d = module.device_array(n, dtype=np.float64), module.device_array(n, dtype=np.int8)
         out_d = module.device_array(n, dtype=np.float64)
         blocks = max(1, -(-n // cuda_batch.THREADS_PER_BLOCK))
-        with cuda_batch._quiet():
+        with cuda_batch.quiet():
             module.synchronize()
             start = time.perf_counter()
             kernel[blocks, cuda_batch.THREADS_PER_BLOCK](

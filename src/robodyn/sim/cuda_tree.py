@@ -248,7 +248,7 @@ def rollout(
     BUF = module.device_array((2 * stages + 3, nv + 2, size), dtype=np.float64)
     VEC = module.device_array((VECTORS, width, size), dtype=np.float64)
     lo, hi = np.empty((n, nq)), np.empty((n, nq))
-    with cuda_batch._quiet():
+    with cuda_batch.quiet():
         # compile (or load) outside the timing: one thread, no step
         kernel[1, 1](*model, method, extra[0], dt, 0, Q_d[:1], V_d[:1], extra[1], extra[2], WS, BUF, VEC, n)
         module.synchronize()

@@ -38,10 +38,10 @@ from robodyn.kinds.params import detect_kind
 from robodyn.model.load import PASSIVE_JOINT
 from robodyn.model.load import load as load_model
 from robodyn.sweep import measures
-from robodyn.sweep.chunk import Job, controller_of, upright_of
 from robodyn.sweep.cuda_chunk import refusal as cuda_refusal
 from robodyn.sweep.engine import check_cluster, run_chunks
 from robodyn.sweep.plan import Chunk, Plan, Setting, make_plan, settings
+from robodyn.sweep.runs import Job, controller_of, upright_of
 from robodyn.sweep.source import (
     AsWritten,
     Model,

@@ -1,7 +1,7 @@
 """The sweep's ``cuda`` path: which chunks a GPU takes, and how each kind of chunk runs there.
 
 :func:`refusal` says why a setting cannot run on the GPU ("" when it can), before any work.
-:func:`execute` computes a chunk (``robodyn.sweep.chunk.execute`` hands ``cuda`` chunks here):
+:func:`execute` computes a chunk (:func:`robodyn.sweep.chunk.execute` hands ``cuda`` chunks here):
 
 * a built-in kind without controller, ``rk4``: from the model's arrays alone (:func:`device_task`,
   :func:`robodyn.sim.cuda_sweep.run_task`: NumPy and numba, no Pinocchio, so a Dask worker with a
@@ -9,14 +9,14 @@
   :func:`finish_device` without a per-run loop;
 * any other robot the compiled tree kernels take (:mod:`robodyn.sim.cuda_tree`), and a kind with
   heun or euler: final states on the GPU, energies checked on the host (:func:`_tree_rows`);
-* an LQR or a swing-up to LQR of the cart-pole or the Pendubot: :func:`robodyn.sim.cuda_batch.closed_loop`,
+* an LQR or a swing-up to LQR of the cart-pole or the Pendubot: :func:`robodyn.sim.cuda_closed.closed_loop`,
   one GPU thread a run: the ``closed_loop`` path's RK4 (torque at every stage), law
   (:mod:`robodyn.sim.torque_laws`, the controller packed by :func:`robodyn.control.compiled.law_of`),
   energy ledger (torques and joint damping, the divergence bound tested every step) and balance
   test, so only each run's final state, time to balance and flags come back (:func:`_loop_rows`).
 
 Runs that reach a URDF position limit or diverge are computed again by ``simulate`` (as on the CPU
-paths). The helpers it shares with the CPU paths are :mod:`robodyn.sweep.chunk`'s.
+paths). The helpers it shares with the CPU paths are :mod:`robodyn.sweep.runs`'.
 """
 
 from __future__ import annotations
@@ -28,13 +28,14 @@ from typing import Any
 import numpy as np
 
 from robodyn.control.compiled import law_of
+from robodyn.errors import InputError
 from robodyn.integrators import step_count
-from robodyn.sim import cuda_batch
+from robodyn.sim import cuda_closed
 from robodyn.sim.energy import reference_energy
 from robodyn.sim.fast import FastDynamics
 from robodyn.sim.simulation import DEFAULT_MAX_ENERGY_GROWTH
-from robodyn.sweep import chunk as ch
 from robodyn.sweep import measures as ms
+from robodyn.sweep import runs as ch
 from robodyn.sweep.plan import Chunk
 from robodyn.sweep.source import Model
 
@@ -50,7 +51,7 @@ def execute(chunk: Chunk, job: ch.Job) -> dict[str, Any]:
     else:
         rows = _tree_rows(chunk, job)
     paths = [row.pop("path", "cuda") for row in rows]
-    return ch._with_inputs(chunk, job, paths, ch._columns_of(rows))
+    return ch.with_inputs(chunk, job, paths, ch.columns_of(rows))
 
 
 def refusal(
@@ -94,12 +95,12 @@ def _tree_rows(chunk: Chunk, job: ch.Job) -> list[dict[str, Any]]:
     q, v, q_min, q_max, wall = cuda_tree.robot_rollout(
         robot, chunk.q0, chunk.v0, dt=s.dt, steps=steps, integrator=s.integrator
     )
-    rows = ch._rows(chunk, job, q, v, None, wall)
-    K0, P0 = ch._energy_parts(chunk, chunk.q0, chunk.v0)
+    rows = ch.rows_of(chunk, job, q, v, None, wall)
+    K0, P0 = ch.energy_parts(chunk, chunk.q0, chunk.v0)
     with np.errstate(all="ignore"):  # torque-free and lossless: W = 0, E(T) - E0 is the error (its last sample)
-        over = ~(np.abs(ch._energies(chunk, q, v) - (K0 + P0)) <= ch.energy_bounds(robot, K0, P0))
+        over = ~(np.abs(ch.energies(chunk, q, v) - (K0 + P0)) <= ch.energy_bounds(robot, K0, P0))
     for k in np.union1d(ch.stopped(robot, q_min, q_max), np.flatnonzero(over)):
-        rows[k] = {**ch._one(chunk, job, int(k), "simulate"), "path": "simulate"}
+        rows[k] = {**ch.one_run(chunk, job, int(k), "simulate"), "path": "simulate"}
     return rows
 
 
@@ -141,7 +142,11 @@ def device_task(chunk: Chunk, job: ch.Job) -> Any:
     """
     from robodyn.sim import cuda_batch, cuda_sweep
 
-    ch.path_of(chunk, job)  # refuses what the cuda path cannot run
+    s = chunk.setting
+    controller = ch.controller_of(chunk.model, s.controller, job.gains)
+    why = refusal(chunk.model, s.integrator, controller, job.measures, job.precision)
+    if why or not on_arrays(chunk, job):
+        raise InputError(f"device cuda: {why or 'this chunk is not a built-in kind without controller with rk4'}")
     streams = cuda_batch.streams_of(job.seed, chunk.runs) if "lyapunov" in job.measures else None
     return cuda_sweep.DeviceTask(
         device_model_of(chunk.model),
@@ -168,11 +173,11 @@ def finish_device(chunk: Chunk, job: ch.Job, measured: Any) -> dict[str, Any]:
     columns = cuda_sweep.columns(measured, job.measures, job.joint_names)
     paths = ["cuda"] * chunk.runs.size
     for k in measured.again:
-        row = ch._one(chunk, job, int(k), "simulate")
+        row = ch.one_run(chunk, job, int(k), "simulate")
         paths[k] = "simulate"
         for key, values in columns.items():
             values[k] = row.get(key, math.nan)
-    return ch._with_inputs(chunk, job, paths, columns)
+    return ch.with_inputs(chunk, job, paths, columns)
 
 
 # What the closed loop computes: its measures, time to balance counted on the GPU.
@@ -205,10 +210,10 @@ def _loop_rows(chunk: Chunk, job: ch.Job) -> list[dict[str, Any]]:
     name, c = found
     upright = ch.upright_of(robot)
     up, angular = (upright[0], upright[1].astype(np.float64)) if upright is not None else (np.zeros(2), np.zeros(2))
-    K0, P0 = ch._energy_parts(chunk, chunk.q0, chunk.v0)
+    K0, P0 = ch.energy_parts(chunk, chunk.q0, chunk.v0)
     damping = np.zeros(2)
     damping[: fast.nv] = fast.damping
-    q, v, q_min, q_max, balance, diverged, wall = cuda_batch.closed_loop(
+    q, v, q_min, q_max, balance, diverged, wall = cuda_closed.closed_loop(
         fast.kind,
         name,
         fast.param_vector,
@@ -224,7 +229,7 @@ def _loop_rows(chunk: Chunk, job: ch.Job) -> list[dict[str, Any]]:
         dt=s.dt,
         steps=step_count(job.duration, s.dt),
     )
-    out = ch._rows(chunk, job, q, v, balance if upright is not None else None, wall)
+    out = ch.rows_of(chunk, job, q, v, balance if upright is not None else None, wall)
     for k in np.union1d(ch.stopped(robot, q_min, q_max), np.flatnonzero(diverged)):
-        out[k] = {**ch._one(chunk, job, int(k), "simulate"), "path": "simulate"}
+        out[k] = {**ch.one_run(chunk, job, int(k), "simulate"), "path": "simulate"}
     return out

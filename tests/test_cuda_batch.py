@@ -349,6 +349,32 @@ def test_bench_gpu_past_its_budget_names_the_sections_it_skipped(tmp_path):
     assert "panda" not in result and "chaos_map" not in result["kinds"]["pendubot"]
 
 
+def test_gpu_session_run_leaves_gpu_json_and_its_log_in_out(tmp_path):
+    """benchmarks/gpu_session.sh run: bench_gpu --run with the arguments given, gpu.json and the log copied into $OUT."""
+    root = SRC.parent
+    env = {**os.environ, "PYTHONPATH": str(SRC), "PYTHON": sys.executable}
+    folder, out = tmp_path / "gpu", tmp_path / "out"
+    out.mkdir()
+    prepared = subprocess.run(
+        [sys.executable, str(root / "benchmarks" / "bench_gpu.py"), "--prepare", str(folder)],
+        env=env,
+        capture_output=True,
+        text=True,
+    )
+    assert prepared.returncode == 0, prepared.stderr
+    ran = subprocess.run(
+        ["bash", str(root / "benchmarks" / "gpu_session.sh"), "run", str(folder), "--no-mjx", *TINY, "--budget", "0"],
+        env={**env, "NUMBA_ENABLE_CUDASIM": "1", "OUT": str(out)},
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert ran.returncode == 0, ran.stdout[-2000:] + ran.stderr[-2000:]
+    result = json.loads((out / "gpu.json").read_text())
+    assert result["run"]["steps"] == 20 and "pendubot chaos map" in result["skipped"][0]
+    assert "wrote" in (out / "bench_gpu.log").read_text()
+
+
 def test_cli_sweep_device_cuda_runs_in_process_into_parquet(tmp_path):
     """robodyn sweep --device cuda end to end in the simulator: no cluster, every chunk written, path cuda."""
     path = tmp_path / "s.toml"

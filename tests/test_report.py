@@ -195,3 +195,9 @@ def test_whole_report_changes_with_its_numbers():
     assert "DISAGREE: rk4/crba at dt 0.01 has error 3e-07" in bad
     assert "0 of 1 compared limits" in bad and "| DISAGREE (+45 %) |" in bad
     assert "## Stability" not in report.bench_report([_sweep(1.6e-7)], {}, None, quick=True, seconds=1)
+
+
+def test_the_report_states_the_machines_load_with_its_timings():
+    text = report.bench_report([_sweep(1.6e-7)], {}, None, quick=True, seconds=12, load=(2.41, 3.96, 2))
+    assert "Quick run, 12 s, on 2 CPUs at a 1-minute load average of 2.4 at the start and 4.0 at the end." in text
+    assert "Quick run, 12 s. " in report.bench_report([_sweep(1.6e-7)], {}, None, quick=True, seconds=12)

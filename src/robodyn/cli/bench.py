@@ -293,6 +293,14 @@ def _replay(args: argparse.Namespace, robot: Any, sweep: Any) -> int:
     return serve_playback(playback, open_browser=args.open, zmq_url=None, port=args.port)
 
 
+def _load() -> float:
+    """The 1-minute load average (NaN where the platform has none): the report states it with its timings."""
+    try:
+        return os.getloadavg()[0]
+    except OSError:  # pragma: no cover - platforms without a load average
+        return float("nan")
+
+
 def _bench(args: argparse.Namespace, robots: list[Any], out: Path, progress: ProgressBar) -> list[Any]:
     """Write the results of the sweeps, the stability study and the report into ``out``; return the sweeps.
 
@@ -305,7 +313,7 @@ def _bench(args: argparse.Namespace, robots: list[Any], out: Path, progress: Pro
     plan = bench.default_plan(quick=args.quick)
     sweeps: list[bench.Sweep] = []
     figures: dict[str, list[str]] = {}
-    started = time.perf_counter()
+    started, load_start = time.perf_counter(), _load()
     for robot in robots:
         progress.note(f"robodyn bench: work-precision sweep of {robot.name}")
         try:
@@ -323,7 +331,8 @@ def _bench(args: argparse.Namespace, robots: list[Any], out: Path, progress: Pro
     if not args.no_stability:
         progress.note("robodyn bench: stability study")
         findings = _stability(robots, out, quick=args.quick, progress=progress)
-    text = report.bench_report(sweeps, figures, findings, quick=args.quick, seconds=time.perf_counter() - started)
+    seconds, load = time.perf_counter() - started, (load_start, _load(), os.cpu_count() or 1)
+    text = report.bench_report(sweeps, figures, findings, quick=args.quick, seconds=seconds, load=load)
     write_text_atomically(out / REPORT, text)
     return sweeps
 

@@ -461,6 +461,15 @@ def stability_section(found: StabilityFindings, rtol: float = LIMIT_RTOL) -> lis
 
 
 # ------------------------------------------------------------------------------ the whole report
+def _load_phrase(load: tuple[float, float, int] | None) -> str:
+    """ ", on N CPUs at a 1-minute load average of A at the start and B at the end" ("" without a measurement)."""
+    if load is None or not all(math.isfinite(x) for x in load[:2]):
+        return ""
+    start, end, cpus = load
+    where = f"{cpus} CPU{'s' if cpus != 1 else ''}"
+    return f", on {where} at a 1-minute load average of {start:.1f} at the start and {end:.1f} at the end"
+
+
 def bench_report(
     sweeps: Sequence[bench.Sweep],
     figures: Mapping[str, Sequence[str]],
@@ -468,13 +477,18 @@ def bench_report(
     *,
     quick: bool,
     seconds: float,
+    load: tuple[float, float, int] | None = None,
 ) -> str:
-    """``report.md`` of ``robodyn bench``: every sweep's section, then the stability section."""
+    """``report.md`` of ``robodyn bench``: every sweep's section, then the stability section.
+
+    ``load`` is the 1-minute load average at the start and at the end, and the CPU count: the wall
+    times in the report hold for a machine that busy.
+    """
     rtols = sorted({s.plan.reference_rtol for s in sweeps})
     lines = [
         "# robodyn bench report",
         "",
-        f"{'Quick' if quick else 'Full'} run, {seconds:.0f} s. Error: relative state error "
+        f"{'Quick' if quick else 'Full'} run, {seconds:.0f} s{_load_phrase(load)}. Error: relative state error "
         "max |x - x_ref| / max |x_ref| over the error horizon against scipy DOP853 at rtol "
         f"{', '.join(f'{r:g}' for r in rtols) or '-'}; cost: wall time per simulated second; energy drift: "
         "max |E - E0 - W| / energy scale over the long horizon. Numbers: `bench.json`.",

@@ -56,10 +56,32 @@ def _simulated(code: str) -> dict:
     """Run ``code`` (which prints one JSON line last) in a subprocess under numba's CUDA simulator."""
     env = {**os.environ, "NUMBA_ENABLE_CUDASIM": "1", "PYTHONPATH": str(SRC)}
     run = subprocess.run(
-        [sys.executable, "-c", textwrap.dedent(code)], env=env, capture_output=True, text=True, timeout=300
+        [sys.executable, "-c", textwrap.dedent(code)], env=env, capture_output=True, text=True, timeout=600
     )
     assert run.returncode == 0, run.stderr[-3000:]
     return json.loads(run.stdout.strip().splitlines()[-1])
+
+
+def bench_gpu(folder: Path, *run_args: str, command: tuple[str, ...] = ()) -> subprocess.CompletedProcess:
+    """``bench_gpu.py --prepare folder`` here, then ``--run folder run_args`` in numba's CUDA simulator.
+
+    ``command`` replaces ``python bench_gpu.py --run folder`` (``benchmarks/gpu_session.sh run folder``).
+    """
+    script = SRC.parent / "benchmarks" / "bench_gpu.py"
+    env = {**os.environ, "PYTHONPATH": str(SRC), "PYTHON": sys.executable}
+    prepared = subprocess.run(
+        [sys.executable, str(script), "--prepare", str(folder)], env=env, capture_output=True, text=True
+    )
+    assert prepared.returncode == 0, prepared.stderr
+    ran = subprocess.run(
+        [*(command or (sys.executable, str(script), "--run", str(folder))), *run_args],
+        env={**env, "NUMBA_ENABLE_CUDASIM": "1"},
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert ran.returncode == 0, ran.stdout[-2000:] + ran.stderr[-2000:]
+    return ran
 
 
 def test_cuda_rollout_equals_cpu_rollout_for_every_built_in_kind():
@@ -237,11 +259,11 @@ try:
 except (ImportError, AttributeError):
     print("SKIP")
     raise SystemExit(0)
-from robodyn.sim import cuda_batch, cuda_closed, cuda_sweep
+from robodyn.sim import cuda_batch, cuda_closed, cuda_sweep, cuda_tree
 # no GPU: a compute capability for the device functions, and numba.cuda without is_available()
 dispatcher.get_current_device = lambda: pytypes.SimpleNamespace(compute_capability=(8, 0))
 cuda_batch.cuda_module = lambda: cuda
-for module in (cuda_batch, cuda_closed, cuda_sweep):
+for module in (cuda_batch, cuda_closed, cuda_sweep, cuda_tree):
     module.cuda = cuda
     # numba 0.68's own CUDA target cannot type min/max's *args overload (numba-cuda can): stand-ins here only
     module.min = cuda.jit(device=True)(lambda a, b: a if a < b else b)
@@ -265,6 +287,9 @@ for kind, law in (("pendubot", "lqr"), ("pendubot", "pendubot_energy"), ("cart_p
     kernels.append((f"closed {kind} {law}", cuda_closed.closed_kernel(kind, law),
                     (A(f8, 1), A(f8, 1), A(f8, 1), A(f8, 1), A(f8, 1), f8, A(f8, 2), A(f8, 2), A(f8, 1), f8, f8, i8,
                      A(f8, 2), A(f8, 2), A(f8, 2))))
+a2, a3 = A(f8, 2), A(f8, 3)  # the compiled tree's kernel (any robot): itree, ftree, grav, method, tab, ...
+kernels.append(("tree", cuda_tree.rollout_kernel(),
+                (A(i8, 2), a2, A(f8, 1), i8, a2, f8, i8, a2, a2, a2, a2, a3, a3, a3, i8)))
 for name, kernel, args in kernels:
     try:
         size = len(compile_cuda(kernel.py_func, types.void, args, cc=(8, 0)).library.get_llvm_str())
@@ -274,9 +299,9 @@ for name, kernel, args in kernels:
 """
 
 
-def test_every_closed_form_kernel_types_and_lowers_for_the_real_cuda_target():
-    """Every kernel of cuda_batch and cuda_sweep (each kind, float64 and float32, Benettin, the measures, the
-    closed loops) is typed by numba's real CUDA target and lowered to LLVM IR, with no GPU here.
+def test_every_kernel_types_and_lowers_for_the_real_cuda_target():
+    """Every CUDA kernel (each kind's, float64 and float32, Benettin's, the measures', the closed loops', the
+    compiled tree's) is typed by numba's real CUDA target and lowered to LLVM IR, with no GPU here.
 
     The simulator runs kernels as Python, so a construct CUDA cannot compile (an allocation, object mode,
     a type that does not unify) would pass it; this is what a GPU would compile, short of NVVM.
@@ -293,27 +318,14 @@ def test_every_closed_form_kernel_types_and_lowers_for_the_real_cuda_target():
     if run.stdout.split()[0] == "SKIP":
         pytest.skip("this numba has no numba.cuda.compiler.compile_cuda to type the kernels with")
     lines = run.stdout.strip().splitlines()
-    assert len(lines) == 6 * 3 + 4, lines
+    assert len(lines) == 6 * 3 + 4 + 1, lines
     failed = [line for line in lines if ": OK " not in line]
     assert not failed, failed
 
 
 def test_bench_gpu_prepares_here_and_runs_without_pinocchio(tmp_path):
     """benchmarks/bench_gpu.py: --prepare with robodyn, --run from the arrays alone (in the simulator, a tiny batch)."""
-    script = SRC.parent / "benchmarks" / "bench_gpu.py"
-    env = {**os.environ, "PYTHONPATH": str(SRC)}
-    prepared = subprocess.run(
-        [sys.executable, str(script), "--prepare", str(tmp_path)], env=env, capture_output=True, text=True
-    )
-    assert prepared.returncode == 0, prepared.stderr
-    ran = subprocess.run(
-        [sys.executable, str(script), "--run", str(tmp_path), "--no-mjx", *TINY],
-        env={**env, "NUMBA_ENABLE_CUDASIM": "1"},
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    assert ran.returncode == 0, ran.stderr
+    bench_gpu(tmp_path, "--no-mjx", *TINY)
     result = json.loads((tmp_path / "gpu.json").read_text())
     assert result["pinocchio_imported"] is False
     assert result["run"]["gpu"] == "numba CUDA simulator" and result["run"]["steps"] == 20
@@ -328,20 +340,7 @@ def test_bench_gpu_prepares_here_and_runs_without_pinocchio(tmp_path):
 
 def test_bench_gpu_past_its_budget_names_the_sections_it_skipped(tmp_path):
     """--budget 0: the first section runs, every later one is named in gpu.json's "skipped", and gpu.json is written."""
-    script = SRC.parent / "benchmarks" / "bench_gpu.py"
-    env = {**os.environ, "PYTHONPATH": str(SRC)}
-    prepared = subprocess.run(
-        [sys.executable, str(script), "--prepare", str(tmp_path)], env=env, capture_output=True, text=True
-    )
-    assert prepared.returncode == 0, prepared.stderr
-    ran = subprocess.run(
-        [sys.executable, str(script), "--run", str(tmp_path), "--no-mjx", *TINY, "--budget", "0"],
-        env={**env, "NUMBA_ENABLE_CUDASIM": "1"},
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    assert ran.returncode == 0, ran.stderr
+    bench_gpu(tmp_path, "--no-mjx", *TINY, "--budget", "0")
     result = json.loads((tmp_path / "gpu.json").read_text())
     assert [row["states"] for row in result["kinds"]["pendubot"]["batches"]] == [4]
     skipped = [line.split(":")[0] for line in result["skipped"]]
@@ -349,27 +348,13 @@ def test_bench_gpu_past_its_budget_names_the_sections_it_skipped(tmp_path):
     assert "panda" not in result and "chaos_map" not in result["kinds"]["pendubot"]
 
 
-def test_gpu_session_run_leaves_gpu_json_and_its_log_in_out(tmp_path):
+def test_gpu_session_run_leaves_gpu_json_and_its_log_in_out(tmp_path, monkeypatch):
     """benchmarks/gpu_session.sh run: bench_gpu --run with the arguments given, gpu.json and the log copied into $OUT."""
-    root = SRC.parent
-    env = {**os.environ, "PYTHONPATH": str(SRC), "PYTHON": sys.executable}
     folder, out = tmp_path / "gpu", tmp_path / "out"
     out.mkdir()
-    prepared = subprocess.run(
-        [sys.executable, str(root / "benchmarks" / "bench_gpu.py"), "--prepare", str(folder)],
-        env=env,
-        capture_output=True,
-        text=True,
-    )
-    assert prepared.returncode == 0, prepared.stderr
-    ran = subprocess.run(
-        ["bash", str(root / "benchmarks" / "gpu_session.sh"), "run", str(folder), "--no-mjx", *TINY, "--budget", "0"],
-        env={**env, "NUMBA_ENABLE_CUDASIM": "1", "OUT": str(out)},
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    assert ran.returncode == 0, ran.stdout[-2000:] + ran.stderr[-2000:]
+    session = ("bash", str(SRC.parent / "benchmarks" / "gpu_session.sh"), "run", str(folder))
+    monkeypatch.setenv("OUT", str(out))  # the device tool's folder that comes back
+    bench_gpu(folder, "--no-mjx", *TINY, "--budget", "0", command=session)
     result = json.loads((out / "gpu.json").read_text())
     assert result["run"]["steps"] == 20 and "pendubot chaos map" in result["skipped"][0]
     assert "wrote" in (out / "bench_gpu.log").read_text()

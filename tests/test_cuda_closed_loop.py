@@ -10,18 +10,13 @@ import json
 import os
 import subprocess
 import sys
-import textwrap
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from robodyn.cli import main
+from tests.test_cuda_batch import CUDA_VS_CPU_ATOL, SRC, _simulated, bench_gpu
 
-SRC = Path(__file__).resolve().parents[1] / "src"
-# In the simulator the kernel's float64 operations are the CPU closed loop's, in the same order: they
-# agree to the bit; 1e-12 is the issue's bound for a real GPU (whose fused multiply-adds round differently).
-CUDA_VS_CPU_ATOL = 1e-12
 UP = np.pi / 2
 # Starts near the upright (some balance within the run, one after leaving the band) and hanging ones
 # (the swing-up's energy law): 6 to 8 runs of 0.4 s.
@@ -29,16 +24,6 @@ STARTS = {
     "pendubot": {"joint1": [UP - 0.06, UP - 0.04, -UP], "joint2": [0.06, 0.1]},
     "cart_pole": {"slider": [0.0, 0.3], "hinge": [0.08, -0.2, 0.5, np.pi]},
 }
-
-
-def _simulated(code: str) -> dict:
-    """Run ``code`` (which prints one JSON line last) in a subprocess under numba's CUDA simulator."""
-    env = {**os.environ, "NUMBA_ENABLE_CUDASIM": "1", "PYTHONPATH": str(SRC)}
-    run = subprocess.run(
-        [sys.executable, "-c", textwrap.dedent(code)], env=env, capture_output=True, text=True, timeout=600
-    )
-    assert run.returncode == 0, run.stderr[-3000:]
-    return json.loads(run.stdout.strip().splitlines()[-1])
 
 
 def _gpu_and_cpu(spec: dict) -> dict:
@@ -150,19 +135,8 @@ def test_sweep_device_cuda_refuses_a_controller_file_before_any_work(tmp_path, c
 
 def test_bench_gpu_basin_map_runs_from_the_arrays_alone(tmp_path):
     """benchmarks/bench_gpu.py's swing-up basin map: --prepare packs the controller, --run needs no Pinocchio."""
-    script = SRC.parent / "benchmarks" / "bench_gpu.py"
-    env = {**os.environ, "PYTHONPATH": str(SRC)}
-    prepared = subprocess.run([sys.executable, str(script), "--prepare", str(tmp_path)], env=env, capture_output=True)
-    assert prepared.returncode == 0, prepared.stderr
     tiny = ["--states", "3", "--steps", "2", "--chaos-seconds", "0.01", "--basin-seconds", "0.2", "--no-mjx"]
-    ran = subprocess.run(
-        [sys.executable, str(script), "--run", str(tmp_path), *tiny],
-        env={**env, "NUMBA_ENABLE_CUDASIM": "1"},
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
-    assert ran.returncode == 0, ran.stderr
+    bench_gpu(tmp_path, *tiny)
     result = json.loads((tmp_path / "gpu.json").read_text())
     assert result["pinocchio_imported"] is False
     for kind, law in (("pendubot", "pendubot_energy"), ("cart_pole", "cart_pole_energy")):

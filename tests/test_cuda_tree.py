@@ -42,48 +42,6 @@ def test_no_rebuilt_kernel_still_calls_a_cpu_kernel():
     assert called == set(made) - {"step"}
 
 
-def test_the_kernel_types_and_lowers_for_the_real_cuda_target():
-    """numba's CUDA target (not the simulator) types the whole kernel and lowers it to LLVM IR: no GPU needed.
-
-    The simulator runs the kernels as Python, so a construct CUDA cannot compile (an allocation, object
-    mode) would pass there; this check types what a GPU would compile. It stops before NVVM (absent here).
-    """
-    code = textwrap.dedent(
-        """
-        import types as pytypes, warnings
-        warnings.simplefilter("ignore")
-        from numba import cuda, types
-        try:
-            from numba.cuda import compiler, dispatcher
-            compile_cuda = compiler.compile_cuda
-        except (ImportError, AttributeError):
-            print("SKIP")
-            raise SystemExit(0)
-        from robodyn.sim import cuda_batch, cuda_tree
-        # no GPU: a compute capability for the device functions, and numba.cuda without is_available()
-        dispatcher.get_current_device = lambda: pytypes.SimpleNamespace(compute_capability=(8, 0))
-        cuda_batch.cuda_module = lambda: cuda
-        # numba 0.68's own CUDA target cannot type min/max's *args overload (numba-cuda can: the built-in
-        # kinds' kernel uses them on the GPU): two-argument stand-ins for this check only
-        cuda_tree.min = cuda.jit(device=True)(lambda a, b: a if a < b else b)
-        cuda_tree.max = cuda.jit(device=True)(lambda a, b: a if a > b else b)
-        a2, a3 = types.Array(types.float64, 2, "C"), types.Array(types.float64, 3, "C")
-        args = (types.Array(types.int64, 2, "C"), a2, types.Array(types.float64, 1, "C"), types.int64, a2,
-                types.float64, types.int64, a2, a2, a2, a2, a3, a3, a3, types.int64)
-        result = compile_cuda(cuda_tree.rollout_kernel().py_func, types.void, args, cc=(8, 0))
-        print("OK", len(result.library.get_llvm_str()))
-        """
-    )
-    env = {k: v for k, v in os.environ.items() if k != "NUMBA_ENABLE_CUDASIM"}
-    run = subprocess.run(
-        [sys.executable, "-c", code], env={**env, "PYTHONPATH": str(SRC)}, capture_output=True, text=True, timeout=300
-    )
-    assert run.returncode == 0, run.stderr[-3000:]
-    if run.stdout.split()[0] == "SKIP":
-        pytest.skip("this numba has no numba.cuda.compiler.compile_cuda to type the kernel with")
-    assert run.stdout.split()[0] == "OK" and int(run.stdout.split()[1]) > 0
-
-
 def _compare(robot_code: str, integrator: str, states: int, steps: int) -> dict:
     return _simulated(
         f"""

@@ -462,7 +462,7 @@ def stability_section(found: StabilityFindings, rtol: float = LIMIT_RTOL) -> lis
 
 # ------------------------------------------------------------------------------ the whole report
 def _load_phrase(load: tuple[float, float, int] | None) -> str:
-    """ ", on N CPUs at a 1-minute load average of A at the start and B at the end" ("" without a measurement)."""
+    """The phrase after the run's seconds: its CPUs and load average at the start and the end ("" without them)."""
     if load is None or not all(math.isfinite(x) for x in load[:2]):
         return ""
     start, end, cpus = load

@@ -23,24 +23,14 @@ from robodyn.sim.fast import FastDynamics
 from robodyn.sweep import chunk as chunk_module
 from robodyn.sweep import measures as ms
 from robodyn.sweep.policy import batch_policy
+from tests.test_sweep_policy import UP, states
 
 # The controller's own __call__ takes M, C v, G from Pinocchio's CRBA/RNEA, the law from the closed
 # form: round-off, a few ulps of the largest torque (2 N m, 20 N) (as tests/test_sweep_policy.py).
 POLICY_ATOL = 1e-12
 # The scalar (numba) and the NumPy forms run the same body, operation for operation: to the bit.
 SAME_BITS = 0.0
-UP = np.pi / 2
 CONTROLLERS = [(kind, name) for kind in ("pendubot", "cart_pole") for name in ("lqr", "swing_up")]
-
-
-def states(kind: str, n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """n seeded states, the first quarter near the upright (the LQR's region), the rest anywhere."""
-    up = np.array([UP, 0.0]) if kind == "pendubot" else np.zeros(2)
-    q = rng.uniform(-3.0, 3.0, (n, 2))
-    v = rng.uniform(-3.0, 3.0, (n, 2))
-    q[: n // 4] = up + rng.normal(0.0, 0.02, (n // 4, 2))
-    v[: n // 4] = rng.normal(0.0, 0.05, (n // 4, 2))
-    return q, v
 
 
 @pytest.mark.parametrize(("kind", "name"), CONTROLLERS)

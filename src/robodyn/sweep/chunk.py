@@ -48,19 +48,18 @@ from robodyn.sweep import cuda_chunk
 from robodyn.sweep import measures as ms
 from robodyn.sweep.plan import Chunk
 from robodyn.sweep.runs import (  # Job and the model's helpers are also reached from here
-    CUDA_MEASURES,
-    LYAPUNOV_D0,
     Array,
     Job,
     columns_of,
     controller_of,
-    energies,
     energy_bounds,
     energy_parts,
     fast_of,
     one_run,
+    past_bound,
     plain,
     policy_of,
+    redone,
     robot_of,
     rows_of,
     stopped,
@@ -69,8 +68,6 @@ from robodyn.sweep.runs import (  # Job and the model's helpers are also reached
 )
 
 __all__ = [
-    "CUDA_MEASURES",
-    "LYAPUNOV_D0",
     "Job",
     "controller_of",
     "energy_bounds",
@@ -137,13 +134,7 @@ def _batch(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
         robot_of(chunk.model), chunk.q0, chunk.v0, duration=job.duration, dt=s.dt, integrator=s.integrator, threads=1
     )
     rows = rows_of(chunk, job, result.q, result.v, None, result.wall_time_s)
-    robot = robot_of(chunk.model)
-    K0, P0 = energy_parts(chunk, chunk.q0, chunk.v0)
-    with np.errstate(all="ignore"):  # torque-free and lossless: W = 0, E(T) - E0 is the error (its last sample)
-        over = ~(np.abs(energies(chunk, result.q, result.v) - (K0 + P0)) <= energy_bounds(robot, K0, P0))
-    for k in np.flatnonzero(over):
-        rows[k] = {**one_run(chunk, job, int(k), "simulate"), "path": "simulate"}
-    return rows
+    return redone(chunk, job, rows, np.flatnonzero(past_bound(chunk, result.q, result.v)))
 
 
 def _closed_loop(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
@@ -205,7 +196,4 @@ def _closed_loop(chunk: Chunk, job: Job) -> list[dict[str, Any]]:
     wall = time.perf_counter() - start
     balance = np.where(last_out == steps, np.nan, (last_out + 1) * dt) if upright is not None else None
     rows = rows_of(chunk, job, Q, V, balance, wall)
-    again = np.union1d(stopped(robot, q_min, q_max), np.flatnonzero(diverged))
-    for k in again:  # a stop changes the motion, a divergence ends it: simulate applies either
-        rows[k] = {**one_run(chunk, job, int(k), "simulate"), "path": "simulate"}
-    return rows
+    return redone(chunk, job, rows, np.union1d(stopped(robot, q_min, q_max), np.flatnonzero(diverged)))

@@ -96,12 +96,8 @@ def _tree_rows(chunk: Chunk, job: ch.Job) -> list[dict[str, Any]]:
         robot, chunk.q0, chunk.v0, dt=s.dt, steps=steps, integrator=s.integrator
     )
     rows = ch.rows_of(chunk, job, q, v, None, wall)
-    K0, P0 = ch.energy_parts(chunk, chunk.q0, chunk.v0)
-    with np.errstate(all="ignore"):  # torque-free and lossless: W = 0, E(T) - E0 is the error (its last sample)
-        over = ~(np.abs(ch.energies(chunk, q, v) - (K0 + P0)) <= ch.energy_bounds(robot, K0, P0))
-    for k in np.union1d(ch.stopped(robot, q_min, q_max), np.flatnonzero(over)):
-        rows[k] = {**ch.one_run(chunk, job, int(k), "simulate"), "path": "simulate"}
-    return rows
+    again = np.union1d(ch.stopped(robot, q_min, q_max), np.flatnonzero(ch.past_bound(chunk, q, v)))
+    return ch.redone(chunk, job, rows, again)
 
 
 def on_arrays(chunk: Chunk, job: ch.Job) -> bool:
@@ -230,6 +226,4 @@ def _loop_rows(chunk: Chunk, job: ch.Job) -> list[dict[str, Any]]:
         steps=step_count(job.duration, s.dt),
     )
     out = ch.rows_of(chunk, job, q, v, balance if upright is not None else None, wall)
-    for k in np.union1d(ch.stopped(robot, q_min, q_max), np.flatnonzero(diverged)):
-        out[k] = {**ch.one_run(chunk, job, int(k), "simulate"), "path": "simulate"}
-    return out
+    return ch.redone(chunk, job, out, np.union1d(ch.stopped(robot, q_min, q_max), np.flatnonzero(diverged)))

@@ -268,6 +268,27 @@ def energy_parts(chunk: Chunk, Q: Array, V: Array) -> tuple[Array, Array]:
     return kinetic, potential
 
 
+def past_bound(chunk: Chunk, Q: Array, V: Array) -> NDArray[np.bool_]:
+    """Runs whose final energy error |E(T) - E0| passes simulate's bound (torque-free and lossless: W = 0).
+
+    Paths that keep final states only test the last sample; NaN (a blown-up state) counts as past.
+    """
+    robot = robot_of(chunk.model)
+    K0, P0 = energy_parts(chunk, chunk.q0, chunk.v0)
+    with np.errstate(all="ignore"):
+        return ~(np.abs(energies(chunk, Q, V) - (K0 + P0)) <= energy_bounds(robot, K0, P0))
+
+
+Rows = list[dict[str, Any]]
+
+
+def redone(chunk: Chunk, job: Job, rows: Rows, runs: NDArray[np.intp]) -> Rows:
+    """``rows``, each of ``runs`` computed again by ``simulate`` (a stop changes the motion, a divergence ends it)."""
+    for k in runs:
+        rows[k] = {**one_run(chunk, job, int(k), "simulate"), "path": "simulate"}
+    return rows
+
+
 def rows_of(chunk: Chunk, job: Job, Q: Array, V: Array, balance: Array | None, wall: float) -> list[dict[str, Any]]:
     """Per-run measures of a vectorised chunk from its final states."""
     E0, E1 = energies(chunk, chunk.q0, chunk.v0), energies(chunk, Q, V)

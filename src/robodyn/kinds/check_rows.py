@@ -249,10 +249,13 @@ def with_mismatches(
     errors = np.abs(vals - refs)  # (k, *shape)
     scale = row.max_abs_error / row.max_rel_error if row.max_rel_error > 0 else 1.0
     per_entry = errors.max(axis=0)
+    # A symmetric quantity (M) lists one entry of each pair: the pair's errors agree to round-off (a formula that
+    # computes M[1,0] another way than M[0,1] differs from it by a few eps); a formula's M that is asymmetric by
+    # more lists both.
     symmetric = (
         per_entry.ndim == 2
         and per_entry.shape[0] == per_entry.shape[1]
-        and np.array_equal(errors, errors.transpose(0, 2, 1))
+        and float(np.max(np.abs(errors - errors.transpose(0, 2, 1)))) <= _roundoff(row, refs, vals)
     )
     found = []
     out_of_tolerance = (per_entry / scale > row.tolerance) & (per_entry > row.floor)  # not round-off either
@@ -274,6 +277,11 @@ def with_mismatches(
         )
     found.sort(key=lambda m: -m.max_abs_error)
     return replace(row, mismatches=tuple(found))
+
+
+def _roundoff(row: CheckRow, refs: Array, vals: Array) -> float:
+    """The round-off of ``row``'s quantity: its floor, or ROUNDOFF eps times the largest magnitude compared."""
+    return max(row.floor, ROUNDOFF * EPS * float(max(np.max(np.abs(refs)), np.max(np.abs(vals)))))
 
 
 def formula_points(formula: Formula, samples: list[Any], q_anchor: Array, nv: int) -> Points:

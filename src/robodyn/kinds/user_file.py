@@ -119,11 +119,16 @@ def load_in_process(path: Path, source: str) -> Formula:
         raise FormulaError(f"{source}: define KIND as one of {kinds} (found {kind!r}){closed}")
     if kind not in KINDS and kind not in (CONSTRAINED, ANY):
         raise FormulaError(f"{source}: KIND = {kind!r} is not a known kind; expected one of {kinds}{closed}")
-    missing = [f for f in ("mass_matrix", "gravity") if not callable(getattr(module, f, None))]
-    if missing or not defines_coriolis(module):
-        names = ", ".join([*missing, *(() if defines_coriolis(module) else ("coriolis_matrix or coriolis_vector",))])
+    present = {
+        "mass_matrix": callable(getattr(module, "mass_matrix", None)),
+        "coriolis_matrix or coriolis_vector": defines_coriolis(module),
+        "gravity": callable(getattr(module, "gravity", None)),
+    }
+    missing = [f for f, there in present.items() if not there]
+    if missing:
         raise FormulaError(
-            f"{source}: missing function(s) {names}; define mass_matrix(q, p), gravity(q, p), and {BOTH_OPTIONS}"
+            f"{source}: missing function(s) {', '.join(missing)}; define mass_matrix(q, p), gravity(q, p), and "
+            f"{BOTH_OPTIONS}"
         )
     if kind == CONSTRAINED:
         return _constrained(module, source, path)

@@ -159,9 +159,7 @@ def test_a_file_in_the_textbooks_names_passes_with_a_one_line_note(tmp_path, cap
     code = main(["check", model_arg, "--formula", str(path), *SAMPLES])
     captured = capsys.readouterr()
     assert code == 0, captured.out + captured.err
-    assert captured.err.strip() == (
-        f"note: {kind}.py uses the textbook's M for {meaning} (robodyn calls it {new})"
-    )
+    assert captured.err.strip() == (f"note: {kind}.py uses the textbook's M for {meaning} (robodyn calls it {new})")
     parameters = next(line for line in captured.out.splitlines() if line.startswith("parameters"))
     assert f"{new} = " in parameters and " M = " not in parameters  # robodyn's own output: M is the mass matrix
 

@@ -4,10 +4,10 @@ The file defines ``KIND`` (one of the built-in kinds) and the functions ``mass_m
 ``coriolis_matrix(q, v, p)`` (or ``coriolis_vector(q, v, p)``: C v alone, :mod:`robodyn.kinds.user_coriolis`),
 ``gravity(q, p)``, optionally ``potential_energy(q, p)``, where ``p`` maps the kind's parameter names
 to floats; it also answers the names the kind's parameters had before (the textbook's ``M`` for the
-cart's mass, :data:`robodyn.kinds.units.RENAMED`), and :func:`renamed_notes` says which a file used. ``KIND = "constrained"`` is a closed chain's reduced
-Lagrangian, which also defines ``INDEPENDENT``, ``parameters(scene)`` and ``on_the_loop(q, v, p)``
-(:mod:`robodyn.kinds.reduced`). Every returned value is shape-checked and must be
-finite; an error, an exception or a ``sys.exit`` names the user's file and line.
+cart's mass, :data:`robodyn.kinds.units.RENAMED`), and :func:`renamed_notes` says which a file used.
+``KIND = "constrained"`` is a closed chain's reduced Lagrangian, which also defines ``INDEPENDENT``,
+``parameters(scene)`` and ``on_the_loop(q, v, p)`` (:mod:`robodyn.kinds.reduced`). Every returned value is
+shape-checked and must be finite; an error, an exception or a ``sys.exit`` names the user's file and line.
 
 This module imports and runs the user's code in the current process, so robodyn calls it only
 in the formula's own process (:mod:`robodyn.kinds.sandbox`); :func:`robodyn.kinds.user.load_user_formula`
@@ -138,7 +138,7 @@ def load_in_process(path: Path, source: str) -> Formula:
     n = builtin.dof
     read: set[str] = set()
 
-    def checked(fn: Callable[..., object], name: str, shape: tuple[int, ...], src: str, at: Path) -> Callable[..., Array]:
+    def checked(fn: Callable[..., object], name: str, shape: tuple[int, ...], src: str, at: Path) -> Callable:
         return _with_old_names(_shape_checked(fn, name, shape, src, at), kind, read)
 
     M = checked(module.mass_matrix, "mass_matrix", (n, n), source, path)

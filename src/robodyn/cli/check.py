@@ -138,8 +138,10 @@ def _check_all(args: argparse.Namespace, given: dict[str, Any] | None, process: 
             if len(robots) > 1:
                 print(f"{'=' * 30} {robot.name} {'=' * 30}")
             print(format_report(report, robot))
-    for note in dict.fromkeys(note for r in reports for note in r.renamed):  # p["M"]: the file's earlier names
-        print(f"note: {note}", file=sys.stderr)
+    renamed = dict.fromkeys(note for r in reports for note in r.renamed)  # p["M"]: the file's earlier names
+    if renamed:
+        sys.stdout.flush()  # the note comes after the report, as the terminal shows them
+        print("\n".join(f"note: {note}" for note in renamed), file=sys.stderr)
     if args.json:
         print_json(reports[0].as_dict() if len(reports) == 1 else [r.as_dict() for r in reports])
     elif len(reports) > 1:

@@ -200,3 +200,19 @@ def test_an_m_asymmetric_by_round_off_lists_one_entry_of_the_pair():
     row = check(load("pendubot"), wrong, samples=20, seed=0).row("M")
     assert row.status == "FAIL"
     assert [m.entry for m in row.mismatches] == [(0, 1)]
+
+
+def test_a_kind_any_file_may_give_c_v_alone(tmp_path, capsys):
+    text = (ROOT / "examples/formulas/double_pendulum.py").read_text()
+    christoffel = "    return np.array([[h * v[1], h * (v[0] + v[1])], [-h * v[0], 0.0]])\n"
+    assert christoffel in text
+    path = tmp_path / "any_cv.py"
+    path.write_text(
+        text.replace("def coriolis_matrix(q, v, p):", "def coriolis_vector(q, v, p):").replace(
+            christoffel, "    return np.array([h * (2 * v[0] * v[1] + v[1] ** 2), -h * v[0] ** 2])\n"
+        )
+    )
+    code = main(["check", str(ROOT / "examples/urdf/double_pendulum.urdf"), "--formula", str(path), *SAMPLES])
+    out = capsys.readouterr().out
+    assert code == 0, out
+    assert "gives C v (coriolis_vector), not C" in out and "PASS: everything agrees" in out

@@ -86,7 +86,7 @@ def add_parser(sub: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Check each model, print a table (or JSON) per model; exit 1 if any mismatches."""
+    """Check each model, print a table (or JSON) per model; exit 1 if any FAILs (:func:`exit_code`)."""
     from robodyn.kinds.sandbox import FormulaProcess
     from robodyn.kinds.user import looks_like_file
 

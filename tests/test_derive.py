@@ -343,17 +343,37 @@ def test_real_subprocess():
     assert "M[0,0] = I1 + Ja1 + lc1**2*m1" in done.stdout
 
 
-def test_cli_time_limit_covers_writing_out(monkeypatch, capsys):
+def test_cli_time_limit_cuts_off_the_stage_that_runs_past_it(monkeypatch, capsys):
+    """A stage that would run on (sympy writing it out, here a loop of 20 s) is cut off at the limit, and named."""
     import time
 
     from robodyn.lagrange import symbolic as module
 
-    real = module.symbolic
+    finished = []
 
-    def slow(derivation):
-        time.sleep(1.0)
-        return real(derivation)
+    def endless(derivation):
+        until = time.monotonic() + 20.0
+        while time.monotonic() < until:  # pure Python, as sympy's simplification is
+            pass
+        finished.append(True)
 
-    monkeypatch.setattr(module, "symbolic", slow)
-    assert main(["derive", "pendubot", "--time-limit", "0.5"]) == 2
-    assert "took longer than its limit of 0.5 s (at writing it out with sympy)" in capsys.readouterr().err
+    monkeypatch.setattr(module, "symbolic", endless)
+    assert main(["derive", "pendubot", "--time-limit", "3"]) == 2
+    err = capsys.readouterr().err
+    assert "took longer than its limit of 3 s (at writing it out with sympy: cut off after " in err
+    assert finished == []  # the stage was interrupted, not waited for
+
+
+def test_cli_no_physics_check_is_the_way_past_the_inertia_refusal(tmp_path, capsys):
+    """The refusal's advice works: derive takes --no-physics-check, as check and simulate do."""
+    urdf = tmp_path / "impossible.urdf"
+    text = (ROOT / "models/pendubot.urdf").read_text()
+    assert 'ixx="4.0e-4" iyy="6.19e-3" izz="6.0e-3"' in text
+    urdf.write_text(text.replace('ixx="4.0e-4" iyy="6.19e-3"', 'ixx="1.0e-4" iyy="6.19e-3"'))  # 1e-4 + 6e-3 < 6.19e-3
+    assert main(["derive", str(urdf)]) == 2
+    err = capsys.readouterr().err
+    assert "break the triangle inequality" in err and "--no-physics-check" in err
+    assert main(["derive", str(urdf), "--no-physics-check"]) == 0
+    captured = capsys.readouterr()
+    assert "self-check: M, C, C v and G agree with Pinocchio" in captured.out
+    assert captured.err.count("\n") == 1 and "warning: --no-physics-check: pendubot is loaded" in captured.err

@@ -344,3 +344,13 @@ def test_an_exactness_proof_that_blows_up_says_so_exit_3(tmp_path, capsys):
     assert main(["run", str(path), "--no-view", "--out", str(tmp_path / "out")]) == 3
     err = capsys.readouterr().err.strip()
     assert "the exactness proof's run diverged by t = " in err and "\n" not in err, err
+
+
+def test_run_passes_a_right_c_v_in_a_non_christoffel_c_as_check_does(tmp_path, capsys):
+    """A scene's [check] gives the verdicts of robodyn check: the equations of motion agree, so exit 0."""
+    grouped = EXAMPLES / "formulas" / "pendubot_grouped_c.py"
+    (tmp_path / "f.py").write_text(grouped.read_text(encoding="utf-8"), encoding="utf-8")
+    path = write(tmp_path, "[model]\nname = 'pendubot'\n[check]\nformula = 'f.py'\nsamples = 3\n")
+    assert main(["run", str(path), "--no-view", "--out", str(tmp_path / "out")]) == 0
+    out = capsys.readouterr().out
+    assert "check: passed (equations of motion; C is not Christoffel's)" in out and "MISMATCH C[0,0]" in out

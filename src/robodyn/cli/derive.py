@@ -9,11 +9,22 @@ written atomically (a Ctrl-C leaves no half-written file; exit 130).
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
+import threading
 import time
 from typing import Any
 
-from robodyn.cli._common import file_path, model_argument, positive_float, positive_int, seed_number
+from robodyn.cli._common import (
+    add_physics_argument,
+    file_path,
+    model_argument,
+    physics_checked,
+    positive_float,
+    positive_int,
+    seed_number,
+    warn_unchecked,
+)
 from robodyn.errors import EXIT_MISMATCH, EXIT_OK
 
 FORMATS = ("text", "latex", "python")
@@ -48,6 +59,7 @@ def add_parser(sub: Any) -> None:
         "pose) and COORDINATES ({joint: (sign, offset)}: q = sign * q_urdf + offset) set the coordinates; the file "
         "is parsed, not run",
     )
+    add_physics_argument(p)
     p.add_argument("--format", choices=FORMATS, default="text", help="text (default), latex, or python: a formula file")
     p.add_argument(
         "--out", type=file_path, metavar="FILE", help="write the output to FILE (atomically) instead of stdout"
@@ -85,29 +97,46 @@ def _time_limit(text: str) -> float:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Derive, check against Pinocchio, print or write; exit 1 on a disagreement."""
-    from robodyn import __version__
-    from robodyn.cli._output import refuse_clobbering, writable_path
-    from robodyn.lagrange import render
-    from robodyn.lagrange.selfcheck import self_check
-    from robodyn.lagrange.symbolic import symbolic, sympy
-
-    started = time.monotonic()
-    sympy()  # a missing sympy is said before any work (exit 4)
+    """Derive, check against Pinocchio, print or write; exit 1 on a disagreement; exit 2 past ``--time-limit``."""
     if args.steps and args.format != "text":
         from robodyn.errors import InputError
 
         raise InputError(f"--steps shows the derivation as text; it does not go with --format {args.format}")
+    deadline = _Deadline(args.time_limit)
+    try:
+        try:
+            deadline.arm()
+            return _run(args, deadline)
+        finally:
+            deadline.disarm()
+    except _OutOfTime:  # the alarm, wherever it came (the timer is one-shot: it cannot come twice)
+        deadline.disarm()
+        raise deadline.error() from None
+
+
+def _run(args: argparse.Namespace, deadline: _Deadline) -> int:
+    from robodyn import __version__
+    from robodyn.cli._output import refuse_clobbering, writable_path
+
+    deadline.stage("importing sympy")
+    from robodyn.lagrange import render
+    from robodyn.lagrange.selfcheck import self_check
+    from robodyn.lagrange.symbolic import symbolic, sympy
+
+    started = deadline.start
+    sympy()  # a missing sympy is said before any work (exit 4)
     if args.out is not None:
         refuse_clobbering([("--out", args.out)], [("the coordinates file", args.coordinates)])
         writable_path(args.out)
+    deadline.stage("loading the model")
     robot, table, coordinates, locked = _model(args)
     if args.out is not None:
         refuse_clobbering([("--out", args.out)], [("the model's URDF", robot.urdf_path), ("its SRDF", robot.srdf_path)])
     from robodyn.lagrange.derivation import derive
 
-    begun = time.monotonic()  # the time limit covers the derivation, its writing out and its self-check
-    derivation = derive(table, coordinates, time_limit=args.time_limit)
+    deadline.stage("the derivation")
+    derivation = derive(table, coordinates, time_limit=max(deadline.left(), 1e-9))
+    deadline.stage("writing it out with sympy")
     expressions = symbolic(derivation)
     source, formula = None, None
     if args.format == "python":  # the file is checked itself, and printed once
@@ -121,11 +150,11 @@ def run(args: argparse.Namespace) -> int:
         )
         formula = {"table": table}
         exec(compile(source, "<robodyn derive --format python>", "exec"), formula)  # our own output, not a user's
-    _within(args.time_limit, begun, "writing it out with sympy")
+    deadline.stage("the self-check")
     check = self_check(
         expressions, robot, samples=args.samples, seed=args.seed, formula=formula, text=args.format == "text"
     )
-    _within(args.time_limit, begun, "the self-check")
+    deadline.finish()  # what is left (printing, writing --out) is not cut off
     elapsed = time.monotonic() - started
     if not check.passed:
         for d in check.failures():
@@ -169,7 +198,9 @@ def _model(args: argparse.Namespace) -> tuple[Any, Any, Any, dict[str, float]]:
     from robodyn.model.load import load
 
     joints, maps, locked = read_coordinates(args.coordinates) if args.coordinates is not None else (None, {}, {})
-    robot = load(args.model, srdf=args.srdf)
+    robot = load(args.model, srdf=args.srdf, check_physics=physics_checked(args))
+    if not physics_checked(args):
+        warn_unchecked(robot, command="derive")
     if joints is None and len(robot.joints) > MAX_JOINTS:
         raise InputError(
             f"{robot.name} has {len(robot.joints)} moving joints; robodyn derive takes at most {MAX_JOINTS}: name at "
@@ -196,14 +227,63 @@ def _model(args: argparse.Namespace) -> tuple[Any, Any, Any, dict[str, float]]:
     return robot, table, coordinates, locked
 
 
-def _within(limit: float, started: float, stage: str) -> None:
-    """Stop (exit 2) once ``limit`` seconds have passed since ``started``, naming the stage that ran past it."""
-    from robodyn.errors import InputError
+class _OutOfTime(BaseException):
+    """Raised by SIGALRM at the time limit; a BaseException, so that sympy's ``except Exception`` lets it by."""
 
-    if time.monotonic() - started > limit:
-        raise InputError(
-            f"the derivation took longer than its limit of {limit:g} s (at {stage}); "
-            "lock joints with --coordinates or raise --time-limit"
+
+class _Deadline:
+    """``--time-limit`` over the whole command: its stages named, the running one cut off at the limit.
+
+    Where SIGALRM exists (POSIX, the main thread) an alarm interrupts whatever runs at the limit (sympy's
+    simplification and code generation are pure Python, so they stop within a bytecode); each new stage
+    also checks the clock, which is all a platform without the alarm gets. Either way the command ends
+    with one line naming the stage that was cut off (exit 2).
+    """
+
+    def __init__(self, limit: float) -> None:
+        self.limit, self.start, self.running = limit, time.monotonic(), "the start"
+        self.previous: Any = None
+        self.armed = False
+
+    def arm(self) -> None:
+        """Start the alarm (where SIGALRM exists, in the main thread)."""
+        if hasattr(signal, "setitimer") and threading.current_thread() is threading.main_thread():
+            self.previous = signal.signal(signal.SIGALRM, self._alarm)
+            self.armed = True
+            signal.setitimer(signal.ITIMER_REAL, max(self.left(), 1e-6))
+
+    def disarm(self) -> None:
+        """Stop the alarm and give SIGALRM back its handler (again: nothing)."""
+        if self.armed:
+            signal.setitimer(signal.ITIMER_REAL, 0)
+            signal.signal(signal.SIGALRM, self.previous)
+            self.armed = False
+
+    def _alarm(self, signum: int, frame: Any) -> None:
+        raise _OutOfTime
+
+    def left(self) -> float:
+        """Seconds left [s]."""
+        return self.limit - (time.monotonic() - self.start)
+
+    def stage(self, name: str) -> None:
+        """``name`` starts now; past the limit already, the command stops here (exit 2)."""
+        if self.left() < 0:
+            raise self.error()
+        self.running = name
+
+    def finish(self) -> None:
+        """The limited work is done: stop the alarm (past the limit already, stop here)."""
+        self.stage("the end")
+        self.disarm()
+
+    def error(self) -> Exception:
+        """The one line: the limit, the stage cut off, when."""
+        from robodyn.errors import InputError
+
+        return InputError(
+            f"the derivation took longer than its limit of {self.limit:g} s (at {self.running}: cut off after "
+            f"{time.monotonic() - self.start:.1f} s); lock joints with --coordinates or raise --time-limit"
         )
 
 

@@ -11,7 +11,8 @@ The file defines
   (default: the neutral pose, 0);
 * ``PARAMETERS = {name: number}`` or ``def parameters(robot) -> {name: number}``, where ``robot`` is
   robodyn's per-link table of the model the formula describes (:class:`robodyn.model.links.LinkTable`);
-* ``mass_matrix(q, p)`` (n, n) [kg m^2 | kg], ``coriolis_matrix(q, v, p)`` (n, n) and
+* ``mass_matrix(q, p)`` (n, n) [kg m^2 | kg], ``coriolis_matrix(q, v, p)`` (n, n) (or
+  ``coriolis_vector(q, v, p)`` (n,): C v alone, :mod:`robodyn.kinds.user_coriolis`) and
   ``gravity(q, p)`` (n,) [N m | N], and optionally ``potential_energy(q, p)`` [J], with n = len(JOINTS),
   ``q`` and ``v`` (n,) in the formula's coordinates and ``p`` the parameters.
 
@@ -34,6 +35,7 @@ import numpy as np
 from robodyn.errors import FormulaError
 from robodyn.kinds.formula import Formula
 from robodyn.kinds.reduced import call_user, checked_parameters, independent_names
+from robodyn.kinds.user_coriolis import coriolis_function
 
 KIND = "any"
 MAX_JOINTS = 64  # the most joints a file may name (as a constrained file's INDEPENDENT)
@@ -74,15 +76,17 @@ def load_any(module: ModuleType, source: str, path: Path, wrap: Callable[..., An
         )
     n = len(joints)
     V = getattr(module, "potential_energy", None)
+    C, form = coriolis_function(module, n, source, path, wrap)
     return AnyFormula(
         KIND,
         source,
         tuple(fixed) if fixed is not None else (),
         wrap(module.mass_matrix, "mass_matrix", (n, n), source, path),
-        wrap(module.coriolis_matrix, "coriolis_matrix", (n, n), source, path),
+        C,
         wrap(module.gravity, "gravity", (n,), source, path),
         wrap(V, "potential_energy", (), source, path) if callable(V) else None,
         n,
+        form,
         independent=joints,
         signs=signs,
         offsets=offsets,

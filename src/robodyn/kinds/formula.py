@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 
 Array = NDArray[np.float64]
 Params = Mapping[str, float]
+MDOT_STEP = 1e-6  # [s] central difference of M along v: truncation ~1e-12, round-off ~eps/step = 2e-10
 Scalar = Any  # a float, np.float64 or np.longdouble: the closed forms are generic in it
 
 
@@ -122,6 +123,11 @@ class Formula:
     ``mass_matrix(q, p)`` -> (n, n), ``coriolis_matrix(q, v, p)`` -> (n, n) and
     ``gravity(q, p)`` -> (n,) in Pinocchio's (link) coordinates; ``potential_energy(q, p)``
     [J] is optional (None when a user's file does not define it).
+
+    ``coriolis_form`` is ``"matrix"`` when ``coriolis_matrix`` is the formula's own C, and ``"vector"``
+    when the formula gives only C v (a user's ``coriolis_vector``): ``coriolis_matrix`` is then a
+    stand-in whose product with v is that C v (:mod:`robodyn.kinds.user_coriolis`), right in every
+    equation of motion but not itself a C to compare.
     """
 
     kind: str
@@ -132,13 +138,22 @@ class Formula:
     gravity: Callable[[Array, Params], Array]
     potential_energy: Callable[[Array, Params], float | Array] | None = None
     dof: int = 2
+    coriolis_form: str = "matrix"
 
     def nle(self, q: Array, v: Array, p: Params) -> Array:
         """C(q, v) v + G(q)."""
         return self.coriolis_matrix(q, v, p) @ v + self.gravity(q, p)
 
     def momentum_rate(self, q: Array, v: Array, tau: Array, p: Params) -> Array:
-        """dp/dt for p = M(q) v: tau + C(q, v)^T v - G(q) (dM/dt = C + C^T for the Christoffel C)."""
+        """dp/dt for p = M(q) v: tau + C(q, v)^T v - G(q) (dM/dt = C + C^T for the Christoffel C).
+
+        A formula that gives only C v has no C^T: dp/dt = dM/dt v + tau - C v - G, with dM/dt along v
+        by a central difference of step ``MDOT_STEP`` (truncation ~ step^2 |M''| |v|^3).
+        """
+        if self.coriolis_form == "vector":
+            h = MDOT_STEP
+            Mdot = (self.mass_matrix(q + h * v, p) - self.mass_matrix(q - h * v, p)) / (2 * h)
+            return Mdot @ v + tau - self.nle(q, v, p)
         return tau + self.coriolis_matrix(q, v, p).T @ v - self.gravity(q, p)
 
     def inverse_dynamics(self, q: Array, v: Array, a: Array, p: Params) -> Array:

@@ -46,7 +46,7 @@ from robodyn.errors import FormulaError, InputError
 from robodyn.kinds import any_file, reduced
 from robodyn.kinds.evaluation import FUNCTIONS, Points, Values, evaluate, value_shape
 from robodyn.kinds.formula import Array, Formula
-from robodyn.kinds.user_file import load_in_process
+from robodyn.kinds.user_file import load_in_process, renamed_notes
 from robodyn.userfile import user_line
 
 DEFAULT_TIMEOUT = 60.0
@@ -203,6 +203,7 @@ class _Child:
                         "dof": formula.dof,
                         "param_names": list(formula.param_names),
                         "potential": formula.potential_energy is not None,
+                        "coriolis": formula.coriolis_form,
                         "independent": list(getattr(formula, "independent", ())),
                         **any_file.loaded_header(formula),
                     }
@@ -212,7 +213,8 @@ class _Child:
                 self.running = FUNCTIONS[0]
                 points = Points(*(arrays[k] for k in ("mass", "coriolis_q", "coriolis_v", "gravity", "potential")))
                 values = _limited(self.timeout, lambda: evaluate(formula, p, points, on_start=self.started))
-                self.send({"op": "values"}, {name: values.of(name) for name in FUNCTIONS})
+                renamed = renamed_notes(formula)  # the earlier parameter names the file read (p["M"])
+                self.send({"op": "values", "renamed": renamed}, {name: values.of(name) for name in FUNCTIONS})
             elif header["op"] == "call" and self.formula is not None:  # a constrained file's parameters, on_the_loop
                 formula, self.running = self.formula, str(header.get("function"))
                 serve_call = any_file.serve if formula.kind == any_file.KIND else reduced.serve
@@ -273,6 +275,7 @@ class FormulaProcess:
         if not 0 < seconds <= MAX_TIMEOUT:  # NaN fails too
             raise InputError(f"the formula time limit must be > 0 and <= {MAX_TIMEOUT:g} s, got {timeout!r}")
         self.path, self.source, self.timeout = path.resolve(), source, seconds
+        self.renamed: dict[str, None] = {}  # notes on the earlier parameter names the file read, in order
         self._child: _Running | None = _Running(source)
 
     def load(self) -> dict[str, Any]:
@@ -286,7 +289,9 @@ class FormulaProcess:
             params = {str(k): float(v) for k, v in p.items()}
         except (TypeError, ValueError):
             raise InputError(f"formula parameters must be numbers, got {dict(p)!r}") from None
-        _, arrays = self._request({"op": "evaluate", "params": params}, _points_arrays(points))
+        reply, arrays = self._request({"op": "evaluate", "params": params}, _points_arrays(points))
+        renamed = reply.get("renamed", [])
+        self.renamed.update(dict.fromkeys(str(note) for note in renamed if isinstance(renamed, list)))
         values = []
         for name in FUNCTIONS:
             got = arrays.get(name)

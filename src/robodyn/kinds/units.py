@@ -8,3 +8,6 @@ UNITS = {
 
 RENAMED = {("cart_pole", "M"): "m_cart", ("geared_arm", "M"): "m"}
 """Parameters once named M: M is only ever the mass matrix, so a mass has a name of its own."""
+
+RENAMED_MEANING = {("cart_pole", "M"): "the cart's mass", ("geared_arm", "M"): "the link's mass"}
+"""What each earlier name stood for, as a note about a file that still uses it says it."""

@@ -1,8 +1,9 @@
 """A user's own derivation in a Python file, as a :class:`Formula` whose code runs in a process of its own.
 
 The file defines ``KIND`` (one of the built-in kinds) and the functions ``mass_matrix(q, p)``,
-``coriolis_matrix(q, v, p)``, ``gravity(q, p)``, optionally ``potential_energy(q, p)``, where ``p``
-maps the kind's parameter names to floats (the contract: :mod:`robodyn.kinds.user_file`); or
+``coriolis_matrix(q, v, p)`` (or ``coriolis_vector(q, v, p)``, C v alone), ``gravity(q, p)``, optionally
+``potential_energy(q, p)``, where ``p`` maps the kind's parameter names (current or earlier) to floats
+(the contract: :mod:`robodyn.kinds.user_file`); or
 ``KIND = "constrained"``, a closed chain's reduced Lagrangian (:mod:`robodyn.kinds.reduced`).
 
 :func:`load_user_formula` imports the file in its own process (:mod:`robodyn.kinds.sandbox`),
@@ -90,6 +91,11 @@ class UserFormula(Formula):
             raise FormulaError(f"{self.source}: the formula's process sent on_the_loop states robodyn did not ask for")
         return LoopStates(tuple(joints), got_q, got_v)
 
+    @property
+    def renamed(self) -> tuple[str, ...]:
+        """One note per earlier parameter name the file read so far (``p["M"]`` for the cart's mass)."""
+        return tuple(self._process().renamed)
+
     def close(self) -> None:
         """End the formula's process (a later call starts a fresh one)."""
         self._process().close()
@@ -143,6 +149,7 @@ def load_user_formula(
         _one_call(process, "gravity", dof),
         _one_call(process, "potential_energy", dof) if info["potential"] else None,
         dof,
+        str(info.get("coriolis", "matrix")),
         path=Path(path),
         process=process,
         independent=tuple(str(name) for name in info.get("independent", ())),

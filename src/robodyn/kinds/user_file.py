@@ -1,11 +1,13 @@
 """What a user's formula file must be, checked inside the process that runs it.
 
 The file defines ``KIND`` (one of the built-in kinds) and the functions ``mass_matrix(q, p)``,
-``coriolis_matrix(q, v, p)``, ``gravity(q, p)``, optionally ``potential_energy(q, p)``, where ``p``
-maps the kind's parameter names to floats. ``KIND = "constrained"`` is a closed chain's reduced
-Lagrangian, which also defines ``INDEPENDENT``, ``parameters(scene)`` and ``on_the_loop(q, v, p)``
-(:mod:`robodyn.kinds.reduced`). Every returned value is shape-checked and must be
-finite; an error, an exception or a ``sys.exit`` names the user's file and line.
+``coriolis_matrix(q, v, p)`` (or ``coriolis_vector(q, v, p)``: C v alone, :mod:`robodyn.kinds.user_coriolis`),
+``gravity(q, p)``, optionally ``potential_energy(q, p)``, where ``p`` maps the kind's parameter names
+to floats; it also answers the names the kind's parameters had before (the textbook's ``M`` for the
+cart's mass, :data:`robodyn.kinds.units.RENAMED`), and :func:`renamed_notes` says which a file used.
+``KIND = "constrained"`` is a closed chain's reduced Lagrangian, which also defines ``INDEPENDENT``,
+``parameters(scene)`` and ``on_the_loop(q, v, p)`` (:mod:`robodyn.kinds.reduced`). Every returned value is
+shape-checked and must be finite; an error, an exception or a ``sys.exit`` names the user's file and line.
 
 This module imports and runs the user's code in the current process, so robodyn calls it only
 in the formula's own process (:mod:`robodyn.kinds.sandbox`); :func:`robodyn.kinds.user.load_user_formula`
@@ -14,9 +16,12 @@ is the safe entry point.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+import sys
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
 import numpy as np
 
@@ -28,13 +33,70 @@ from robodyn.kinds.formulas import KINDS, get
 from robodyn.kinds.geared_arm import from_motor_coordinates
 from robodyn.kinds.reduced import KIND as CONSTRAINED
 from robodyn.kinds.reduced import ConstrainedFormula, independent_names
+from robodyn.kinds.units import RENAMED, RENAMED_MEANING
+from robodyn.kinds.user_coriolis import BOTH_OPTIONS, coriolis_function, defines_coriolis
 from robodyn.userfile import at_line, exit_call, import_user_file
 
 REQUIRED_FUNCTIONS = ("mass_matrix", "coriolis_matrix", "gravity")
 CONSTRAINED_FUNCTIONS = ("parameters", "on_the_loop")
+SYMBOLS = {"mass_matrix": "M", "coriolis_matrix": "C", "coriolis_vector": "(C v)", "gravity": "G"}
 
 
 EXPECTED_DEFINITIONS = "KIND, mass_matrix, coriolis_matrix, gravity"
+
+
+class OldNames(Mapping[str, float]):
+    """A built-in kind's parameters that also answer their earlier names (``p["M"]`` is the cart-pole's m_cart).
+
+    Iterating gives robodyn's current names only; ``read`` collects the earlier names a formula asked for.
+    """
+
+    def __init__(self, kind: str, table: Mapping[str, float], read: set[str]) -> None:
+        self.kind, self.table, self.read = kind, table, read
+
+    def __getitem__(self, key: str) -> float:
+        if key in self.table:
+            return self.table[key]
+        new = RENAMED.get((self.kind, key))
+        if new is None or new not in self.table:
+            raise KeyError(key)
+        self.read.add(key)
+        return self.table[new]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.table)
+
+    def __len__(self) -> int:
+        return len(self.table)
+
+
+@dataclass(frozen=True)
+class KindFileFormula(Formula):
+    """A built-in kind's formula file loaded here: its functions read ``p`` through :class:`OldNames`."""
+
+    old_names_read: set[str] = field(default_factory=set, kw_only=True, compare=False)
+
+
+def renamed_notes(formula: Formula) -> list[str]:
+    """``cart_pole.py uses the textbook's M for the cart's mass (robodyn calls it m_cart)``, per earlier name read."""
+    if not isinstance(formula, KindFileFormula):
+        return []
+    name = Path(formula.source).name
+    return [
+        f"{name} uses the textbook's {old} for {RENAMED_MEANING[formula.kind, old]} "
+        f"(robodyn calls it {RENAMED[formula.kind, old]})"
+        for old in sorted(formula.old_names_read)
+    ]
+
+
+def _with_old_names(fn: Callable[..., Array], kind: str, read: set[str]) -> Callable[..., Array]:
+    """``fn(*state, p)`` called with ``p`` answering the kind's earlier parameter names."""
+
+    def call(*args: object) -> Array:
+        *state, p = args
+        return fn(*state, OldNames(kind, p, read) if isinstance(p, Mapping) else p)
+
+    return call
 
 
 def load_in_process(path: Path, source: str) -> Formula:
@@ -57,11 +119,16 @@ def load_in_process(path: Path, source: str) -> Formula:
         raise FormulaError(f"{source}: define KIND as one of {kinds} (found {kind!r}){closed}")
     if kind not in KINDS and kind not in (CONSTRAINED, ANY):
         raise FormulaError(f"{source}: KIND = {kind!r} is not a known kind; expected one of {kinds}{closed}")
-    missing = [f for f in REQUIRED_FUNCTIONS if not callable(getattr(module, f, None))]
+    present = {
+        "mass_matrix": callable(getattr(module, "mass_matrix", None)),
+        "coriolis_matrix or coriolis_vector": defines_coriolis(module),
+        "gravity": callable(getattr(module, "gravity", None)),
+    }
+    missing = [f for f, there in present.items() if not there]
     if missing:
         raise FormulaError(
-            f"{source}: missing function(s) {', '.join(missing)}; "
-            "define mass_matrix(q, p), coriolis_matrix(q, v, p), gravity(q, p)"
+            f"{source}: missing function(s) {', '.join(missing)}; define mass_matrix(q, p), gravity(q, p), and "
+            f"{BOTH_OPTIONS}"
         )
     if kind == CONSTRAINED:
         return _constrained(module, source, path)
@@ -69,17 +136,22 @@ def load_in_process(path: Path, source: str) -> Formula:
         return load_any(module, source, path, _shape_checked)
     builtin = get(kind)
     n = builtin.dof
-    M = _shape_checked(module.mass_matrix, "mass_matrix", (n, n), source, path)
-    C = _shape_checked(module.coriolis_matrix, "coriolis_matrix", (n, n), source, path)
-    G = _shape_checked(module.gravity, "gravity", (n,), source, path)
+    read: set[str] = set()
+
+    def checked(fn: Callable[..., object], name: str, shape: tuple[int, ...], src: str, at: Path) -> Callable:
+        return _with_old_names(_shape_checked(fn, name, shape, src, at), kind, read)
+
+    M = checked(module.mass_matrix, "mass_matrix", (n, n), source, path)
+    C, form = coriolis_function(module, n, source, path, checked)
+    G = checked(module.gravity, "gravity", (n,), source, path)
     V_raw = getattr(module, "potential_energy", None)
-    V = _shape_checked(V_raw, "potential_energy", (), source, path) if callable(V_raw) else None
+    V = checked(V_raw, "potential_energy", (), source, path) if callable(V_raw) else None
     coordinates = getattr(module, "COORDINATES", "link")
     if coordinates not in ("link", "motor") or (coordinates == "motor" and kind != "geared_arm"):
         raise FormulaError(f"{source}: COORDINATES = {coordinates!r}; expected 'link' (or 'motor' for the geared_arm)")
     if coordinates == "motor":
         M, C, G, V = from_motor_coordinates(M, C, G, V)
-    return Formula(kind, source, builtin.param_names, M, C, G, V, n)
+    return KindFileFormula(kind, source, builtin.param_names, M, C, G, V, n, form, old_names_read=read)
 
 
 def _constrained(module: ModuleType, source: str, path: Path) -> ConstrainedFormula:
@@ -129,10 +201,52 @@ def _shape_checked(
         elif out.shape != shape:
             raise FormulaError(f"{source}: {name} returned shape {out.shape}, expected {shape}")
         if not np.all(np.isfinite(out)):
-            raise FormulaError(f"{source}: {name} returned non-finite values {out.tolist()} at q = {args[0]!r}")
+            raise FormulaError(_non_finite(fn, name, out, args, source, user_file))
         return out
 
     return wrapped
+
+
+def _non_finite(
+    fn: Callable[..., object], name: str, out: Array, args: tuple[object, ...], source: str, user_file: Path
+) -> str:
+    """``x.py: mass_matrix returned NaN in M[0,1] at q = [0.5, 1], v = [..] (line 12)``: one line."""
+    bad = np.argwhere(~np.isfinite(out))
+    first = tuple(int(i) for i in bad[0])
+    value = float(out[first])
+    what = "NaN" if np.isnan(value) else ("inf" if value > 0 else "-inf")
+    entry = f" in {SYMBOLS.get(name, name)}[{','.join(map(str, first))}]" if first else ""
+    more = f" (and {len(bad) - 1} more entr{'y' if len(bad) == 2 else 'ies'})" if len(bad) > 1 else ""
+    state = ", ".join(f"{label} = {_numbers(x)}" for label, x in zip(("q", "v"), args[:-1], strict=False))
+    line = _return_line(fn, args, user_file)
+    return f"{source}: {name} returned {what}{entry}{more} at {state}{f' (line {line})' if line else ''}"
+
+
+def _numbers(x: object) -> str:
+    return "[" + ", ".join(f"{v:.6g}" for v in np.atleast_1d(np.asarray(x, dtype=np.float64))) + "]"
+
+
+def _return_line(fn: Callable[..., object], args: tuple[object, ...], user_file: Path) -> int | None:
+    """The line of ``fn``'s return statement in ``user_file`` when it is called with ``args`` again, or None."""
+    code = getattr(fn, "__code__", None)
+    if code is None or Path(code.co_filename).resolve() != user_file.resolve():
+        return None
+    returned: list[int] = []
+
+    def profile(frame: Any, event: str, arg: object) -> None:
+        if event == "return" and frame.f_code is code:
+            returned.append(frame.f_lineno)
+
+    copies = [np.array(a, copy=True) if isinstance(a, np.ndarray) else a for a in args]
+    previous = sys.getprofile()
+    sys.setprofile(profile)
+    try:
+        fn(*copies)
+    except Exception:  # it raised this time: no return line to give
+        return None
+    finally:
+        sys.setprofile(previous)
+    return returned[-1] if returned else None
 
 
 def real_values(raw: object, where: str) -> Array:

@@ -57,6 +57,8 @@ from robodyn.kinds.check_rows import (
 )
 from robodyn.kinds.check_scales import scales
 from robodyn.kinds.formula import Formula
+from robodyn.kinds.explain import Explained, Sets, one_set
+from robodyn.kinds.explain_sets import by_reading
 from robodyn.kinds.loop_check import loop_rows
 from robodyn.kinds.params import Params, extract, from_mapping
 from robodyn.kinds.reduced import KIND as CONSTRAINED
@@ -74,6 +76,7 @@ NON_NEGATIVE = ("m1", "m2", "m_cart", "m", "I1", "I2", "I", "J_l", "J_m")  # mas
 # The most random states one check takes: ~40 s for the Pendubot with a formula file (6 s of it the file's, inside
 # sandbox.DEFAULT_TIMEOUT). The worst error over 10^5 states is rarely beaten by more; another seed explores as well.
 MAX_SAMPLES = 100_000
+GIVEN = "the parameters were given (--params), not read from the model, so they cannot follow a varied model"
 
 
 @dataclass(frozen=True)
@@ -420,6 +423,8 @@ def check(
     notes: tuple[str, ...] = ()
     kept: dict[str, Accumulator] = {}  # the formula rows' accumulators, for --explain
     explained: tuple[list[_Sample], Reference] | None = None  # and the states they were taken at
+    sets: Sets | None = None  # and formula - Pinocchio at the varied parameter sets
+    names: tuple[str, ...] = ()  # the formula's coordinates (NAMES)
     if formula is not None:
         resolved = resolve(formula, timeout=formula_timeout) if isinstance(formula, str) else formula
         try:
@@ -441,6 +446,10 @@ def check(
                 p_any = Params(ANY, used)
                 rows += _formula_rows(setup.robot, resolved, p_any, mapped, rtol, None, reference=ref, keep=kept)
                 explained = (mapped, ref)
+                names = tuple(getattr(resolved, "names", ()))
+                if explain:
+                    follower = any_check.follower(setup, resolved, given=params is not None, seed=seed)
+                    sets = any_check.varied_sets(resolved, ref, used, mapped, rows, follower, seed=seed)
             else:
                 try:
                     p = extract(robot, resolved.kind)
@@ -452,14 +461,20 @@ def check(
                 used = p.as_dict()
                 rows += _formula_rows(robot, resolved, p, states, rtol, given, keep=kept)
                 explained = (states, Reference.identity(robot))
+                if explain and params is None:
+                    follower = by_reading(lambda model, k=resolved.kind: extract(model, k).as_dict())
+                    sets = any_check.varied_sets(resolved, explained[1], used, states, rows, follower, seed=seed)
+                elif explain:
+                    sets = one_set(used, used.get("g", 0.0), failure=GIVEN)
         finally:
             if isinstance(formula, str) and isinstance(resolved, UserFormula):
                 resolved.close()  # the file's process was this check's own
     rows += _structure_rows(robot, states, rtol)
     rows.sort(key=lambda r: GROUP_ORDER.index(r.group))  # stable: keeps the order within a group
     explanation: tuple[str, ...] = ()
+    terms: tuple[Explained, ...] = ()
     if explain and explained is not None:
-        explanation = any_check.explain_rows(rows, kept, *explained, used)
+        explanation, terms = any_check.explain_rows(rows, kept, *explained, used, sets=sets, names=names)
     elif explain and kind == CONSTRAINED:
         explanation = ("explain: not available for a KIND = 'constrained' formula (its rows are on the loop)",)
     if kind != CONSTRAINED and (tuple(loops) or springs):
@@ -478,4 +493,5 @@ def check(
         notes=notes,
         params_given=params is not None,
         explanation=explanation,
+        explain_terms=tuple(t.as_dict() for t in terms),
     )

@@ -391,9 +391,9 @@ def _heading(sets: Sets) -> str:
     head = "explain: each mismatching entry as formula - Pinocchio, fitted over the samples"
     if sets.count == 1:
         return f"{head}, at the check's parameters only ({sets.failure}):"
-    head += f", named by what equals each coefficient at {sets.count} parameter sets (the model's values varied)"
+    head += f"; a coefficient is named by what equals it at all {sets.count} parameter sets (the model's values varied)"
     if sets.followed:
-        head += "; the constant parameters varied as " + ", ".join(f"{k} = {v}" for k, v in sets.followed.items())
+        head += "; the constant parameters followed " + ", ".join(f"{k} = {v}" for k, v in sets.followed.items())
     return head + ":"
 
 

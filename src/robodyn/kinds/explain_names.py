@@ -214,8 +214,8 @@ def _factored(terms: Sequence[tuple[float, tuple[str, ...]]], r: Fraction) -> st
         common, rest_a, rest_b = [], list(a), list(b)
     if s1 < 0 < s2:
         (s1, rest_a), (s2, rest_b) = (s2, rest_b), (s1, rest_a)
-    inner = f"{_product_text(rest_a)} {'-' if s2 < 0 else '+'} {_product_text(rest_b)}"
-    negative = s1 < 0  # both negative: -(a + b)
+    negative = s1 < 0  # both negative (the positive one comes first): -(a + b)
+    inner = f"{_product_text(rest_a)} {'-' if s1 * s2 < 0 else '+'} {_product_text(rest_b)}"
     outside = [f for f in common if f != "g"]
     gravity = ["g"] * common.count("g")
     body = "*".join([*([_product_text(outside)] if outside else []), f"({inner})", *gravity])

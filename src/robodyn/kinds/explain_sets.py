@@ -86,7 +86,7 @@ def _values(robot: Robot) -> dict[str, tuple[float, frozenset[Quantity]]]:
                 out[f"{name} inertia {AXES[i]}{AXES[k]}"] = (float(link.inertia[i, k]), inertia)
         out[f"{name} inertia about its axis"] = (link.inertia_about_axis, inertia)
         out[f"{name} armature"] = (link.armature, frozenset({(j, "armature", 0)}))
-    out["g"] = (table.g, frozenset({GRAVITY}))
+    out["|gravity|"] = (table.g, frozenset({GRAVITY}))
     return out
 
 

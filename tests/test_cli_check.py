@@ -123,3 +123,5 @@ def test_explain_prints_the_named_terms_and_json_carries_them(capsys):
     report = json.loads(capsys.readouterr().out)
     assert any(line.startswith("C[1,0]: formula - Pinocchio = ") for line in report["explanation"])
     assert [m["entry"] for m in next(r for r in report["rows"] if r["quantity"] == "M")["mismatches"]] == [[0, 1]]
+    m01 = next(e for e in report["explain_terms"] if e["label"] == "M[0,1]")  # a built-in kind, in its own names
+    assert (m01["status"], [(t["basis"], t["name"]) for t in m01["terms"]]) == ("named", [("cos(q2)", "m2*l1*lc2")])

@@ -108,8 +108,11 @@ def _notes(
 
 
 def follower(setup: AnySetup, formula: Formula, *, given: bool, seed: int) -> Follower:
-    """How the file's parameters follow a varied model: its ``parameters(robot)`` asked again, or each constant
-    (``PARAMETERS``, ``--params``) matched to the per-link value it equals (:mod:`robodyn.kinds.explain_sets`)."""
+    """How the file's parameters follow a varied model (:mod:`robodyn.kinds.explain_sets`).
+
+    Its ``parameters(robot)`` is asked again; or each constant (``PARAMETERS``, ``--params``) is matched to
+    the per-link value it equals.
+    """
     read = getattr(formula, "link_parameters", None)
     if given or read is None or getattr(formula, "constant_parameters", False):
         return by_values(setup.robot, setup.params, "--params" if given else "PARAMETERS", seed)
@@ -143,7 +146,7 @@ def explain_rows(
     sets: Sets | None = None,
     names: Sequence[str] = (),
 ) -> tuple[tuple[str, ...], tuple[Explained, ...]]:
-    """``--explain``'s lines and named terms (:func:`robodyn.kinds.explain.explain`), the coordinates' kinds from ``ref``."""
+    """``--explain``'s lines and named terms (:func:`robodyn.kinds.explain.explain`), coordinate kinds from ``ref``."""
     joints = [next(j for j in ref.robot.joints if j.idx_v == column) for column in ref.columns]
     prismatic = [JOINT_TYPES.get(j.kind) == "prismatic" for j in joints]
     g = float(np.linalg.norm(dynamics.gravity_vector(ref.robot.model)))

@@ -30,6 +30,7 @@ fails.
 
 from __future__ import annotations
 
+import functools
 import time
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, replace
@@ -56,9 +57,9 @@ from robodyn.kinds.check_rows import (
     skew_scale,
 )
 from robodyn.kinds.check_scales import scales
-from robodyn.kinds.formula import Formula
 from robodyn.kinds.explain import Explained, Sets, one_set
 from robodyn.kinds.explain_sets import by_reading
+from robodyn.kinds.formula import Formula
 from robodyn.kinds.loop_check import loop_rows
 from robodyn.kinds.params import Params, extract, from_mapping
 from robodyn.kinds.reduced import KIND as CONSTRAINED
@@ -121,6 +122,11 @@ def _given_params(kind: str, params: Mapping[str, float], where: str) -> Params:
     if negative:
         raise InputError(f"{where}given {kind} parameters {', '.join(negative)} (expected masses and inertias >= 0)")
     return p
+
+
+def _extracted(robot: Robot, *, kind: str) -> dict[str, float]:
+    """The parameters of ``kind`` read from ``robot`` (a varied model, for --explain's parameter sets)."""
+    return extract(robot, kind).as_dict()
 
 
 def _refuse_singular(p: Params, mass: Array, samples: list[_Sample], where: str) -> None:
@@ -462,7 +468,7 @@ def check(
                 rows += _formula_rows(robot, resolved, p, states, rtol, given, keep=kept)
                 explained = (states, Reference.identity(robot))
                 if explain and params is None:
-                    follower = by_reading(lambda model, k=resolved.kind: extract(model, k).as_dict())
+                    follower = by_reading(functools.partial(_extracted, kind=resolved.kind))
                     sets = any_check.varied_sets(resolved, explained[1], used, states, rows, follower, seed=seed)
                 elif explain:
                     sets = one_set(used, used.get("g", 0.0), failure=GIVEN)

@@ -24,8 +24,6 @@ Nothing here imports Pinocchio: it works on what the check gathered.
 
 from __future__ import annotations
 
-import itertools
-import math
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -182,13 +180,13 @@ def identify(
         )
         return Explained(key, entry, label, "no_fit", (), reason)
     if vectors is None:
-        terms = tuple(Term(b, c, None, ()) for b, c in zip(shown, f.coefficients, strict=True))
+        bare = tuple(Term(b, c, None, ()) for b, c in zip(shown, f.coefficients, strict=True))
         reason = (
             f"its terms do not keep their form when the parameters vary ({sets.count} parameter sets): the formula "
             "uses a number where it should use a parameter" + _held(sets)
         )
-        return Explained(key, entry, label, "unnamed", terms, reason)
-    terms = []
+        return Explained(key, entry, label, "unnamed", bare, reason)
+    terms: list[Term] = []
     for j, (b, c) in enumerate(zip(shown, f.coefficients, strict=True)):
         found = [n.text for n in namer.candidates(vectors[:, j], dims[j])]
         unique = found[0] if len(found) == 1 and sets.count > 1 else None

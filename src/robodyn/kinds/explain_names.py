@@ -78,6 +78,8 @@ class Namer:
         gravity = np.array([s.get("g", gk) for s, gk in zip(sets, gs, strict=True)], dtype=np.float64)
         if "g" in first and np.all(np.isfinite(gravity)):
             self.parameters["g"] = gravity
+        # what did not change over the sets (everything, with one set): a match resting on it may be a coincidence
+        self.constant = {k for k, x in self.parameters.items() if np.ptp(x) <= 1e-12 * np.max(np.abs(x))}
         products: list[tuple[tuple[str, ...], int, Dim | None]] = []  # (factors, size, dimension)
         vectors = []
         for size in range(1, MAX_FACTORS + 1):
@@ -102,20 +104,24 @@ class Namer:
         hi = np.searchsorted(self.sorted_values, abs(target) + tol, side="right")
         return [int(i) for i in self.sorted_index[lo:hi]]
 
-    def name(self, c: float | Sequence[float], dim: Dim | None = None) -> Name | None:
+    def name(self, c: float | Sequence[float] | np.ndarray, dim: Dim | None = None) -> Name | None:
         """The one name that equals ``c`` at every set (None if none, or several)."""
         found = self.candidates(c, dim)
         return found[0] if len(found) == 1 else None
 
-    def candidates(self, c: float | Sequence[float], dim: Dim | None = None) -> list[Name]:
-        """Every r * product, else every r (+-P1 +- P2), equal to ``c`` (one value per set) at every set, simplest first.
+    def candidates(self, c: float | Sequence[float] | np.ndarray, dim: Dim | None = None) -> list[Name]:
+        """Every r * product, else every r (+-P1 +- P2), equal to ``c`` (a value per set) at every set, simplest first.
 
         Of dimension ``dim`` where known: those of unknown dimension only when none of known dimension fits.
         """
         vec = np.atleast_1d(np.asarray(c, dtype=np.float64))
         if vec.shape != (self.sets,) or not np.all(np.isfinite(vec)) or np.any(vec == 0):
             return []
-        found = self._singles(vec, dim) or self._pairs(vec, dim)
+        found = self._singles(vec, dim)
+        # a lone product is the simplest name; where it is not alone, or rests on a value that did not vary, the
+        # sums and differences of two are candidates too
+        if len({n.text for n in found}) != 1 or factors_of(found[0].text) & self.constant:
+            found += self._pairs(vec, dim)
         known = [name for name in found if name.known]
         found = known or found
         unique: dict[str, Name] = {}
@@ -179,7 +185,7 @@ class Namer:
     def alike(self, names: Sequence[str]) -> list[str]:
         """Why ``names`` (parameters) cannot be told apart over the sets: held constant, or in a fixed ratio."""
         involved = [k for k in self.parameters if k in names]
-        out = []
+        out: list[str] = []
         if self.sets == 1:
             return out
         for k in involved:
@@ -201,7 +207,7 @@ def factors_of(text: str) -> set[str]:
 
 
 def _factored(terms: Sequence[tuple[float, tuple[str, ...]]], r: Fraction) -> str:
-    """r (s1 P1 + s2 P2) with the factors both products share taken out (g last): ``m2*(lc1 - l1)``."""
+    """R (s1 P1 + s2 P2) with the factors both products share taken out (g last): ``m2*(lc1 - l1)``."""
     (s1, a), (s2, b) = terms
     common: list[str] = []
     rest_a, rest_b = list(a), list(b)

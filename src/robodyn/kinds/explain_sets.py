@@ -26,8 +26,8 @@ from numpy.typing import NDArray
 
 from robodyn.errors import RobodynError
 from robodyn.kinds.check_rows import formula_values
-from robodyn.kinds.explain import Sets
 from robodyn.kinds.evaluation import Points
+from robodyn.kinds.explain import Sets
 from robodyn.kinds.formula import Formula
 from robodyn.kinds.reference import Reference
 from robodyn.model.links import LinkTable, link_table
@@ -106,7 +106,9 @@ def by_values(robot: Robot, numbers: Mapping[str, float], where: str, seed: int)
                 if x != 0 and abs(x - sign * value) <= MATCH_RTOL * abs(x):
                     found.append((label, sign))
         matches[name] = found
-    followed, held, hold = {}, {}, set()
+    followed: dict[str, str] = {}
+    held: dict[str, str] = {}
+    hold: set[Quantity] = set()
     for name, found in matches.items():
         apart = {round(sign * probe[label][0] / numbers[name], 9) for label, sign in found}
         if len(found) == 1 or (found and len(apart) == 1):
@@ -120,7 +122,7 @@ def by_values(robot: Robot, numbers: Mapping[str, float], where: str, seed: int)
                 hold |= nominal[label][1]
         else:
             held[name] = f"{name} = {numbers[name]:.6g} equals no per-link value"
-    vary = set()
+    vary: set[Quantity] = set()
     for name, label in followed.items():
         touched = nominal[label.lstrip("-")][1]
         if touched & hold:
@@ -134,8 +136,7 @@ def by_values(robot: Robot, numbers: Mapping[str, float], where: str, seed: int)
     def read(model: Robot) -> dict[str, float]:
         values = _values(model)
         return {
-            name: (follow[name][1] * values[follow[name][0]][0] if name in follow else x)
-            for name, x in numbers.items()
+            name: (follow[name][1] * values[follow[name][0]][0] if name in follow else x) for name, x in numbers.items()
         }
 
     return Follower(read, frozenset(vary), followed, held, advice=f"define parameters(robot) in place of {where}")

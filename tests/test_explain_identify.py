@@ -198,3 +198,15 @@ def test_a_signed_sum_of_three_angles_is_one_term():
     found = fit(d, q_basis(q, [False, False, False]), scale=1.0)
     assert found.exact and found.terms == ("cos(q1 - q2 + q3)",)
     assert found.coefficients[0] == pytest.approx(0.3719, rel=NAME_CHECK_RTOL)
+
+
+def test_a_number_no_parameter_makes_is_unnamed(tmp_path):
+    # a number typed into M: it does not change with the model, so no product of the parameters is it at every set
+    slip = _mutant(tmp_path, "scara2", "[m12, I2 + m2 * r2]]", "[m12, I2 + m2 * r2 + 0.01234]]")
+    report = _explain("scara2", slip)
+    entry = _entry(report, "M[1,1]")
+    assert entry["status"] == "unnamed", entry
+    assert [(t["basis"], t["name"], t["candidates"]) for t in entry["terms"]] == [("1", None, [])]
+    assert entry["terms"][0]["coefficient"] == pytest.approx(0.01234, rel=NAME_CHECK_RTOL)
+    assert entry["reason"].startswith("no product of at most 3 parameters")
+    assert any(line.startswith("M[1,1]: formula - Pinocchio = 0.0123   (coefficient 0.0123, unnamed)") for line in report.explanation)

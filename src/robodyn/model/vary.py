@@ -12,7 +12,8 @@ Each per-link value is a :data:`Quantity` ``(joint index, field, component)``:
   whose mass distribution is stretched along the joint frame's axes by three factors (the second
   moments Sigma = tr(I)/2 - I become D Sigma D, so the inertia stays physical);
 * ``("armature", 0)`` the rotor inertia reflected onto the joint [kg m^2 | kg] (the rotor's own
-  inertia with it, the gear ratio kept);
+  inertia with it, the gear ratio kept); ``("gear", 0)`` the rotor's gear ratio n, where the joint has
+  a rotor (the armature J_m n^2 with it);
 
 and ``GRAVITY`` scales gravity's vector. A quantity without a factor is kept. Rotations, axes and
 joint types are never changed, so every assumption a formula makes of the model still holds.
@@ -41,6 +42,7 @@ def quantities(robot: Robot) -> list[Quantity]:
         out += [(j, "origin", i) for i in range(3)]
         out += [(j, "inertia", i) for i in range(3)]
         out.append((j, "armature", 0))
+        out.append((j, "gear", 0))
     out.append(GRAVITY)
     return out
 
@@ -62,13 +64,17 @@ def varied(robot: Robot, factors: Mapping[Quantity, float]) -> Robot:
         placement = model.jointPlacements[j]
         origin = np.array(placement.translation) * [factors.get((j, "origin", i), 1.0) for i in range(3)]
         model.jointPlacements[j] = pin.SE3(np.array(placement.rotation), origin)
-        armature = factors.get((j, "armature", 0), 1.0)
-        if armature != 1.0:
-            joint = model.joints[j]
-            scale = np.ones(model.nv)
-            scale[joint.idx_v : joint.idx_v + joint.nv] = armature
-            model.armature = np.array(model.armature) * scale
-            model.rotorInertia = np.array(model.rotorInertia) * scale
+        armature, gear = factors.get((j, "armature", 0), 1.0), factors.get((j, "gear", 0), 1.0)
+        joint = model.joints[j]
+        rotor = np.zeros(model.nv, dtype=bool)
+        rotor[joint.idx_v : joint.idx_v + joint.nv] = True
+        if armature != 1.0:  # the rotor's inertia, and the armature J_m n^2 with it
+            model.armature = np.where(rotor, np.array(model.armature) * armature, model.armature)
+            model.rotorInertia = np.where(rotor, np.array(model.rotorInertia) * armature, model.rotorInertia)
+        has_rotor = rotor & (np.array(model.rotorInertia) != 0)
+        if gear != 1.0 and has_rotor.any():  # the gear ratio n, and the armature J_m n^2 with it
+            model.rotorGearRatio = np.where(has_rotor, np.array(model.rotorGearRatio) * gear, model.rotorGearRatio)
+            model.armature = np.where(has_rotor, np.array(model.armature) * gear**2, model.armature)
     model.gravity = pin.Motion(np.array(model.gravity.linear) * factors.get(GRAVITY, 1.0), np.zeros(3))
     passive = tuple(j.name for j in robot.joints if not j.actuated)
     return Robot.from_model(

@@ -209,4 +209,27 @@ def test_a_number_no_parameter_makes_is_unnamed(tmp_path):
     assert [(t["basis"], t["name"], t["candidates"]) for t in entry["terms"]] == [("1", None, [])]
     assert entry["terms"][0]["coefficient"] == pytest.approx(0.01234, rel=NAME_CHECK_RTOL)
     assert entry["reason"].startswith("no product of at most 3 parameters")
-    assert any(line.startswith("M[1,1]: formula - Pinocchio = 0.0123   (coefficient 0.0123, unnamed)") for line in report.explanation)
+    assert any(
+        line.startswith("M[1,1]: formula - Pinocchio = 0.0123   (coefficient 0.0123, unnamed)")
+        for line in report.explanation
+    )
+
+
+def test_a_derived_constant_that_cannot_vary_leaves_candidates_at_the_checks_values(tmp_path):
+    # PARAMETERS' I1 is about the hinge (I1c + m1 lc1^2 = 0.0817), which no per-link value is: it cannot follow the
+    # model, so the formula - Pinocchio of M[0,0] changes form across the sets and nothing is named, only candidates
+    text = (HERE / "crane.py").read_text()
+    start, end = text.index("def parameters(robot):"), text.index("def mass_matrix")
+    constants = {**CRANE_PARAMETERS, "I1": 0.0317 + 0.8 * 0.25**2}
+    text = text[:start] + f"PARAMETERS = {constants!r}\n\n\n" + text[end:]
+    old = "m11 = I1 + m1 * lc1**2 + I2 + m2 * (l1**2 + lc2**2 + 2 * l1 * lc2 * np.cos(t2))"
+    assert text.count(old) == 1
+    text = text.replace(old, "m11 = I1 + I2 + m2 * (l1**2 + lc2**2)")  # the slip: the cos(phi2) term dropped
+    slip = tmp_path / "crane_derived.py"
+    slip.write_text(text)
+    report = _explain("crane", slip)
+    entry = _entry(report, "M[0,0]")
+    assert entry["status"] == "candidates", entry
+    (term,) = entry["terms"]
+    assert term["basis"] == "cos(phi2)" and term["name"] is None and "-2*m2*l1*lc2" in term["candidates"]
+    assert "do not keep their form" in entry["reason"] and "I1 = 0.0817 equals no per-link value" in entry["reason"]

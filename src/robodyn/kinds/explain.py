@@ -1,20 +1,18 @@
 """``robodyn check --explain``: name the wrong term of each mismatching entry, in the formula's own symbols.
 
 For every entry of M, C, G (and V) that is out of tolerance, the difference formula - Pinocchio over
-the sampled states is fitted against a basis of the terms rigid-body dynamics is made of:
+the sampled states is fitted sparsely in a basis of the terms rigid-body dynamics is made of
+(:mod:`robodyn.kinds.explain_basis`: cos(q2), sin(q1 + q2), q2*cos(q3), sin(q2)*v1, ...).
 
-* of q: 1; cos and sin of each revolute coordinate, of the sums and differences of two and of the
-  sums of consecutive runs (cos(q2), sin(q1 + q2), cos(q1 - q3), cos(q1 + q2 + q3)); products of two
-  of these (cos(q2)**2, sin(q2)*cos(q2 + q3)); a prismatic coordinate's monomials (q2, q2**2) and their
-  products with the trigonometric terms (q2*cos(q3));
-* for C, each of those times one velocity (sin(q2)*v1).
-
-The sparsest exact fit is taken: every single term first, then every pair among the best-correlated
-terms, then orthogonal matching pursuit up to :data:`MAX_TERMS` terms. A fit is exact when what it
-leaves is round-off (:data:`FIT_RTOL` of the difference, or :data:`ROUNDOFF` of the entry's scale).
-Each coefficient is then named, when one does, by a product of the file's parameters with a small
-rational factor (and g where gravity is), or a sum or difference of two such
-products (``lc1`` written for ``l1`` leaves m2*lc1*lc2 - m2*l1*lc2): :mod:`robodyn.kinds.explain_names`.
+A coefficient is then named across parameter values, not at one set of them, where a coincidence
+(0.8 * 0.25 = 0.5 * 0.4) would pass for a name: the fit's terms are refitted at the varied parameter
+sets (:class:`Sets`, gathered by :mod:`robodyn.kinds.explain_sets`), so that each coefficient is a
+vector over the sets, and a product of the file's parameters (or a sum or difference of two) names it
+only when it is the one that equals it at every set (:mod:`robodyn.kinds.explain_names`). Each entry
+comes out as an :class:`Explained`, of status ``named`` (every term has its one name), ``candidates``
+(several fit: listed, with why they cannot be told apart), ``unnamed`` (none fits, or the terms change
+form with the parameters: why) or ``no_fit`` (no sum of at most :data:`MAX_TERMS` terms is exact), and
+as printed lines in the formula's own coordinates (``NAMES``: cos(phi1), phi1_dot).
 
 The formula's own structure is read too: an M that is not symmetric, or not positive definite at a
 sample; a C whose C v is right while dM/dt - 2C is not skew (a valid C v, not in Christoffel form).
@@ -179,13 +177,19 @@ def identify(
             "term is wrong, or a term is outside the basis"
         )
         return Explained(key, entry, label, "no_fit", (), reason)
-    if vectors is None:
-        bare = tuple(Term(b, c, None, ()) for b, c in zip(shown, f.coefficients, strict=True))
-        reason = (
-            f"its terms do not keep their form when the parameters vary ({sets.count} parameter sets): the formula "
-            "uses a number where it should use a parameter" + _held(sets)
+    if vectors is None:  # what fits at the check's own values is all there is: candidates at best, never a name
+        own = Namer(sets.params[:1], sets.gravity[:1])
+        bare = tuple(
+            Term(b, c, None, tuple(n.text for n in own.candidates(c, dims[j])))
+            for j, (b, c) in enumerate(zip(shown, f.coefficients, strict=True))
         )
-        return Explained(key, entry, label, "unnamed", bare, reason)
+        reason = (
+            f"its terms do not keep their form when the parameters vary ({sets.count} parameter sets), so what "
+            "fits at the check's values alone may be a coincidence: a parameter the model cannot vary"
+            + (_held(sets) or ", or a number written where a parameter belongs")
+        )
+        status = "candidates" if all(t.candidates for t in bare) else "unnamed"
+        return Explained(key, entry, label, status, bare, reason)
     terms: list[Term] = []
     for j, (b, c) in enumerate(zip(shown, f.coefficients, strict=True)):
         found = [n.text for n in namer.candidates(vectors[:, j], dims[j])]

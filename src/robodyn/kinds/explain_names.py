@@ -1,8 +1,11 @@
 """--explain's names: a coefficient as a product of a formula's parameters, and the dimensions that pick one.
 
-A fitted coefficient (:mod:`robodyn.kinds.explain`) is named, when one does, by a product of the
-file's parameters (up to :data:`MAX_FACTORS` of them, times g) with a small rational factor
-(:data:`RATIONALS`), or a sum or difference of two such products, equal to it to :data:`NAME_RTOL`.
+A fitted coefficient (:mod:`robodyn.kinds.explain`) is a vector over the parameter sets (the check's
+own and the varied ones). It is named by a product of the file's parameters (up to :data:`MAX_FACTORS`
+of them, times g) with a small rational factor (:data:`RATIONALS`), or a sum or difference of two such
+products with their common factors taken out (``m2*(lc1 - l1)``), that equals it to :data:`NAME_RTOL`
+at every set: :meth:`Namer.candidates` lists each that does, and :meth:`Namer.alike` says why several
+cannot be told apart (a parameter that did not vary, two in a fixed ratio).
 Where every factor's dimension is known (guessed from its name, :func:`parameter_dimension`) a product
 must have the dimension the coefficient has in its entry (:func:`entry_dimension`, :func:`term_dimension`).
 """

@@ -160,17 +160,19 @@ class Namer:
     def _pairs(self, vec: np.ndarray, dim: Dim | None) -> list[Name]:
         """``c`` = r (+-P1 +- P2) for two products of dimension ``dim`` (r 1, 2 or 1/2)."""
         out = []
+        allowed = np.array([self._allowed(d, dim) for _, _, d in self.products], dtype=bool)
         for r_index, r in enumerate(RATIONALS[:PAIR_RATIONALS]):
             target = vec / float(r)
             tol = NAME_RTOL * abs(target[0])
-            for i, (combo1, size1, dim1) in enumerate(self.products):
-                if not self._allowed(dim1, dim):
-                    continue
-                for s1 in (1.0, -1.0):
+            for s1 in (1.0, -1.0):
+                # what the second product must be at the first set, for every first product at once
+                rest0 = np.abs(target[0] - s1 * self.values[:, 0])
+                lo = np.searchsorted(self.sorted_values, rest0 - tol, side="left")
+                hi = np.searchsorted(self.sorted_values, rest0 + tol, side="right")
+                for i in np.nonzero((hi > lo) & allowed & (rest0 >= tol))[0].tolist():
+                    combo1, size1, dim1 = self.products[i]
                     rest = target - s1 * self.values[i]
-                    if abs(rest[0]) < tol:
-                        continue
-                    for j in self._matches(rest[0], tol):
+                    for j in self.sorted_index[lo[i] : hi[i]].tolist():
                         combo2, size2, dim2 = self.products[j]
                         if j == i or not self._allowed(dim2, dim):
                             continue

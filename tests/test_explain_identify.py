@@ -99,7 +99,10 @@ def test_equal_values_held_constant_give_candidates_and_say_why(tmp_path):
     assert entry["reason"].startswith("cannot tell ")
     assert "lc1 = 0.25 equals several per-link values" in entry["reason"]
     assert entry["reason"].endswith("define parameters(robot) in place of PARAMETERS")
-    assert "l1 = -hinge2 origin z" in report.explanation[0]  # which per-link value each constant followed
+    # which per-link value each constant followed, and which could not be varied
+    assert report.explanation[1].startswith("  the constant parameters followed mt = rail_slide mass, m1 = hinge1 mass")
+    assert "l1 = -hinge2 origin z" in report.explanation[1]
+    assert report.explanation[2].startswith("  could not be varied: lc1 = 0.25 equals several per-link values")
 
 
 def test_three_link_arm_lc_for_l_is_named_in_its_own_angles(tmp_path):

@@ -385,18 +385,22 @@ def explain(
     lines += _structure(rows, acc, samples)
     lines += _knock_on(rows, failing)
     if lines:
-        lines.insert(0, _heading(sets))
+        lines[:0] = _heading(sets)
     return tuple(lines), tuple(explained)
 
 
-def _heading(sets: Sets) -> str:
+def _heading(sets: Sets) -> list[str]:
     head = "explain: each mismatching entry as formula - Pinocchio, fitted over the samples"
     if sets.count == 1:
-        return f"{head}, at the check's parameters only ({sets.failure}):"
+        return [f"{head}, at the check's parameters only ({sets.failure}):"]
     head += f"; a coefficient is named by what equals it at all {sets.count} parameter sets (the model's values varied)"
+    lines = [head + ":"]
     if sets.followed:
-        head += "; the constant parameters followed " + ", ".join(f"{k} = {v}" for k, v in sets.followed.items())
-    return head + ":"
+        lines.append("  the constant parameters followed " + ", ".join(f"{k} = {v}" for k, v in sets.followed.items()))
+    if sets.held:
+        advice = f": {sets.advice}" if sets.advice else ""
+        lines.append("  could not be varied: " + "; ".join(sets.held.values()) + advice)
+    return lines
 
 
 def _structure(rows: Sequence[CheckRow], acc: Mapping[str, Accumulator], samples: Sequence[Any]) -> list[str]:

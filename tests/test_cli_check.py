@@ -117,9 +117,11 @@ def test_explain_prints_the_named_terms_and_json_carries_them(capsys):
     seed = str(ROOT / "examples/formulas/pendubot_seed.py")
     assert main(["check", "pendubot", "--formula", seed, "--samples", "40", "--explain"]) == 1
     out = capsys.readouterr().out
-    assert "M[0,1]: formula - Pinocchio = m2*l1*lc2*cos(q2)   (coefficient 0.00945, = m2*l1*lc2 to" in out
+    assert "M[0,1]: formula - Pinocchio = m2*l1*lc2*cos(q2)   (coefficient 0.00945 = m2*l1*lc2 at each of 5" in out
     assert "MISMATCH tau[1] (tau (inverse dynamics))" in out and "MISMATCH tau[0] (tau (inverse dynamics))" in out
     assert main(["check", "pendubot", "--formula", seed, "--samples", "40", "--explain", "--json"]) == 1
     report = json.loads(capsys.readouterr().out)
     assert any(line.startswith("C[1,0]: formula - Pinocchio = ") for line in report["explanation"])
     assert [m["entry"] for m in next(r for r in report["rows"] if r["quantity"] == "M")["mismatches"]] == [[0, 1]]
+    m01 = next(e for e in report["explain_terms"] if e["label"] == "M[0,1]")  # a built-in kind, in its own names
+    assert (m01["status"], [(t["basis"], t["name"]) for t in m01["terms"]]) == ("named", [("cos(q2)", "m2*l1*lc2")])

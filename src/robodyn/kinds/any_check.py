@@ -21,7 +21,8 @@ import numpy as np
 from robodyn import dynamics
 from robodyn.errors import FormulaError
 from robodyn.kinds.check_rows import Accumulator, CheckRow
-from robodyn.kinds.explain import explain
+from robodyn.kinds.explain import Explained, Sets, explain, failing_keys
+from robodyn.kinds.explain_sets import Follower, by_table, by_values, parameter_sets
 from robodyn.kinds.formula import Formula
 from robodyn.kinds.reduced import checked_parameters
 from robodyn.kinds.reference import Reference
@@ -106,15 +107,47 @@ def _notes(
     return tuple(notes)
 
 
+def follower(setup: AnySetup, formula: Formula, *, given: bool, seed: int) -> Follower:
+    """How the file's parameters follow a varied model (:mod:`robodyn.kinds.explain_sets`).
+
+    Its ``parameters(robot)`` is asked again; or each constant (``PARAMETERS``, ``--params``) is matched to
+    the per-link value it equals.
+    """
+    read = getattr(formula, "link_parameters", None)
+    if given or read is None or getattr(formula, "constant_parameters", False):
+        return by_values(setup.robot, setup.params, "--params" if given else "PARAMETERS", seed)
+    return by_table(read)
+
+
+def varied_sets(
+    formula: Formula,
+    ref: Reference,
+    used: Mapping[str, float],
+    states: Sequence[Any],
+    rows: Sequence[CheckRow],
+    follow: Follower,
+    *,
+    seed: int,
+) -> Sets | None:
+    """Formula - Pinocchio at the varied parameter sets, for the rows --explain fits (None: none fails)."""
+    keys = failing_keys(rows)
+    if not keys:
+        return None
+    return parameter_sets(formula, ref, used, states, keys, follow, seed=seed)
+
+
 def explain_rows(
     rows: Sequence[CheckRow],
     kept: Mapping[str, Accumulator],
     states: Sequence[Any],
     ref: Reference,
     used: Mapping[str, float],
-) -> tuple[str, ...]:
-    """``--explain``'s lines (:func:`robodyn.kinds.explain.explain`), the coordinates' kinds read from ``ref``."""
+    *,
+    sets: Sets | None = None,
+    names: Sequence[str] = (),
+) -> tuple[tuple[str, ...], tuple[Explained, ...]]:
+    """``--explain``'s lines and named terms (:func:`robodyn.kinds.explain.explain`), coordinate kinds from ``ref``."""
     joints = [next(j for j in ref.robot.joints if j.idx_v == column) for column in ref.columns]
     prismatic = [JOINT_TYPES.get(j.kind) == "prismatic" for j in joints]
     g = float(np.linalg.norm(dynamics.gravity_vector(ref.robot.model)))
-    return explain(rows, kept, states, used, prismatic=prismatic, g=g)
+    return explain(rows, kept, states, used, prismatic=prismatic, g=g, sets=sets, names=names or None)

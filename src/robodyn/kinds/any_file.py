@@ -11,6 +11,9 @@ The file defines
   (default: the neutral pose, 0);
 * ``PARAMETERS = {name: number}`` or ``def parameters(robot) -> {name: number}``, where ``robot`` is
   robodyn's per-link table of the model the formula describes (:class:`robodyn.model.links.LinkTable`);
+* ``NAMES`` (optional): the formula's names of its coordinates, ``["x", "phi1", "phi2"]`` (identifiers,
+  distinct, one per joint of ``JOINTS``): ``--explain`` writes its terms in them (``cos(phi1)``,
+  velocities ``phi1_dot``); default q1, q2, ... and v1, v2, ...;
 * ``mass_matrix(q, p)`` (n, n) [kg m^2 | kg], ``coriolis_matrix(q, v, p)`` (n, n) (or
   ``coriolis_vector(q, v, p)`` (n,): C v alone, :mod:`robodyn.kinds.user_coriolis`) and
   ``gravity(q, p)`` (n,) [N m | N], and optionally ``potential_energy(q, p)`` [J], with n = len(JOINTS),
@@ -23,6 +26,7 @@ with Pinocchio, in the formula's coordinates, is :mod:`robodyn.kinds.any_check`.
 
 from __future__ import annotations
 
+import keyword
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -49,6 +53,7 @@ class AnyFormula(Formula):
     signs: tuple[float, ...] = field(default=(), kw_only=True)  # q_formula = sign * q_urdf + offset
     offsets: tuple[float, ...] = field(default=(), kw_only=True)  # [rad | m]
     locked: tuple[tuple[str, float], ...] = field(default=(), kw_only=True)  # LOCKED, as (joint, value)
+    names: tuple[str, ...] = field(default=(), kw_only=True)  # NAMES: the coordinates' own names, or ()
     path: Path = field(default=Path(), kw_only=True)
     fixed_parameters: Mapping[str, float] | None = field(default=None, kw_only=True)
     read_parameters: Callable[..., object] | None = field(default=None, kw_only=True, compare=False, repr=False)
@@ -91,6 +96,7 @@ def load_any(module: ModuleType, source: str, path: Path, wrap: Callable[..., An
         signs=signs,
         offsets=offsets,
         locked=locked,
+        names=coordinate_names(getattr(module, "NAMES", None), len(joints), source),
         path=path,
         fixed_parameters=None if fixed is None else _fixed(fixed, source),
         read_parameters=reader if fixed is None else None,
@@ -174,6 +180,24 @@ def _locked(value: object, joints: tuple[str, ...], source: str) -> tuple[tuple[
     return tuple(out)
 
 
+def coordinate_names(value: object, n: int, source: str) -> tuple[str, ...]:
+    """``NAMES``: n distinct identifiers naming the formula's coordinates in order (None: ())."""
+    if value is None:
+        return ()
+    expected = f'expected {n} distinct identifiers, one per joint of JOINTS, e.g. NAMES = ["x", "phi1"]'
+    if not isinstance(value, (list, tuple)) or not all(isinstance(x, str) for x in value):
+        raise FormulaError(f"{source}: NAMES = {value!r}; {expected}")
+    if len(value) != n:
+        raise FormulaError(f"{source}: NAMES has {len(value)} name(s) for {n} joint(s) in JOINTS; {expected}")
+    bad = [x for x in value if not x.isidentifier() or keyword.iskeyword(x)]
+    if bad:
+        raise FormulaError(f"{source}: NAMES has {bad[0]!r}, which is not an identifier; {expected}")
+    twice = [x for x in value if value.count(x) > 1]
+    if twice:
+        raise FormulaError(f"{source}: NAMES has {twice[0]!r} twice; {expected}")
+    return tuple(value)
+
+
 def _fixed(value: object, source: str) -> dict[str, float]:
     """``PARAMETERS`` checked as a parameters() return value, its errors said as PARAMETERS."""
     try:
@@ -190,6 +214,8 @@ def loaded_header(formula: Formula) -> dict[str, Any]:
         "signs": list(formula.signs),
         "offsets": list(formula.offsets),
         "locked": [list(pair) for pair in formula.locked],
+        "names": list(formula.names),
+        "constant_parameters": formula.read_parameters is None,
     }
 
 

@@ -30,6 +30,7 @@ fails.
 
 from __future__ import annotations
 
+import functools
 import time
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, replace
@@ -56,6 +57,8 @@ from robodyn.kinds.check_rows import (
     skew_scale,
 )
 from robodyn.kinds.check_scales import scales
+from robodyn.kinds.explain import Explained, Sets, one_set
+from robodyn.kinds.explain_sets import by_reading
 from robodyn.kinds.formula import Formula
 from robodyn.kinds.loop_check import loop_rows
 from robodyn.kinds.params import Params, extract, from_mapping
@@ -79,6 +82,7 @@ C_NOT_CHECKED = (
     "C and dM/dt - 2C skew not checked: {source} gives C v (coriolis_vector), not C; C v + G, tau and a are "
     "checked with it"
 )
+GIVEN = "the parameters were given (--params), not read from the model, so they cannot follow a varied model"
 
 
 @dataclass(frozen=True)
@@ -123,6 +127,11 @@ def _given_params(kind: str, params: Mapping[str, float], where: str) -> Params:
     if negative:
         raise InputError(f"{where}given {kind} parameters {', '.join(negative)} (expected masses and inertias >= 0)")
     return p
+
+
+def _extracted(robot: Robot, *, kind: str) -> dict[str, float]:
+    """The parameters of ``kind`` read from ``robot`` (a varied model, for --explain's parameter sets)."""
+    return extract(robot, kind).as_dict()
 
 
 def _refuse_singular(p: Params, mass: Array, samples: list[_Sample], where: str) -> None:
@@ -431,6 +440,8 @@ def check(
     renamed: tuple[str, ...] = ()
     kept: dict[str, Accumulator] = {}  # the formula rows' accumulators, for --explain
     explained: tuple[list[_Sample], Reference] | None = None  # and the states they were taken at
+    sets: Sets | None = None  # and formula - Pinocchio at the varied parameter sets
+    names: tuple[str, ...] = ()  # the formula's coordinates (NAMES)
     if formula is not None:
         resolved = resolve(formula, timeout=formula_timeout) if isinstance(formula, str) else formula
         try:
@@ -452,6 +463,10 @@ def check(
                 p_any = Params(ANY, used)
                 rows += _formula_rows(setup.robot, resolved, p_any, mapped, rtol, None, reference=ref, keep=kept)
                 explained = (mapped, ref)
+                names = tuple(getattr(resolved, "names", ()))
+                if explain:
+                    follower = any_check.follower(setup, resolved, given=params is not None, seed=seed)
+                    sets = any_check.varied_sets(resolved, ref, used, mapped, rows, follower, seed=seed)
             else:
                 try:
                     p = extract(robot, resolved.kind)
@@ -463,6 +478,11 @@ def check(
                 used = p.as_dict()
                 rows += _formula_rows(robot, resolved, p, states, rtol, given, keep=kept)
                 explained = (states, Reference.identity(robot))
+                if explain and params is None:
+                    follower = by_reading(functools.partial(_extracted, kind=resolved.kind))
+                    sets = any_check.varied_sets(resolved, explained[1], used, states, rows, follower, seed=seed)
+                elif explain:
+                    sets = one_set(used, used.get("g", 0.0), failure=GIVEN)
             if resolved.coriolis_form == VECTOR:
                 notes += (C_NOT_CHECKED.format(source=source),)
             renamed = resolved.renamed if isinstance(resolved, UserFormula) else ()
@@ -472,8 +492,9 @@ def check(
     rows += _structure_rows(robot, states, rtol)
     rows.sort(key=lambda r: GROUP_ORDER.index(r.group))  # stable: keeps the order within a group
     explanation: tuple[str, ...] = ()
+    terms: tuple[Explained, ...] = ()
     if explain and explained is not None:
-        explanation = any_check.explain_rows(rows, kept, *explained, used)
+        explanation, terms = any_check.explain_rows(rows, kept, *explained, used, sets=sets, names=names)
     elif explain and kind == CONSTRAINED:
         explanation = ("explain: not available for a KIND = 'constrained' formula (its rows are on the loop)",)
     if kind != CONSTRAINED and (tuple(loops) or springs):
@@ -493,4 +514,5 @@ def check(
         params_given=params is not None,
         explanation=explanation,
         renamed=renamed,
+        explain_terms=tuple(t.as_dict() for t in terms),
     )

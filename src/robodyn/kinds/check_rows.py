@@ -141,6 +141,9 @@ class CheckReport:
     params_given: bool = False  # True: the parameters were given by the user, not read from the model
     explanation: tuple[str, ...] = ()  # --explain: the lines naming each mismatching entry's wrong term
     renamed: tuple[str, ...] = ()  # one note per earlier parameter name the formula file read (p["M"])
+    # --explain, for machines: per mismatching entry {quantity, entry, label, status, terms, reason}
+    # (robodyn.kinds.explain.Explained.as_dict)
+    explain_terms: tuple[dict[str, Any], ...] = ()
 
     @property
     def passed(self) -> bool:
@@ -184,7 +187,8 @@ class CheckReport:
         """JSON-ready dict: every field (rows as dicts) and the verdict."""
         out = {f.name: getattr(self, f.name) for f in fields(self)}
         out.update(notes=list(self.notes), rows=[r.as_dict() for r in self.rows], explanation=list(self.explanation))
-        out.update(renamed=list(self.renamed))
+        out.update(renamed=list(self.renamed), explain_terms=list(self.explain_terms))
+        out.setdefault("hints", [])  # --explain's convention hints, where the report has them
         return {**out, "passed": self.passed, "verdict": self.verdict}
 
 

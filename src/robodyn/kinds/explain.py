@@ -1,20 +1,18 @@
 """``robodyn check --explain``: name the wrong term of each mismatching entry, in the formula's own symbols.
 
 For every entry of M, C, G (and V) that is out of tolerance, the difference formula - Pinocchio over
-the sampled states is fitted against a basis of the terms rigid-body dynamics is made of:
+the sampled states is fitted sparsely in a basis of the terms rigid-body dynamics is made of
+(:mod:`robodyn.kinds.explain_basis`: cos(q2), sin(q1 + q2), q2*cos(q3), sin(q2)*v1, ...).
 
-* of q: 1; cos and sin of each revolute coordinate, of the sums and differences of two and of the
-  sums of consecutive runs (cos(q2), sin(q1 + q2), cos(q1 - q3), cos(q1 + q2 + q3)); products of two
-  of these (cos(q2)**2, sin(q2)*cos(q2 + q3)); a prismatic coordinate's monomials (q2, q2**2) and their
-  products with the trigonometric terms (q2*cos(q3));
-* for C, each of those times one velocity (sin(q2)*v1).
-
-The sparsest exact fit is taken: every single term first, then every pair among the best-correlated
-terms, then orthogonal matching pursuit up to :data:`MAX_TERMS` terms. A fit is exact when what it
-leaves is round-off (:data:`FIT_RTOL` of the difference, or :data:`ROUNDOFF` of the entry's scale).
-Each coefficient is then named, when one does, by a product of the file's parameters with a small
-rational factor (and g where gravity is), or a sum or difference of two such
-products (``lc1`` written for ``l1`` leaves m2*lc1*lc2 - m2*l1*lc2): :mod:`robodyn.kinds.explain_names`.
+A coefficient is then named across parameter values, not at one set of them, where a coincidence
+(0.8 * 0.25 = 0.5 * 0.4) would pass for a name: the fit's terms are refitted at the varied parameter
+sets (:class:`Sets`, gathered by :mod:`robodyn.kinds.explain_sets`), so that each coefficient is a
+vector over the sets, and a product of the file's parameters (or a sum or difference of two) names it
+only when it is the one that equals it at every set (:mod:`robodyn.kinds.explain_names`). Each entry
+comes out as an :class:`Explained`, of status ``named`` (every term has its one name), ``candidates``
+(several fit: listed, with why they cannot be told apart), ``unnamed`` (none fits, or the terms change
+form with the parameters: why) or ``no_fit`` (no sum of at most :data:`MAX_TERMS` terms is exact), and
+as printed lines in the formula's own coordinates (``NAMES``: cos(phi1), phi1_dot).
 
 The formula's own structure is read too: an M that is not symmetric, or not positive definite at a
 sample; a C whose C v is right while dM/dt - 2C is not skew (a valid C v, not in Christoffel form).
@@ -24,8 +22,6 @@ Nothing here imports Pinocchio: it works on what the check gathered.
 
 from __future__ import annotations
 
-import itertools
-import math
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -35,176 +31,205 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodyn.kinds.check_rows import Accumulator, CheckRow
+from robodyn.kinds.explain_basis import (
+    FIT_RTOL,
+    MAX_TERMS,
+    ROUNDOFF,
+    Basis,
+    Fit,
+    fit,
+    least_squares,
+    q_basis,
+    velocity_basis,
+)
 from robodyn.kinds.explain_names import (
+    MAX_FACTORS,
     NAME_RTOL,
     Dim,
     Name,
     Namer,
     entry_dimension,
+    factors_of,
     sub,
     term_dimension,
 )
 
 Array = NDArray[np.float64]
 
-MAX_TERMS = 6  # the most terms a correction may have: more is not "a wrong term" but a wrong derivation
-FIT_RTOL = 1e-9  # an exact fit leaves at most this fraction of the difference (its round-off is ~1e-13)
-ROUNDOFF = 1e-12  # ... or this fraction of the entry's own scale (a difference near the tolerance)
-PAIR_CANDIDATES = 40  # pairs of terms are searched among this many best-correlated ones
 QUANTITIES = {"M": "M", "C": "C", "G": "G", "V": "V - V(q0)"}
+MAX_CANDIDATES = 4  # candidates listed for a term; past them, how many more
 
 
+# ---------------------------------------------------------------------------------------- the parameter sets
 @dataclass(frozen=True)
-class Basis:
-    """Candidate terms evaluated at the samples: ``values`` (k, D), ``names`` (D,), simplest first."""
+class Sets:
+    """The formula's parameters and formula - Pinocchio at the parameter sets (:mod:`robodyn.kinds.explain_sets`).
 
-    values: Array
-    names: tuple[str, ...]
+    ``params[0]`` is the check's own set; ``differences[key]`` (S - 1, k, *shape) and ``scales[key]`` (S - 1,)
+    are at the varied sets, at the check's first k states; ``gravity`` (S,) [m/s^2]. ``followed``: constant
+    parameter -> the per-link value it was varied as; ``held``: parameter -> why it could not be varied;
+    ``advice``: what would let it; ``failure``: why no varied set could be built.
+    """
 
+    params: tuple[Mapping[str, float], ...]
+    gravity: tuple[float, ...]
+    differences: Mapping[str, Array]
+    scales: Mapping[str, Array]
+    followed: Mapping[str, str]
+    held: Mapping[str, str]
+    advice: str = ""
+    failure: str = ""
 
-def _angle_combinations(revolute: Sequence[int]) -> list[tuple[str, Array]]:
-    """(name, coefficient vector over q) of q_i, q_i +- q_j and runs q_i + ... + q_j of consecutive revolutes."""
-    n = max(revolute) + 1 if revolute else 0
-    out: list[tuple[str, Array]] = []
-
-    def vec(signs: Mapping[int, int]) -> Array:
-        w = np.zeros(n)
-        for i, s in signs.items():
-            w[i] = s
-        return w
-
-    for i in revolute:
-        out.append((f"q{i + 1}", vec({i: 1})))
-    for i, j in itertools.combinations(revolute, 2):
-        out.append((f"q{i + 1} + q{j + 1}", vec({i: 1, j: 1})))
-        out.append((f"q{i + 1} - q{j + 1}", vec({i: 1, j: -1})))
-    for length in range(3, len(revolute) + 1):
-        for start in range(len(revolute) - length + 1):
-            run = revolute[start : start + length]
-            out.append((" + ".join(f"q{i + 1}" for i in run), vec(dict.fromkeys(run, 1))))
-    return out
+    @property
+    def count(self) -> int:
+        """Number of parameter sets, the check's own included."""
+        return len(self.params)
 
 
-def q_basis(q: Array, prismatic: Sequence[bool]) -> Basis:
-    """The terms of q (k samples, n coordinates): trigonometric of the revolutes, monomials of the prismatics."""
-    k, n = q.shape
-    revolute = [i for i in range(n) if not prismatic[i]]
-    slides = [i for i in range(n) if prismatic[i]]
-    trig: list[tuple[str, Array]] = []
-    for name, w in _angle_combinations(revolute):
-        angle = q[:, : len(w)] @ w if len(w) else np.zeros(k)
-        trig.append((f"cos({name})", np.cos(angle)))
-        trig.append((f"sin({name})", np.sin(angle)))
-    poly: list[tuple[str, Array, int]] = [(f"q{i + 1}", q[:, i], 1) for i in slides]
-    poly += [
-        (f"q{i + 1}**2" if i == j else f"q{i + 1}*q{j + 1}", q[:, i] * q[:, j], 2)
-        for i, j in itertools.combinations_with_replacement(slides, 2)
-    ]
-    names: list[str] = ["1"]
-    values: list[Array] = [np.ones(k)]
-    # degree by degree, so that the simplest term comes first
-    for name, x, _ in poly:
-        names.append(name)
-        values.append(x)
-    for name, x in trig:
-        names.append(name)
-        values.append(x)
-    for name, x, _ in poly:
-        for tname, t in trig:
-            names.append(f"{name}*{tname}")
-            values.append(x * t)
-    for (a, x), (b, y) in itertools.combinations_with_replacement(trig, 2):
-        names.append(f"{a}**2" if a == b else f"{a}*{b}")
-        values.append(x * y)
-    for name, x, degree in poly:
-        if degree == 1:
-            for (a, t), (b, u) in itertools.combinations_with_replacement(trig, 2):
-                names.append(f"{name}*{a}**2" if a == b else f"{name}*{a}*{b}")
-                values.append(x * t * u)
-    return _distinct(Basis(np.column_stack(values), tuple(names)))
-
-
-def _distinct(basis: Basis) -> Basis:
-    """Drop terms that are (to round-off) a multiple of an earlier one (sin(q1)**2 against ..., zero columns)."""
-    norms = np.linalg.norm(basis.values, axis=0)
-    keep: list[int] = []
-    unit = basis.values / np.where(norms > 0, norms, 1.0)
-    parallel = np.abs(unit.T @ unit) > 1 - 1e-12  # (D, D): term j is a multiple of term i
-    for j in range(unit.shape[1]):
-        if norms[j] <= 1e-12 * math.sqrt(len(unit)):
-            continue
-        if keep and parallel[j, keep].any():
-            continue
-        keep.append(j)
-    return Basis(basis.values[:, keep], tuple(basis.names[j] for j in keep))
-
-
-def velocity_basis(base: Basis, v: Array) -> Basis:
-    """Each term of ``base`` times one velocity v1 ... vn (C is linear in v)."""
-    names, values = [], []
-    for i in range(v.shape[1]):
-        for name, column in zip(base.names, base.values.T, strict=True):
-            names.append(f"v{i + 1}" if name == "1" else f"{name}*v{i + 1}")
-            values.append(column * v[:, i])
-    return Basis(np.column_stack(values), tuple(names))
-
-
-@dataclass(frozen=True)
-class Fit:
-    """A sparse fit d = sum c_j phi_j: the chosen terms, their coefficients, and what is left (max abs)."""
-
-    terms: tuple[str, ...]
-    coefficients: tuple[float, ...]
-    residual: float
-    exact: bool
-
-
-def fit(d: Array, basis: Basis, scale: float) -> Fit:
-    """The sparsest exact fit of ``d`` (k,) in ``basis``; ``scale``: the entry's own magnitude (for round-off)."""
-    target = max(FIT_RTOL * float(np.max(np.abs(d))), ROUNDOFF * scale)
-    Phi = basis.values
-    norms = np.linalg.norm(Phi, axis=0)
-    unit = Phi / norms
-    corr = np.abs(unit.T @ d)
-    # every single term
-    c1 = (unit.T @ d) / norms
-    left1 = np.max(np.abs(d[:, None] - Phi * c1[None, :]), axis=0)
-    exact = np.nonzero(left1 <= target)[0]
-    if exact.size:
-        j = int(exact[0])
-        return Fit((basis.names[j],), (float(c1[j]),), float(left1[j]), True)
-    # every pair among the best-correlated
-    best = np.argsort(-corr, kind="stable")[:PAIR_CANDIDATES]
-    found: tuple[tuple[int, ...], Array, float] | None = None
-    for a, b in itertools.combinations(sorted(best.tolist()), 2):
-        coef, left = _least_squares(Phi[:, [a, b]], d)
-        if left <= target and (found is None or (a, b) < found[0]):
-            found = ((a, b), coef, left)
-    if found is not None:
-        idx, coef, left = found
-        return Fit(tuple(basis.names[j] for j in idx), tuple(float(c) for c in coef), left, True)
-    # orthogonal matching pursuit
-    support: list[int] = []
-    coef, left = np.zeros(0), float(np.max(np.abs(d)))
-    residual = d.copy()
-    for _ in range(MAX_TERMS):
-        j = int(np.argmax(np.abs(unit.T @ residual)))
-        if j in support:
-            break
-        support.append(j)
-        coef, left = _least_squares(Phi[:, support], d)
-        residual = d - Phi[:, support] @ coef
-        if left <= target:
-            break
-    return Fit(tuple(basis.names[j] for j in support), tuple(float(c) for c in coef), left, left <= target)
-
-
-def _least_squares(A: Array, d: Array) -> tuple[Array, float]:
-    coef = np.asarray(np.linalg.lstsq(A, d, rcond=None)[0], dtype=np.float64)
-    return coef, float(np.max(np.abs(d - A @ coef)))
+def one_set(params: Mapping[str, float], g: float, *, failure: str) -> Sets:
+    """The check's own parameter set alone; ``failure``: why no other (a name is then only a candidate)."""
+    return Sets((params,), (g,), {}, {}, {}, {}, failure=failure)
 
 
 # ---------------------------------------------------------------------------------------- the explanation
+@dataclass(frozen=True)
+class Term:
+    """One term of an entry's difference: its basis function, coefficient (the check's set), name and candidates."""
+
+    basis: str
+    coefficient: float
+    name: str | None
+    candidates: tuple[str, ...]
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready."""
+        return {
+            "basis": self.basis,
+            "coefficient": self.coefficient,
+            "name": self.name,
+            "candidates": list(self.candidates),
+        }
+
+
+@dataclass(frozen=True)
+class Explained:
+    """An entry's difference formula - Pinocchio as named terms; ``status`` named, candidates, unnamed or no_fit."""
+
+    quantity: str  # "M", "C", "G" or "V"
+    entry: tuple[int, ...]
+    label: str
+    status: str
+    terms: tuple[Term, ...]
+    reason: str
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready: the schema of ``check --json``'s ``explain_terms``."""
+        return {
+            "quantity": self.quantity,
+            "entry": list(self.entry),
+            "label": self.label,
+            "status": self.status,
+            "terms": [t.as_dict() for t in self.terms],
+            "reason": self.reason,
+        }
+
+
+def _display(term: str, names: Sequence[str] | None) -> str:
+    """A basis term in the formula's own names: q2 -> phi1, v2 -> phi1_dot (``NAMES``); q1, v1 ... without."""
+    if not names:
+        return term
+    return re.sub(r"\b([qv])(\d+)\b", lambda m: names[int(m[2]) - 1] + ("_dot" if m[1] == "v" else ""), term)
+
+
+def _coefficients(f: Fit, basis: Basis, sets: Sets, key: str, flat: int) -> Array | None:
+    """The fit's coefficients at every parameter set (S, J), its terms refitted at each; None where they do not fit."""
+    out = [np.array(f.coefficients)]
+    if sets.count == 1:
+        return np.array(out)
+    index = {name: j for j, name in enumerate(basis.names)}
+    k = sets.differences[key].shape[1]
+    Phi = basis.values[:k, [index[t] for t in f.terms]]
+    for d_all, scale in zip(sets.differences[key], sets.scales[key], strict=True):
+        d = d_all.reshape(k, -1)[:, flat]
+        coef, left = least_squares(Phi, d)
+        if left > max(FIT_RTOL * float(np.max(np.abs(d))), ROUNDOFF * float(scale)):
+            return None
+        out.append(coef)
+    return np.array(out)
+
+
+def identify(
+    key: str,
+    entry: tuple[int, ...],
+    label: str,
+    f: Fit,
+    vectors: Array | None,
+    namer: Namer,
+    sets: Sets,
+    dims: Sequence[Dim | None],
+    names: Sequence[str] | None,
+) -> Explained:
+    """Name each term of the fit ``f`` by what equals its coefficient at every parameter set (``vectors`` (S, J))."""
+    shown = [_display(t, names) for t in f.terms]
+    if not f.exact:
+        reason = (
+            f"no sum of at most {MAX_TERMS} terms of the basis fits (the best leaves {f.residual:.3g}): more than a "
+            "term is wrong, or a term is outside the basis"
+        )
+        return Explained(key, entry, label, "no_fit", (), reason)
+    if vectors is None:  # what fits at the check's own values is all there is: candidates at best, never a name
+        own = Namer(sets.params[:1], sets.gravity[:1])
+        bare = tuple(
+            Term(b, c, None, tuple(n.text for n in own.candidates(c, dims[j])))
+            for j, (b, c) in enumerate(zip(shown, f.coefficients, strict=True))
+        )
+        reason = (
+            f"its terms do not keep their form when the parameters vary ({sets.count} parameter sets), so what "
+            "fits at the check's values alone may be a coincidence: a parameter the model cannot vary"
+            + (_held(sets) or ", or a number written where a parameter belongs")
+        )
+        status = "candidates" if all(t.candidates for t in bare) else "unnamed"
+        return Explained(key, entry, label, status, bare, reason)
+    terms: list[Term] = []
+    for j, (b, c) in enumerate(zip(shown, f.coefficients, strict=True)):
+        found = [n.text for n in namer.candidates(vectors[:, j], dims[j])]
+        unique = found[0] if len(found) == 1 and sets.count > 1 else None
+        terms.append(Term(b, c, unique, tuple(found)))
+    if all(t.name is not None for t in terms):
+        return Explained(key, entry, label, "named", tuple(terms), "")
+    if any(not t.candidates for t in terms):
+        reason = (
+            f"no product of at most {MAX_FACTORS} parameters (times g, with a small rational factor), nor a sum or "
+            f"difference of two, equals it at all {sets.count} parameter sets" + _held(sets)
+        )
+        return Explained(key, entry, label, "unnamed", tuple(terms), reason)
+    return Explained(key, entry, label, "candidates", tuple(terms), _why_alike(terms, namer, sets))
+
+
+def _held(sets: Sets) -> str:
+    if not sets.held:
+        return ""
+    return "; " + "; ".join(sets.held.values()) + (f": {sets.advice}" if sets.advice else "")
+
+
+def _why_alike(terms: Sequence[Term], namer: Namer, sets: Sets) -> str:
+    """``cannot tell m2*l1 from m2*lc2: l1 = 0.5 did not change with the model ...; define parameters(robot) ...``."""
+    if sets.count == 1:
+        return f"a match at one parameter set may be a coincidence, and {sets.failure}"
+    term = next(t for t in terms if t.name is None)
+    involved: set[str] = set()
+    for text in term.candidates:
+        involved |= factors_of(text)
+    parts = namer.alike(sorted(involved))
+    said = " from ".join(term.candidates[:2])
+    why = "; ".join(parts) if parts else f"both equal it at all {sets.count} parameter sets"
+    held = [why_held for name, why_held in sets.held.items() if name in involved]
+    if held:
+        why = "; ".join(held)
+    advice = sets.advice or "vary those values in the model (or in parameters(robot))"
+    return f"cannot tell {said}: {why}; {advice}"
+
+
 def _top_level_space(text: str) -> bool:
     """True when ``text`` has a space outside parentheses (``a - b``, not ``2*(a - b)``)."""
     depth = 0
@@ -230,56 +255,66 @@ def _term(coefficient: float, name: Name | None, atom: str) -> tuple[str, str]:
     return sign, body if atom == "1" else f"{body}*{atom}"
 
 
-def _power_of_ten(x: float) -> str:
-    return f"1e{math.ceil(math.log10(max(x, 1e-16))):d}"
-
-
-def describe_fit(label: str, f: Fit, namer: Namer, unit: str, dims: Sequence[Dim | None] | None = None) -> list[str]:
-    """``M[0,1]: formula - Pinocchio = -m2*l1*lc2*cos(q2)   (coefficient -0.00945, = -m2*l1*lc2 to 1e-15)``."""
-    if not f.exact:
-        return [
-            f"{label}: formula - Pinocchio is no sum of at most {MAX_TERMS} terms of the basis (the best such leaves "
-            f"{f.residual:.3g} {unit}): more than a term is wrong, or a term is outside the basis"
-        ]
-    named = [namer.name(c, None if dims is None else dims[j]) for j, c in enumerate(f.coefficients)]
-    # largest first; of two equal ones, the formula's own (positive: formula - Pinocchio) first
-    order = sorted(range(len(f.terms)), key=lambda j: (-float(f"{abs(f.coefficients[j]):.9g}"), f.coefficients[j] < 0))
+def _expression(ex: Explained, order: Sequence[int]) -> str:
     expression = ""
-    details = []
     for position, j in enumerate(order):
-        sign, body = _term(f.coefficients[j], named[j], f.terms[j])
+        t = ex.terms[j]
+        sign, body = _term(t.coefficient, None if t.name is None else Name(t.name, 0.0), t.basis)
         if position == 0:
             expression = body if sign == "+" else f"-{body}"
         else:
             expression += f" {sign} {body}"
-        name = named[j]
-        said = f"{f.coefficients[j]:.3g}"
-        if name is not None:
-            said += f", = {name.text} to {_power_of_ten(name.error)}"
+    return expression
+
+
+def describe(ex: Explained, unit: str, sets: Sets, vectors: Array | None = None) -> list[str]:
+    """``M[0,1]: formula - Pinocchio = m2*(lc1 - l1)*cos(phi1)   (coefficient -0.2 = m2*(lc1 - l1) at 5 sets)``."""
+    if ex.status == "no_fit":
+        return [f"{ex.label}: formula - Pinocchio: {ex.reason} ({unit})"]
+    coefficients = [t.coefficient for t in ex.terms]
+    # largest first; of two equal ones, the formula's own (positive: formula - Pinocchio) first
+    order = sorted(range(len(coefficients)), key=lambda j: (-float(f"{abs(coefficients[j]):.9g}"), coefficients[j] < 0))
+    details = []
+    for j in order:
+        t = ex.terms[j]
+        said = f"{t.coefficient:.3g}"
+        if t.name is not None:
+            said += f" = {t.name}"
+        elif t.candidates:
+            said += f", one of {', '.join(t.candidates[:MAX_CANDIDATES])}"
+            if len(t.candidates) > MAX_CANDIDATES:
+                said += f" and {len(t.candidates) - MAX_CANDIDATES} more"
+        else:
+            said += ", unnamed"
         details.append(said)
     word = "coefficient" if len(details) == 1 else "coefficients"
-    lines = [f"{label}: formula - Pinocchio = {expression}   ({word} {'; '.join(details)})"]
-    swap = _swapped(f, named, order)
+    at = f" at each of {sets.count} parameter sets" if ex.status == "named" else ""
+    lines = [f"{ex.label}: formula - Pinocchio = {_expression(ex, order)}   ({word} {'; '.join(details)}{at})"]
+    if ex.reason:
+        lines.append(f"    {ex.reason}")
+    swap = _swapped(ex, order, vectors)
     if swap:
         lines.append(f"    {swap}")
     return lines
 
 
-def _swapped(f: Fit, named: Sequence[Name | None], order: Sequence[int]) -> str:
-    """``the formula has ... where Pinocchio has ...`` for two terms of equal and opposite coefficients."""
-    if len(f.terms) != 2:
+def _swapped(ex: Explained, order: Sequence[int], vectors: Array | None) -> str:
+    """``the formula has ... where Pinocchio has ...`` for two terms of equal and opposite coefficients at every set."""
+    if len(ex.terms) != 2 or vectors is None:
         return ""
     a, b = order
-    ca, cb = f.coefficients[a], f.coefficients[b]
-    if abs(ca + cb) > NAME_RTOL * max(abs(ca), abs(cb)) * 1e3:
+    ca, cb = vectors[:, a], vectors[:, b]
+    if np.any(np.abs(ca + cb) > NAME_RTOL * np.maximum(np.abs(ca), np.abs(cb)) * 1e3):
         return ""
-    extra, missing = (a, b) if ca > 0 else (b, a)  # formula - Pinocchio: + what the formula has, - what it lacks
-    has = _term(f.coefficients[extra], named[extra], f.terms[extra])[1]
-    lacks = _term(f.coefficients[extra], named[extra], f.terms[missing])[1]
+    extra, missing = (a, b) if ex.terms[a].coefficient > 0 else (b, a)  # + what the formula has, - what it lacks
+    own = ex.terms[extra]
+    name = None if own.name is None else Name(own.name, 0.0)
+    has = _term(own.coefficient, name, own.basis)[1]
+    lacks = _term(own.coefficient, name, ex.terms[missing].basis)[1]
     what = "a term written wrong"
-    if _sin_cos(f.terms[extra], f.terms[missing]):
+    if _sin_cos(own.basis, ex.terms[missing].basis):
         what = "a sine and a cosine swapped"
-    elif re.sub(r"\d", "#", f.terms[extra]) == re.sub(r"\d", "#", f.terms[missing]):
+    elif re.sub(r"\d", "#", own.basis) == re.sub(r"\d", "#", ex.terms[missing].basis):
         what = "an index written wrong"
     return f"the formula has {has} where Pinocchio has {lacks}: {what}"
 
@@ -292,6 +327,12 @@ def _entries(row: CheckRow) -> list[tuple[int, ...]]:
     return [m.entry for m in row.mismatches] or ([row.entry] if not row.passed else [])
 
 
+def failing_keys(rows: Sequence[CheckRow]) -> tuple[str, ...]:
+    """The formula rows (of M, C, G, V) --explain fits: those out of tolerance."""
+    by_quantity = {r.quantity: r for r in rows}
+    return tuple(k for k, q in QUANTITIES.items() if q in by_quantity and not by_quantity[q].passed)
+
+
 def explain(
     rows: Sequence[CheckRow],
     acc: Mapping[str, Accumulator],
@@ -300,18 +341,24 @@ def explain(
     *,
     prismatic: Sequence[bool],
     g: float,
-) -> tuple[str, ...]:
-    """The explanation lines of a check: each mismatching entry's wrong term, the formula's structure, knock-ons.
+    sets: Sets | None = None,
+    names: Sequence[str] | None = None,
+) -> tuple[tuple[str, ...], tuple[Explained, ...]]:
+    """The explanation lines of a check and each mismatching entry's named terms.
 
     ``acc``: the formula rows' accumulators (key -> (Pinocchio, formula) per sample), ``samples``: the
-    states (``.q``, ``.v`` in the formula's coordinates), ``prismatic[i]``: coordinate i is a length.
+    states (``.q``, ``.v`` in the formula's coordinates), ``prismatic[i]``: coordinate i is a length;
+    ``sets``: the parameter sets (:mod:`robodyn.kinds.explain_sets`; None: the check's own only, and then
+    nothing is named, only candidates given); ``names``: the formula's coordinates (``NAMES``).
     """
+    sets = sets if sets is not None else one_set(params, g, failure="no varied parameter set was asked for")
     by_quantity = {r.quantity: r for r in rows}
     q = np.array([s.q for s in samples])
     v = np.array([s.v for s in samples])
     base = q_basis(q, prismatic)
-    namer = Namer(params, g)
+    namer = Namer(sets.params, sets.gravity)
     lines: list[str] = []
+    explained: list[Explained] = []
     failing: dict[str, list[str]] = {}
     for key, quantity in QUANTITIES.items():
         row = by_quantity.get(quantity)
@@ -330,13 +377,30 @@ def explain(
             found = fit(d, basis, scale)
             own = entry_dimension(key, entry, prismatic)
             dims = [sub(own, term_dimension(term, prismatic)) for term in found.terms]
-            lines += describe_fit(label, found, namer, row.unit, dims)
+            vectors = _coefficients(found, basis, sets, key, flat) if found.exact else None
+            ex = identify(key, entry, label, found, vectors, namer, sets, dims, names)
+            explained.append(ex)
+            lines += describe(ex, row.unit, sets, vectors)
         failing[key] = labels
     lines += _structure(rows, acc, samples)
     lines += _knock_on(rows, failing)
     if lines:
-        lines.insert(0, "explain: each mismatching entry as formula - Pinocchio, fitted over the samples:")
-    return tuple(lines)
+        lines[:0] = _heading(sets)
+    return tuple(lines), tuple(explained)
+
+
+def _heading(sets: Sets) -> list[str]:
+    head = "explain: each mismatching entry as formula - Pinocchio, fitted over the samples"
+    if sets.count == 1:
+        return [f"{head}, at the check's parameters only ({sets.failure}):"]
+    head += f"; a coefficient is named by what equals it at all {sets.count} parameter sets (the model's values varied)"
+    lines = [head + ":"]
+    if sets.followed:
+        lines.append("  the constant parameters followed " + ", ".join(f"{k} = {v}" for k, v in sets.followed.items()))
+    if sets.held:
+        advice = f": {sets.advice}" if sets.advice else ""
+        lines.append("  could not be varied: " + "; ".join(sets.held.values()) + advice)
+    return lines
 
 
 def _structure(rows: Sequence[CheckRow], acc: Mapping[str, Accumulator], samples: Sequence[Any]) -> list[str]:

@@ -56,6 +56,8 @@ class UserFormula(Formula):
     signs: tuple[float, ...] = field(default=(), kw_only=True)
     offsets: tuple[float, ...] = field(default=(), kw_only=True)
     locked: tuple[tuple[str, float], ...] = field(default=(), kw_only=True)
+    names: tuple[str, ...] = field(default=(), kw_only=True)  # NAMES: the coordinates' own names, or ()
+    constant_parameters: bool = field(default=False, kw_only=True)  # PARAMETERS, not parameters(robot)
 
     def evaluate(self, p: Mapping[str, float], points: Points) -> Values:
         """The file's functions at every point of ``points``, in one round trip to its process."""
@@ -156,6 +158,8 @@ def load_user_formula(
         signs=tuple(float(x) for x in info.get("signs", ())),
         offsets=tuple(float(x) for x in info.get("offsets", ())),
         locked=tuple((str(name), float(x)) for name, x in info.get("locked", ())),
+        names=tuple(str(name) for name in info.get("names", ())),
+        constant_parameters=bool(info.get("constant_parameters", False)),
     )
 
 

@@ -434,7 +434,7 @@ def check(
                 setup = any_check.prepare(robot, resolved, None if params is None else dict(params))
                 ref = setup.reference
                 mapped = [
-                    _Sample(ref.formula_q(s.q), ref.formula_v(s.v), ref.formula_v(s.a), ref.formula_v(s.tau))
+                    _Sample(ref.formula_q(s.q), ref.formula_v(s.v), ref.formula_v(s.a), ref.formula_tau(s.tau))
                     for s in _draw_samples(setup.robot, samples, seed)
                 ]
                 used, notes = setup.params, setup.notes

@@ -57,6 +57,7 @@ from robodyn.kinds.check_rows import (
 )
 from robodyn.kinds.check_scales import scales
 from robodyn.kinds.formula import Formula
+from robodyn.kinds.hints import convention_hints
 from robodyn.kinds.loop_check import loop_rows
 from robodyn.kinds.params import Params, extract, from_mapping
 from robodyn.kinds.reduced import KIND as CONSTRAINED
@@ -457,6 +458,7 @@ def check(
                 resolved.close()  # the file's process was this check's own
     rows += _structure_rows(robot, states, rtol)
     rows.sort(key=lambda r: GROUP_ORDER.index(r.group))  # stable: keeps the order within a group
+    hints = convention_hints(rows, kept, *explained, kind) if explained is not None else ()
     explanation: tuple[str, ...] = ()
     if explain and explained is not None:
         explanation = any_check.explain_rows(rows, kept, *explained, used)
@@ -478,4 +480,5 @@ def check(
         notes=notes,
         params_given=params is not None,
         explanation=explanation,
+        hints=hints,
     )

@@ -136,6 +136,7 @@ class CheckReport:
     notes: tuple[str, ...] = field(default_factory=tuple)
     params_given: bool = False  # True: the parameters were given by the user, not read from the model
     explanation: tuple[str, ...] = ()  # --explain: the lines naming each mismatching entry's wrong term
+    hints: tuple[str, ...] = ()  # ``hint: ...`` lines: a convention under which the mismatch vanishes (kinds.hints)
 
     @property
     def passed(self) -> bool:
@@ -163,6 +164,7 @@ class CheckReport:
         """JSON-ready dict: every field (rows as dicts) and the verdict."""
         out = {f.name: getattr(self, f.name) for f in fields(self)}
         out.update(notes=list(self.notes), rows=[r.as_dict() for r in self.rows], explanation=list(self.explanation))
+        out.update(hints=list(self.hints))
         return {**out, "passed": self.passed}
 
 

@@ -91,10 +91,11 @@ class Reference:
     @property
     def prismatic(self) -> tuple[bool, ...]:
         """For each formula coordinate: True for a length (its row of A names slides only)."""
-        slides = [JOINT_TYPES.get(j.kind) == "prismatic" for j in self._joints()]
+        slides = [JOINT_TYPES.get(j.kind) == "prismatic" for j in self.joint_infos()]
         return tuple(any(slides[j] for j in np.flatnonzero(row)) for row in self.A)
 
-    def _joints(self) -> list[Any]:
+    def joint_infos(self) -> list[Any]:
+        """The JOINTS' joints of ``robot`` (:class:`robodyn.robot.JointInfo`), in the formula's JOINTS order."""
         by_column = {j.idx_v: j for j in self.robot.joints}
         return [by_column[c] for c in self.columns]
 

@@ -165,7 +165,8 @@ class _Wording:
                 f'COORDINATES = {{"{names[i]}": {pair}}}'
             )
         if self.cmap.diagonal:
-            return f'hint: the mismatch vanishes with COORDINATES["{names[i]}"] = ({A[i, i]:g}, {_angle(_wrap(b[i]))}): {why}'
+            pair = f"({A[i, i]:g}, {_angle(_wrap(b[i]))})"
+            return f'hint: the mismatch vanishes with COORDINATES["{names[i]}"] = {pair}: {why}'
         fix = f"COORDINATES[{i}] = {_row(A[i])}"
         if b[i] != self.cmap.b[i]:
             fix += f" and OFFSETS = [{', '.join(_angle(x) for x in b)}]"

@@ -84,10 +84,12 @@ class CoordinateMap:
             out.append(kinds == {True})
         return tuple(out)
 
-    def describe(self, prismatic: Sequence[bool], number: Callable[[float], str] | None = None) -> list[str]:
+    def describe(
+        self, prismatic: Sequence[bool], number: Callable[[float], str] | None = None, *, units: bool = True
+    ) -> list[str]:
         """``q1 = joint1``, ``q2 = joint1 + joint2 + 3.14159 rad``: one string per formula coordinate.
 
-        ``number`` writes an offset's magnitude (default ``%.6g``); the unit follows it.
+        ``number`` writes an offset's magnitude (default ``%.6g``); with ``units`` its unit follows it.
         """
         write = number or (lambda x: f"{x:.6g}")
         out = []
@@ -102,8 +104,8 @@ class CoordinateMap:
                     text += f" {'-' if c < 0 else '+'} {size}{self.joints[j]}"
             offset = float(self.b[i])
             if offset:
-                unit = "m" if prismatic[i] else "rad"
-                text += f" {'+' if offset > 0 else '-'} {write(abs(offset))} {unit}"
+                unit = (" m" if prismatic[i] else " rad") if units else ""
+                text += f" {'+' if offset > 0 else '-'} {write(abs(offset))}{unit}"
             out.append(f"q{i + 1} = {text}")
         return out
 

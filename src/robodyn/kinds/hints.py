@@ -110,7 +110,7 @@ def _candidates(ref: Reference, kind: str | None) -> Iterator[_Candidate]:
                 A, b = ref.A.copy(), ref.offsets.copy()
                 if flip:
                     A[i] = -A[i]
-                b[i] = b[i] + shift
+                b[i] = b[i] + (-shift if shift == math.pi and b[i] > 0 else shift)  # half a turn: toward 0
                 why = _why(i, flip, turn, names, cmap, kind)
                 yield _Candidate(say.change(i, A, b, why), ref.remapped(A, b), tier=int(flip and bool(shift)))
     for i in range(len(names)):
@@ -143,7 +143,7 @@ def _why(i: int, flip: bool, turn: str, names: Sequence[str], cmap: CoordinateMa
         parts.append(f"q{i + 1} turns the other way round{axis}")
     if turn:
         hangs = " (the URDF's zero may hang down where yours stands up)" if "half" in turn else ""
-        where = "the URDF's" if kind != "any" else "the one COORDINATES gives" if cmap.diagonal else "OFFSETS'"
+        where = "the URDF's" if kind != "any" else f"the one {'COORDINATES' if cmap.diagonal else 'OFFSETS'} gives"
         parts.append(f"{'it' if flip else f'q{i + 1}'} is measured from a zero {turn} from {where}{hangs}")
     return " and ".join(parts)
 
@@ -167,10 +167,10 @@ class _Wording:
         if self.cmap.diagonal:
             pair = f"({A[i, i]:g}, {_angle(_wrap(b[i]))})"
             return f'hint: the mismatch vanishes with COORDINATES["{names[i]}"] = {pair}: {why}'
-        fix = f"COORDINATES[{i}] = {_row(A[i])}"
+        fixes = [f"COORDINATES[{i}] = {_row(A[i])}"] if not np.array_equal(A[i], self.cmap.A[i]) else []
         if b[i] != self.cmap.b[i]:
-            fix += f" and OFFSETS = [{', '.join(_angle(x) for x in b)}]"
-        return f"hint: the mismatch vanishes with {fix}: {why}"
+            fixes.append(f"OFFSETS = [{', '.join(_angle(x) for x in b)}]")
+        return f"hint: the mismatch vanishes with {' and '.join(fixes)}: {why}"
 
     def swap(self, i: int, k: int, A: Array, b: Array) -> str:
         why = f"your q{i + 1} and q{k + 1} are the other way round"
@@ -179,7 +179,8 @@ class _Wording:
             names[i], names[k] = names[k], names[i]
             return f"hint: the mismatch vanishes with JOINTS = {json.dumps(names)}: {why}"
         if self.kind == "any":
-            return f"hint: the mismatch vanishes with rows {i} and {k} of COORDINATES (and OFFSETS) swapped: {why}"
+            rows = f"COORDINATES[{i}] and COORDINATES[{k}] swapped (and OFFSETS[{i}] and OFFSETS[{k}])"
+            return f"hint: the mismatch vanishes with {rows}: {why}"
         return f"hint: the mismatch vanishes with q{i + 1} = {names[k]} and q{k + 1} = {names[i]}: {why}"
 
 

@@ -190,7 +190,9 @@ def test_named_constants_read_alike_in_check_and_derive(tmp_path, capsys, block)
 def test_derive_prints_each_offset_with_its_sign(tmp_path, capsys):
     """Issue 39: the printed coordinates line gave the offsets the opposite sign and no test saw it."""
     f = tmp_path / "c.py"
-    f.write_text('import math\nJOINTS = ["joint1", "joint2"]\nCOORDINATES = {"joint1": (-1, 0.3), "joint2": (1, -math.pi / 2)}\n')
+    f.write_text(
+        'import math\nJOINTS = ["joint1", "joint2"]\nCOORDINATES = {"joint1": (-1, 0.3), "joint2": (1, -math.pi / 2)}\n'
+    )
     assert main(["derive", "pendubot", "--coordinates", str(f), "--samples", "3"]) == 0
     assert "coordinates: q1 = -joint1 + 0.3 [rad], q2 = joint2 - pi / 2 [rad]; v = dq/dt" in capsys.readouterr().out
 

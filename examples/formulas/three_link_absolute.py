@@ -42,7 +42,11 @@ def parameters(robot):
 
 def _a(p):
     """The couplings a_12, a_13, a_23 [kg m^2]."""
-    return p["l1"] * (p["m2"] * p["lc2"] + p["m3"] * p["l2"]), p["m3"] * p["l1"] * p["lc3"], p["m3"] * p["l2"] * p["lc3"]
+    return (
+        p["l1"] * (p["m2"] * p["lc2"] + p["m3"] * p["l2"]),
+        p["m3"] * p["l1"] * p["lc3"],
+        p["m3"] * p["l2"] * p["lc3"],
+    )
 
 
 def mass_matrix(q, p):

@@ -4,8 +4,8 @@ The printed expressions themselves are checked: the text ``robodyn derive`` prin
 file it writes, or (from Python) the expressions compiled with sympy's ``lambdify``, evaluated at
 ``samples`` random states beside the robot's own M, C and G (Pinocchio's CRBA,
 Coriolis matrix and RNEA gravity), mapped to the formula's coordinates exactly as
-``robodyn check`` maps them (``M_f = S^T M S``, ``S = dq_urdf / dq_formula = A^-1`` for q = A q_urdf + b). Every entry of M, C,
-C v and G must agree to :data:`RTOL` of its quantity's largest magnitude.
+``robodyn check`` maps them (``M_f = S^T M S``, ``S = dq_urdf / dq_formula = A^-1`` for
+q = A q_urdf + b). Every entry of M, C, C v and G must agree to :data:`RTOL` of its quantity's largest magnitude.
 
 The robot is read through its methods (``M``, ``C``, ``G``, ``joint``, ``neutral``): this module
 imports neither Pinocchio nor the Robot.

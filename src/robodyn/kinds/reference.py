@@ -56,7 +56,7 @@ class Reference:
         return cls(robot, tuple(range(n)), tuple(range(n)), (False,) * n, np.eye(n), np.zeros(n), plain=True)
 
     @classmethod
-    def mapped(cls, robot: Robot, joints: Sequence[str], A: ArrayLike, offsets: Sequence[float]) -> Reference:
+    def mapped(cls, robot: Robot, joints: Sequence[str], A: ArrayLike, offsets: ArrayLike) -> Reference:
         """The formula's q = A q_joints + offsets, q_joints the joints ``joints`` of ``robot`` (one DoF each).
 
         ``A``: (n, n) invertible, or (n,) the signs of a diagonal A.

@@ -22,18 +22,24 @@ from __future__ import annotations
 
 import ast
 import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from robodyn.errors import InputError
+from robodyn.lagrange.trig import Trig
 from robodyn.model.coordinate_map import CoordinateMap, coordinate_map
 
 MAX_BYTES = 2**20  # a formula file is a few kB; this one is only parsed
 MAX_POWER = 64.0  # the largest exponent of ** in a constant (no 10**10**10)
+WHOLE_TOL = 1e-9  # an entry of A^-1 this close to a whole number is that number (A is written to ~1e-15)
 
 _MODULES = ("math.", "np.", "numpy.")
 _CONSTANTS = {"pi": math.pi, "tau": math.tau, "e": math.e}
-FUNCTIONS = {
+FUNCTIONS: dict[str, Callable[..., float]] = {
     "radians": math.radians,
     "deg2rad": math.radians,
     "degrees": math.degrees,
@@ -46,6 +52,25 @@ FUNCTIONS = {
     "arctan2": math.atan2,
 }
 """The functions a constant may call, by their name in math or NumPy."""
+
+
+@dataclass(frozen=True)
+class Coordinate:
+    """One formula coordinate: the URDF joint it stands for, ``q = sign * q_urdf + offset``.
+
+    A list of these is the ``{joint: (sign, offset)}`` form; a general linear map is a
+    :class:`~robodyn.model.coordinate_map.CoordinateMap` (:func:`derive` takes either).
+    """
+
+    joint: str
+    joint_type: str  # revolute, continuous or prismatic
+    sign: float = 1.0
+    offset: float = 0.0  # [rad | m]
+
+    @property
+    def angular(self) -> bool:
+        """True for a revolute or continuous joint."""
+        return self.joint_type != "prismatic"
 
 
 def read_coordinates(path: Path) -> tuple[list[str], CoordinateMap, dict[str, float]]:
@@ -191,3 +216,63 @@ def _number(x: Any, node: ast.expr, path: Path, name: str) -> float:
     if isinstance(x, int | float) and not isinstance(x, bool):
         return float(x)
     raise InputError(f"{path}: line {node.lineno}: {name}: expected a number, got {ast.unparse(node)[:60]!r}")
+
+
+def coordinates_of(
+    table: Any, coordinates: Sequence[Coordinate] | CoordinateMap | None, max_joints: int
+) -> CoordinateMap:
+    """The coordinates as q = A q_urdf + b, over every moving joint of ``table`` once (else InputError)."""
+    names = tuple(table.joints)
+    if len(names) > max_joints:
+        raise InputError(
+            f"{table.name} has {len(names)} moving joints; robodyn derive takes at most {max_joints} "
+            f"(name at most {max_joints} in a --coordinates file's JOINTS: the others are locked)"
+        )
+    if coordinates is None:
+        return CoordinateMap.identity([link.joint for link in table.links])
+    if isinstance(coordinates, CoordinateMap):
+        cmap = coordinates
+    else:
+        for c in coordinates:
+            if c.sign not in (1.0, -1.0) or not np.isfinite(c.offset):
+                raise InputError(f"coordinate of {c.joint}: sign must be +1 or -1 and the offset finite")
+        cmap = CoordinateMap(
+            tuple(c.joint for c in coordinates),
+            np.diag([c.sign for c in coordinates]).astype(np.float64),
+            np.array([c.offset for c in coordinates], dtype=np.float64),
+        )
+    given = list(cmap.joints)
+    if sorted(given) != sorted(names) or len(set(given)) != len(given):
+        raise InputError(f"the coordinates name joints {given}; expected each of {list(names)} once")
+    return cmap
+
+
+def whole_inverse(cmap: CoordinateMap, angular: Sequence[bool]) -> np.ndarray:
+    """A^-1, its entries between angles rounded to the whole numbers they must be (else InputError)."""
+    back = cmap.A_inv
+    for j in range(len(back)):
+        for k in range(len(back)):
+            if angular[k] and abs(back[j, k] - round(back[j, k])) > WHOLE_TOL:
+                raise InputError(
+                    f"the coordinates' inverse map has q_urdf[{j}] = ... + {back[j, k]:.6g} q{k + 1}: robodyn derive "
+                    "needs whole numbers there (a joint angle as a whole combination of the formula's angles, so "
+                    "that M is a trigonometric polynomial); robodyn check takes any invertible COORDINATES"
+                )
+            if angular[k]:
+                back[j, k] = round(back[j, k])
+    return back
+
+
+def congruence(M_urdf: list[list[Trig]], back: np.ndarray, zero: Trig) -> list[list[Trig]]:
+    """A^-T M_urdf A^-1 (back = A^-1); a +-1 diagonal only flips signs, exactly."""
+    n = len(M_urdf)
+    out = [[zero for _ in range(n)] for _ in range(n)]
+    for a in range(n):
+        for b in range(a, n):
+            entry = zero
+            for i in np.flatnonzero(back[:, a]):
+                for j in np.flatnonzero(back[:, b]):
+                    if M_urdf[i][j].terms:
+                        entry = entry + M_urdf[i][j].scale(float(back[i, a] * back[j, b]))
+            out[a][b] = out[b][a] = entry
+    return out

@@ -32,9 +32,12 @@ from typing import Any
 import numpy as np
 
 from robodyn.errors import InputError
+from robodyn.lagrange.coordinates import Coordinate, congruence, coordinates_of, whole_inverse
 from robodyn.lagrange.naming import Param, name_parameters, snap
 from robodyn.lagrange.trig import Trig, cross, dot, matmul, matvec, transpose
 from robodyn.model.coordinate_map import CoordinateMap
+
+__all__ = ["DEFAULT_TIME_LIMIT", "MAX_JOINTS", "Coordinate", "Derivation", "derive"]
 
 MAX_JOINTS = 6
 """The most moving joints ``robodyn derive`` takes: past it the printed expressions run over pages."""
@@ -47,25 +50,6 @@ PARALLEL_TOL = 1e-9
 
 Matrix = list[list[Trig]]
 Vector = list[Trig]
-
-
-@dataclass(frozen=True)
-class Coordinate:
-    """One formula coordinate: the URDF joint it stands for, ``q = sign * q_urdf + offset``.
-
-    A list of these is the ``{joint: (sign, offset)}`` form; a general linear map is a
-    :class:`~robodyn.model.coordinate_map.CoordinateMap` (:func:`derive` takes either).
-    """
-
-    joint: str
-    joint_type: str  # revolute, continuous or prismatic
-    sign: float = 1.0
-    offset: float = 0.0  # [rad | m]
-
-    @property
-    def angular(self) -> bool:
-        """True for a revolute or continuous joint."""
-        return self.joint_type != "prismatic"
 
 
 @dataclass(frozen=True)
@@ -215,14 +199,14 @@ def _derive(
             tick(what)
 
     links = {link.joint: link for link in table.links}
-    cmap = _coordinate_map(table, coordinates)
+    cmap = coordinates_of(table, coordinates, MAX_JOINTS)
     joints = cmap.joints
     n = len(joints)
     index = {name: j for j, name in enumerate(joints)}  # a joint's column of A (its row of q_urdf)
     turns = {name: links[name].joint_type != "prismatic" for name in joints}
     angular = cmap.check_units([not turns[j] for j in joints], "the coordinates")
     angular = tuple(not x for x in angular)
-    back = _whole_inverse(cmap, angular)  # q_urdf = back (q - b)
+    back = whole_inverse(cmap, angular)  # q_urdf = back (q - b)
     angle_of = tuple(sum(angular[:i]) if angular[i] else None for i in range(n))
     variable_of = tuple(sum(not a for a in angular[:i]) if not angular[i] else None for i in range(n))
     n_angles = sum(angular)
@@ -317,7 +301,7 @@ def _derive(
             M_urdf[i][j] = entry
             M_urdf[j][i] = entry
             check(f"M[{i},{j}]")
-    M = _congruence(M_urdf, back, zero)
+    M = congruence(M_urdf, back, zero)
     # V = -sum_b m_b g . r_b in the base frame; G = dV/dq.
     gdir = [snap(float(x)) for x in np.asarray(table.gravity, dtype=np.float64) / max(float(table.g), 1e-300)]
     g = pvar.get("g", zero)
@@ -362,49 +346,6 @@ def _derive(
     return derivation
 
 
-def _coordinate_map(table: Any, coordinates: Sequence[Coordinate] | CoordinateMap | None) -> CoordinateMap:
-    """The coordinates as q = A q_urdf + b, over every moving joint of ``table`` once (else InputError)."""
-    names = tuple(table.joints)
-    if len(names) > MAX_JOINTS:
-        raise InputError(
-            f"{table.name} has {len(names)} moving joints; robodyn derive takes at most {MAX_JOINTS} "
-            "(name at most 6 in a --coordinates file's JOINTS: the others are locked)"
-        )
-    if coordinates is None:
-        return CoordinateMap.identity([link.joint for link in table.links])
-    if isinstance(coordinates, CoordinateMap):
-        cmap = coordinates
-    else:
-        for c in coordinates:
-            if c.sign not in (1.0, -1.0) or not np.isfinite(c.offset):
-                raise InputError(f"coordinate of {c.joint}: sign must be +1 or -1 and the offset finite")
-        cmap = CoordinateMap(
-            tuple(c.joint for c in coordinates),
-            np.diag([c.sign for c in coordinates]).astype(np.float64),
-            np.array([c.offset for c in coordinates], dtype=np.float64),
-        )
-    given = list(cmap.joints)
-    if sorted(given) != sorted(names) or len(set(given)) != len(given):
-        raise InputError(f"the coordinates name joints {given}; expected each of {list(names)} once")
-    return cmap
-
-
-def _whole_inverse(cmap: CoordinateMap, angular: Sequence[bool]) -> np.ndarray:
-    """A^-1, its entries between angles rounded to the whole numbers they must be (else InputError)."""
-    back = cmap.A_inv
-    for j in range(len(back)):
-        for k in range(len(back)):
-            if angular[k] and abs(back[j, k] - round(back[j, k])) > PARALLEL_TOL:
-                raise InputError(
-                    f"the coordinates' inverse map has q_urdf[{j}] = ... + {back[j, k]:.6g} q{k + 1}: robodyn derive "
-                    "needs whole numbers there (a joint angle as a whole combination of the formula's angles, so "
-                    "that M is a trigonometric polynomial); robodyn check takes any invertible COORDINATES"
-                )
-            if angular[k]:
-                back[j, k] = round(back[j, k])
-    return back
-
-
 def _angle_sum(terms: Sequence[tuple[int | None, int]], n_angles: int) -> tuple[Trig, Trig]:
     """The cos and sin of sum_k m_k q_{a_k} (whole m_k), by the angle-sum rule."""
     c, s = Trig.constant(n_angles, 1.0), Trig(n_angles)
@@ -416,21 +357,6 @@ def _angle_sum(terms: Sequence[tuple[int | None, int]], n_angles: int) -> tuple[
         for _ in range(m):
             c, s = c * ca - s * sa, s * ca + c * sa
     return c, s
-
-
-def _congruence(M_urdf: Matrix, back: np.ndarray, zero: Trig) -> Matrix:
-    """A^-T M_urdf A^-1 (back = A^-1); a +-1 diagonal only flips signs, exactly."""
-    n = len(M_urdf)
-    out = [[zero for _ in range(n)] for _ in range(n)]
-    for a in range(n):
-        for b in range(a, n):
-            entry = zero
-            for i in np.flatnonzero(back[:, a]):
-                for j in np.flatnonzero(back[:, b]):
-                    if M_urdf[i][j].terms:
-                        entry = entry + M_urdf[i][j].scale(float(back[i, a] * back[j, b]))
-            out[a][b] = out[b][a] = entry
-    return out
 
 
 def _planar_links(table: Any) -> dict[str, np.ndarray | None]:

@@ -73,10 +73,11 @@ class CoordinateMap:
         """
         out = []
         for i, row in enumerate(self.A):
-            kinds = {bool(prismatic[j]) for j in np.flatnonzero(row)}
+            used = [int(j) for j in np.flatnonzero(row)]
+            kinds = {bool(prismatic[j]) for j in used}
             if len(kinds) > 1:
-                slides = [self.joints[j] for j in np.flatnonzero(row) if prismatic[j]]
-                hinges = [self.joints[j] for j in np.flatnonzero(row) if not prismatic[j]]
+                slides = [self.joints[j] for j in used if prismatic[j]]
+                hinges = [self.joints[j] for j in used if not prismatic[j]]
                 raise InputError(
                     f"{where}: row {i + 1} of COORDINATES adds the slide {', '.join(slides)} [m] to the hinge "
                     f"{', '.join(hinges)} [rad]; expected each q to be an angle or a length (mix joints of one kind)"

@@ -164,7 +164,6 @@ class CheckReport:
         """JSON-ready dict: every field (rows as dicts) and the verdict."""
         out = {f.name: getattr(self, f.name) for f in fields(self)}
         out.update(notes=list(self.notes), rows=[r.as_dict() for r in self.rows], explanation=list(self.explanation))
-        out.update(hints=list(self.hints))
         return {**out, "passed": self.passed}
 
 

@@ -211,3 +211,14 @@ def test_the_sign_form_is_the_diagonal_map():
     cmap = coordinate_map({"b": (-1, 0.5)}, None, ["a", "b"], "f.py")
     np.testing.assert_array_equal(cmap.A, np.diag([1.0, -1.0]))
     assert cmap.b.tolist() == [0.0, 0.5] and cmap.diagonal
+
+
+def test_derive_takes_a_fractional_matrix_whose_inverse_is_whole(tmp_path):
+    """q1 = (shoulder + elbow) / 2, q2 = (shoulder - elbow) / 2: the joints are q1 + q2 and q1 - q2."""
+    f = tmp_path / "half.py"
+    f.write_text('JOINTS = ["shoulder", "elbow"]\nCOORDINATES = [[0.5, 0.5], [0.5, -0.5]]\nOFFSETS = [0.25, 0]\n')
+    out = tmp_path / "derived.py"
+    assert main(["derive", str(PENDULUM), "--coordinates", str(f), "--format", "python", "--out", str(out)]) == 0
+    text = out.read_text()
+    assert "COORDINATES = [[0.5, 0.5], [0.5, -0.5]]" in text and "OFFSETS = [0.25, 0.0]" in text
+    assert check(robodyn.load(PENDULUM), str(out), samples=SAMPLES).passed

@@ -211,7 +211,8 @@ def _agrees(c: _Candidate, kept: Mapping[str, Accumulator], states: Sequence[Any
 
 
 def _row(x: Array) -> str:
-    return "[" + ", ".join(f"{v:g}" for v in x) + "]"
+    """A row of COORDINATES as Python: whole numbers bare, other floats with every digit."""
+    return "[" + ", ".join(f"{int(v)}" if float(v).is_integer() else repr(float(v)) for v in x) + "]"
 
 
 def _wrap(x: float) -> float:

@@ -254,7 +254,7 @@ def whole_inverse(cmap: CoordinateMap, angular: Sequence[bool]) -> np.ndarray:
         for k in range(len(back)):
             if angular[k] and abs(back[j, k] - round(back[j, k])) > WHOLE_TOL:
                 raise InputError(
-                    f"the coordinates' inverse map has q_urdf[{j}] = ... + {back[j, k]:.6g} q{k + 1}: robodyn derive "
+                    f"COORDINATES makes the joint {cmap.joints[j]} = ... {back[j, k]:+.6g} q{k + 1}: robodyn derive "
                     "needs whole numbers there (a joint angle as a whole combination of the formula's angles, so "
                     "that M is a trigonometric polynomial); robodyn check takes any invertible COORDINATES"
                 )

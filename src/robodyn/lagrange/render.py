@@ -230,11 +230,16 @@ def _coordinate_lines(d: Derivation) -> list[str]:
         pairs = zip(cmap.joints, cmap.signs, cmap.b, strict=True)
         entries = ", ".join(f"{joint!r}: ({sign:g}, {_float(offset)})" for joint, sign, offset in pairs)
         return [f"COORDINATES = {{{entries}}}  # q = sign * q_urdf + offset"]
-    rows = ", ".join("[" + ", ".join(f"{x:g}" for x in row) + "]" for row in cmap.A)
+    rows = ", ".join("[" + ", ".join(_entry(x) for x in row) + "]" for row in cmap.A)
     lines = [f"COORDINATES = [{rows}]  # q = A q_urdf + OFFSETS, q_urdf in the order of JOINTS"]
     if cmap.b.any():
         lines.append(f"OFFSETS = [{', '.join(_float(x) for x in cmap.b)}]")
     return lines
+
+
+def _entry(x: float) -> str:
+    """A matrix entry as Python: ``1``, ``-1``, or every digit of a float (it round-trips)."""
+    return f"{int(x)}" if float(x).is_integer() else repr(float(x))
 
 
 def _code(printer: Any, expr: Any) -> str:

@@ -214,11 +214,13 @@ def test_the_sign_form_is_the_diagonal_map():
 
 
 def test_derive_takes_a_fractional_matrix_whose_inverse_is_whole(tmp_path):
-    """q1 = (shoulder + elbow) / 2, q2 = (shoulder - elbow) / 2: the joints are q1 + q2 and q1 - q2."""
-    f = tmp_path / "half.py"
-    f.write_text('JOINTS = ["shoulder", "elbow"]\nCOORDINATES = [[0.5, 0.5], [0.5, -0.5]]\nOFFSETS = [0.25, 0]\n')
+    """q1 = shoulder, q2 = (shoulder + elbow) / 3: the joints are q1 and 3 q2 - q1, whole combinations."""
+    f = tmp_path / "third.py"
+    f.write_text('JOINTS = ["shoulder", "elbow"]\nCOORDINATES = [[1, 0], [1 / 3, 1 / 3]]\nOFFSETS = [0.25, 0]\n')
     out = tmp_path / "derived.py"
     assert main(["derive", str(PENDULUM), "--coordinates", str(f), "--format", "python", "--out", str(out)]) == 0
     text = out.read_text()
-    assert "COORDINATES = [[0.5, 0.5], [0.5, -0.5]]" in text and "OFFSETS = [0.25, 0.0]" in text
+    assert (
+        "COORDINATES = [[1, 0], [0.3333333333333333, 0.3333333333333333]]" in text and "OFFSETS = [0.25, 0.0]" in text
+    )
     assert check(robodyn.load(PENDULUM), str(out), samples=SAMPLES).passed

@@ -276,10 +276,10 @@ def test_cli_refusals(tmp_path, capsys):
     assert "unknown joint of pendubot" in capsys.readouterr().err
     bad.write_text('JOINTS = ["joint1"]\nCOORDINATES = {"joint1": (2, 0)}\n')
     assert main(["derive", "pendubot", "--coordinates", str(bad)]) == 2
-    assert "the sign must be 1 or -1" in capsys.readouterr().err
+    assert "with sign +1 or -1" in capsys.readouterr().err
     bad.write_text('JOINTS = ["joint1"]\nCOORDINATES = {"joint1": (1, __import__("os").getpid())}\n')
     assert main(["derive", "pendubot", "--coordinates", str(bad)]) == 2
-    assert "must be written with literals" in capsys.readouterr().err
+    assert "must be written with constants" in capsys.readouterr().err
 
 
 def test_read_coordinates_takes_pi_and_arithmetic(tmp_path):
@@ -287,8 +287,9 @@ def test_read_coordinates_takes_pi_and_arithmetic(tmp_path):
     f.write_text(
         'import numpy as np\nJOINTS = ("a", "b")\nCOORDINATES = {"a": (-1, -np.pi / 2 + 0.5), "b": (1.0, 2 * pi)}\n'
     )
-    joints, maps, locked = read_coordinates(f)
-    assert joints == ["a", "b"] and maps == {"a": (-1.0, -math.pi / 2 + 0.5), "b": (1.0, 2 * math.pi)}
+    joints, cmap, locked = read_coordinates(f)
+    assert joints == ["a", "b"] and cmap.signs == (-1.0, 1.0)
+    assert cmap.b.tolist() == [-math.pi / 2 + 0.5, 2 * math.pi]
     assert locked == {}
     f.write_text("X = 1\n")
     with pytest.raises(InputError, match="no JOINTS"):

@@ -285,9 +285,9 @@ def format_report(report: Any, robot: Any) -> str:
         lines.extend(_mismatch_lines(r))
         if r.note:
             lines.append(f"    {r.note}")
-    if report.explanation:
+    if report.explanation:  # a convention hint first: it explains the terms below it at once
         lines.append("")
-        lines.extend(report.explanation)
+        lines.extend((*report.hints, *report.explanation))
     verdict = {
         PASS: "PASS: everything agrees within tolerance",
         EQUATIONS_AGREE: "PASS (equations of motion): M, C v + G, tau and a agree; note: the formula's C is not "
@@ -296,6 +296,8 @@ def format_report(report: Any, robot: Any) -> str:
     }[report.verdict]
     lines.append("")
     lines.append(f"{verdict}  ({report.wall_time_s:.2f} s)")
+    if not report.explanation:
+        lines.extend(report.hints)  # without --explain, right under the verdict
     return "\n".join(lines)
 
 

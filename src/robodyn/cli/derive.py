@@ -56,8 +56,8 @@ def add_parser(sub: Any) -> None:
         type=file_path,
         metavar="FILE.py",
         help="a formula file whose JOINTS (the joints q1, q2, ... stand for; the others are locked at the neutral "
-        "pose) and COORDINATES ({joint: (sign, offset)}: q = sign * q_urdf + offset) set the coordinates; the file "
-        "is parsed, not run",
+        "pose) and COORDINATES ({joint: (sign, offset)}: q = sign * q_urdf + offset; or a matrix A over JOINTS with "
+        "OFFSETS b: q = A q_urdf + b) set the coordinates; the file is parsed, not run",
     )
     add_physics_argument(p)
     p.add_argument("--format", choices=FORMATS, default="text", help="text (default), latex, or python: a formula file")
@@ -193,11 +193,11 @@ def _model(args: argparse.Namespace) -> tuple[Any, Any, Any, dict[str, float]]:
     """(robot the derivation describes, its link table, the coordinates): joints outside JOINTS locked at neutral."""
     from robodyn.errors import InputError
     from robodyn.lagrange.coordinates import read_coordinates
-    from robodyn.lagrange.derivation import MAX_JOINTS, Coordinate
+    from robodyn.lagrange.derivation import MAX_JOINTS
     from robodyn.model.links import link_table
     from robodyn.model.load import load
 
-    joints, maps, locked = read_coordinates(args.coordinates) if args.coordinates is not None else (None, {}, {})
+    joints, cmap, locked = read_coordinates(args.coordinates) if args.coordinates is not None else (None, None, {})
     robot = load(args.model, srdf=args.srdf, check_physics=physics_checked(args))
     if not physics_checked(args):
         warn_unchecked(robot, command="derive")
@@ -221,10 +221,10 @@ def _model(args: argparse.Namespace) -> tuple[Any, Any, Any, dict[str, float]]:
 
             robot = reduce(robot, keep=joints, lock=locked).reduced
     table = link_table(robot)
-    kinds = {link.joint: link.joint_type for link in table.links}
-    order = joints if joints is not None else list(table.joints)
-    coordinates = [Coordinate(j, kinds[j], *maps.get(j, (1.0, 0.0))) for j in order]
-    return robot, table, coordinates, locked
+    if cmap is not None:
+        kinds = {link.joint: link.joint_type for link in table.links}
+        cmap.check_units([kinds[j] == "prismatic" for j in cmap.joints], str(args.coordinates))
+    return robot, table, cmap, locked
 
 
 class _OutOfTime(BaseException):

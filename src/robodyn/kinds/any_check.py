@@ -19,13 +19,14 @@ from typing import Any
 import numpy as np
 
 from robodyn import dynamics
-from robodyn.errors import FormulaError
+from robodyn.errors import FormulaError, InputError
 from robodyn.kinds.check_rows import Accumulator, CheckRow
 from robodyn.kinds.explain import Explained, Sets, explain, failing_keys
 from robodyn.kinds.explain_sets import Follower, by_table, by_values, parameter_sets
 from robodyn.kinds.formula import Formula
 from robodyn.kinds.reduced import checked_parameters
 from robodyn.kinds.reference import Reference
+from robodyn.model.coordinate_map import CoordinateMap
 from robodyn.model.links import JOINT_TYPES, LinkTable, link_table
 from robodyn.model.reduce import reduce
 from robodyn.robot import Robot
@@ -52,7 +53,7 @@ def prepare(robot: Robot, formula: Formula, params: dict[str, float] | None = No
             continuous or prismatic; the file's parameters(robot) fails.
     """
     joints: tuple[str, ...] = getattr(formula, "independent", ())
-    signs: tuple[float, ...] = getattr(formula, "signs", ())
+    matrix: tuple[tuple[float, ...], ...] = getattr(formula, "matrix", ())
     offsets: tuple[float, ...] = getattr(formula, "offsets", ())
     locked: dict[str, float] = dict(getattr(formula, "locked", ()))
     names = robot.joint_names
@@ -72,7 +73,15 @@ def prepare(robot: Robot, formula: Formula, params: dict[str, float] | None = No
             )
     rest = tuple(n for n in names if n not in joints)
     model = robot if not rest else reduce(robot, keep=joints, lock=locked).reduced
-    reference = Reference.mapped(model, joints, signs, offsets)
+    n = len(joints)
+    A = np.array(matrix, dtype=np.float64).reshape(n, n) if matrix else np.eye(n)
+    cmap = CoordinateMap(joints, A, np.array(offsets, dtype=np.float64) if offsets else np.zeros(n))
+    slides = [JOINT_TYPES.get(model.joint(j).kind) == "prismatic" for j in joints]
+    try:
+        cmap.check_units(slides, formula.source)
+    except InputError as exc:
+        raise FormulaError(str(exc)) from None
+    reference = Reference.mapped(model, joints, cmap.A, cmap.b)
     table = link_table(model)
     if params is None:
         read = getattr(formula, "link_parameters", None)
@@ -81,25 +90,14 @@ def prepare(robot: Robot, formula: Formula, params: dict[str, float] | None = No
         used = read(table)
     else:
         used = checked_parameters(params, formula.source)
-    return AnySetup(model, reference, table, used, _notes(joints, signs, offsets, rest, locked, model))
+    return AnySetup(model, reference, table, used, _notes(cmap, reference.prismatic, rest, locked))
 
 
 def _notes(
-    joints: tuple[str, ...],
-    signs: tuple[float, ...],
-    offsets: tuple[float, ...],
-    rest: tuple[str, ...],
-    locked: dict[str, float],
-    model: Robot,
+    cmap: CoordinateMap, prismatic: tuple[bool, ...], rest: tuple[str, ...], locked: dict[str, float]
 ) -> tuple[str, ...]:
-    """``coordinates: q1 = joint1 + 1.5708 rad, q2 = -joint2`` and the locked joints."""
-    parts = []
-    for i, (joint, sign, offset) in enumerate(zip(joints, signs, offsets, strict=True), start=1):
-        unit = "m" if JOINT_TYPES.get(model.joint(joint).kind) == "prismatic" else "rad"
-        term = f"{'-' if sign < 0 else ''}{joint}"
-        if offset:
-            term += f" {'+' if offset > 0 else '-'} {abs(offset):.6g} {unit}"
-        parts.append(f"q{i} = {term}")
+    """``coordinates: q1 = joint1 + 1.5708 rad, q2 = joint1 + joint2`` and the locked joints."""
+    parts = cmap.describe(prismatic)
     notes = [f"coordinates: {', '.join(parts)} (the q, v of a mismatch are the formula's)"]
     if rest:
         held = ", ".join(f"{name} at {locked[name]:.6g}" if name in locked else f"{name} at neutral" for name in rest)
@@ -147,7 +145,6 @@ def explain_rows(
     names: Sequence[str] = (),
 ) -> tuple[tuple[str, ...], tuple[Explained, ...]]:
     """``--explain``'s lines and named terms (:func:`robodyn.kinds.explain.explain`), coordinate kinds from ``ref``."""
-    joints = [next(j for j in ref.robot.joints if j.idx_v == column) for column in ref.columns]
-    prismatic = [JOINT_TYPES.get(j.kind) == "prismatic" for j in joints]
+    prismatic = list(ref.prismatic)
     g = float(np.linalg.norm(dynamics.gravity_vector(ref.robot.model)))
     return explain(rows, kept, states, used, prismatic=prismatic, g=g, sets=sets, names=names or None)

@@ -6,7 +6,10 @@ The file defines
 * ``JOINTS``: the URDF joints (revolute, continuous or prismatic) the formula's q1, q2, ... stand for,
   in order (``["shoulder", "elbow"]``); every other moving joint is locked and welded to its parent;
 * ``COORDINATES`` (optional): ``{joint: (sign, offset)}`` with ``q_formula = sign * q_urdf + offset``,
-  sign +1 or -1 and offset a finite number [rad | m]; a joint left out is ``(1.0, 0.0)``;
+  sign +1 or -1 and offset a finite number [rad | m], a joint left out ``(1.0, 0.0)``; or a square
+  matrix A over JOINTS, ``q_formula = A q_urdf + b``, A invertible, with ``OFFSETS`` (optional) the
+  list b [rad | m] in the formula's order (:mod:`robodyn.model.coordinate_map`): absolute angles
+  theta1 = q1, theta2 = q1 + q2 are ``[[1, 0], [1, 1]]``;
 * ``LOCKED`` (optional): ``{joint: value}`` [rad | m], where the joints not in ``JOINTS`` are held
   (default: the neutral pose, 0);
 * ``PARAMETERS = {name: number}`` or ``def parameters(robot) -> {name: number}``, where ``robot`` is
@@ -36,10 +39,11 @@ from typing import Any
 
 import numpy as np
 
-from robodyn.errors import FormulaError
+from robodyn.errors import FormulaError, InputError
 from robodyn.kinds.formula import Formula
 from robodyn.kinds.reduced import call_user, checked_parameters, independent_names
 from robodyn.kinds.user_coriolis import coriolis_function
+from robodyn.model.coordinate_map import coordinate_map
 
 KIND = "any"
 MAX_JOINTS = 64  # the most joints a file may name (as a constrained file's INDEPENDENT)
@@ -50,8 +54,8 @@ class AnyFormula(Formula):
     """A ``KIND = "any"`` file loaded in this process: a :class:`Formula` in the coordinates of ``independent``."""
 
     independent: tuple[str, ...] = field(default=(), kw_only=True)  # JOINTS, in the formula's order
-    signs: tuple[float, ...] = field(default=(), kw_only=True)  # q_formula = sign * q_urdf + offset
-    offsets: tuple[float, ...] = field(default=(), kw_only=True)  # [rad | m]
+    matrix: tuple[tuple[float, ...], ...] = field(default=(), kw_only=True)  # A of q_formula = A q_urdf + b
+    offsets: tuple[float, ...] = field(default=(), kw_only=True)  # b [rad | m]
     locked: tuple[tuple[str, float], ...] = field(default=(), kw_only=True)  # LOCKED, as (joint, value)
     names: tuple[str, ...] = field(default=(), kw_only=True)  # NAMES: the coordinates' own names, or ()
     path: Path = field(default=Path(), kw_only=True)
@@ -69,7 +73,10 @@ class AnyFormula(Formula):
 def load_any(module: ModuleType, source: str, path: Path, wrap: Callable[..., Any]) -> AnyFormula:
     """The ``KIND = "any"`` file ``module``; ``wrap(fn, name, shape, source, path)`` shape-checks a function."""
     joints = _joints(getattr(module, "JOINTS", None), source)
-    signs, offsets = _coordinates(getattr(module, "COORDINATES", None), joints, source)
+    try:
+        cmap = coordinate_map(getattr(module, "COORDINATES", None), getattr(module, "OFFSETS", None), joints, source)
+    except InputError as exc:
+        raise FormulaError(str(exc)) from None
     locked = _locked(getattr(module, "LOCKED", None), joints, source)
     fixed = getattr(module, "PARAMETERS", None)
     reader = getattr(module, "parameters", None)
@@ -93,8 +100,8 @@ def load_any(module: ModuleType, source: str, path: Path, wrap: Callable[..., An
         n,
         form,
         independent=joints,
-        signs=signs,
-        offsets=offsets,
+        matrix=tuple(tuple(float(x) for x in row) for row in cmap.A),
+        offsets=tuple(float(x) for x in cmap.b),
         locked=locked,
         names=coordinate_names(getattr(module, "NAMES", None), len(joints), source),
         path=path,
@@ -115,41 +122,6 @@ def _joints(value: object, source: str) -> tuple[str, ...]:
     if len(joints) > MAX_JOINTS:
         raise FormulaError(f"{source}: JOINTS names {len(joints)} joints; at most {MAX_JOINTS}")
     return joints
-
-
-def _coordinates(value: object, joints: tuple[str, ...], source: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
-    """Signs and offsets per joint of ``JOINTS`` from ``COORDINATES`` (None: all (1, 0))."""
-    if value is None:
-        return (1.0,) * len(joints), (0.0,) * len(joints)
-    if not isinstance(value, Mapping):
-        raise FormulaError(
-            f"{source}: COORDINATES = {value!r}; expected {{joint: (sign, offset)}} with q_formula = "
-            "sign * q_urdf + offset"
-        )
-    for joint in value:
-        if joint not in joints:
-            raise FormulaError(f"{source}: COORDINATES names {joint!r}, which is not in JOINTS ({', '.join(joints)})")
-    signs, offsets = [], []
-    for joint in joints:
-        pair = value.get(joint, (1.0, 0.0))
-        sign, offset = _pair(pair)
-        if sign not in (1.0, -1.0):
-            raise FormulaError(
-                f"{source}: COORDINATES[{joint!r}] = {pair!r}; expected (sign, offset) with sign +1 or -1 "
-                "(q_formula = sign * q_urdf + offset)"
-            )
-        if not math.isfinite(offset):
-            raise FormulaError(f"{source}: COORDINATES[{joint!r}] = {pair!r}; expected a finite offset [rad | m]")
-        signs.append(sign)
-        offsets.append(offset)
-    return tuple(signs), tuple(offsets)
-
-
-def _pair(pair: object) -> tuple[float, float]:
-    """(sign, offset) as floats; NaN for what is not a number (the caller names it)."""
-    if not isinstance(pair, (tuple, list)) or len(pair) != 2:
-        return math.nan, math.nan
-    return _float(pair[0]), _float(pair[1])
 
 
 def _float(x: object) -> float:
@@ -211,7 +183,7 @@ def loaded_header(formula: Formula) -> dict[str, Any]:
     if not isinstance(formula, AnyFormula):
         return {}
     return {
-        "signs": list(formula.signs),
+        "matrix": [list(row) for row in formula.matrix],
         "offsets": list(formula.offsets),
         "locked": [list(pair) for pair in formula.locked],
         "names": list(formula.names),

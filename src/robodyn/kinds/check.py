@@ -60,6 +60,7 @@ from robodyn.kinds.check_scales import scales
 from robodyn.kinds.explain import Explained, Sets, one_set
 from robodyn.kinds.explain_sets import by_reading
 from robodyn.kinds.formula import Formula
+from robodyn.kinds.hints import convention_hints
 from robodyn.kinds.loop_check import loop_rows
 from robodyn.kinds.params import Params, extract, from_mapping
 from robodyn.kinds.reduced import KIND as CONSTRAINED
@@ -456,7 +457,7 @@ def check(
                 setup = any_check.prepare(robot, resolved, None if params is None else dict(params))
                 ref = setup.reference
                 mapped = [
-                    _Sample(ref.formula_q(s.q), ref.formula_v(s.v), ref.formula_v(s.a), ref.formula_v(s.tau))
+                    _Sample(ref.formula_q(s.q), ref.formula_v(s.v), ref.formula_v(s.a), ref.formula_tau(s.tau))
                     for s in _draw_samples(setup.robot, samples, seed)
                 ]
                 used, notes = setup.params, setup.notes
@@ -491,6 +492,7 @@ def check(
                 resolved.close()  # the file's process was this check's own
     rows += _structure_rows(robot, states, rtol)
     rows.sort(key=lambda r: GROUP_ORDER.index(r.group))  # stable: keeps the order within a group
+    hints = convention_hints(rows, kept, *explained, kind) if explained is not None else ()
     explanation: tuple[str, ...] = ()
     terms: tuple[Explained, ...] = ()
     if explain and explained is not None:
@@ -515,4 +517,5 @@ def check(
         explanation=explanation,
         renamed=renamed,
         explain_terms=tuple(t.as_dict() for t in terms),
+        hints=hints,
     )

@@ -144,6 +144,7 @@ class CheckReport:
     # --explain, for machines: per mismatching entry {quantity, entry, label, status, terms, reason}
     # (robodyn.kinds.explain.Explained.as_dict)
     explain_terms: tuple[dict[str, Any], ...] = ()
+    hints: tuple[str, ...] = ()  # ``hint: ...`` lines: a convention under which the mismatch vanishes (kinds.hints)
 
     @property
     def passed(self) -> bool:
@@ -187,8 +188,7 @@ class CheckReport:
         """JSON-ready dict: every field (rows as dicts) and the verdict."""
         out = {f.name: getattr(self, f.name) for f in fields(self)}
         out.update(notes=list(self.notes), rows=[r.as_dict() for r in self.rows], explanation=list(self.explanation))
-        out.update(renamed=list(self.renamed), explain_terms=list(self.explain_terms))
-        out.setdefault("hints", [])  # --explain's convention hints, where the report has them
+        out.update(renamed=list(self.renamed), explain_terms=list(self.explain_terms), hints=list(self.hints))
         return {**out, "passed": self.passed, "verdict": self.verdict}
 
 

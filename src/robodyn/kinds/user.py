@@ -52,8 +52,8 @@ class UserFormula(Formula):
     path: Path = field(default=Path(), kw_only=True)
     process: FormulaProcess | None = field(default=None, kw_only=True, compare=False, repr=False)
     independent: tuple[str, ...] = field(default=(), kw_only=True)  # KIND = "constrained": its coordinates' joints
-    # KIND = "any" (robodyn.kinds.any_file): independent is JOINTS; q_formula = sign * q_urdf + offset; LOCKED
-    signs: tuple[float, ...] = field(default=(), kw_only=True)
+    # KIND = "any" (robodyn.kinds.any_file): independent is JOINTS; q_formula = A q_urdf + b (offsets); LOCKED
+    matrix: tuple[tuple[float, ...], ...] = field(default=(), kw_only=True)  # A of q_formula = A q_urdf + b
     offsets: tuple[float, ...] = field(default=(), kw_only=True)
     locked: tuple[tuple[str, float], ...] = field(default=(), kw_only=True)
     names: tuple[str, ...] = field(default=(), kw_only=True)  # NAMES: the coordinates' own names, or ()
@@ -155,7 +155,7 @@ def load_user_formula(
         path=Path(path),
         process=process,
         independent=tuple(str(name) for name in info.get("independent", ())),
-        signs=tuple(float(x) for x in info.get("signs", ())),
+        matrix=tuple(tuple(float(x) for x in row) for row in info.get("matrix", ())),
         offsets=tuple(float(x) for x in info.get("offsets", ())),
         locked=tuple((str(name), float(x)) for name, x in info.get("locked", ())),
         names=tuple(str(name) for name in info.get("names", ())),

@@ -32,8 +32,12 @@ from typing import Any
 import numpy as np
 
 from robodyn.errors import InputError
+from robodyn.lagrange.coordinates import Coordinate, congruence, coordinates_of, whole_inverse
 from robodyn.lagrange.naming import Param, name_parameters, snap
 from robodyn.lagrange.trig import Trig, cross, dot, matmul, matvec, transpose
+from robodyn.model.coordinate_map import CoordinateMap
+
+__all__ = ["DEFAULT_TIME_LIMIT", "MAX_JOINTS", "Coordinate", "Derivation", "derive"]
 
 MAX_JOINTS = 6
 """The most moving joints ``robodyn derive`` takes: past it the printed expressions run over pages."""
@@ -49,31 +53,18 @@ Vector = list[Trig]
 
 
 @dataclass(frozen=True)
-class Coordinate:
-    """One formula coordinate: the URDF joint it stands for, ``q = sign * q_urdf + offset``."""
-
-    joint: str
-    joint_type: str  # revolute, continuous or prismatic
-    sign: float = 1.0
-    offset: float = 0.0  # [rad | m]
-
-    @property
-    def angular(self) -> bool:
-        """True for a revolute or continuous joint."""
-        return self.joint_type != "prismatic"
-
-
-@dataclass(frozen=True)
 class Derivation:
     """M, the Christoffel symbols, G and V of a robot as Trig polynomials (see the module docstring).
 
-    Variables: ``angle_of[i]`` is the angle index of coordinate i (None for a prismatic one),
+    ``coordinates`` is the map q = A q_urdf + b over the joints ``coordinates.joints`` (of types
+    ``joint_types``). Variables: ``angle_of[i]`` is the angle index of coordinate i (None for a prismatic one),
     ``variable_of[i]`` its polynomial index (None for an angle); the parameters are polynomial
     variables from ``len(prismatic coordinates)`` on, in the order of ``params``.
     """
 
     robot: str
-    coordinates: tuple[Coordinate, ...]
+    coordinates: CoordinateMap
+    joint_types: tuple[str, ...]  # of coordinates.joints: revolute, continuous or prismatic
     params: tuple[Param, ...]
     n_angles: int
     angle_of: tuple[int | None, ...]
@@ -91,7 +82,12 @@ class Derivation:
     @property
     def n(self) -> int:
         """Degrees of freedom."""
-        return len(self.coordinates)
+        return len(self.coordinates.joints)
+
+    @property
+    def angular(self) -> tuple[bool, ...]:
+        """For each formula coordinate: True for an angle, False for a length."""
+        return tuple(v is None for v in self.variable_of)
 
     def d(self, expr: Trig, i: int) -> Trig:
         """The partial derivative of ``expr`` with respect to coordinate i."""
@@ -144,7 +140,7 @@ class _Deadline:
 
 def derive(
     table: Any,
-    coordinates: Sequence[Coordinate] | None = None,
+    coordinates: Sequence[Coordinate] | CoordinateMap | None = None,
     *,
     time_limit: float = DEFAULT_TIME_LIMIT,
     tick: Callable[[str], None] | None = None,
@@ -170,7 +166,7 @@ def derive(
 
 def _derive(
     table: Any,
-    coordinates: Sequence[Coordinate] | None = None,
+    coordinates: Sequence[Coordinate] | CoordinateMap | None = None,
     *,
     time_limit: float = DEFAULT_TIME_LIMIT,
     tick: Callable[[str], None] | None = None,
@@ -181,8 +177,11 @@ def _derive(
     Args:
         table: a per-link table (:class:`robodyn.model.links.LinkTable`) whose moving joints are
             exactly the coordinates' joints (lock the others first).
-        coordinates: the formula's coordinates in its order (default: the table's joints, in
-            model order, ``q = q_urdf``).
+        coordinates: the formula's coordinates: ``q = A q_urdf + b`` (a CoordinateMap), or one
+            Coordinate per joint in the formula's order (default: the table's joints, in model
+            order, ``q = q_urdf``). In the formula's coordinates every joint angle is
+            ``q_urdf = A^-1 (q - b)``, so A^-1 must be whole numbers between angles (a trigonometric
+            polynomial has whole frequencies); M = A^-T M_urdf A^-1.
         time_limit: seconds before the derivation stops with an :class:`InputError`.
         tick: called with a stage name between stages (a test's hook; the deadline runs anyway).
         unused: parameters to leave out (see :func:`derive`).
@@ -200,17 +199,19 @@ def _derive(
             tick(what)
 
     links = {link.joint: link for link in table.links}
-    coords = tuple(coordinates) if coordinates is not None else _default_coordinates(table)
-    _validate(table, coords)
-    n = len(coords)
-    index = {c.joint: i for i, c in enumerate(coords)}
-    angle_of = tuple(sum(1 for c in coords[:i] if c.angular) if coords[i].angular else None for i in range(n))
-    variable_of = tuple(
-        sum(1 for c in coords[:i] if not c.angular) if not coords[i].angular else None for i in range(n)
-    )
-    n_angles = sum(1 for c in coords if c.angular)
+    cmap = coordinates_of(table, coordinates, MAX_JOINTS)
+    joints = cmap.joints
+    n = len(joints)
+    index = {name: j for j, name in enumerate(joints)}  # a joint's column of A (its row of q_urdf)
+    turns = {name: links[name].joint_type != "prismatic" for name in joints}
+    angular = cmap.check_units([not turns[j] for j in joints], "the coordinates")
+    angular = tuple(not x for x in angular)
+    back = whole_inverse(cmap, angular)  # q_urdf = back (q - b)
+    angle_of = tuple(sum(angular[:i]) if angular[i] else None for i in range(n))
+    variable_of = tuple(sum(not a for a in angular[:i]) if not angular[i] else None for i in range(n))
+    n_angles = sum(angular)
     first_param = n - n_angles
-    params, per_link = name_parameters(table, [c.joint for c in coords], planar=_planar_links(table), unused=unused)
+    params, per_link = name_parameters(table, list(joints), planar=_planar_links(table), unused=unused)
     pvar = {p.name: Trig.variable(n_angles, first_param + k) for k, p in enumerate(params)}
     zero = Trig(n_angles)
 
@@ -227,18 +228,20 @@ def _derive(
     # Each link's motion relative to its parent: rotation A_b and offset t_b (Trig), its axis, COM and inertia.
     local: dict[str, tuple[Matrix, Vector]] = {}
     for name in table.joints:
-        link, c = links[name], coords[index[name]]
+        link, row = links[name], back[index[name]]
         R0, origin, axis = mat(link.rotation), per_link[name].origin(pvar, zero), vec(link.axis)
-        i = index[name]
-        if c.angular:
-            cos_q, sin_q = Trig.cos(n_angles, angle_of[i]), Trig.sin(n_angles, angle_of[i])  # type: ignore[arg-type]
-            co, so = snap(np.cos(c.offset)), snap(np.sin(c.offset))
-            cphi = cos_q.scale(co) + sin_q.scale(so)
-            sphi = (sin_q.scale(co) - cos_q.scale(so)).scale(c.sign)
+        phase = float(row @ cmap.b)  # q_urdf = row . q - phase
+        if turns[name]:
+            cos_x, sin_x = _angle_sum([(angle_of[k], int(m)) for k, m in enumerate(row) if m], n_angles)
+            co, so = snap(np.cos(phase)), snap(np.sin(phase))
+            cphi = cos_x.scale(co) + sin_x.scale(so)  # cos(x - phase)
+            sphi = sin_x.scale(co) - cos_x.scale(so)  # sin(x - phase)
             local[name] = (matmul(R0, _rotation(axis, cphi, sphi, const)), origin)
         else:
-            x = Trig.variable(n_angles, variable_of[i])  # type: ignore[arg-type]
-            d = x.scale(c.sign) - const(c.sign * c.offset)
+            d = const(-phase)
+            for k, m in enumerate(row):
+                if m:
+                    d = d + Trig.variable(n_angles, variable_of[k]).scale(float(m))  # type: ignore[arg-type]
             slide = matvec(R0, [a * d for a in axis])
             local[name] = (R0, [o + s for o, s in zip(origin, slide, strict=True)])
     check("the joint transforms")
@@ -274,8 +277,8 @@ def _derive(
             R, p = world[parent]
             world[b] = (matmul(R, A), [pi + ti for pi, ti in zip(p, matvec(R, t), strict=True)])
 
-    # The Jacobians' axes: d q_urdf / d q = sign, so each joint's axis enters times its coordinate's sign.
-    axes = {name: [a.scale(coords[index[name]].sign) for a in vec(links[name].axis)] for name in table.joints}
+    # M_urdf first (the joints' own rates), then M = A^-T M_urdf A^-1 (d q_urdf / d q = A^-1).
+    axes = {name: vec(links[name].axis) for name in table.joints}
     com = {name: per_link[name].com(pvar, zero) for name in table.joints}
     inertia = {name: per_link[name].inertia(pvar, zero) for name in table.joints}
     mass = {name: per_link[name].mass(pvar, zero) for name in table.joints}
@@ -288,29 +291,31 @@ def _derive(
             cur = links[cur].parent
         return out
 
-    M = [[zero for _ in range(n)] for _ in range(n)]
+    M_urdf = [[zero for _ in range(n)] for _ in range(n)]
     for i_name in table.joints:
         for j_name in subtree(i_name):
             i, j = index[i_name], index[j_name]
-            entry = _mass_entry(i_name, j_name, subtree(j_name), coords, index, rel, axes, com, inertia, mass)
+            entry = _mass_entry(i_name, j_name, subtree(j_name), turns, rel, axes, com, inertia, mass)
             if i == j:
                 entry = entry + per_link[i_name].armature(pvar, zero)
-            M[i][j] = entry
-            M[j][i] = entry
+            M_urdf[i][j] = entry
+            M_urdf[j][i] = entry
             check(f"M[{i},{j}]")
+    M = congruence(M_urdf, back, zero)
     # V = -sum_b m_b g . r_b in the base frame; G = dV/dq.
     gdir = [snap(float(x)) for x in np.asarray(table.gravity, dtype=np.float64) / max(float(table.g), 1e-300)]
     g = pvar.get("g", zero)
     V = zero
     com_world: list[Vector] = []
-    for b in (c.joint for c in coords):
+    for b in joints:
         R, p = world[b]
         r = [pi + ri for pi, ri in zip(p, matvec(R, com[b]), strict=True)]
         com_world.append(r)
         V = V - mass[b] * g * dot(vec(gdir), r)
     derivation = Derivation(
         str(table.name),
-        coords,
+        cmap,
+        tuple(links[j].joint_type for j in joints),
         tuple(params),
         n_angles,
         angle_of,
@@ -321,10 +326,9 @@ def _derive(
         V,
         tuple(tuple(r) for r in com_world),
         tuple(
-            tuple(tuple(w) for w in _body_rates(b, ancestors(b), coords, index, rel, axes, zero))
-            for b in (c.joint for c in coords)
+            tuple(tuple(w) for w in _body_rates(b, ancestors(b), back, joints, turns, rel, axes, zero)) for b in joints
         ),
-        tuple(tuple(tuple(row) for row in inertia[c.joint]) for c in coords),
+        tuple(tuple(tuple(row) for row in inertia[b]) for b in joints),
         (gdir[0], gdir[1], gdir[2]),
     )
     G = tuple(derivation.d(V, i) for i in range(n))
@@ -342,23 +346,17 @@ def _derive(
     return derivation
 
 
-def _default_coordinates(table: Any) -> tuple[Coordinate, ...]:
-    return tuple(Coordinate(link.joint, link.joint_type) for link in table.links)
-
-
-def _validate(table: Any, coords: Sequence[Coordinate]) -> None:
-    names = tuple(table.joints)
-    if len(names) > MAX_JOINTS:
-        raise InputError(
-            f"{table.name} has {len(names)} moving joints; robodyn derive takes at most {MAX_JOINTS} "
-            "(name at most 6 in a --coordinates file's JOINTS: the others are locked)"
-        )
-    given = [c.joint for c in coords]
-    if sorted(given) != sorted(names) or len(set(given)) != len(given):
-        raise InputError(f"the coordinates name joints {given}; expected each of {list(names)} once")
-    for c in coords:
-        if c.sign not in (1.0, -1.0) or not np.isfinite(c.offset):
-            raise InputError(f"coordinate of {c.joint}: sign must be +1 or -1 and the offset finite")
+def _angle_sum(terms: Sequence[tuple[int | None, int]], n_angles: int) -> tuple[Trig, Trig]:
+    """The cos and sin of sum_k m_k q_{a_k} (whole m_k), by the angle-sum rule."""
+    c, s = Trig.constant(n_angles, 1.0), Trig(n_angles)
+    for angle, m in terms:
+        assert angle is not None  # a joint angle combines angles only (CoordinateMap.check_units)
+        ca, sa = Trig.cos(n_angles, angle), Trig.sin(n_angles, angle)
+        if m < 0:
+            sa, m = -sa, -m
+        for _ in range(m):
+            c, s = c * ca - s * sa, s * ca + c * sa
+    return c, s
 
 
 def _planar_links(table: Any) -> dict[str, np.ndarray | None]:
@@ -414,16 +412,15 @@ def _mass_entry(
     i_name: str,
     j_name: str,
     bodies: list[str],
-    coords: Sequence[Coordinate],
-    index: Mapping[str, int],
+    turns: Mapping[str, bool],
     rel: Mapping[str, Mapping[str, tuple[Matrix, Vector]]],
     axes: Mapping[str, Vector],
     com: Mapping[str, Vector],
     inertia: Mapping[str, Matrix],
     mass: Mapping[str, Trig],
 ) -> Trig:
-    """M_ij (i an ancestor of j, or j itself) summed over the links j carries, in joint i's frame."""
-    ci, cj = coords[index[i_name]], coords[index[j_name]]
+    """M_urdf ij (i an ancestor of j, or j itself) summed over the links j carries, in joint i's frame."""
+    i_turns, j_turns = turns[i_name], turns[j_name]
     a_i = axes[i_name]
     R_ij, p_ij = rel[i_name][j_name]
     z_j = matvec(R_ij, axes[j_name])
@@ -432,13 +429,13 @@ def _mass_entry(
         R_ib, p_ib = rel[i_name][b]
         if not mass[b].is_zero():
             r = [p + x for p, x in zip(p_ib, matvec(R_ib, com[b]), strict=True)]
-            jv_i = cross(a_i, r) if ci.angular else a_i
+            jv_i = cross(a_i, r) if i_turns else a_i
             if i_name == j_name:
                 jv_j = jv_i
             else:
-                jv_j = cross(z_j, [x - p for x, p in zip(r, p_ij, strict=True)]) if cj.angular else z_j
+                jv_j = cross(z_j, [x - p for x, p in zip(r, p_ij, strict=True)]) if j_turns else z_j
             entry = entry + mass[b] * dot(jv_i, jv_j)
-        if ci.angular and cj.angular and any(not x.is_zero() for row in inertia[b] for x in row):
+        if i_turns and j_turns and any(not x.is_zero() for row in inertia[b] for x in row):
             w_i = matvec(transpose(R_ib), a_i)
             w_j = w_i if i_name == j_name else matvec(transpose(rel[j_name][b][0]), axes[j_name])
             entry = entry + dot(w_i, matvec(inertia[b], w_j))
@@ -448,17 +445,22 @@ def _mass_entry(
 def _body_rates(
     b: str,
     chain: list[str],
-    coords: Sequence[Coordinate],
-    index: Mapping[str, int],
+    back: np.ndarray,
+    joints: Sequence[str],
+    turns: Mapping[str, bool],
     rel: Mapping[str, Mapping[str, tuple[Matrix, Vector]]],
     axes: Mapping[str, Vector],
     zero: Trig,
 ) -> list[Vector]:
-    """Link b's angular velocity in its own axes per unit rate of each coordinate (zero off its chain)."""
+    """Link b's angular velocity in its own axes per unit rate of each formula coordinate (A^-1's columns)."""
+    own = {
+        j: matvec(transpose(rel[j][b][0]), axes[j]) for j in joints if j in chain and turns[j]
+    }  # per unit rate of joint j
     out: list[Vector] = []
-    for c in coords:
-        if c.joint in chain and c.angular:
-            out.append(matvec(transpose(rel[c.joint][b][0]), axes[c.joint]))
-        else:
-            out.append([zero, zero, zero])
+    for k in range(len(joints)):
+        w = [zero, zero, zero]
+        for j, name in enumerate(joints):
+            if name in own and back[j, k]:
+                w = [x + y.scale(float(back[j, k])) for x, y in zip(w, own[name], strict=True)]
+        out.append(w)
     return out

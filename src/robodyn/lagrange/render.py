@@ -10,21 +10,20 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import numpy as np
+
 from robodyn.lagrange.derivation import Derivation
 from robodyn.lagrange.symbolic import Symbolic, sympy
 from robodyn.lagrange.trig import Trig
 
 
 def _coordinates(d: Derivation) -> str:
-    parts = []
-    for i, c in enumerate(d.coordinates, start=1):
-        unit = "rad" if c.angular else "m"
-        urdf = c.joint if c.sign > 0 else f"-{c.joint}"
-        if c.offset:
-            offset = _float(c.offset).replace("np.", "")
-            urdf = f"{urdf} - {offset.lstrip('-')}" if offset.startswith("-") else f"{urdf} + {offset}"
-        parts.append(f"q{i} = {urdf} [{unit}]")
-    return ", ".join(parts) + "; v = dq/dt"
+    """``q1 = shoulder + pi / 2 [rad], q2 = shoulder + elbow [rad]; v = dq/dt``: q = A q_urdf + b, as written."""
+    lengths = [not a for a in d.angular]
+    parts = d.coordinates.describe(lengths, lambda x: _float(x).replace("np.", ""), units=False)
+    return ", ".join(f"{part} [{'m' if slide else 'rad'}]" for part, slide in zip(parts, lengths, strict=True)) + (
+        "; v = dq/dt"
+    )
 
 
 def _param_lines(d: Derivation) -> list[str]:
@@ -39,7 +38,7 @@ def text(s: Symbolic) -> str:
     d = s.derivation
     n = d.n
     lines = [
-        f"{d.robot}: the Lagrangian of {n} joint{'s' if n > 1 else ''} ({', '.join(c.joint for c in d.coordinates)}), "
+        f"{d.robot}: the Lagrangian of {n} joint{'s' if n > 1 else ''} ({', '.join(d.coordinates.joints)}), "
         f"derived symbolically in {d.wall_time_s:.2f} s",
         f"coordinates: {_coordinates(d)}",
         "parameters, read from the model (--format python writes them as parameters(robot)):",
@@ -160,7 +159,7 @@ def python(
     d = s.derivation
     n = d.n
     given = f" --coordinates {coordinates_file}" if coordinates_file else ""
-    joints = ", ".join(repr(c.joint) for c in d.coordinates)
+    joints = ", ".join(repr(joint) for joint in d.coordinates.joints)
     lines = [
         f'"""The Lagrangian of {d.robot}, derived by robodyn {version}: robodyn derive {model}{given} --format python.',
         "",
@@ -176,9 +175,7 @@ def python(
         'KIND = "any"',
         f"JOINTS = [{joints}]",
     ]
-    if any(c.sign != 1.0 or c.offset != 0.0 for c in d.coordinates):
-        entries = ", ".join(f"{c.joint!r}: ({c.sign:g}, {_float(c.offset)})" for c in d.coordinates)
-        lines.append(f"COORDINATES = {{{entries}}}  # q = sign * q_urdf + offset")
+    lines += _coordinate_lines(d)
     if locked:
         held = ", ".join(f"{joint!r}: {_float(x)}" for joint, x in locked.items())
         lines.append(f"LOCKED = {{{held}}}  # the other joints are held at the neutral pose")
@@ -222,6 +219,27 @@ def python(
     lines += body("potential_energy", "q, p", s.V, matrix=False, doc="V(q) [J].")
     del sp
     return "\n".join(lines).rstrip() + "\n"
+
+
+def _coordinate_lines(d: Derivation) -> list[str]:
+    """COORDINATES (and OFFSETS) as the ``--coordinates`` file gave them: the sign form, or the matrix."""
+    cmap = d.coordinates
+    if cmap.diagonal:
+        if np.array_equal(cmap.A, np.eye(d.n)) and not cmap.b.any():
+            return []
+        pairs = zip(cmap.joints, cmap.signs, cmap.b, strict=True)
+        entries = ", ".join(f"{joint!r}: ({sign:g}, {_float(offset)})" for joint, sign, offset in pairs)
+        return [f"COORDINATES = {{{entries}}}  # q = sign * q_urdf + offset"]
+    rows = ", ".join("[" + ", ".join(_entry(x) for x in row) + "]" for row in cmap.A)
+    lines = [f"COORDINATES = [{rows}]  # q = A q_urdf + OFFSETS, q_urdf in the order of JOINTS"]
+    if cmap.b.any():
+        lines.append(f"OFFSETS = [{', '.join(_float(x) for x in cmap.b)}]")
+    return lines
+
+
+def _entry(x: float) -> str:
+    """A matrix entry as Python: ``1``, ``-1``, or every digit of a float (it round-trips)."""
+    return f"{int(x)}" if float(x).is_integer() else repr(float(x))
 
 
 def _code(printer: Any, expr: Any) -> str:

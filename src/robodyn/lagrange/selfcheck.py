@@ -4,8 +4,8 @@ The printed expressions themselves are checked: the text ``robodyn derive`` prin
 file it writes, or (from Python) the expressions compiled with sympy's ``lambdify``, evaluated at
 ``samples`` random states beside the robot's own M, C and G (Pinocchio's CRBA,
 Coriolis matrix and RNEA gravity), mapped to the formula's coordinates exactly as
-``robodyn check`` maps them (``M_f = S^T M S``, ``S = dq_urdf / dq_formula``). Every entry of M, C,
-C v and G must agree to :data:`RTOL` of its quantity's largest magnitude.
+``robodyn check`` maps them (``M_f = S^T M S``, ``S = dq_urdf / dq_formula = A^-1`` for
+q = A q_urdf + b). Every entry of M, C, C v and G must agree to :data:`RTOL` of its quantity's largest magnitude.
 
 The robot is read through its methods (``M``, ``C``, ``G``, ``joint``, ``neutral``): this module
 imports neither Pinocchio nor the Robot.
@@ -146,17 +146,18 @@ def self_check(
         p = formula["parameters"](formula["table"])
     rng = np.random.default_rng(seed)
     n = d.n
+    cmap = d.coordinates
+    back = cmap.A_inv  # d q_urdf / d q
     S = np.zeros((robot.nv, n))
-    infos = [robot.joint(c.joint) for c in d.coordinates]
-    for i, (c, info) in enumerate(zip(d.coordinates, infos, strict=True)):
-        S[info.idx_v, i] = c.sign
+    infos = [robot.joint(joint) for joint in cmap.joints]
+    for j, info in enumerate(infos):
+        S[info.idx_v, :] = back[j]
     rows: dict[str, list[tuple[Array, Array, Array, Array]]] = {"M": [], "C": [], "C v": [], "G": []}
     for _ in range(samples):
-        q = np.array([rng.uniform(-np.pi, np.pi) if c.angular else rng.uniform(-SLIDE, SLIDE) for c in d.coordinates])
+        q = np.array([rng.uniform(-np.pi, np.pi) if a else rng.uniform(-SLIDE, SLIDE) for a in d.angular])
         v = rng.uniform(-SPEED, SPEED, n)
         q_full = robot.neutral()
-        for c, info, x in zip(d.coordinates, infos, q, strict=True):
-            angle = c.sign * (x - c.offset)
+        for info, angle in zip(infos, back @ (q - cmap.b), strict=True):
             q_full[info.idx_q : info.idx_q + info.nq] = [np.cos(angle), np.sin(angle)] if info.nq == 2 else [angle]
         v_full = S @ v
         M_ref = S.T @ robot.M(q_full) @ S

@@ -21,6 +21,7 @@ import numpy as np
 KIND = "any"
 JOINTS = ["shoulder", "elbow"]
 COORDINATES = {"shoulder": (1.0, math.pi / 2), "elbow": (-1.0, 0.0)}  # q_formula = sign * q_urdf + offset
+NAMES = ["theta1", "theta2"]  # what --explain and the coordinates line call q1, q2
 
 
 def parameters(robot):

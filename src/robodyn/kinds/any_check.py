@@ -90,14 +90,19 @@ def prepare(robot: Robot, formula: Formula, params: dict[str, float] | None = No
         used = read(table)
     else:
         used = checked_parameters(params, formula.source)
-    return AnySetup(model, reference, table, used, _notes(cmap, reference.prismatic, rest, locked))
+    names = tuple(getattr(formula, "names", ()))
+    return AnySetup(model, reference, table, used, _notes(cmap, reference.prismatic, rest, locked, names))
 
 
 def _notes(
-    cmap: CoordinateMap, prismatic: tuple[bool, ...], rest: tuple[str, ...], locked: dict[str, float]
+    cmap: CoordinateMap,
+    prismatic: tuple[bool, ...],
+    rest: tuple[str, ...],
+    locked: dict[str, float],
+    names: tuple[str, ...] = (),
 ) -> tuple[str, ...]:
-    """``coordinates: q1 = joint1 + 1.5708 rad, q2 = joint1 + joint2`` and the locked joints."""
-    parts = cmap.describe(prismatic)
+    """``coordinates: q1 = joint1 + 1.5708 rad, q2 = joint1 + joint2`` (in the file's NAMES) and the locked joints."""
+    parts = cmap.describe(prismatic, names=names)
     notes = [f"coordinates: {', '.join(parts)} (the q, v of a mismatch are the formula's)"]
     if rest:
         held = ", ".join(f"{name} at {locked[name]:.6g}" if name in locked else f"{name} at neutral" for name in rest)

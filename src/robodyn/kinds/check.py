@@ -492,7 +492,7 @@ def check(
                 resolved.close()  # the file's process was this check's own
     rows += _structure_rows(robot, states, rtol)
     rows.sort(key=lambda r: GROUP_ORDER.index(r.group))  # stable: keeps the order within a group
-    hints = convention_hints(rows, kept, *explained, kind) if explained is not None else ()
+    hints = convention_hints(rows, kept, *explained, kind, names) if explained is not None else ()
     explanation: tuple[str, ...] = ()
     terms: tuple[Explained, ...] = ()
     if explain and explained is not None:

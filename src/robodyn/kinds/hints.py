@@ -65,12 +65,14 @@ def convention_hints(
     states: Sequence[Any],
     ref: Reference,
     kind: str | None,
+    names: Sequence[str] = (),
 ) -> tuple[str, ...]:
     """One line per convention under which everything that mismatched agrees (at most :data:`MAX_HINTS`).
 
     ``kept``: the check's formula accumulators (pairs (Pinocchio, formula) per state); ``states``:
     the states in the formula's coordinates; ``ref``: Pinocchio in the formula's coordinates;
-    ``kind``: the formula's kind (``"any"``: the fix is said as a COORDINATES entry).
+    ``kind``: the formula's kind (``"any"``: the fix is said as a COORDINATES entry); ``names``: the
+    formula's own names of its coordinates (its ``NAMES``; default q1, q2, ...).
     """
     failing = [r for r in rows if r.counts and not r.passed]
     if not failing or any(r.group != "formula" for r in failing) or not all(k in kept for k in COMPARED[:3]):
@@ -81,7 +83,7 @@ def convention_hints(
     if _agrees(_Candidate("", base), kept, states, base):
         return ()  # M, C, G and V agree as they are: what fails is no convention
     found: list[_Candidate] = []
-    for candidate in _candidates(base, kind):
+    for candidate in _candidates(base, kind, names):
         if (not found or candidate.tier <= found[0].tier) and _agrees(candidate, kept, states, base):
             found = [c for c in found if c.tier <= candidate.tier] + [candidate]
     return tuple(c.line for c in sorted(found, key=lambda c: c.tier)[:MAX_HINTS])
@@ -96,12 +98,13 @@ def _unit_reference(ref: Reference) -> Reference | None:
     return Reference.mapped(ref.robot, [j.name for j in joints], np.eye(n), np.zeros(n))
 
 
-def _candidates(ref: Reference, kind: str | None) -> Iterator[_Candidate]:
+def _candidates(ref: Reference, kind: str | None, coordinates: Sequence[str] = ()) -> Iterator[_Candidate]:
     """Every convention tried, the likeliest first: a sign or a zero, a swap, gravity, C transposed."""
     names = tuple(j.name for j in ref.joint_infos())
     cmap = CoordinateMap(names, ref.A, ref.offsets)
     prismatic = ref.prismatic
-    say = _Wording(cmap, prismatic, kind)
+    q = tuple(coordinates) if len(coordinates) == len(names) else tuple(f"q{i + 1}" for i in range(len(names)))
+    say = _Wording(cmap, prismatic, kind, q)
     for i in range(len(names)):
         for flip in (False, True):
             for shift, turn in _SHIFTS if not prismatic[i] else _SHIFTS[:1]:
@@ -111,7 +114,7 @@ def _candidates(ref: Reference, kind: str | None) -> Iterator[_Candidate]:
                 if flip:
                     A[i] = -A[i]
                 b[i] = b[i] + (-shift if shift == math.pi and b[i] > 0 else shift)  # half a turn: toward 0
-                why = _why(i, flip, turn, names, cmap, kind)
+                why = _why(i, flip, turn, names, cmap, kind, q)
                 yield _Candidate(say.change(i, A, b, why), ref.remapped(A, b), tier=int(flip and bool(shift)))
     for i in range(len(names)):
         for k in range(i + 1, len(names)):
@@ -135,24 +138,26 @@ def _candidates(ref: Reference, kind: str | None) -> Iterator[_Candidate]:
     )
 
 
-def _why(i: int, flip: bool, turn: str, names: Sequence[str], cmap: CoordinateMap, kind: str | None) -> str:
-    """``q1 is measured the other way round and from another zero, half a turn from the URDF's``."""
+def _why(
+    i: int, flip: bool, turn: str, names: Sequence[str], cmap: CoordinateMap, kind: str | None, q: Sequence[str]
+) -> str:
+    """``q1 is measured the other way round and from another zero, half a turn from the URDF's`` (q: the names)."""
     parts = []
     if flip:
         axis = f" (against the URDF axis of {names[i]})" if cmap.diagonal else ""
-        parts.append(f"q{i + 1} turns the other way round{axis}")
+        parts.append(f"{q[i]} turns the other way round{axis}")
     if turn:
         hangs = " (the URDF's zero may hang down where yours stands up)" if "half" in turn else ""
         where = "the URDF's" if kind != "any" else f"the one {'COORDINATES' if cmap.diagonal else 'OFFSETS'} gives"
-        parts.append(f"{'it' if flip else f'q{i + 1}'} is measured from a zero {turn} from {where}{hangs}")
+        parts.append(f"{'it' if flip else q[i]} is measured from a zero {turn} from {where}{hangs}")
     return " and ".join(parts)
 
 
 class _Wording:
     """How a candidate map is said: a COORDINATES entry, JOINTS, OFFSETS, or (a built-in kind) the equation."""
 
-    def __init__(self, cmap: CoordinateMap, prismatic: tuple[bool, ...], kind: str | None) -> None:
-        self.cmap, self.prismatic, self.kind = cmap, prismatic, kind
+    def __init__(self, cmap: CoordinateMap, prismatic: tuple[bool, ...], kind: str | None, q: Sequence[str]) -> None:
+        self.cmap, self.prismatic, self.kind, self.q = cmap, prismatic, kind, q
 
     def change(self, i: int, A: Array, b: Array, why: str) -> str:
         names = self.cmap.joints
@@ -173,7 +178,7 @@ class _Wording:
         return f"hint: the mismatch vanishes with {' and '.join(fixes)}: {why}"
 
     def swap(self, i: int, k: int, A: Array, b: Array) -> str:
-        why = f"your q{i + 1} and q{k + 1} are the other way round"
+        why = f"your {self.q[i]} and {self.q[k]} are the other way round"
         names = list(self.cmap.joints)
         if self.kind == "any" and self.cmap.diagonal:
             names[i], names[k] = names[k], names[i]
@@ -181,7 +186,7 @@ class _Wording:
         if self.kind == "any":
             rows = f"COORDINATES[{i}] and COORDINATES[{k}] swapped (and OFFSETS[{i}] and OFFSETS[{k}])"
             return f"hint: the mismatch vanishes with {rows}: {why}"
-        return f"hint: the mismatch vanishes with q{i + 1} = {names[k]} and q{k + 1} = {names[i]}: {why}"
+        return f"hint: the mismatch vanishes with {self.q[i]} = {names[k]} and {self.q[k]} = {names[i]}: {why}"
 
 
 def _agrees(c: _Candidate, kept: Mapping[str, Accumulator], states: Sequence[Any], base: Reference) -> bool:

@@ -86,11 +86,17 @@ class CoordinateMap:
         return tuple(out)
 
     def describe(
-        self, prismatic: Sequence[bool], number: Callable[[float], str] | None = None, *, units: bool = True
+        self,
+        prismatic: Sequence[bool],
+        number: Callable[[float], str] | None = None,
+        *,
+        units: bool = True,
+        names: Sequence[str] = (),
     ) -> list[str]:
         """``q1 = joint1``, ``q2 = joint1 + joint2 + 3.14159 rad``: one string per formula coordinate.
 
-        ``number`` writes an offset's magnitude (default ``%.6g``); with ``units`` its unit follows it.
+        ``number`` writes an offset's magnitude (default ``%.6g``); with ``units`` its unit follows it;
+        ``names``: the formula's own names of its coordinates (its ``NAMES``), in place of q1, q2, ...
         """
         write = number or (lambda x: f"{x:.6g}")
         out = []
@@ -107,7 +113,7 @@ class CoordinateMap:
             if offset:
                 unit = (" m" if prismatic[i] else " rad") if units else ""
                 text += f" {'+' if offset > 0 else '-'} {write(abs(offset))}{unit}"
-            out.append(f"q{i + 1} = {text}")
+            out.append(f"{names[i] if names else f'q{i + 1}'} = {text}")
         return out
 
 

@@ -81,6 +81,7 @@ class Robot:
     requires: tuple[str, ...]  # robodyn features the correct file needs that today's robodyn may lack
     note: str
     cases: tuple[Case, ...]
+    equivalent: Path | None = None  # a correct file of the same robot in other coordinates: must agree
 
     def correct_text(self) -> str:
         """The correct formula file's text."""
@@ -125,6 +126,7 @@ def load_corpus(folder: Path = CORPUS) -> list[Robot]:
                 requires=tuple(meta.get("requires", ())),
                 note=str(meta.get("note", "")),
                 cases=cases,
+                equivalent=manifest.parent / meta["equivalent"] if "equivalent" in meta else None,
             )
         )
     return robots
@@ -352,6 +354,27 @@ def _verify_fix(case: Case, correct: Any, planted: Any, names: Sequence[str], rn
                 raise CorpusError(f"{case.id}: the hint's fix ({case.hint.get('fix', '')}) leaves {key} wrong")
 
 
+def verify_equivalent(robot: Robot, *, draws: int = DRAWS, seed: int = 0) -> None:
+    """Raise CorpusError unless the correct file agrees with ``equivalent`` through the two files' COORDINATES.
+
+    The proof of a correct file that the robodyn under test cannot check yet (a matrix COORDINATES):
+    the same robot's passing file, carried into its coordinates.
+    """
+    if robot.equivalent is None:
+        return
+    mine = load_module(robot.correct_text(), f"{robot.name}_correct")
+    other = load_module(robot.equivalent.read_text(encoding="utf-8"), f"{robot.name}_equivalent")
+    rng = np.random.default_rng(seed)
+    for _ in range(draws):
+        p = RandomParameters(rng)
+        q, v = draw_state(rng, len(mine.JOINTS))
+        scale = max(float(np.max(np.abs(x))) for x in evaluate(mine, p, q, v).values())
+        for key, d in difference(other, mine, p, q, v).items():
+            if np.max(np.abs(d)) > AGREE_RTOL * (1.0 + scale):
+                other_name = f"{robot.equivalent.resolve().parent.name}/{robot.equivalent.name}"
+                raise CorpusError(f"{robot.name}: correct.py and {other_name} disagree on {key}")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Verify every case; print one line per problem and a count. Exit 0: the corpus holds; 1: it does not."""
     del argv
@@ -359,6 +382,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     problems, count = [], 0
     seen: set[str] = set()
     for robot in robots:
+        try:
+            verify_equivalent(robot)
+        except CorpusError as exc:
+            problems.append(str(exc))
         for case in robot.cases:
             count += 1
             if case.id in seen:

@@ -1,7 +1,7 @@
 """How well ``robodyn check --explain`` names planted mistakes: the explain corpus, scored, with the times.
 
     python benchmarks/bench_explain.py [--robots scara,arm3] [--cases lc-for] [--repeat 3] [--no-timing]
-                                       [--label before] [--before OLD.json] [--out bench-out]
+                                       [--derive ur5] [--label before] [--before OLD.json] [--out bench-out]
 
 For every case of ``benchmarks/explain_corpus`` (hand-written robots, a correct formula file each and
 planted single mistakes with their true terms; ``explain_corpus/verify.py`` proves each truth) the
@@ -11,12 +11,13 @@ runs on it, as a student runs it (a process of its own). Each true entry is then
 a WRONG NAME (a printed name, or a candidate list, that is not the truth at random parameter
 values), or missing; a convention slip's one-line hint right, wrong or missing.
 
-Per robot it also times, as wall clock of the whole command: ``check`` of the correct file,
-``check --explain`` of the robot's first case and ``derive URDF --coordinates correct.py``: the first
-run, then the median of ``--repeat`` more. A robot whose correct file does not pass (a feature the
-robodyn under test lacks) is reported and its cases are not scored. ``--before OLD.json`` (a run of an
-earlier version) puts its summary and per-case outcomes beside this run's. It prints one line per case
-and a summary, and writes ``explain[_LABEL].json`` to ``--out``.
+Per robot it also times, as wall clock of the whole command: ``check`` of the correct file, ``check
+--explain`` of the robot's first case and ``derive URDF --coordinates correct.py``: the first run, then
+the median of ``--repeat`` more; and ``derive`` of each robot of ``--derive`` (UR5 by default). A robot
+whose correct file does not pass (a feature the robodyn under test lacks) is reported and its cases are
+not scored. ``--before OLD.json`` (a run of an earlier version) puts its summary and per-case outcomes
+beside this run's. It prints one line per case and a summary, and writes ``explain[_LABEL].json`` to
+``--out``.
 """
 
 from __future__ import annotations
@@ -81,7 +82,7 @@ def robot_times(
     robot: Robot, first_case: Path | None, repeat: int, first_check: tuple[int, str, float]
 ) -> dict[str, Any]:
     """check (its first run made), check --explain (of the first case) and derive of one robot, timed."""
-    urdf, formula = str(robot.urdf), str(robot.formula)
+    urdf, formula = robot.model, str(robot.formula)
     times = {"check": timed(["check", urdf, "--formula", formula], repeat, first_check)}
     if first_case is not None:
         times["check_explain"] = timed(["check", urdf, "--formula", str(first_case), "--explain"], repeat)
@@ -93,7 +94,7 @@ def run_case(robot: Robot, case: Case, folder: Path) -> dict[str, Any]:
     """Plant, check with --explain --json, score."""
     path = folder / f"{case.id.replace('-', '_')}.py"
     path.write_text(planted_text(robot, case), encoding="utf-8")
-    code, out, err, wall = robodyn(["check", str(robot.urdf), "--formula", str(path), "--explain", "--json"])
+    code, out, err, wall = robodyn(["check", robot.model, "--formula", str(path), "--explain", "--json"])
     row: dict[str, Any] = {
         "id": case.id,
         "robot": robot.name,
@@ -155,7 +156,8 @@ def print_case(row: dict[str, Any]) -> None:
     hint = f"  hint {row['hint']}" if row.get("hint_expected") or row.get("hint") == "spurious" else ""
     wrong = [e["label"] for e in row["entries"] if e["outcome"] == "wrong_name"]
     said = f"  wrong: {', '.join(wrong)}" if wrong else ""
-    print(f"{row['id']:<30} {row['slip']:<30} exit {row['exit']:>2}  {row['outcome']:<22}{hint}{said}", flush=True)
+    code = "-" if row["exit"] is None else row["exit"]
+    print(f"{row['id']:<30} {row['slip']:<30} exit {code:>2}  {row['outcome']:<22}{hint}{said}", flush=True)
 
 
 def print_summary(summary: dict[str, Any], robots: list[dict[str, Any]]) -> None:
@@ -187,6 +189,11 @@ def main() -> int:
     parser.add_argument("--no-timing", action="store_true", help="score the cases only")
     parser.add_argument("--label", default="", help="suffix of the JSON file (explain_LABEL.json)")
     parser.add_argument("--before", type=Path, help="an earlier run's JSON, shown beside this one")
+    parser.add_argument(
+        "--derive",
+        default="ur5",
+        help="comma-separated robots (names or URDFs) whose derive is timed too (default ur5; '' for none)",
+    )
     args = parser.parse_args()
     out = output_folder(args.out, overwrite_committed=args.overwrite_committed)
     facts = run_facts()
@@ -199,7 +206,7 @@ def main() -> int:
         folder = Path(tmp)
         for robot in robots:
             cases = [c for c in robot.cases if args.cases in c.id]
-            code, _, err, wall = robodyn(["check", str(robot.urdf), "--formula", str(robot.formula)])
+            code, _, err, wall = robodyn(["check", robot.model, "--formula", str(robot.formula)])
             info: dict[str, Any] = {
                 "robot": robot.name,
                 "note": robot.note,
@@ -227,6 +234,11 @@ def main() -> int:
                     first.write_text(planted_text(robot, cases[0]), encoding="utf-8")
                 info["times"] = robot_times(robot, first if cases else None, args.repeat, (code, err, wall))
             robot_rows.append(info)
+        if not args.no_timing:
+            for name in (n for n in args.derive.split(",") if n):
+                derive = timed(["derive", name], args.repeat)
+                robot_rows.append({"robot": name, "note": "derive only", "requires": [], "cases": 0,
+                                   "correct_exit": 0, "times": {"derive": derive}})  # fmt: skip
     summary = summarise(rows)
     result: dict[str, Any] = {"label": args.label or "", "summary": summary, "robots": robot_rows, "cases": rows}
     if args.before is not None:

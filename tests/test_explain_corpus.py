@@ -72,10 +72,10 @@ def test_the_absolute_angle_file_equals_arm3_through_its_coordinate_matrix():
 @pytest.mark.parametrize("name", ["scara", "crane_hoist"])  # parameters(robot), and a PARAMETERS dict
 def test_a_correct_file_passes_check_and_a_planted_one_fails(name, tmp_path, capsys):
     robot = ROBOTS[name]
-    assert main(["check", str(robot.urdf), "--formula", str(robot.formula), "--samples", CHECK_SAMPLES]) == 0
+    assert main(["check", robot.model, "--formula", str(robot.formula), "--samples", CHECK_SAMPLES]) == 0
     planted = tmp_path / "planted.py"
     planted.write_text(verify.planted_text(robot, robot.cases[0]), encoding="utf-8")
-    assert main(["check", str(robot.urdf), "--formula", str(planted), "--samples", CHECK_SAMPLES]) == 1
+    assert main(["check", robot.model, "--formula", str(planted), "--samples", CHECK_SAMPLES]) == 1
     capsys.readouterr()
 
 

@@ -2,7 +2,7 @@
 
 Layout, one folder per robot::
 
-    benchmarks/explain_corpus/<robot>/robot.urdf    the robot, written by hand
+    benchmarks/explain_corpus/<robot>/robot.urdf    the robot, written by hand (or [robot] model = "ur5")
     benchmarks/explain_corpus/<robot>/correct.py    a correct KIND = "any" formula file (robodyn check: PASS)
     benchmarks/explain_corpus/<robot>/cases.toml    [robot] and the planted mistakes, [[case]]
 
@@ -76,12 +76,18 @@ class Robot:
 
     name: str
     folder: Path
-    urdf: Path
+    urdf: Path  # the URDF file; a robot of robodyn's model sources is named by ``model`` instead
     formula: Path
     requires: tuple[str, ...]  # robodyn features the correct file needs that today's robodyn may lack
     note: str
     cases: tuple[Case, ...]
     equivalent: Path | None = None  # a correct file of the same robot in other coordinates: must agree
+    model_name: str = ""  # a robodyn model name (``ur5``) in place of the URDF file
+
+    @property
+    def model(self) -> str:
+        """What ``robodyn check`` is given: the URDF's path, or the model's name."""
+        return self.model_name or str(self.urdf)
 
     def correct_text(self) -> str:
         """The correct formula file's text."""
@@ -127,6 +133,7 @@ def load_corpus(folder: Path = CORPUS) -> list[Robot]:
                 note=str(meta.get("note", "")),
                 cases=cases,
                 equivalent=manifest.parent / meta["equivalent"] if "equivalent" in meta else None,
+                model_name=str(meta.get("model", "")),
             )
         )
     return robots

@@ -108,8 +108,18 @@ def _from_schema(items: Sequence[Mapping[str, Any]]) -> dict[str, Entry]:
         for t in item.get("terms", []):
             candidates = [c if isinstance(c, str) else str(c.get("name")) for c in t.get("candidates") or []]
             terms.append(Term(str(t.get("basis", "1")), t.get("coefficient"), t.get("name"), candidates))
-        out[label] = Entry(label, str(item.get("status", "unnamed")), terms, str(item.get("reason", "")))
+        status = str(item.get("status", "unnamed"))
+        out[label] = Entry(label, status, terms, f"{label}: {status}: {_shown(terms)} {item.get('reason', '')}".strip())
     return out
+
+
+def _shown(terms: Sequence[Term]) -> str:
+    """The terms as text: ``name*basis`` each, the coefficient where unnamed, candidates in brackets."""
+    parts = []
+    for t in terms:
+        what = t.name or (f"[{' | '.join(t.candidates)}]" if t.candidates else f"{t.coefficient:.3g}")
+        parts.append(f"({what})*{t.basis}")
+    return " + ".join(parts)
 
 
 def parse_line(line: str) -> Entry | None:

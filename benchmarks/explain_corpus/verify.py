@@ -25,6 +25,7 @@ correct one equals the truth, entry by entry (for a COORDINATES slip: the plante
 correct one carried into the planted coordinates, and the hint's fix makes it vanish)::
 
     python benchmarks/explain_corpus/verify.py
+    python benchmarks/explain_corpus/verify.py --plant crane-dropped-rope-m12 > planted.py   # one case's file
 """
 
 from __future__ import annotations
@@ -383,9 +384,24 @@ def verify_equivalent(robot: Robot, *, draws: int = DRAWS, seed: int = 0) -> Non
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Verify every case; print one line per problem and a count. Exit 0: the corpus holds; 1: it does not."""
-    del argv
+    """Verify every case; print one line per problem and a count. Exit 0: the corpus holds; 1: it does not.
+
+    ``--plant ID`` prints that case's planted file instead (exit 2 naming the ids when there is none).
+    """
+    import argparse
+
+    parser = argparse.ArgumentParser(description="Verify the explain corpus, or print one planted file.")
+    parser.add_argument("--plant", metavar="ID", help="print the planted formula file of case ID")
+    args = parser.parse_args(argv)
     robots = load_corpus()
+    if args.plant is not None:
+        found = [(r, c) for r in robots for c in r.cases if c.id == args.plant]
+        if not found:
+            ids = ", ".join(c.id for r in robots for c in r.cases)
+            print(f"verify.py: error: no case {args.plant!r}; the cases are {ids}", file=sys.stderr)
+            return 2
+        print(planted_text(*found[0]), end="")
+        return 0
     problems, count = [], 0
     seen: set[str] = set()
     for robot in robots:

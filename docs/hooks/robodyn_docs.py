@@ -837,7 +837,93 @@ def _world_urdfs(data: dict[str, Any]) -> str:
     return "\n".join(out) + "\n"
 
 
+_EXPLAIN_WORDS = {
+    "named_right": "named right",
+    "candidates": "candidates incl. the truth",
+    "cannot_name": "cannot name",
+    "wrong_name": "**WRONG NAME**",
+    "missing": "missing",
+    "convention": "(a convention slip: its hint)",
+    "convention_wrong_name": "**WRONG NAME** (convention slip)",
+    "not_run": "not run",
+}
+
+
+def _explain_summary(s: dict[str, Any]) -> list[str]:
+    return [
+        f"| cases with a true term | {s['term_cases']} |",
+        f"| named right | {s['named_right']} ({s['named_right_pct']} %) |",
+        f"| candidates including the truth | {s['candidates']} |",
+        f"| honest cannot-name | {s['cannot_name']} |",
+        f"| **wrong name** (cases; entries over all cases) | {s['wrong_name']}; {s['entries_wrong_name']} |",
+        f"| missing (a differing entry not explained) | {s['missing']} |",
+        f"| convention cases: hint right / wrong / missing | {s['hints_right']} / {s['hints_wrong']} / "
+        f"{s['hints_missing']} |",
+        f"| hints where none was due | {s['spurious_hints']} |",
+        f"| cases not run (the correct file does not pass) | {s['not_run']} |",
+    ]
+
+
+def _explain_times(robots: list[dict[str, Any]], before: dict[str, Any]) -> list[str]:
+    def cell(t: dict[str, Any] | None) -> str:
+        if not t:
+            return "–"
+        if t.get("exit") not in (0, 1):
+            return f"exit {t['exit']}"
+        return f"{t['first_s']:.2f} / {t['median_s']:.2f}" if "median_s" in t else f"{t['first_s']:.2f}"
+
+    out = [
+        "| robot | cases | check | check --explain | derive | before: check, check --explain, derive |",
+        "|---|---:|---:|---:|---:|---|",
+    ]
+    for r in robots:
+        t, b = r["times"], before.get(r["robot"], {})
+        old = ", ".join(cell(b.get(k)) for k in ("check", "check_explain", "derive")) if b else "–"
+        note = f" (correct file: exit {r['correct_exit']})" if r["correct_exit"] != 0 else ""
+        out.append(
+            f"| {r['robot']}{note} | {r['cases']} | {cell(t.get('check'))} | {cell(t.get('check_explain'))} | "
+            f"{cell(t.get('derive'))} | {old} |"
+        )
+    return out
+
+
+def _explain_truth(row: dict[str, Any]) -> str:
+    """The first true entry (``M[0,1] = m2*(lc1 - l1)*cos(phi1)``, and how many more), or the hint's fix."""
+    truth = row.get("truth") or {}
+    if truth:
+        label, text = next(iter(truth.items()))
+        more = f" (+{len(truth) - 1} more)" if len(truth) > 1 else ""
+        return f"`{label} = {text}`{more}"
+    hint = row.get("hint_expected") or {}
+    return f"hint: `{hint.get('fix', '')}`" if hint else ""
+
+
+def _explain(data: dict[str, Any]) -> str:
+    """Totals (before beside them when saved), times per robot, then every case's outcome and hint."""
+    before = data.get("before", {})
+    out = ["| | this run |" + (" before |" if before else ""), "|---|---|" + ("---|" if before else "")]
+    rows = _explain_summary(data["summary"])
+    if before:
+        old_rows = _explain_summary(before["summary"])
+        rows = [f"{a} {b.split('|')[2].strip()} |" for a, b in zip(rows, old_rows, strict=True)]
+    out += rows
+    out += ["", "Wall time of each command [s]: the first run / the median of the runs after it.", ""]
+    out += _explain_times(data["robots"], before.get("robots", {}))
+    out += ["", "| case | slip | true term | outcome | hint | wrong entries |", "|---|---|---|---|---|---|"]
+    old = before.get("cases", {})
+    for r in data["cases"]:
+        outcome = _EXPLAIN_WORDS.get(r["outcome"], r["outcome"])
+        if r["id"] in old and old[r["id"]]["outcome"] != r["outcome"]:
+            outcome = f"{_EXPLAIN_WORDS.get(old[r['id']]['outcome'], old[r['id']]['outcome'])} → {outcome}"
+        hint = r["hint"] if r.get("hint_expected") or r["hint"] == "spurious" else ""
+        wrong = ", ".join(e["label"] for e in r["entries"] if e["outcome"] == "wrong_name")
+        out.append(f"| `{r['id']}` | {r['slip']} | {_explain_truth(r)} | {outcome} | {hint} | {wrong} |")
+    return "\n".join(out) + "\n"
+
+
 RENDERERS: dict[str, Callable[[dict[str, Any]], str]] = {
+    "explain": _explain,
+    "explain_before": _explain,
     "scaling": _scaling,
     "fidelity": _fidelity,
     "overhead": _overhead,

@@ -32,12 +32,11 @@ from numpy.typing import NDArray
 
 from robodyn.kinds.check_rows import Accumulator, CheckRow
 from robodyn.kinds.explain_basis import (
-    FIT_RTOL,
     MAX_TERMS,
-    ROUNDOFF,
     Basis,
     Fit,
     fit,
+    fit_target,
     least_squares,
     q_basis,
     velocity_basis,
@@ -141,7 +140,7 @@ def _display(term: str, names: Sequence[str] | None) -> str:
     return re.sub(r"\b([qv])(\d+)\b", lambda m: names[int(m[2]) - 1] + ("_dot" if m[1] == "v" else ""), term)
 
 
-def _coefficients(f: Fit, basis: Basis, sets: Sets, key: str, flat: int) -> Array | None:
+def _coefficients(f: Fit, basis: Basis, sets: Sets, key: str, flat: int, tolerance: float) -> Array | None:
     """The fit's coefficients at every parameter set (S, J), its terms refitted at each; None where they do not fit."""
     out = [np.array(f.coefficients)]
     if sets.count == 1:
@@ -152,7 +151,7 @@ def _coefficients(f: Fit, basis: Basis, sets: Sets, key: str, flat: int) -> Arra
     for d_all, scale in zip(sets.differences[key], sets.scales[key], strict=True):
         d = d_all.reshape(k, -1)[:, flat]
         coef, left = least_squares(Phi, d)
-        if left > max(FIT_RTOL * float(np.max(np.abs(d))), ROUNDOFF * float(scale)):
+        if left > fit_target(d, float(scale), tolerance):
             return None
         out.append(coef)
     return np.array(out)
@@ -374,10 +373,10 @@ def explain(
             labels.append(label)
             flat = int(np.ravel_multi_index(entry, refs.shape[1:])) if entry else 0
             d = (vals - refs).reshape(len(samples), -1)[:, flat]
-            found = fit(d, basis, scale)
+            found = fit(d, basis, scale, acc[key].tolerance)
             own = entry_dimension(key, entry, prismatic)
             dims = [sub(own, term_dimension(term, prismatic)) for term in found.terms]
-            vectors = _coefficients(found, basis, sets, key, flat) if found.exact else None
+            vectors = _coefficients(found, basis, sets, key, flat, acc[key].tolerance) if found.exact else None
             ex = identify(key, entry, label, found, vectors, namer, sets, dims, names)
             explained.append(ex)
             lines += describe(ex, row.unit, sets, vectors)

@@ -29,6 +29,7 @@ Array = NDArray[np.float64]
 MAX_TERMS = 6  # the most terms a correction may have: more is not "a wrong term" but a wrong derivation
 FIT_RTOL = 1e-9  # an exact fit leaves at most this fraction of the difference (its round-off is ~1e-13)
 ROUNDOFF = 1e-12  # ... or this fraction of the entry's own scale (a difference near the tolerance)
+BELOW_CHECK = 0.1  # ... or this fraction of the check's own tolerance (times the entry's scale): not a mismatch
 PAIR_CANDIDATES = 40  # pairs of terms are searched among this many best-correlated ones
 SIGNED_TRIPLES = 3  # on at most this many revolutes, every signed sum of three angles is a term (q1 - q2 + q3)
 
@@ -143,9 +144,20 @@ class Fit:
     exact: bool
 
 
-def fit(d: Array, basis: Basis, scale: float) -> Fit:
-    """The sparsest exact fit of ``d`` (k,) in ``basis``; ``scale``: the entry's own magnitude (for round-off)."""
-    target = max(FIT_RTOL * float(np.max(np.abs(d))), ROUNDOFF * scale)
+def fit_target(d: Array, scale: float, tolerance: float = 0.0) -> float:
+    """The largest |d - fit| an exact fit may leave: round-off of ``d`` or of the entry (see :func:`fit`)."""
+    return max(FIT_RTOL * float(np.max(np.abs(d))), ROUNDOFF * scale, BELOW_CHECK * tolerance * scale)
+
+
+def fit(d: Array, basis: Basis, scale: float, tolerance: float = 0.0) -> Fit:
+    """The sparsest exact fit of ``d`` (k,) in ``basis``; ``scale``: the entry's own magnitude (for round-off).
+
+    ``tolerance``: the check's own relative tolerance; a fit may leave :data:`BELOW_CHECK` of it (times
+    ``scale``), a part of the difference the check would not count as a mismatch on its own (a URDF's
+    rounded rpy that tilts an arm out of its plane by 1e-10 leaves such a term, which is no slip of the
+    formula's).
+    """
+    target = fit_target(d, scale, tolerance)
     Phi = basis.values
     norms = np.linalg.norm(Phi, axis=0)
     unit = Phi / norms

@@ -180,6 +180,14 @@ def test_invalid_states_exit_2_naming_the_cause(tmp_path: Path, capsys: pytest.C
     assert len(err) == 1 and "singular" in err[0] and "unstable" not in err[0]
 
 
+def test_model_with_no_moving_joint_exits_2_and_its_advice_works(capsys: pytest.CaptureFixture[str]) -> None:
+    # hector is one body welded to the world: nothing moves until it gets the free flyer the line suggests.
+    assert main(["simulate", "hector", "--duration", "0.01"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "no moving joint" in err[0] and "--free-flyer" in err[0]
+    assert main(["simulate", "hector", "--free-flyer", "--duration", "0.01", "--backend", "aba"]) == 0
+
+
 def test_summary_prints_units_and_help_states_defaults(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["simulate", "cart_pole", "--q0", "0.1,0.2", "--duration", "0.01"]) == 0
     line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("final state"))

@@ -7,7 +7,7 @@ adds loops, couplings and springs (the keys of a scene's ``[constraints]`` table
 closes the loop with a controller of :mod:`robodyn.control` (``lqr``, ``swing_up``, or a user's
 file defining ``make(robot, **gains)``); ``--controller list`` names them.
 
-Exit codes: 0 the run finished; 2 bad input (wrong vector lengths, a cos/sin pair or
+Exit codes: 0 the run finished; 2 bad input (a model with no moving joint, wrong vector lengths, a cos/sin pair or
 quaternion off the unit sphere, a singular mass matrix, non-positive dt or duration, an
 unknown integrator or backend, an unwritable output path, an output that is an input or
 another output, an unknown frame or joint in a constraint, a coupling cycle, a negative

@@ -22,6 +22,7 @@ from robodyn.errors import StepError
 from robodyn.integrators import Integrator
 from robodyn.sim import energy
 from robodyn.sim.events import EventStepper, Mark
+from robodyn.sim.stiffness import divergence_cause, friction_stiffness
 from robodyn.sim.system import SINGULAR_MASS_RTOL, RobotSystem
 from robodyn.sim.trajectory import Trajectory
 
@@ -58,11 +59,8 @@ def diagnose(
             "the loop closures cannot be solved there (a fold of the linkage, or frames pulled apart)",
             "check the loops' frames and q0, or try a smaller dt",
         )
-    if "stop events" in reason:
-        return "a joint chatters on its stop", "lower the restitution or try a smaller dt"
-    for q in states:
-        if not np.all(np.isfinite(q)):
-            continue
+    finite = [q for q in states if np.all(np.isfinite(q))]
+    for q in finite:
         with np.errstate(all="ignore"):
             try:
                 ratio, direction = system.mass_conditioning(q)
@@ -75,6 +73,17 @@ def diagnose(
                 f"{where}), not the integrator",
                 "give the links that move along that direction mass and inertia",
             )
+    stiff = _stiff_losses(method, dt, system, finite)
+    if stiff is not None:  # the cause a smaller step of the usual size would not cure
+        return divergence_cause(stiff)
+    if "stop events" in reason:
+        e = system.stops.restitution
+        cure = (
+            f"lower the restitution (now {e:g}) or try a smaller dt"
+            if e > 0
+            else f"try a smaller dt, e.g. {dt / 10:g} s"
+        )
+        return "a joint chatters on its stop", cure
     if method.name == "euler":
         cause = f"explicit Euler is unstable at dt = {dt:g} s (it gains energy at every step)"
         suggestion = "try symplectic_euler, whose energy error stays bounded"
@@ -90,6 +99,18 @@ def diagnose(
     if system.torque.kind == "callable":
         cause += " (or the torque callable drives the robot without bound)"
     return cause, suggestion
+
+
+def _stiff_losses(method: Integrator, dt: float, system: RobotSystem, states: list[Array]) -> dict[str, Any] | None:
+    """The stiff-losses finding (:mod:`robodyn.sim.stiffness`) at the first of ``states`` where M is usable."""
+    for q in states:
+        with np.errstate(all="ignore"):
+            try:
+                found = friction_stiffness(system, method, q, dt)
+            except (np.linalg.LinAlgError, ValueError, RuntimeError):
+                continue
+        return None if found is None else found.describe()
+    return None
 
 
 @dataclass

@@ -177,3 +177,12 @@ def test_cached_steps_older_than_the_kernels_are_dropped(tmp_path: Path) -> None
     assert sorted(tree.drop_stale_caches(cache, sources)) == sorted(old)
     assert all(not p.exists() for p in old) and all(p.exists() for p in kept)
     assert tree.drop_stale_caches(tmp_path / "missing", sources) == []
+
+
+def test_a_refused_numba_backend_gives_its_advice_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    robot = robodyn.load("panda")  # a fresh robot: its check runs now
+    monkeypatch.setattr(tree, "VERIFY_RTOL", -1.0)  # every difference fails the check, even 0
+    with pytest.raises(InputError) as info:
+        robodyn.simulate(robot, robot.neutral(), np.zeros(robot.nv), duration=0.01, dt=1e-3, backend="numba")
+    message = str(info.value)
+    assert "differ from Pinocchio" in message and message.count("use backend 'aba'") == 1

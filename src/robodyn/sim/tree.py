@@ -364,7 +364,7 @@ class CompiledDynamics:
             what = ", ".join(f"{k} by {x:.3g}" for k, x in bad.items())
             raise AssumptionError(
                 f"{robot.name}: the compiled tree algorithms differ from Pinocchio's ({what}, relative to the "
-                f"largest entry), expected <= {VERIFY_RTOL:g}; use backend 'aba'"
+                f"largest entry), expected <= {VERIFY_RTOL:g}"
             )
         return worst
 

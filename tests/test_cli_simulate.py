@@ -289,3 +289,32 @@ def test_a_one_step_run_says_one_step_in_the_singular(capsys: pytest.CaptureFixt
     out = capsys.readouterr().out
     assert "1 step to t = 0.001 s" in out and "(2 dynamics evaluations," in out and "; 2 samples)" in out, out
     assert "1 steps" not in out
+
+
+def test_a_long_run_says_how_far_it_got_every_ten_seconds() -> None:
+    import io
+
+    from robodyn.cli.simulate import PROGRESS_EVERY, ProgressLines
+
+    ticks = iter([0.0, 3.0, PROGRESS_EVERY + 0.5, PROGRESS_EVERY + 2.0, 2 * PROGRESS_EVERY + 1.0])
+    stream = io.StringIO()
+    lines = ProgressLines(stream, 0.5, clock=lambda: next(ticks))
+    for t in (0.01, 0.1, 0.12, 0.3):  # the clock reads 3, 10.5, 12 and 21 s
+        lines(t)
+    assert stream.getvalue().splitlines() == [
+        "robodyn simulate: t = 0.1 s of 0.5 s (20 %), 10 s so far",
+        "robodyn simulate: t = 0.3 s of 0.5 s (60 %), 21 s so far",
+    ]
+
+
+@pytest.mark.parametrize("backend", ["aba", None])  # the Python loop (each step), the compiled loop (each block)
+def test_simulate_reports_its_progress_to_the_end(backend: str | None) -> None:
+    robot = robodyn.load("pendubot")
+    seen: list[float] = []
+    traj = robodyn.simulate(
+        robot, [0.3, -0.2], [0.0, 0.0], duration=0.05, dt=1e-3, backend=backend, progress=seen.append
+    )
+    assert traj.meta["loop"] == ("python" if backend == "aba" else "compiled")
+    assert seen and seen[-1] == pytest.approx(0.05, abs=1e-15) and seen == sorted(seen)
+    if backend == "aba":
+        assert len(seen) == traj.n_steps  # after every step

@@ -12,6 +12,7 @@ outcome into a :class:`~robodyn.Trajectory` or an exception.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -33,6 +34,9 @@ Array = NDArray[np.float64]
 
 # Steps between divergence checks; a failure is then located to its exact step.
 CHECK_EVERY = 512
+
+Progress = Callable[[float], None]
+"""A run's progress hook: called with the time reached [s], as often as after every step."""
 
 
 def step_sizes(t: Array) -> list[float]:
@@ -146,8 +150,10 @@ class Run:
         rtol: float,
         atol: float,
         max_energy_growth: float | None,
+        progress: Progress | None = None,
     ) -> None:
         self.robot, self.system, self.method, self.t = robot, system, method, t
+        self.progress = progress  # called with the time reached [s] after every step (it keeps its own clock)
         n = t.size
         nv = system.nv
         self.Q = np.empty((n, system.nq))
@@ -231,8 +237,11 @@ class Run:
         advance, system = self.stepper.advance, self.system
         qs, us, ks, work, marks = block.qs, block.us, block.ks, block.work, block.marks
         mark = self.stepper.mark if marks else None
+        progress = self.progress
         for k in range(block.lo, hi):
             q, u, k_start = advance(times[k], q, u, steps[k])
+            if progress is not None:
+                progress(times[k + 1])
             qs.append(q)
             us.append(u)
             ks.append(k_start)

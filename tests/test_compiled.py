@@ -152,6 +152,45 @@ def test_friction_and_damping_are_the_pipelines() -> None:
     assert np.max(np.abs(got.work_damping - ref.work_damping)) < TRAJECTORY_RTOL
 
 
+# A wheel at rest beside a swinging arm, with Coulomb friction far too stiff for RK4 at 1 ms
+# (10 N m over v_f 1e-3 rad/s on 4e-4 kg m^2: rate 2.5e7 1/s) -- Stretch's drive wheels in small.
+# At rest its acceleration is exactly 0 in Pinocchio's ABA; any round-off there (the compiled ABA
+# about the world origin gave 1.7e-13 rad/s^2) is amplified 1e16-fold a step and blew the compiled
+# run up at step 3, which then fell back to the Python loop.
+WHEEL_URDF = """<?xml version="1.0"?><robot name="cart"><link name="base"/>
+  <link name="wheel">{wheel}</link><link name="arm">{arm}</link>
+  <joint name="wheel_joint" type="continuous"><parent link="base"/><child link="wheel"/>
+    <origin xyz="0.13 0.17 0.05" rpy="0 0 0.4"/><axis xyz="0 1 0"/><dynamics friction="10"/></joint>
+  <joint name="arm_joint" type="revolute"><parent link="base"/><child link="arm"/>
+    <origin xyz="0.31 -0.2 1.1" rpy="0.2 0 0"/><axis xyz="1 0 0"/>
+    <limit lower="-3" upper="3" effort="10" velocity="10"/></joint>
+</robot>
+"""
+
+
+def test_stiff_friction_on_a_wheel_at_rest_runs_compiled_as_the_python_loop(tmp_path: Path) -> None:
+    from tests._urdf import _inertial
+
+    path = tmp_path / "cart.urdf"
+    path.write_text(
+        WHEEL_URDF.format(
+            wheel=_inertial(0.3, (0.0, 0.0, 0.0), np.diag([2e-4, 4e-4, 2e-4])),
+            arm=_inertial(1.0, (0.0, 0.0, -0.3), np.diag([0.01, 0.01, 0.001])),
+        )
+    )
+    robot = robodyn.load(path)
+    q0 = robot.neutral()
+    q0[robot.joint("arm_joint").idx_q] = 0.8
+    options = {"duration": 0.2, "dt": 1e-3, "limits": False}
+    got = robodyn.simulate(robot, q0, np.zeros(robot.nv), **options)
+    ref = robodyn.simulate(robot, q0, np.zeros(robot.nv), backend="aba", **options)
+    assert got.meta["stiff_friction"]["joints"] == ["wheel_joint"]  # stiff indeed: said, not hidden
+    assert (got.meta["loop"], ref.meta["loop"]) == ("compiled", "python")  # no fall-back
+    wheel = robot.joint("wheel_joint").idx_v
+    assert np.all(got.v[:, wheel] == 0.0) and np.all(ref.v[:, wheel] == 0.0)  # at rest, exactly, in both
+    assert _relative(got.q, ref.q) < TRAJECTORY_RTOL and _relative(got.v, ref.v) < TRAJECTORY_RTOL
+
+
 def test_torque_callable_runs_compiled_and_agrees() -> None:
     robot = robodyn.load("cart_pole")
 

@@ -256,7 +256,7 @@ def rollout(
         for offset in range(0, n, size):
             count = min(size, n - offset)
             start = time.perf_counter()
-            kernel[max(1, -(-count // THREADS_PER_BLOCK)), THREADS_PER_BLOCK](
+            kernel[cuda_batch.blocks_for(count), THREADS_PER_BLOCK](
                 *model, method, extra[0], dt, steps, Q_d, V_d, extra[1], extra[2], WS, BUF, VEC, offset
             )
             module.synchronize()

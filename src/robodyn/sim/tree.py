@@ -387,7 +387,7 @@ def _spread(M: Array, rhs: Array, ref: Array) -> float:
     """Pinocchio's own round-off at a state: its ABA ``ref`` against its CRBA ``M`` solved for ``rhs`` (0: singular)."""
     try:
         with np.errstate(all="ignore"):
-            solved = np.linalg.solve(M, rhs)
+            solved = np.asarray(np.linalg.solve(M, rhs), dtype=np.float64)
     except np.linalg.LinAlgError:
         return 0.0
     x = _relative(solved, ref)

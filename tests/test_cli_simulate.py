@@ -180,6 +180,14 @@ def test_invalid_states_exit_2_naming_the_cause(tmp_path: Path, capsys: pytest.C
     assert len(err) == 1 and "singular" in err[0] and "unstable" not in err[0]
 
 
+def test_model_with_no_moving_joint_exits_2_and_its_advice_works(capsys: pytest.CaptureFixture[str]) -> None:
+    # hector is one body welded to the world: nothing moves until it gets the free flyer the line suggests.
+    assert main(["simulate", "hector", "--duration", "0.01"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "no moving joint" in err[0] and "--free-flyer" in err[0]
+    assert main(["simulate", "hector", "--free-flyer", "--duration", "0.01", "--backend", "aba"]) == 0
+
+
 def test_summary_prints_units_and_help_states_defaults(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["simulate", "cart_pole", "--q0", "0.1,0.2", "--duration", "0.01"]) == 0
     line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("final state"))
@@ -281,3 +289,32 @@ def test_a_one_step_run_says_one_step_in_the_singular(capsys: pytest.CaptureFixt
     out = capsys.readouterr().out
     assert "1 step to t = 0.001 s" in out and "(2 dynamics evaluations," in out and "; 2 samples)" in out, out
     assert "1 steps" not in out
+
+
+def test_a_long_run_says_how_far_it_got_every_ten_seconds() -> None:
+    import io
+
+    from robodyn.cli.simulate import PROGRESS_EVERY, ProgressLines
+
+    ticks = iter([0.0, 3.0, PROGRESS_EVERY + 0.5, PROGRESS_EVERY + 2.0, 2 * PROGRESS_EVERY + 1.0])
+    stream = io.StringIO()
+    lines = ProgressLines(stream, 0.5, clock=lambda: next(ticks))
+    for t in (0.01, 0.1, 0.12, 0.3):  # the clock reads 3, 10.5, 12 and 21 s
+        lines(t)
+    assert stream.getvalue().splitlines() == [
+        "robodyn simulate: t = 0.1 s of 0.5 s (20 %), 10 s so far",
+        "robodyn simulate: t = 0.3 s of 0.5 s (60 %), 21 s so far",
+    ]
+
+
+@pytest.mark.parametrize("backend", ["aba", None])  # the Python loop (each step), the compiled loop (each block)
+def test_simulate_reports_its_progress_to_the_end(backend: str | None) -> None:
+    robot = robodyn.load("pendubot")
+    seen: list[float] = []
+    traj = robodyn.simulate(
+        robot, [0.3, -0.2], [0.0, 0.0], duration=0.05, dt=1e-3, backend=backend, progress=seen.append
+    )
+    assert traj.meta["loop"] == ("python" if backend == "aba" else "compiled")
+    assert seen and seen[-1] == pytest.approx(0.05, abs=1e-15) and seen == sorted(seen)
+    if backend == "aba":
+        assert len(seen) == traj.n_steps  # after every step

@@ -62,6 +62,49 @@ def test_algorithms_match_pinocchio(robot: robodyn.Robot) -> None:
         assert pot == pytest.approx(robot.potential_energy(q), rel=ALGORITHM_RTOL, abs=1e-12)
 
 
+# A light hand far from the world origin on unaligned, unnormalised axes (Stretch's wrist, in small):
+# taken about the world origin, its inertia carries m d^2 ~ 0.2 kg x (2 m)^2 against 1e-6 kg m^2
+# about its own axis, and the compiled ABA lost 4 digits there (2.4e-12 relative, measured); taken at
+# each joint's origin, as Pinocchio does, it stays at round-off.
+UNALIGNED_URDF = """<?xml version="1.0"?>
+<robot name="far_wrist"><link name="base"/>
+  <link name="mast">{mast}</link><link name="arm">{arm}</link><link name="hand">{hand}</link>
+  <joint name="lift" type="prismatic"><parent link="base"/><child link="mast"/><origin xyz="0.3 -0.2 0.2"/>
+    <axis xyz="0 0 1"/><limit lower="0" upper="1" effort="100" velocity="1"/></joint>
+  <joint name="reach" type="revolute"><parent link="mast"/><child link="arm"/>
+    <origin xyz="1.2 0.4 0.9" rpy="0.3 -0.7 1.1"/><axis xyz="0.3 0.5 0.81"/>
+    <limit lower="-3" upper="3" effort="50" velocity="2"/></joint>
+  <joint name="wrist_yaw" type="revolute"><parent link="arm"/><child link="hand"/>
+    <origin xyz="0.6 -0.3 0.5" rpy="1.0 0.2 -0.4"/><axis xyz="0.81 -0.3 0.5"/>
+    <limit lower="-3" upper="3" effort="1" velocity="5"/></joint>
+</robot>
+"""
+ALGORITHM_RTOL_FAR = 1e-12  # the same gate as the compiled path's own check (tree.VERIFY_RTOL)
+
+
+def test_a_light_hand_on_unaligned_axes_far_from_the_origin_matches_pinocchio(tmp_path: Path) -> None:
+    from tests._urdf import _inertial
+
+    path = tmp_path / "far_wrist.urdf"
+    path.write_text(
+        UNALIGNED_URDF.format(
+            mast=_inertial(5.0, (0.1, 0.0, 0.5), np.diag([0.4, 0.4, 0.02])),
+            arm=_inertial(1.0, (0.3, -0.1, 0.2), np.diag([0.01, 0.02, 0.02])),
+            hand=_inertial(0.2, (0.01, 0.0, 0.02), np.diag([1e-6, 2e-6, 1.5e-6])),
+        )
+    )
+    robot = robodyn.load(path)
+    assert [j.kind for j in robot.joints][1:] == ["JointModelRevoluteUnaligned"] * 2
+    compiled = tree.CompiledDynamics(tree.extract(robot), {})
+    rng = np.random.default_rng(3)
+    for _ in range(8):
+        q, v = robot.random_state(rng)
+        tau = rng.uniform(-1.0, 1.0, robot.nv)
+        ref = robot.forward_dynamics(q, v, tau)
+        assert _relative(compiled.acceleration(q, v, tau), ref) < ALGORITHM_RTOL_FAR
+    compiled.verify(robot)  # and the path's own check takes it
+
+
 def test_a_wrong_tree_is_refused_by_the_check() -> None:
     robot = robodyn.load("panda")
     good = tree.compiled_of(robot)
@@ -107,6 +150,45 @@ def test_friction_and_damping_are_the_pipelines() -> None:
     assert _relative(got.q, ref.q) < TRAJECTORY_RTOL
     assert got.work_damping[-1] < -1e-3  # friction and damping took energy, booked alike
     assert np.max(np.abs(got.work_damping - ref.work_damping)) < TRAJECTORY_RTOL
+
+
+# A wheel at rest beside a swinging arm, with Coulomb friction far too stiff for RK4 at 1 ms
+# (10 N m over v_f 1e-3 rad/s on 4e-4 kg m^2: rate 2.5e7 1/s) -- Stretch's drive wheels in small.
+# At rest its acceleration is exactly 0 in Pinocchio's ABA; any round-off there (the compiled ABA
+# about the world origin gave 1.7e-13 rad/s^2) is amplified 1e16-fold a step and blew the compiled
+# run up at step 3, which then fell back to the Python loop.
+WHEEL_URDF = """<?xml version="1.0"?><robot name="cart"><link name="base"/>
+  <link name="wheel">{wheel}</link><link name="arm">{arm}</link>
+  <joint name="wheel_joint" type="continuous"><parent link="base"/><child link="wheel"/>
+    <origin xyz="0.13 0.17 0.05" rpy="0 0 0.4"/><axis xyz="0 1 0"/><dynamics friction="10"/></joint>
+  <joint name="arm_joint" type="revolute"><parent link="base"/><child link="arm"/>
+    <origin xyz="0.31 -0.2 1.1" rpy="0.2 0 0"/><axis xyz="1 0 0"/>
+    <limit lower="-3" upper="3" effort="10" velocity="10"/></joint>
+</robot>
+"""
+
+
+def test_stiff_friction_on_a_wheel_at_rest_runs_compiled_as_the_python_loop(tmp_path: Path) -> None:
+    from tests._urdf import _inertial
+
+    path = tmp_path / "cart.urdf"
+    path.write_text(
+        WHEEL_URDF.format(
+            wheel=_inertial(0.3, (0.0, 0.0, 0.0), np.diag([2e-4, 4e-4, 2e-4])),
+            arm=_inertial(1.0, (0.0, 0.0, -0.3), np.diag([0.01, 0.01, 0.001])),
+        )
+    )
+    robot = robodyn.load(path)
+    q0 = robot.neutral()
+    q0[robot.joint("arm_joint").idx_q] = 0.8
+    options = {"duration": 0.2, "dt": 1e-3, "limits": False}
+    got = robodyn.simulate(robot, q0, np.zeros(robot.nv), **options)
+    ref = robodyn.simulate(robot, q0, np.zeros(robot.nv), backend="aba", **options)
+    assert got.meta["stiff_friction"]["joints"] == ["wheel_joint"]  # stiff indeed: said, not hidden
+    assert (got.meta["loop"], ref.meta["loop"]) == ("compiled", "python")  # no fall-back
+    wheel = robot.joint("wheel_joint").idx_v
+    assert np.all(got.v[:, wheel] == 0.0) and np.all(ref.v[:, wheel] == 0.0)  # at rest, exactly, in both
+    assert _relative(got.q, ref.q) < TRAJECTORY_RTOL and _relative(got.v, ref.v) < TRAJECTORY_RTOL
 
 
 def test_torque_callable_runs_compiled_and_agrees() -> None:
@@ -177,3 +259,12 @@ def test_cached_steps_older_than_the_kernels_are_dropped(tmp_path: Path) -> None
     assert sorted(tree.drop_stale_caches(cache, sources)) == sorted(old)
     assert all(not p.exists() for p in old) and all(p.exists() for p in kept)
     assert tree.drop_stale_caches(tmp_path / "missing", sources) == []
+
+
+def test_a_refused_numba_backend_gives_its_advice_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    robot = robodyn.load("panda")  # a fresh robot: its check runs now
+    monkeypatch.setattr(tree, "VERIFY_RTOL", -1.0)  # every difference fails the check, even 0
+    with pytest.raises(InputError) as info:
+        robodyn.simulate(robot, robot.neutral(), np.zeros(robot.nv), duration=0.01, dt=1e-3, backend="numba")
+    message = str(info.value)
+    assert "differ from Pinocchio" in message and message.count("use backend 'aba'") == 1

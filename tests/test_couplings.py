@@ -59,3 +59,24 @@ def test_the_followers_stops_bind_its_leader_for_either_sign_of_the_ratio(
             FOLLOWER[0] - abs(ratio) * STOP_TOL <= follow.min() and follow.max() <= FOLLOWER[1] + abs(ratio) * STOP_TOL
         )
         assert min(abs(lead[-1] - lo), abs(lead[-1] - hi)) < STOP_TOL  # it reached a stop and stays there
+
+
+def test_a_follower_before_its_leader_is_refused_in_one_line_whose_advice_works(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import json
+
+    from robodyn.cli import main
+
+    chain(tmp_path)  # writes chain.urdf: a_lead comes first, so a_lead cannot follow b_follow
+    spec = tmp_path / "couplings.json"
+    spec.write_text(json.dumps({"couplings": [{"joint": "a_lead", "leader": "b_follow", "ratio": 2.0, "offset": 0.0}]}))
+    argv = ["simulate", str(tmp_path / "chain.urdf"), "--duration", "0.01", "--backend", "crba"]
+    assert main([*argv, "--constraints", str(spec)]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert "'a_lead' comes before its leader 'b_follow'" in line and "Traceback" not in line
+    advice = json.loads(line.split("the other way round: ")[1])
+    assert advice == {"joint": "b_follow", "leader": "a_lead", "ratio": 0.5, "offset": 0.0}
+    assert '"offset": 0.0' in line  # not -0.0
+    spec.write_text(json.dumps({"couplings": [advice]}))
+    assert main([*argv, "--constraints", str(spec)]) == 0

@@ -21,7 +21,7 @@ import pytest
 import robodyn
 from robodyn.cli import main
 from robodyn.errors import InputError, UnavailableError
-from robodyn.sim import batch
+from robodyn.sim import batch, cuda_batch
 
 SRC = Path(__file__).resolve().parents[1] / "src"
 # The CUDA kernel does the CPU kernel's arithmetic term for term; in the simulator both are numba-free
@@ -114,6 +114,32 @@ def test_cuda_rollout_equals_cpu_rollout_for_every_built_in_kind():
         assert got["n"] == STATES and got["steps"] == round(DURATION / DT), kind
         assert got["moved"] > 1e-3, kind  # the states did move: the comparison is not of two copies of Q
         assert got["dq"] <= CUDA_VS_CPU_ATOL and got["dv"] <= CUDA_VS_CPU_ATOL, (kind, got)
+
+
+def test_a_batch_one_block_and_a_bit_long_steps_every_state():
+    """130 states need 2 blocks of 128 threads: a grid rounded down to 1 would leave the last 2 unstepped."""
+    n = cuda_batch.THREADS_PER_BLOCK + 2
+    assert [cuda_batch.blocks_for(k) for k in (0, 1, 128, 129, n, 256, 257)] == [1, 1, 1, 2, 2, 2, 3]
+    out = _simulated(
+        f"""
+        import json
+        import numpy as np
+        import robodyn
+        from robodyn.sim import batch
+
+        robot = robodyn.load("pendubot")
+        rng = np.random.default_rng(5)
+        Q = rng.uniform(-3.0, 3.0, ({n}, robot.nv))
+        V = rng.uniform(-2.0, 2.0, ({n}, robot.nv))
+        cpu = batch.rollout(robot, Q, V, duration=0.005, dt={DT}, threads=1)
+        gpu = batch.rollout(robot, Q, V, duration=0.005, dt={DT}, device="cuda")
+        moved = np.max(np.abs(gpu.q - Q), axis=1)
+        print(json.dumps({{"dq": float(np.max(np.abs(gpu.q - cpu.q))), "still": int(np.sum(moved == 0.0)),
+                           "n": int(gpu.q.shape[0])}}))
+        """
+    )
+    assert out["n"] == n and out["still"] == 0, out  # every state was stepped
+    assert out["dq"] <= CUDA_VS_CPU_ATOL, out
 
 
 def test_cuda_coordinate_range_is_the_trajectory_range():

@@ -164,3 +164,70 @@ def test_two_joints_are_both_named(tmp_path: Path, capsys: pytest.CaptureFixture
     assert main(["simulate", str(urdf), "--duration", "0.003", "--dt", "1e-3"]) == 0
     (line,) = [x for x in capsys.readouterr().out.splitlines() if x.startswith("warning:")]
     assert line.startswith("warning: Coulomb friction on finger_a, finger_b is too stiff for rk4 at dt = 1e-3 s")
+
+
+# One light finger with viscous damping only: rate D / izz = 0.5 / 1e-6 = 5e5 1/s, so RK4 is stable
+# below dt = 2.785 / 5e5 = 5.6e-6 s; at dt = 1e-3 s (and at the 1e-4 s that "a smaller dt" meant) it blows up.
+DAMPED_IZZ, DAMPED_D = 1.0e-6, 0.5
+
+
+def _damped_urdf(folder: Path, *, friction: float = 0.0) -> Path:
+    inertia = np.diag([DAMPED_IZZ] * 3)
+    path = folder / "damped.urdf"
+    path.write_text(
+        '<?xml version="1.0"?><robot name="damped"><link name="base"/>'
+        f'<link name="finger_link">{_inertial(0.01, (0.0, 0.0, 0.0), inertia)}</link>'
+        '<joint name="finger" type="revolute"><parent link="base"/><child link="finger_link"/>'
+        '<axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="10" velocity="10"/>'
+        f'<dynamics damping="{DAMPED_D!r}" friction="{friction!r}"/></joint></robot>'
+    )
+    return path
+
+
+def test_stiff_damping_is_the_divergence_cause_and_both_cures_work(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    base = ["simulate", str(_damped_urdf(tmp_path)), "--v0", "1"]
+    assert main([*base, "--duration", "0.01"]) == 3
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "likely cause: damping on finger is too stiff for rk4 at dt = 1e-3 s" in err
+    assert "time constant 2e-6 s" in err  # izz / D
+    dt_max = RK4_LIMIT * DAMPED_IZZ / DAMPED_D
+    suggested = float(err.split("dt <= ")[1].split(" s")[0])
+    assert 0.5 * dt_max < suggested < dt_max  # one significant digit, rounded down
+    assert "e.g." not in err  # the plain "try a smaller dt, e.g. dt / 10" fails too:
+    assert main([*base, "--duration", "0.001", "--dt", "1e-4"]) == 3
+    capsys.readouterr()
+    for cure in (
+        ["--duration", "0.01", "--no-damping"],
+        ["--dt", repr(suggested), "--duration", repr(200 * suggested)],
+    ):
+        assert main([*base, *cure]) == 0, cure
+        assert "warning:" not in capsys.readouterr().out
+
+
+def test_stiff_damping_is_warned_as_damping(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    robot = robodyn.load(_damped_urdf(tmp_path, friction=1e-4))  # friction's 0.1 N m s/rad < D = 0.5
+    found = _simulate(robot, "rk4", 1e-6).meta.get("stiff_friction")
+    assert found is None  # 1e-6 s is below the 4.6e-6 s limit of D + F / v_f = 0.6 N m s/rad
+    found = robodyn.simulate(robot, [0.0], [0.0], duration=2e-5, dt=1e-5, integrator="rk4").meta["stiff_friction"]
+    assert found["terms"] == ["damping"]
+    assert found["rate"] == pytest.approx((DAMPED_D + 1e-4 / V_FRICTION) / DAMPED_IZZ, rel=1e-12)
+    assert main(["simulate", str(tmp_path / "damped.urdf"), "--duration", "2e-5", "--dt", "1e-5"]) == 0
+    (line,) = [x for x in capsys.readouterr().out.splitlines() if x.startswith("warning:")]
+    assert line.startswith("warning: damping on finger is too stiff for rk4 at dt = 1e-5 s (rate 6e5 1/s;")
+
+
+def test_a_chattering_stop_at_restitution_0_is_not_told_to_lower_it(tmp_path: Path) -> None:
+    from robodyn.sim.constraints import Constraints
+    from robodyn.sim.run import diagnose
+    from robodyn.sim.system import robot_system
+
+    robot = robodyn.load(_fingers_urdf(tmp_path, FINGERS[-1:]))  # the arm alone: not stiff at 1 ms
+    reason = "more than 64 stop events within one step at joint(s) arm (chattering)"
+    method = robodyn.integrators.get("rk4")
+    for e, expected in ((0.0, "try a smaller dt, e.g. 0.0001 s"), (0.5, "lower the restitution (now 0.5)")):
+        system = robot_system(robot, constraints=Constraints.build(restitution=e))
+        cause, cure = diagnose(method, 1e-3, system, [np.zeros(1)], reason=reason)
+        assert cause == "a joint chatters on its stop" and cure.startswith(expected)
+        assert ("restitution" in cure) == (e > 0)

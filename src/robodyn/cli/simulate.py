@@ -7,7 +7,7 @@ adds loops, couplings and springs (the keys of a scene's ``[constraints]`` table
 closes the loop with a controller of :mod:`robodyn.control` (``lqr``, ``swing_up``, or a user's
 file defining ``make(robot, **gains)``); ``--controller list`` names them.
 
-Exit codes: 0 the run finished; 2 bad input (wrong vector lengths, a cos/sin pair or
+Exit codes: 0 the run finished; 2 bad input (a model with no moving joint, wrong vector lengths, a cos/sin pair or
 quaternion off the unit sphere, a singular mass matrix, non-positive dt or duration, an
 unknown integrator or backend, an unwritable output path, an output that is an input or
 another output, an unknown frame or joint in a constraint, a coupling cycle, a negative
@@ -61,6 +61,39 @@ RESTITUTION = number_in(low=0.0, high=1.0, low_open=False, noun="restitution")
 
 # A constraints file is a few lines of JSON; a larger one is not read (and /dev/zero never ends).
 MAX_CONSTRAINTS_BYTES = 2**20
+
+
+# A long run says how far it got on stderr this often [s] (so no run is silent for a minute).
+PROGRESS_EVERY = 10.0
+
+
+class ProgressLines:
+    """``robodyn simulate: t = 0.12 s of 0.5 s (24 %), 10 s so far`` on ``stream``, every PROGRESS_EVERY seconds.
+
+    A run's progress hook (:func:`robodyn.simulate`'s ``progress``); a run shorter than
+    PROGRESS_EVERY prints nothing. ``clock`` [s] is ``time.monotonic`` (a test gives its own).
+    """
+
+    def __init__(self, stream: Any, duration: float, *, clock: Any = None) -> None:
+        import time
+
+        self.stream, self.duration = stream, float(duration)
+        self.clock = clock if clock is not None else time.monotonic
+        self.start = self.clock()
+        self.next = self.start + PROGRESS_EVERY
+
+    def __call__(self, t: float) -> None:
+        """The run has reached ``t`` [s] from its start."""
+        now = self.clock()
+        if now < self.next:
+            return
+        self.next = now + PROGRESS_EVERY
+        share = 100.0 * t / self.duration if self.duration > 0 else 100.0
+        print(
+            f"robodyn simulate: t = {t:.6g} s of {self.duration:g} s ({share:.3g} %), {now - self.start:.0f} s so far",
+            file=self.stream,
+            flush=True,
+        )
 
 
 def add_parser(sub: Any) -> None:
@@ -257,6 +290,7 @@ def run(args: argparse.Namespace) -> int:
             atol=args.atol,
             max_energy_growth=args.max_energy_growth,
             constraints=constraints,
+            progress=ProgressLines(sys.stderr, args.duration),
         )
 
     trajectory: Any

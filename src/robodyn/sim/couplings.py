@@ -17,6 +17,7 @@ A URDF ``<mimic>`` tag is a coupling too: ``robodyn.load(..., mimic=True)`` buil
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -109,13 +110,39 @@ def _compose(couplings: tuple[Coupling, ...]) -> dict[str, tuple[str, float, flo
     return out
 
 
+def _refuse_follower_first(
+    robot: Robot, couplings: tuple[Coupling, ...], followers: dict[str, tuple[str, float, float]]
+) -> None:
+    """Refuse a follower that comes before its (root) leader in Pinocchio's joint order.
+
+    Pinocchio's mimic joints need the leader first; the same constraint written the other way
+    round, q_leader = (q_joint - offset) / ratio, is what to give instead.
+    """
+    order = robot.model.getJointId
+    for c in couplings:
+        leader = followers[c.joint][0]
+        if int(order(c.joint)) < int(order(leader)):
+            ratio, offset = float(c.ratio), float(c.offset)
+            swapped = {
+                "joint": c.leader,
+                "leader": c.joint,
+                "ratio": 1.0 / ratio,
+                "offset": -offset / ratio + 0.0,
+            }  # no -0.0
+            raise InputError(
+                f"coupling {c.joint!r} -> {c.leader!r}: the follower {c.joint!r} comes before its leader "
+                f"{leader!r} in the tree, and a follower must come after its leader; write it the other way round: "
+                f"{json.dumps(swapped)}"
+            )
+
+
 def couple(robot: Robot, couplings: tuple[Coupling, ...]) -> CouplingMap | None:
     """The coupled robot of ``robot`` (None when there are no couplings).
 
     Raises:
         UnknownNameError: a joint or leader the robot does not have (with close matches).
-        InputError: a joint already coupled (a mimic joint), or a follower whose
-            configuration size differs from its leader's.
+        InputError: a joint already coupled (a mimic joint), a follower whose configuration
+            size differs from its leader's, or a follower that comes before its leader in the tree.
     """
     if not couplings:
         return None
@@ -128,6 +155,7 @@ def couple(robot: Robot, couplings: tuple[Coupling, ...]) -> CouplingMap | None:
             if robot.joint(name).nv == 0:
                 raise InputError(f"couplings[{i}]: joint {name!r} is already a mimic joint (coupled in the URDF)")
     followers = _compose(couplings)
+    _refuse_follower_first(robot, couplings, followers)
     model = robot.model
     lower = np.array(model.lowerPositionLimit, dtype=np.float64)
     upper = np.array(model.upperPositionLimit, dtype=np.float64)

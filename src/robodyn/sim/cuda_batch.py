@@ -57,6 +57,16 @@ CUDA_KINDS = ("pendubot", "cart_pole", "geared_arm")
 PRECISIONS = ("float64", "float32")
 # Threads per CUDA block: a multiple of the warp (32); each thread holds a dozen float64 registers.
 THREADS_PER_BLOCK = 128
+
+
+def blocks_for(n: int) -> int:
+    """Blocks of THREADS_PER_BLOCK threads that cover n states: ceil(n / THREADS_PER_BLOCK), at least 1.
+
+    Rounded up, never down: 130 states are 2 blocks (the last one 126 threads idle), not 1 that leaves 2 unstepped.
+    """
+    return max(1, -(-int(n) // THREADS_PER_BLOCK))
+
+
 NO_GPU = (
     "device cuda: no CUDA GPU found (numba.cuda.is_available() is False); "
     "run without --device cuda or on a machine with an NVIDIA GPU"
@@ -396,7 +406,7 @@ def rollout(
     p_d, b_d = module.to_device(p_), module.to_device(b2)
     Q_d, V_d = module.to_device(Qp), module.to_device(Vp)
     lo_d, hi_d = module.device_array((n, 2), dtype=dtype), module.device_array((n, 2), dtype=dtype)
-    blocks = max(1, -(-n // THREADS_PER_BLOCK))
+    blocks = blocks_for(n)
     h = dtype.type(dt)
     with quiet():
         one = [module.device_array((1, 2), dtype=dtype) for _ in range(4)]
@@ -470,7 +480,7 @@ def lyapunov(
     module = cuda_module()
     kernel = benettin_kernel(kind)
     out = module.device_array(n, dtype=np.float64)
-    blocks = max(1, -(-n // THREADS_PER_BLOCK))
+    blocks = blocks_for(n)
     args = [module.to_device(x) for x in (p_, b2)] + [Q.shape[1]] + [module.to_device(x) for x in (Qp, Vp, S)]
     with quiet():
         kernel[blocks, THREADS_PER_BLOCK](*args, d0, dt, steps, count, count * interval, out)

@@ -212,7 +212,7 @@ def closed_loop(
     dev = [module.to_device(x) for x in consts]
     Q_d, V_d, bound_d = module.to_device(Qp), module.to_device(Vp), module.to_device(bound_)
     lo_d, hi_d, out_d = (module.device_array((n, 2), dtype=np.float64) for _ in range(3))
-    blocks = max(1, -(-n // cuda_batch.THREADS_PER_BLOCK))
+    blocks = cuda_batch.blocks_for(n)
     with cuda_batch.quiet():
         one = [module.to_device(x[:1].copy()) for x in (Qp, Vp, bound_)]
         spare = [module.device_array((1, 2), dtype=np.float64) for _ in range(3)]

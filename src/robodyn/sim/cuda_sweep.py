@@ -355,7 +355,7 @@ def measures(
         kernel = measures_kernel(model.kind, precision)
         args = [module.to_device(x) for x in (p, pe, b)] + [nv] + [module.to_device(x) for x in (limits, Q, V)]
         drift_d, flags_d = module.device_array(n, dtype=np.float64), module.device_array(n, dtype=np.int8)
-        blocks = max(1, -(-n // cuda_batch.THREADS_PER_BLOCK))
+        blocks = cuda_batch.blocks_for(n)
         with cuda_batch.quiet():
             module.synchronize()
             start = time.perf_counter()
@@ -420,7 +420,7 @@ def _with_twin(
         p_d, b_d, limits_d, Q_d, V_d, S_d = (module.to_device(x) for x in (p, b, limits, Q, V, S))
         drift_d, flags_d = module.device_array(n, dtype=np.float64), module.device_array(n, dtype=np.int8)
         out_d = module.device_array(n, dtype=np.float64)
-        blocks = max(1, -(-n // cuda_batch.THREADS_PER_BLOCK))
+        blocks = cuda_batch.blocks_for(n)
         with cuda_batch.quiet():
             module.synchronize()
             start = time.perf_counter()

@@ -7,8 +7,9 @@ in float64, from the arrays :mod:`robodyn.sim.tree` extracts from Pinocchio (``i
 
 No formula is written here. :func:`device_functions` rebuilds each kernel of
 :mod:`robodyn.sim.tree_body`, :mod:`~robodyn.sim.tree_flyer`, :mod:`~robodyn.sim.tree_kernels`
-(``kinematics``, ``aba_passes``, ``aba``, ``integrate``) and :mod:`~robodyn.sim.tree_steps`
-(``rates``, ``stages``, ``step``) from its Python source (``py_func``) with the names it calls bound to
+(``offset``, ``parent_acceleration``, ``pass_to_parent``, ``kinematics``, ``aba_passes``, ``aba``,
+``integrate``) and :mod:`~robodyn.sim.tree_steps` (``rates``, ``stages``, ``step``) from its Python
+source (``py_func``) with the names it calls bound to
 their device versions, and compiles it with ``cuda.jit(device=True)``. The one kernel with no GPU form,
 ``tree_steps._callable_torque`` (a user's torque callable, in numba's object mode), becomes
 :func:`_no_torque`, which the batch never reaches (its callable key is -1, as on the CPU). The kernel
@@ -70,7 +71,10 @@ CHAIN = (
         ("ff_placement", "ff_motion", "ff_force", "ff_joint_inertia", "ff_root_acceleration", "ff_integrate"),
     ),
     ("tree_flyer", ("ff_kinematics",)),
-    ("tree_kernels", ("kinematics", "aba_passes", "aba", "integrate")),
+    (
+        "tree_kernels",
+        ("offset", "parent_acceleration", "pass_to_parent", "kinematics", "aba_passes", "aba", "integrate"),
+    ),
     ("tree_steps", ("rates", "stages", "step")),
 )
 
@@ -256,7 +260,7 @@ def rollout(
         for offset in range(0, n, size):
             count = min(size, n - offset)
             start = time.perf_counter()
-            kernel[max(1, -(-count // THREADS_PER_BLOCK)), THREADS_PER_BLOCK](
+            kernel[cuda_batch.blocks_for(count), THREADS_PER_BLOCK](
                 *model, method, extra[0], dt, steps, Q_d, V_d, extra[1], extra[2], WS, BUF, VEC, offset
             )
             module.synchronize()

@@ -12,6 +12,7 @@ outcome into a :class:`~robodyn.Trajectory` or an exception.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -22,6 +23,7 @@ from robodyn.errors import StepError
 from robodyn.integrators import Integrator
 from robodyn.sim import energy
 from robodyn.sim.events import EventStepper, Mark
+from robodyn.sim.stiffness import divergence_cause, friction_stiffness
 from robodyn.sim.system import SINGULAR_MASS_RTOL, RobotSystem
 from robodyn.sim.trajectory import Trajectory
 
@@ -32,6 +34,9 @@ Array = NDArray[np.float64]
 
 # Steps between divergence checks; a failure is then located to its exact step.
 CHECK_EVERY = 512
+
+Progress = Callable[[float], None]
+"""A run's progress hook: called with the time reached [s], as often as after every step."""
 
 
 def step_sizes(t: Array) -> list[float]:
@@ -58,11 +63,8 @@ def diagnose(
             "the loop closures cannot be solved there (a fold of the linkage, or frames pulled apart)",
             "check the loops' frames and q0, or try a smaller dt",
         )
-    if "stop events" in reason:
-        return "a joint chatters on its stop", "lower the restitution or try a smaller dt"
-    for q in states:
-        if not np.all(np.isfinite(q)):
-            continue
+    finite = [q for q in states if np.all(np.isfinite(q))]
+    for q in finite:
         with np.errstate(all="ignore"):
             try:
                 ratio, direction = system.mass_conditioning(q)
@@ -75,6 +77,17 @@ def diagnose(
                 f"{where}), not the integrator",
                 "give the links that move along that direction mass and inertia",
             )
+    stiff = _stiff_losses(method, dt, system, finite)
+    if stiff is not None:  # the cause a smaller step of the usual size would not cure
+        return divergence_cause(stiff)
+    if "stop events" in reason:
+        e = system.stops.restitution
+        cure = (
+            f"lower the restitution (now {e:g}) or try a smaller dt"
+            if e > 0
+            else f"try a smaller dt, e.g. {dt / 10:g} s"
+        )
+        return "a joint chatters on its stop", cure
     if method.name == "euler":
         cause = f"explicit Euler is unstable at dt = {dt:g} s (it gains energy at every step)"
         suggestion = "try symplectic_euler, whose energy error stays bounded"
@@ -90,6 +103,18 @@ def diagnose(
     if system.torque.kind == "callable":
         cause += " (or the torque callable drives the robot without bound)"
     return cause, suggestion
+
+
+def _stiff_losses(method: Integrator, dt: float, system: RobotSystem, states: list[Array]) -> dict[str, Any] | None:
+    """The stiff-losses finding (:mod:`robodyn.sim.stiffness`) at the first of ``states`` where M is usable."""
+    for q in states:
+        with np.errstate(all="ignore"):
+            try:
+                found = friction_stiffness(system, method, q, dt)
+            except (np.linalg.LinAlgError, ValueError, RuntimeError):
+                continue
+        return None if found is None else found.describe()
+    return None
 
 
 @dataclass
@@ -125,8 +150,10 @@ class Run:
         rtol: float,
         atol: float,
         max_energy_growth: float | None,
+        progress: Progress | None = None,
     ) -> None:
         self.robot, self.system, self.method, self.t = robot, system, method, t
+        self.progress = progress  # called with the time reached [s] after every step (it keeps its own clock)
         n = t.size
         nv = system.nv
         self.Q = np.empty((n, system.nq))
@@ -210,8 +237,11 @@ class Run:
         advance, system = self.stepper.advance, self.system
         qs, us, ks, work, marks = block.qs, block.us, block.ks, block.work, block.marks
         mark = self.stepper.mark if marks else None
+        progress = self.progress
         for k in range(block.lo, hi):
             q, u, k_start = advance(times[k], q, u, steps[k])
+            if progress is not None:
+                progress(times[k + 1])
             qs.append(q)
             us.append(u)
             ks.append(k_start)

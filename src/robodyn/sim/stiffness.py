@@ -1,29 +1,32 @@
-"""Stiff Coulomb friction: is a fixed-step explicit method stable on the regularised friction of a run?
+"""Stiff joint losses: is a fixed-step explicit method stable on a run's damping and friction?
 
-Coulomb friction is regularised as tau = -F tanh(v / V_FRICTION) (:mod:`robodyn.sim.system`).
-Near v = 0 this is a viscous term of coefficient F / V_FRICTION, so on joint j with effective
-inertia m_jj = M(q0)_jj (armature included) the velocity relaxes at the rate
+A joint's losses are tau = -D v - F tanh(v / V_FRICTION) (:mod:`robodyn.sim.system`): viscous
+damping D [N m s/rad] and Coulomb friction F [N m], regularised. Near v = 0 both are viscous,
+of coefficient D + F / V_FRICTION, so on joint j with effective inertia m_jj = M(q0)_jj
+(armature included) the velocity relaxes at the rate
 
-    lambda_j = F_j / (V_FRICTION m_jj)   [1/s],
+    lambda_j = (D_j + F_j / V_FRICTION) / m_jj   [1/s]
 
-a real, negative eigenvalue -lambda_j of the linearised dynamics (the diagonal estimate: the
-joint's coupling to the others through M is left out). A fixed-step explicit method is stable on
-it only while lambda_j dt <= x*, its stability region's extent along the negative real axis,
-so the largest stable step is dt_max = x* / lambda_j = x* V_FRICTION m_jj / F_j.
+(its time constant is 1 / lambda_j), a real, negative eigenvalue -lambda_j of the linearised
+dynamics (the diagonal estimate: the joint's coupling to the others through M is left out). A
+fixed-step explicit method is stable on it only while lambda_j dt <= x*, its stability region's
+extent along the negative real axis, so the largest stable step is dt_max = x* / lambda_j.
+Each joint's finding names the term that dominates its rate (``damping`` or ``Coulomb friction``).
 
 x* is derived, not tabulated: for an explicit Runge--Kutta method the stability function is
 the polynomial R(z) = 1 + sum_k z^k b^T A^(k-1) 1 of its tableau, and x* is the smallest x > 0
 where |R(-x)| crosses 1 (polished by Newton to the last ulps): 2 for explicit Euler
 (R = 1 + z), 2 for Heun, 2.785293563... for RK4 (where R(-x) = +1 again, the real root of
 x^3 - 4 x^2 + 12 x - 24). Semi-implicit (kick-drift) Euler kicks the velocity by explicit Euler,
-v += h a(q, v), and friction acts on v alone, so its x* is explicit Euler's 2. Any other explicit
+v += h a(q, v), and the losses act on v alone, so its x* is explicit Euler's 2. Any other explicit
 fixed-step method has x* measured on its own steps by
 :func:`robodyn.integrators.stability.region_radius`.
 
 Adaptive methods shrink their step to the stiffness and implicit ones are stable on a real
 negative eigenvalue (or fail loudly when their iteration cannot converge), so they get no
-finding. Nothing here changes a run: the finding goes into the metadata (``stiff_friction``)
-and ``robodyn simulate`` prints one warning line from it.
+finding. Nothing here changes a run: the finding goes into the metadata (``stiff_friction``,
+the name it had when it covered friction alone), ``robodyn simulate`` prints one warning line
+from it, and a run that diverges gives it as the likely cause (:func:`robodyn.sim.run.diagnose`).
 """
 
 from __future__ import annotations
@@ -50,12 +53,16 @@ NEWTON_POLISH = 8
 NAMED_JOINTS = 3
 
 
+FRICTION, DAMPING = "Coulomb friction", "damping"
+
+
 @dataclass(frozen=True)
 class StiffFriction:
-    """Joints whose regularised Coulomb friction is too stiff for ``integrator`` at ``dt``.
+    """Joints whose losses (damping, regularised Coulomb friction) are too stiff for ``integrator`` at ``dt``.
 
-    ``joints`` (names), ``rates`` lambda_j = F_j / (v_friction m_jj) [1/s] and ``dt_stable``
-    x* / lambda_j [s] are per joint, stiffest first; ``limit`` is x*, the method's real-axis
+    ``joints`` (names), ``rates`` lambda_j = (D_j + F_j / v_friction) / m_jj [1/s], ``dt_stable``
+    x* / lambda_j [s] and ``terms`` (the term that dominates lambda_j: ``"damping"`` or
+    ``"Coulomb friction"``) are per joint, stiffest first; ``limit`` is x*, the method's real-axis
     stability limit in units of h |lambda|. ``dt_max`` is the largest step stable on them all.
     """
 
@@ -66,6 +73,7 @@ class StiffFriction:
     joints: tuple[str, ...]
     rates: tuple[float, ...]
     dt_stable: tuple[float, ...]
+    terms: tuple[str, ...]
 
     @property
     def rate(self) -> float:
@@ -87,22 +95,59 @@ class StiffFriction:
             "joints": list(self.joints),
             "rates": list(self.rates),
             "dt_stable": list(self.dt_stable),
+            "terms": list(self.terms),
             "rate": self.rate,
             "dt_max": self.dt_max,
         }
 
 
-def warning_line(meta: dict[str, Any]) -> str:
-    """The one-line warning from a trajectory's ``stiff_friction`` metadata (at most NAMED_JOINTS names)."""
+def _terms(meta: dict[str, Any]) -> str:
+    """What is stiff: "Coulomb friction", "damping" or "damping and Coulomb friction" (older metadata: friction)."""
+    terms = set(meta.get("terms", [FRICTION]))
+    return " and ".join(t for t in (DAMPING, FRICTION) if t in terms)
+
+
+def _named(meta: dict[str, Any]) -> str:
+    """The stiff joints, at most NAMED_JOINTS of them by name, then "and N more"."""
     names = list(meta["joints"])
     named = ", ".join(names[:NAMED_JOINTS])
     if len(names) > NAMED_JOINTS:
         named += f" and {len(names) - NAMED_JOINTS} more"
+    return named
+
+
+def warning_line(meta: dict[str, Any]) -> str:
+    """The one-line warning from a trajectory's ``stiff_friction`` metadata (at most NAMED_JOINTS names)."""
     return (
-        f"warning: Coulomb friction on {named} is too stiff for {meta['integrator']} at dt = {_sci(meta['dt'], 3)} s "
-        f"(rate {_sci(meta['rate'], 2)} 1/s; stable below dt = {_sci(meta['dt_max'], 2)} s): expect jitter and a "
-        "ledger error; use a smaller --dt, an implicit method, or --no-damping"
+        f"warning: {_terms(meta)} on {_named(meta)} is too stiff for {meta['integrator']} at "
+        f"dt = {_sci(meta['dt'], 3)} s (rate {_sci(meta['rate'], 2)} 1/s; stable below dt = "
+        f"{_sci(meta['dt_max'], 2)} s): expect jitter and a ledger error; use a smaller --dt, an implicit method, "
+        "or --no-damping"
     )
+
+
+def divergence_cause(meta: dict[str, Any]) -> tuple[str, str]:
+    """(cause, suggestion) of a run that diverged with this ``stiff_friction`` finding.
+
+    The suggested step is dt_max rounded down to one significant digit, so that it is stable on
+    every stiff joint (the finding's own estimate); the other cure is a run without the losses.
+    """
+    cause = (
+        f"{_terms(meta)} on {_named(meta)} is too stiff for {meta['integrator']} at dt = {_sci(meta['dt'], 3)} s "
+        f"(time constant {_sci(1.0 / meta['rate'], 2)} s; stable below dt = {_sci(meta['dt_max'], 2)} s)"
+    )
+    return cause, f"run without joint losses (--no-damping), or with dt <= {_sci(below(meta['dt_max']), 1)} s"
+
+
+def below(x: float) -> float:
+    """Round x > 0 down to one significant digit, strictly below x: 1.1e-8 -> 1e-8, 7e-7 -> 6e-7."""
+    scale = 10.0 ** np.floor(np.log10(x))
+    digit = np.floor(x / scale)
+    if digit * scale >= x:  # x is a round number: one step down
+        digit -= 1.0
+    if digit < 1.0:
+        return float(9.0 * scale / 10.0)
+    return float(digit * scale)
 
 
 def _sci(x: float, digits: int) -> str:
@@ -169,25 +214,25 @@ def real_axis_limit(method: Integrator) -> float | None:
 
 
 def friction_stiffness(system: RobotSystem, method: Integrator, q0: Array, dt: float) -> StiffFriction | None:
-    """The stiff-friction finding for a run of ``system`` by ``method`` at step ``dt`` [s] from q0; None if none.
+    """The stiff-losses finding for a run of ``system`` by ``method`` at step ``dt`` [s] from q0; None if none.
 
     Uses the system's own mass matrix (backend CRBA or the closed form, armature included) once, at q0.
     """
-    friction = system.friction
-    if not np.any(friction > 0.0):
+    viscous = system.damping + system.friction / V_FRICTION  # [N m s/rad]: the losses' slope at v = 0
+    if not np.any(viscous > 0.0):
         return None
     limit = real_axis_limit(method)
     if limit is None or not np.isfinite(limit):
         return None
     m = np.diag(system.mass_matrix_free(q0))
-    rubbed = np.flatnonzero(friction > 0.0)
-    rates = friction[rubbed] / (V_FRICTION * m[rubbed])
+    lossy = np.flatnonzero((viscous > 0.0) & (m > 0.0))  # m_jj = 0: a singular M, refused or diagnosed elsewhere
+    rates = viscous[lossy] / m[lossy]
     stiff = rates * dt > limit
     if not np.any(stiff):
         return None
     names = velocity_names(system.robot)
     order = np.argsort(-rates[stiff], kind="stable")
-    joints = rubbed[stiff][order]
+    joints = lossy[stiff][order]
     r = rates[stiff][order]
     return StiffFriction(
         integrator=method.name,
@@ -196,5 +241,6 @@ def friction_stiffness(system: RobotSystem, method: Integrator, q0: Array, dt: f
         v_friction=V_FRICTION,
         joints=tuple(names[i] for i in joints),
         rates=tuple(float(x) for x in r),
-        dt_stable=tuple(float(limit * V_FRICTION * m[i] / friction[i]) for i in joints),
+        dt_stable=tuple(float(limit * m[i] / viscous[i]) for i in joints),
+        terms=tuple(DAMPING if system.damping[i] > system.friction[i] / V_FRICTION else FRICTION for i in joints),
     )

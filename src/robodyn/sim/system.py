@@ -437,10 +437,16 @@ def robot_system(
             and efforts). With couplings, ``system.robot`` is the coupled robot.
 
     Raises:
-        InputError: a bad torque or a backend that cannot serve this robot (``"aba"`` on
-            mimic joints, ``"formula"`` on a model that is of no built-in kind or with loops).
+        InputError: a robot with no moving joint (nothing to integrate), a bad torque or a
+            backend that cannot serve this robot (``"aba"`` on mimic joints, ``"formula"`` on
+            a model that is of no built-in kind or with loops).
         UnknownNameError: an unknown backend, joint or frame.
     """
+    if robot.nv == 0:
+        raise InputError(
+            f"{robot.urdf_path or robot.name}: {robot.name} has no moving joint, so there is no motion to simulate "
+            "(a lone body: load it with free_flyer=True, --free-flyer on the command line)"
+        )
     spec = constraints if constraints is not None else Constraints()
     coupling = couple(robot, spec.couplings)
     if coupling is not None:

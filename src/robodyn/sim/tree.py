@@ -15,8 +15,9 @@ flyer below another joint, a spherical or planar joint, or a mimic joint is not 
 It is a second implementation, so it is checked before it is trusted: :func:`compiled_of`
 compares ABA, RNEA and CRBA with Pinocchio's (:mod:`robodyn.dynamics`) on seeded random states
 (``VERIFY_STATES`` of them) and refuses the model if any differs by more than ``VERIFY_RTOL``
-relative to the largest entry. The check runs once per model and is cached while the arrays
-read from the model stay the same.
+relative to the largest entry (ABA: or by more than ``VERIFY_SPREAD`` times Pinocchio's own
+ABA-CRBA spread, at a state where M is so ill-conditioned that the spread is larger). The check
+runs once per model and is cached while the arrays read from the model stay the same.
 
 numba is imported on first use (the kernels' module), never at ``import robodyn``.
 """
@@ -61,10 +62,15 @@ if TYPE_CHECKING:
 Array = NDArray[np.float64]
 
 # Compiled ABA / RNEA / CRBA against Pinocchio's, relative to the largest entry: two float64
-# implementations of the same recursions (world frame here, local frames there) differ by
-# round-off amplified by M's conditioning; Talos (32 joints, armature 0.1) stays below 1e-13.
+# implementations of the same recursions (world axes at each joint's origin here, local frames
+# there) differ by round-off amplified by M's conditioning; Talos (32 joints, armature 0.1) stays
+# below 1e-13.
 VERIFY_RTOL = 1e-12
 VERIFY_STATES = 8
+# Where M is so ill-conditioned (cond 1e7: a shoulder at gimbal lock) that Pinocchio's own ABA and
+# its CRBA + Cholesky solve differ by more than VERIFY_RTOL (human.urdf: 2.6e-12), the compiled ABA
+# may differ from Pinocchio's by this many times that spread: no float64 answer is nearer there.
+VERIFY_SPREAD = 2.0
 
 # Joint types of the kernels (tree_layout), by Pinocchio's shortname; a free flyer has no axis.
 _AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
@@ -340,33 +346,52 @@ class CompiledDynamics:
         """Largest relative differences of ABA, RNEA, CRBA and the energies from Pinocchio on seeded states.
 
         Raises:
-            AssumptionError: one exceeds ``VERIFY_RTOL`` (the message names which and by how much).
+            AssumptionError: one exceeds ``VERIFY_RTOL`` (ABA: or ``VERIFY_SPREAD`` x Pinocchio's own
+                ABA-CRBA spread where that is larger; the message names which and by how much).
         """
         rng = np.random.default_rng(seed)
         model, data = robot.model, robot.data
         worst = {"aba": 0.0, "rnea": 0.0, "crba": 0.0, "energy": 0.0}
+        excess = dict.fromkeys(worst, 0.0)  # the largest difference over its state's allowance
         for _ in range(states):
             q, v = robot.random_state(rng)
             tau = rng.uniform(-1.0, 1.0, robot.nv)
             a = rng.uniform(-1.0, 1.0, robot.nv)
-            pairs = (
-                ("aba", self.acceleration(q, v, tau), dynamics.aba(model, data, q, v, tau)),
-                ("rnea", self.inverse_dynamics(q, v, a), dynamics.rnea(model, data, q, v, a)),
-                ("crba", self.mass_matrix(q), dynamics.mass_matrix(model, data, q)),
-            )
-            for name, got, ref in pairs:
-                worst[name] = max(worst[name], _relative(got, ref))
+            M = dynamics.mass_matrix(model, data, q)
+            ref_a = dynamics.aba(model, data, q, v, tau)
+            spread = VERIFY_SPREAD * _spread(M, tau - dynamics.rnea(model, data, q, v, np.zeros(robot.nv)), ref_a)
             kin, pot = self.energies(q, v)
             ref_e = np.array([dynamics.kinetic_energy(model, data, q, v), dynamics.potential_energy(model, data, q)])
-            worst["energy"] = max(worst["energy"], _relative(np.array([kin, pot]), ref_e))
-        bad = {k: x for k, x in worst.items() if not x <= VERIFY_RTOL}
+            rows = (
+                ("aba", self.acceleration(q, v, tau), ref_a, max(VERIFY_RTOL, spread)),
+                ("rnea", self.inverse_dynamics(q, v, a), dynamics.rnea(model, data, q, v, a), VERIFY_RTOL),
+                ("crba", self.mass_matrix(q), M, VERIFY_RTOL),
+                ("energy", np.array([kin, pot]), ref_e, VERIFY_RTOL),
+            )
+            for name, got, ref, allowed in rows:
+                x = _relative(got, ref)
+                worst[name] = max(worst[name], x)
+                excess[name] = max(excess[name], x / allowed)
+        bad = {k: worst[k] for k, x in excess.items() if not x <= 1.0}
         if bad:
             what = ", ".join(f"{k} by {x:.3g}" for k, x in bad.items())
             raise AssumptionError(
                 f"{robot.name}: the compiled tree algorithms differ from Pinocchio's ({what}, relative to the "
-                f"largest entry), expected <= {VERIFY_RTOL:g}; use backend 'aba'"
+                f"largest entry), expected <= {VERIFY_RTOL:g} (or {VERIFY_SPREAD:g} x Pinocchio's own ABA-CRBA "
+                "spread where M is ill-conditioned)"
             )
         return worst
+
+
+def _spread(M: Array, rhs: Array, ref: Array) -> float:
+    """Pinocchio's own round-off at a state: its ABA ``ref`` against its CRBA ``M`` solved for ``rhs`` (0: singular)."""
+    try:
+        with np.errstate(all="ignore"):
+            solved = np.asarray(np.linalg.solve(M, rhs), dtype=np.float64)
+    except np.linalg.LinAlgError:
+        return 0.0
+    x = _relative(solved, ref)
+    return x if np.isfinite(x) else 0.0
 
 
 def _relative(got: Array, ref: Array) -> float:

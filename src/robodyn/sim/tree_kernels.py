@@ -12,24 +12,28 @@ Pinocchio's ``JointModelFreeFlyer``: q = [position [m] (3); unit quaternion x, y
 v = [linear [m/s]; angular [rad/s]] in the body's own frame, nv = 6; its six armatures are in
 ``ftree[i, F_ARM6:F_ARM6 + 6]``, its ``F_ARMATURE`` is 0).
 
-Every quantity is expressed in the world frame, at the world origin (spatial vectors as
-[linear; angular], as Pinocchio writes them): a body's inertia is turned into world axes once
-per evaluation, after which the articulated inertias add up without a change of frame (the
-world-frame formulation of the articulated-body algorithm, Featherstone 2008, sec. 7.3). On a
-free-flyer tree the point is the free flyer's origin instead (its world position in
-``ws[i, W_REF]``, ``W_POS`` relative to it): world-origin inertias of bodies at a distance d
-carry terms m d^2 that cancel in the solve, and the round-off grew as d^2 (ABA on Talos 3e-12
-relative at 10 m, 3e-10 at 100 m; taken at the free flyer it does not depend on d).
+Every quantity is expressed in world axes at its own joint's origin (spatial vectors as
+[linear; angular], as Pinocchio writes them): a body's inertia is turned into world axes once per
+evaluation and taken about its joint's origin o_i (``W_POS``), and what passes between a joint and
+its parent is moved by the offset r = o_i - o_parent (:func:`pass_to_parent` for inertias and
+forces, :func:`parent_acceleration` for motions): no rotation, only m r^2 terms over a link's
+length. Taken about one point for the whole tree (the world origin), a light body at a distance d
+carried terms m d^2 that cancel in the solve: the round-off grew as d^2 and as m d^2 over the
+body's own inertia about its axis (Stretch's wrist, 1e-6 kg m^2 a metre out: ABA 7e-11 relative;
+Talos at 100 m: 3e-10); taken at each joint, as Pinocchio's local frames do, it does not.
+On a free-flyer tree the positions are taken from the free flyer's origin (its world position in
+``ws[i, W_REF]``, ``W_POS`` relative to it).
 
 * pass 1 (root to leaves): placements (Rodrigues: R_p R_J(q) = R_p + sin q K + (1 - cos q)
-  (N - R_p)), motion axes S_i, velocities v_i, velocity-product accelerations
+  (N - R_p)), motion axes S_i ([0; axis] or [axis; 0] at the joint's origin), velocities v_i
+  (the parent's moved to o_i, plus S_i qd_i), velocity-product accelerations
   c_i = v_i x S_i qd_i, world inertias I_i, bias forces p_i = v_i x* I_i v_i, and the energies
   T = sum 1/2 v_i . I_i v_i + 1/2 sum armature qd^2, V = -sum m_i g . c_i;
 * ABA pass 2 (leaves to root): U = IA S, D = S . U + armature, u = tau - S . pA, and the
   parent collects IA - U U^T / D (its upper triangle, mirrored) and
-  pA + IA c + U (u - U . c) / D;
-* ABA pass 3 (root to leaves): qdd = (u - U . (a_parent + c)) / D, a = a_parent + c + S qdd,
-  starting from a_0 = (-g, 0).
+  pA + IA c + U (u - U . c) / D, moved to its origin;
+* ABA pass 3 (root to leaves): qdd = (u - U . (a_parent + c)) / D, a = a_parent + c + S qdd
+  (a_parent moved to o_i), starting from a_0 = (-g, 0).
 
 A joint held at its stop is locked: ``ws[i, W_LOCK]`` = 1 (the caller sets it; a fresh zero
 workspace locks nothing). Its articulated inertia passes to the parent whole, its qdd is 0,
@@ -70,6 +74,7 @@ from robodyn.sim.tree_layout import (
     F_ARM6,
     F_ARMATURE,
     F_K,
+    F_MASS,
     F_N,
     F_POS,
     F_RA,
@@ -93,6 +98,75 @@ from robodyn.sim.tree_layout import (
 )
 
 njit = numba.njit(cache=True, nogil=True, error_model="numpy")
+
+
+@njit
+def offset(ws, i, par):  # type: ignore[no-untyped-def]
+    """O_i - o_parent [m] in world: from the parent's origin to row i's (both in ``W_POS``)."""
+    return (
+        ws[i, W_POS] - ws[par, W_POS],
+        ws[i, W_POS + 1] - ws[par, W_POS + 1],
+        ws[i, W_POS + 2] - ws[par, W_POS + 2],
+    )
+
+
+@njit
+def parent_acceleration(ws, i, par):  # type: ignore[no-untyped-def]
+    """The parent's spatial acceleration ``W_A`` moved to row i's origin: [a + alpha x r; alpha]."""
+    r0, r1, r2 = offset(ws, i, par)
+    a3, a4, a5 = ws[par, W_A + 3], ws[par, W_A + 4], ws[par, W_A + 5]
+    return (
+        ws[par, W_A] + a4 * r2 - a5 * r1,
+        ws[par, W_A + 1] + a5 * r0 - a3 * r2,
+        ws[par, W_A + 2] + a3 * r1 - a4 * r0,
+        a3,
+        a4,
+        a5,
+    )
+
+
+@njit
+def pass_to_parent(ws, i, par):  # type: ignore[no-untyped-def]
+    """Add row i's inertia ``W_IA`` and force ``W_PA`` to its parent's, moved to the parent's origin.
+
+    With r = o_i - o_parent and K = [r]x, a motion vector moves as T = [1, -K; 0, 1], so a force
+    as T^T (n + r x f) and an inertia X = [A, B; B^T, C] as T^T X T = [A, B'; B'^T, C'] with
+    B' = B - A K and C' = C + K B' + (K B')^T + K A K. Row i's W_IA is changed (to T^T X T);
+    its ``W_FD`` columns are scratch (a free flyer, the only row that uses them, has no parent).
+    """
+    r0, r1, r2 = offset(ws, i, par)
+    f0, f1, f2 = ws[i, W_PA], ws[i, W_PA + 1], ws[i, W_PA + 2]
+    ws[par, W_PA] += f0
+    ws[par, W_PA + 1] += f1
+    ws[par, W_PA + 2] += f2
+    ws[par, W_PA + 3] += ws[i, W_PA + 3] + r1 * f2 - r2 * f1
+    ws[par, W_PA + 4] += ws[i, W_PA + 4] + r2 * f0 - r0 * f2
+    ws[par, W_PA + 5] += ws[i, W_PA + 5] + r0 * f1 - r1 * f0
+    ak, kak, kb = W_FD, W_FD + 9, W_FD + 18  # scratch 3 x 3 blocks, row-major
+    for a in range(3):  # A K: column b of K is e_b x r... K[k, b] = [r]x
+        x0, x1, x2 = ws[i, W_IA + 6 * a], ws[i, W_IA + 6 * a + 1], ws[i, W_IA + 6 * a + 2]
+        ws[i, ak + 3 * a] = x1 * r2 - x2 * r1
+        ws[i, ak + 3 * a + 1] = x2 * r0 - x0 * r2
+        ws[i, ak + 3 * a + 2] = x0 * r1 - x1 * r0
+    for b in range(3):  # K (A K) and K B', column by column (K y = r x y)
+        y0, y1, y2 = ws[i, ak + b], ws[i, ak + 3 + b], ws[i, ak + 6 + b]
+        ws[i, kak + b] = r1 * y2 - r2 * y1
+        ws[i, kak + 3 + b] = r2 * y0 - r0 * y2
+        ws[i, kak + 6 + b] = r0 * y1 - r1 * y0
+        for a in range(3):  # B' = B - A K, in both triangles
+            x = ws[i, W_IA + 6 * a + 3 + b] - ws[i, ak + 3 * a + b]
+            ws[i, W_IA + 6 * a + 3 + b] = x
+            ws[i, W_IA + 6 * (3 + b) + a] = x
+        y0, y1, y2 = ws[i, W_IA + 3 + b], ws[i, W_IA + 9 + b], ws[i, W_IA + 15 + b]
+        ws[i, kb + b] = r1 * y2 - r2 * y1
+        ws[i, kb + 3 + b] = r2 * y0 - r0 * y2
+        ws[i, kb + 6 + b] = r0 * y1 - r1 * y0
+    for a in range(3):
+        for b in range(3):
+            c = W_IA + 6 * (3 + a) + 3 + b
+            ws[i, c] += ws[i, kb + 3 * a + b] + ws[i, kb + 3 * b + a] + ws[i, kak + 3 * a + b]
+    for k in range(36):
+        ws[par, W_IA + k] += ws[i, W_IA + k]
 
 
 @njit
@@ -140,7 +214,7 @@ def kinematics(itree, ftree, grav, q, v, ws):  # type: ignore[no-untyped-def]
             ox, oy, oz = pl0, pl1, pl2
             wx, wy, wz = ra0, ra1, ra2
             l0 = l1 = l2 = g0 = g1 = g2 = 0.0
-        else:
+        else:  # the parent's velocity moved from its origin to this joint's: l + g x (R_parent pl)
             b00, b01, b02 = ws[par, W_ROT], ws[par, W_ROT + 1], ws[par, W_ROT + 2]
             b10, b11, b12 = ws[par, W_ROT + 3], ws[par, W_ROT + 4], ws[par, W_ROT + 5]
             b20, b21, b22 = ws[par, W_ROT + 6], ws[par, W_ROT + 7], ws[par, W_ROT + 8]
@@ -153,24 +227,26 @@ def kinematics(itree, ftree, grav, q, v, ws):  # type: ignore[no-untyped-def]
             r20 = b20 * l00 + b21 * l10 + b22 * l20
             r21 = b20 * l01 + b21 * l11 + b22 * l21
             r22 = b20 * l02 + b21 * l12 + b22 * l22
-            ox = ws[par, W_POS] + b00 * pl0 + b01 * pl1 + b02 * pl2
-            oy = ws[par, W_POS + 1] + b10 * pl0 + b11 * pl1 + b12 * pl2
-            oz = ws[par, W_POS + 2] + b20 * pl0 + b21 * pl1 + b22 * pl2
+            d0 = b00 * pl0 + b01 * pl1 + b02 * pl2
+            d1 = b10 * pl0 + b11 * pl1 + b12 * pl2
+            d2 = b20 * pl0 + b21 * pl1 + b22 * pl2
+            ox, oy, oz = ws[par, W_POS] + d0, ws[par, W_POS + 1] + d1, ws[par, W_POS + 2] + d2
             wx = b00 * ra0 + b01 * ra1 + b02 * ra2
             wy = b10 * ra0 + b11 * ra1 + b12 * ra2
             wz = b20 * ra0 + b21 * ra1 + b22 * ra2
-            l0, l1, l2 = ws[par, W_V], ws[par, W_V + 1], ws[par, W_V + 2]
             g0, g1, g2 = ws[par, W_V + 3], ws[par, W_V + 4], ws[par, W_V + 5]
+            l0 = ws[par, W_V] + g1 * d2 - g2 * d1
+            l1 = ws[par, W_V + 1] + g2 * d0 - g0 * d2
+            l2 = ws[par, W_V + 2] + g0 * d1 - g1 * d0
         ws[i, W_ROT], ws[i, W_ROT + 1], ws[i, W_ROT + 2] = r00, r01, r02
         ws[i, W_ROT + 3], ws[i, W_ROT + 4], ws[i, W_ROT + 5] = r10, r11, r12
         ws[i, W_ROT + 6], ws[i, W_ROT + 7], ws[i, W_ROT + 8] = r20, r21, r22
         ws[i, W_POS], ws[i, W_POS + 1], ws[i, W_POS + 2] = ox, oy, oz
-        # motion subspace S = [o x axis; axis] (revolute) or [axis; 0] (prismatic)
+        # motion subspace at the joint's origin: S = [0; axis] (revolute) or [axis; 0] (prismatic)
         if jt == PRISMATIC:
             s0, s1, s2, s3, s4, s5 = wx, wy, wz, 0.0, 0.0, 0.0
         else:
-            s0, s1, s2 = oy * wz - oz * wy, oz * wx - ox * wz, ox * wy - oy * wx
-            s3, s4, s5 = wx, wy, wz
+            s0, s1, s2, s3, s4, s5 = 0.0, 0.0, 0.0, wx, wy, wz
         ws[i, W_S], ws[i, W_S + 1], ws[i, W_S + 2] = s0, s1, s2
         ws[i, W_S + 3], ws[i, W_S + 4], ws[i, W_S + 5] = s3, s4, s5
         qd = v[iv]
@@ -187,11 +263,11 @@ def kinematics(itree, ftree, grav, q, v, ws):  # type: ignore[no-untyped-def]
         ws[i, W_V], ws[i, W_V + 1], ws[i, W_V + 2] = l0, l1, l2
         ws[i, W_V + 3], ws[i, W_V + 4], ws[i, W_V + 5] = g0, g1, g2
         vhv, pot = body(
-            ftree, grav, ws, i, r00, r01, r02, r10, r11, r12, r20, r21, r22, ox, oy, oz, l0, l1, l2, g0, g1, g2
+            ftree, grav, ws, i, r00, r01, r02, r10, r11, r12, r20, r21, r22, 0.0, 0.0, 0.0, l0, l1, l2, g0, g1, g2
         )
         arm = ftree[i, F_ARMATURE]
         kinetic += 0.5 * (vhv + arm * qd * qd)
-        potential += pot
+        potential += pot - ftree[i, F_MASS] * (grav[0] * ox + grav[1] * oy + grav[2] * oz)
     return kinetic, potential
 
 
@@ -224,25 +300,25 @@ def aba_passes(itree, ftree, grav, tau, ws, out):  # type: ignore[no-untyped-def
         ws[i, W_UU] = uu
         if par < 0:
             continue
-        if locked:  # the whole articulated inertia and bias (with IA c) pass to the parent
+        # what passes to the parent, at this joint's origin, into this row's W_IA and W_PA (read no more):
+        # locked, the whole articulated inertia and bias (with IA c); else IA - U U^T / D, pA + IA c + U (u - U . c) / D
+        if locked:
             for r in range(6):
-                ws[par, W_PA + r] += ws[i, W_PA + r] + ws[i, W_A + r]
-                for k in range(6):
-                    ws[par, W_IA + 6 * r + k] += ws[i, W_IA + 6 * r + k]
-            continue
-        inv = 1.0 / D
-        for r in range(6):
-            uc += ws[i, W_U + r] * (ws[i, W_C + r])
-        coef = (uu - uc) * inv
-        for r in range(6):
-            ur = ws[i, W_U + r]
-            ws[par, W_PA + r] += ws[i, W_PA + r] + ws[i, W_A + r] + ur * coef
-            ui = ur * inv
-            for k in range(r, 6):
-                x = ws[i, W_IA + 6 * r + k] - ui * ws[i, W_U + k]
-                ws[par, W_IA + 6 * r + k] += x
-                if k != r:
-                    ws[par, W_IA + 6 * k + r] += x
+                ws[i, W_PA + r] += ws[i, W_A + r]
+        else:
+            inv = 1.0 / D
+            for r in range(6):
+                uc += ws[i, W_U + r] * (ws[i, W_C + r])
+            coef = (uu - uc) * inv
+            for r in range(6):
+                ur = ws[i, W_U + r]
+                ws[i, W_PA + r] += ws[i, W_A + r] + ur * coef
+                ui = ur * inv
+                for k in range(r, 6):
+                    x = ws[i, W_IA + 6 * r + k] - ui * ws[i, W_U + k]
+                    ws[i, W_IA + 6 * r + k] = x
+                    ws[i, W_IA + 6 * k + r] = x
+        pass_to_parent(ws, i, par)
     for i in range(n):
         par, iv = itree[i, 0], itree[i, 3]
         if par < 0:
@@ -251,8 +327,7 @@ def aba_passes(itree, ftree, grav, tau, ws, out):  # type: ignore[no-untyped-def
                 continue
             a0, a1, a2, a3, a4, a5 = -grav[0], -grav[1], -grav[2], 0.0, 0.0, 0.0
         else:
-            a0, a1, a2 = ws[par, W_A], ws[par, W_A + 1], ws[par, W_A + 2]
-            a3, a4, a5 = ws[par, W_A + 3], ws[par, W_A + 4], ws[par, W_A + 5]
+            a0, a1, a2, a3, a4, a5 = parent_acceleration(ws, i, par)
         a0 += ws[i, W_C]
         a1 += ws[i, W_C + 1]
         a2 += ws[i, W_C + 2]
@@ -300,11 +375,16 @@ def rnea(itree, ftree, grav, q, v, a, ws, out):  # type: ignore[no-untyped-def]
     for i in range(n):
         par, iv = itree[i, 0], itree[i, 3]
         w = ws[i]
-        for k in range(6):
-            base = -grav[k] if (par < 0 and k < 3) else 0.0
-            if par >= 0:
-                base = ws[par, W_A + k]
-            w[W_A + k] = base + w[W_C + k] + w[W_S + k] * a[iv]
+        if par >= 0:
+            b0, b1, b2, b3, b4, b5 = parent_acceleration(ws, i, par)
+        else:
+            b0, b1, b2, b3, b4, b5 = -grav[0], -grav[1], -grav[2], 0.0, 0.0, 0.0
+        w[W_A] = b0 + w[W_C] + w[W_S] * a[iv]
+        w[W_A + 1] = b1 + w[W_C + 1] + w[W_S + 1] * a[iv]
+        w[W_A + 2] = b2 + w[W_C + 2] + w[W_S + 2] * a[iv]
+        w[W_A + 3] = b3 + w[W_C + 3] + w[W_S + 3] * a[iv]
+        w[W_A + 4] = b4 + w[W_C + 4] + w[W_S + 4] * a[iv]
+        w[W_A + 5] = b5 + w[W_C + 5] + w[W_S + 5] * a[iv]
         if itree[i, 1] == FREEFLYER:  # a root: a_i = a_0 + S a
             x = ff_motion(ws, i, a[iv], a[iv + 1], a[iv + 2], a[iv + 3], a[iv + 4], a[iv + 5])
             for k in range(6):
@@ -325,9 +405,13 @@ def rnea(itree, ftree, grav, q, v, a, ws, out):  # type: ignore[no-untyped-def]
         for k in range(6):
             t += ws[i, W_S + k] * f[i, k]
         out[iv] = t
-        if par >= 0:
-            for k in range(6):
+        if par >= 0:  # the force moved to the parent's origin: n + (o_i - o_parent) x f
+            r0, r1, r2 = offset(ws, i, par)
+            for k in range(3):
                 f[par, k] += f[i, k]
+            f[par, 3] += f[i, 3] + r1 * f[i, 2] - r2 * f[i, 1]
+            f[par, 4] += f[i, 4] + r2 * f[i, 0] - r0 * f[i, 2]
+            f[par, 5] += f[i, 5] + r0 * f[i, 1] - r1 * f[i, 0]
 
 
 @njit
@@ -336,13 +420,8 @@ def crba(itree, ftree, grav, q, ws, M):  # type: ignore[no-untyped-def]
     n = itree.shape[0]
     zero = np.zeros(M.shape[0])
     kinematics(itree, ftree, grav, q, zero, ws)
-    for i in range(n - 1, -1, -1):
-        par = itree[i, 0]
-        if par >= 0:
-            for k in range(36):
-                ws[par, W_IA + k] += ws[i, W_IA + k]
     F = np.empty(6)
-    for i in range(n):
+    for i in range(n - 1, -1, -1):  # row i's composite inertia is whole once the rows below it are added
         iv = itree[i, 3]
         if itree[i, 1] == FREEFLYER:  # a root: its 6 x 6 block S^T Ic S + armature
             ff_joint_inertia(ftree, ws, i)
@@ -359,22 +438,28 @@ def crba(itree, ftree, grav, q, ws, M):  # type: ignore[no-untyped-def]
         for r in range(6):
             diag += ws[i, W_S + r] * F[r]
         M[iv, iv] = diag
-        j = itree[i, 0]
-        while j >= 0:
+        child, j = i, itree[i, 0]
+        while j >= 0:  # F moved up to each ancestor's origin
+            r0, r1, r2 = offset(ws, child, j)
+            F[3] += r1 * F[2] - r2 * F[1]
+            F[4] += r2 * F[0] - r0 * F[2]
+            F[5] += r0 * F[1] - r1 * F[0]
             jv = itree[j, 3]
             if itree[j, 1] == FREEFLYER:  # the root's six rows: S_j^T F
                 x = ff_force(ws, j, F[0], F[1], F[2], F[3], F[4], F[5])
                 for k in range(6):
                     M[iv, jv + k] = x[k]
                     M[jv + k, iv] = x[k]
-                j = itree[j, 0]
-                continue
-            val = 0.0
-            for r in range(6):
-                val += ws[j, W_S + r] * F[r]
-            M[iv, jv] = val
-            M[jv, iv] = val
-            j = itree[j, 0]
+            else:
+                val = 0.0
+                for r in range(6):
+                    val += ws[j, W_S + r] * F[r]
+                M[iv, jv] = val
+                M[jv, iv] = val
+            child, j = j, itree[j, 0]
+        par = itree[i, 0]
+        if par >= 0:  # v = 0: W_PA is zero, only the inertia passes
+            pass_to_parent(ws, i, par)
 
 
 @njit

@@ -351,6 +351,8 @@ def attempt(plan: Plan, system: RobotSystem, run: Run) -> Outcome:
             status, last = _block(w)
             ending = _classify(w, status, last)
             w.done = ending.kept
+            if run.progress is not None:
+                run.progress(float(run.t[w.done]))
             if ending.why is not None:
                 return _hand_back(w, held0, evaluations0, ending.why)
         _last_sample(w)

@@ -51,18 +51,18 @@ def test_a_correct_file_gets_no_hint(tmp_path):
     assert _hints(tmp_path, ARM, ABSOLUTE) == ()
 
 
-SLIPS = {
+SLIPS = {  # the double pendulum's file says NAMES = ["theta1", "theta2"]: the hints say them too
     "missing offset": (
         [(PAIRS, 'COORDINATES = {"elbow": (-1.0, 0.0)}')],
         [
-            'hint: the mismatch vanishes with COORDINATES["shoulder"] = (1, math.pi / 2): q1 is measured from a zero '
+            'hint: the mismatch vanishes with COORDINATES["shoulder"] = (1, math.pi / 2): theta1 is measured from a zero '
             "a quarter turn from the one COORDINATES gives"
         ],
     ),
     "offset half a turn off": (  # a planar pendulum half a turn round is the same under reversed gravity
         [(PAIRS, PAIRS.replace("math.pi / 2", "-math.pi / 2"))],
         [
-            'hint: the mismatch vanishes with COORDINATES["shoulder"] = (1, math.pi / 2): q1 is measured from a zero '
+            'hint: the mismatch vanishes with COORDINATES["shoulder"] = (1, math.pi / 2): theta1 is measured from a zero '
             f"half a turn from the one COORDINATES gives {HALF_TURN}",
             GRAVITY,
         ],
@@ -70,13 +70,15 @@ SLIPS = {
     "missing sign flip": (
         [(PAIRS, PAIRS.replace("(-1.0, 0.0)", "(1.0, 0.0)"))],
         [
-            'hint: the mismatch vanishes with COORDINATES["elbow"] = (-1, 0): q2 turns the other way round '
+            'hint: the mismatch vanishes with COORDINATES["elbow"] = (-1, 0): theta2 turns the other way round '
             "(against the URDF axis of elbow)"
         ],
     ),
     "swapped joints": (
         [('JOINTS = ["shoulder", "elbow"]', 'JOINTS = ["elbow", "shoulder"]')],
-        ['hint: the mismatch vanishes with JOINTS = ["shoulder", "elbow"]: your q1 and q2 are the other way round'],
+        [
+            'hint: the mismatch vanishes with JOINTS = ["shoulder", "elbow"]: your theta1 and theta2 are the other way round'
+        ],
     ),
     "transposed C": (
         [("[[h * v[1], h * (v[0] + v[1])], [-h * v[0], 0.0]]", "[[h * v[1], -h * v[0]], [h * (v[0] + v[1]), 0.0]]")],

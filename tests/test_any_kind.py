@@ -46,17 +46,17 @@ def test_the_hand_derivation_passes_in_its_own_coordinates(name):
 
 # (system, what is planted, text replaced, replacement, lines --explain must print)
 MISTAKES = [
-    # the hanging double pendulum
+    # the hanging double pendulum, in its file's NAMES (theta1, theta2)
     ("double_pendulum", "dropped term", "m12 = m2 * (lc2**2 + l1 * lc2 * c2) + I2", "m12 = m2 * lc2**2 + I2",
-     ["M[0,1]: formula - Pinocchio = -m2*l1*lc2*cos(q2)   (coefficient -0.109 = -m2*l1*lc2 at each of 5 parameter sets)"]),
+     ["M[0,1]: formula - Pinocchio = -m2*l1*lc2*cos(theta2)   (coefficient -0.109 = -m2*l1*lc2 at each of 5 parameter sets)"]),
     ("double_pendulum", "factor 2", "m22 = m2 * lc2**2 + I2", "m22 = 2 * m2 * lc2**2 + I2",
      ["M[1,1]: formula - Pinocchio = m2*lc2**2   (coefficient 0.0673 = m2*lc2**2 at each of 5 parameter sets)"]),
     ("double_pendulum", "wrong sign", "[-h * v[0], 0.0]", "[h * v[0], 0.0]",
-     ["C[1,0]: formula - Pinocchio = -2*m2*l1*lc2*sin(q2)*v1   (coefficient -0.217 = -2*m2*l1*lc2 at each of 5 parameter sets)"]),
+     ["C[1,0]: formula - Pinocchio = -2*m2*l1*lc2*sin(theta2)*theta1_dot   (coefficient -0.217 = -2*m2*l1*lc2 at each of 5 parameter sets)"]),
     ("double_pendulum", "sine for cosine", "(m1 * lc1 + m2 * l1) * g * np.sin(q[0])",
      "(m1 * lc1 + m2 * l1) * g * np.cos(q[0])",
-     ["G[0]: formula - Pinocchio = (m1*lc1 + m2*l1)*g*cos(q1) - (m1*lc1 + m2*l1)*g*sin(q1)",
-      "    the formula has (m1*lc1 + m2*l1)*g*cos(q1) where Pinocchio has (m1*lc1 + m2*l1)*g*sin(q1): "
+     ["G[0]: formula - Pinocchio = (m1*lc1 + m2*l1)*g*cos(theta1) - (m1*lc1 + m2*l1)*g*sin(theta1)",
+      "    the formula has (m1*lc1 + m2*l1)*g*cos(theta1) where Pinocchio has (m1*lc1 + m2*l1)*g*sin(theta1): "
       "a sine and a cosine swapped"]),
     ("double_pendulum", "lc for l", "m2 * (l1**2 + lc2**2", "m2 * (lc1**2 + lc2**2",
      ["M[0,0]: formula - Pinocchio = m2*(lc1**2 - l1**2)   (coefficient -0.141 = m2*(lc1**2 - l1**2) at each of 5"]),

@@ -99,7 +99,8 @@ def test_the_coordinates_note_states_the_map_with_the_offsets_signs(tmp_path, co
     old = 'COORDINATES = {"shoulder": (1.0, math.pi / 2), "elbow": (-1.0, 0.0)}'
     f = _planted(tmp_path, PENDULUM_FORMULA, old, f"COORDINATES = {coordinates}")
     report = check(robodyn.load(PENDULUM), f, samples=2)
-    assert report.notes[0] == f"coordinates: {line} (the q, v of a mismatch are the formula's)"
+    said = line.replace("q1 =", "theta1 =").replace("q2 =", "theta2 =")  # the file's NAMES
+    assert report.notes[0] == f"coordinates: {said} (the q, v of a mismatch are the formula's)"
 
 
 @pytest.mark.parametrize(

@@ -103,7 +103,7 @@ def test_gravity_sign_gets_its_hint_and_its_twin(tmp_path):
     hints = _hints(tmp_path, PENDULUM, PENDULUM_FORMULA, *edits)
     assert GRAVITY in hints
     assert hints == (
-        'hint: the mismatch vanishes with COORDINATES["shoulder"] = (1, -math.pi / 2): q1 is measured from a zero '
+        'hint: the mismatch vanishes with COORDINATES["shoulder"] = (1, -math.pi / 2): theta1 is measured from a zero '
         f"half a turn from the one COORDINATES gives {HALF_TURN}",
         GRAVITY,
     )

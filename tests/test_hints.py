@@ -183,3 +183,19 @@ def test_the_hint_prints_under_the_verdict_and_before_the_terms_and_in_json(tmp_
     import json
 
     assert json.loads(capsys.readouterr().out)["hints"] == [lines[first]]
+
+
+@pytest.mark.parametrize(
+    ("edit", "hint"),
+    [
+        (("return np.array([(m1", "return -np.array([(m1"), "hint: the mismatch vanishes with G's sign reversed"),
+        (("return -m1 * g * lc1", "return -(-m1 * g * lc1"), "hint: the mismatch vanishes with V's sign reversed"),
+    ],
+    ids=["G alone", "V alone"],
+)
+def test_the_sign_of_G_alone_or_of_V_alone_gets_its_hint(tmp_path, edit, hint):
+    """G written with the wrong sign but V right: G = dV/dq fails too, and the hint says which of the two is off."""
+    old, new = edit
+    edits = [(old, new)] if "V's" not in hint else [(old, new), ("np.cos(q[0] + q[1]))\n", "np.cos(q[0] + q[1])))\n")]
+    hints = _hints(tmp_path, PENDULUM, PENDULUM_FORMULA, *edits)
+    assert len(hints) == 1 and hints[0].startswith(hint), hints

@@ -15,11 +15,12 @@ round-off floor). The candidates, for q_formula = A q_urdf + b:
 * one coordinate i measured the other way (row i of A negated), from another zero (b_i + pi,
   b_i + pi/2, b_i - pi/2; angles only), or both;
 * two coordinates of one kind swapped (rows i and k of A and b);
-* gravity's sign (G -> -G, V -> -V);
+* gravity's sign (G -> -G, V -> -V), or the sign of G alone or of V alone (then the formula's own
+  G = dV/dq fails too, and is the one row outside the comparison that may);
 * C transposed (the formula's C^T is Pinocchio's C).
 
-A failing row outside the formula-vs-Pinocchio group (the formula's own dM/dt - 2C, M = M^T or
-G = dV/dq, or Pinocchio's identities) means something is wrong beyond a convention: no hint then.
+Any other failing row outside the formula-vs-Pinocchio group (the formula's own dM/dt - 2C or M = M^T,
+or Pinocchio's identities) means something is wrong beyond a convention: no hint then.
 
 Each hint is one line, ``hint: the mismatch vanishes with <the fix>: <why>``; for a ``KIND = "any"``
 file the fix is the exact ``COORDINATES`` entry (or ``JOINTS``, ``OFFSETS``) that makes it agree.
@@ -45,6 +46,7 @@ Array = NDArray[np.float64]
 HINT_SAMPLES = 8  # states a candidate must agree at: 8 random states leave no coincidence of M, C and G
 MAX_HINTS = 3  # a robot symmetric enough to admit more equivalent fixes gets the first three
 COMPARED = ("M", "C", "G", "V")  # what a candidate must make agree (the other formula rows follow from them)
+GV_ROW = "G = dV/dq (formula)"  # the one row outside the comparison a convention (G's sign alone) may fail
 _SHIFTS = ((0.0, ""), (math.pi, "half a turn"), (math.pi / 2, "a quarter turn"), (-math.pi / 2, "a quarter turn"))
 
 
@@ -55,8 +57,10 @@ class _Candidate:
     line: str
     ref: Reference  # Pinocchio re-mapped (the current map for gravity's sign and C transposed)
     tier: int = 0  # 0: one change; 1: a sign and a zero at once (said only when no one change does)
-    gravity: float = 1.0  # -1: G and V negated
+    gravity: float = 1.0  # -1: G negated
+    potential: float = 1.0  # -1: V negated
     transpose: bool = False  # True: the formula's C is compared transposed
+    inconsistent: bool = False  # True: it makes the formula's G and V disagree (G = dV/dq fails under it)
 
 
 def convention_hints(
@@ -75,7 +79,8 @@ def convention_hints(
     formula's own names of its coordinates (its ``NAMES``; default q1, q2, ...).
     """
     failing = [r for r in rows if r.counts and not r.passed]
-    if not failing or any(r.group != "formula" for r in failing) or not all(k in kept for k in COMPARED[:3]):
+    beyond = {r.quantity for r in failing if r.group != "formula"}
+    if not failing or beyond - {GV_ROW} or not all(k in kept for k in COMPARED[:3]):
         return ()
     base = ref if not ref.plain else _unit_reference(ref)
     if base is None:
@@ -84,6 +89,8 @@ def convention_hints(
         return ()  # M, C, G and V agree as they are: what fails is no convention
     found: list[_Candidate] = []
     for candidate in _candidates(base, kind, names):
+        if candidate.inconsistent != (GV_ROW in beyond):
+            continue  # G = dV/dq fails exactly when the candidate is G's sign alone or V's alone
         if (not found or candidate.tier <= found[0].tier) and _agrees(candidate, kept, states, base):
             found = [c for c in found if c.tier <= candidate.tier] + [candidate]
     return tuple(c.line for c in sorted(found, key=lambda c: c.tier)[:MAX_HINTS])
@@ -129,6 +136,21 @@ def _candidates(ref: Reference, kind: str | None, coordinates: Sequence[str] = (
         "V = m g h grows with the height h against gravity, and G = +dV/dq",
         ref,
         gravity=-1.0,
+        potential=-1.0,
+    )
+    yield _Candidate(
+        "hint: the mismatch vanishes with G's sign reversed: your G is -dV/dq of your own V; G = +dV/dq "
+        "(the torque gravity asks of the joints, V = m g h growing with the height h)",
+        ref,
+        gravity=-1.0,
+        inconsistent=True,
+    )
+    yield _Candidate(
+        "hint: the mismatch vanishes with V's sign reversed: your V falls as the links rise; V = m g h grows "
+        "with the height h against gravity (and G = +dV/dq, as your G has it)",
+        ref,
+        potential=-1.0,
+        inconsistent=True,
     )
     yield _Candidate(
         "hint: the mismatch vanishes with C transposed: your C[i,j] is the Christoffel C[j,i] "
@@ -197,7 +219,7 @@ def _agrees(c: _Candidate, kept: Mapping[str, Accumulator], states: Sequence[Any
         "G": lambda s: c.gravity * c.ref.gravity(s.q),
         "M": lambda s: c.ref.mass_matrix(s.q),
         "C": lambda s: c.ref.coriolis_matrix(s.q, s.v).T if c.transpose else c.ref.coriolis_matrix(s.q, s.v),
-        "V": lambda s: np.atleast_1d(c.gravity * (c.ref.potential_energy(s.q) - v_anchor)),
+        "V": lambda s: np.atleast_1d(c.potential * (c.ref.potential_energy(s.q) - v_anchor)),
     }
     used = [k for k in ("G", "M", "C", "V") if k in kept]
     expected = {k: [] for k in used}  # type: dict[str, list[Array]]

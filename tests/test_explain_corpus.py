@@ -144,3 +144,17 @@ def test_a_term_below_the_checks_own_tolerance_does_not_unname_a_slip(tmp_path, 
     out = capsys.readouterr().out
     g0 = next(line for line in out.splitlines() if line.startswith("G[0]: formula - Pinocchio ="))
     assert g0.startswith("G[0]: formula - Pinocchio = -m3*h3*g*sin(th1 + th2 + th3)   (coefficient -0.174 = -m3*h3*g")
+
+
+def test_c_entries_off_by_equal_and_opposite_amounts_are_each_listed(tmp_path, capsys):
+    """C[1,2] and C[2,1] off by +e and -e: C is no symmetric quantity, so both are mismatches (and explained).
+
+    Listing one entry of a pair whose |errors| agree is right for M alone; applied to C it hid C[2,1].
+    """
+    robot = ROBOTS["scara"]
+    case = next(c for c in robot.cases if c.id == "scara-factor-two-dM3")
+    planted = tmp_path / "planted.py"
+    planted.write_text(verify.planted_text(robot, case), encoding="utf-8")
+    assert main(["check", robot.model, "--formula", str(planted), "--explain", "--samples", "40"]) == 1
+    explained = {line.split(":")[0] for line in capsys.readouterr().out.splitlines() if "formula - Pinocchio =" in line}
+    assert explained == {"C[1,1]", "C[1,2]", "C[2,1]"}

@@ -238,6 +238,9 @@ class Accumulator:
         return with_mismatches(row, self.pairs, samples, scalar=scalar)
 
 
+SYMMETRIC = ("M",)  # entries in pairs M[i,j] = M[j,i]; not C, whose errors may be equal and opposite
+
+
 def with_mismatches(
     row: CheckRow, pairs: list[tuple[Array, Array]], samples: list[Any], *, scalar: bool = False
 ) -> CheckRow:
@@ -256,10 +259,12 @@ def with_mismatches(
     # A symmetric quantity (M) lists one entry of each pair: the pair's errors agree to round-off (a formula that
     # computes M[1,0] another way than M[0,1] differs from it by a few eps); a formula's M that is asymmetric by
     # more lists both.
+    signed = vals - refs
     symmetric = (
-        per_entry.ndim == 2
+        row.quantity in SYMMETRIC
+        and per_entry.ndim == 2
         and per_entry.shape[0] == per_entry.shape[1]
-        and float(np.max(np.abs(errors - errors.transpose(0, 2, 1)))) <= _roundoff(row, refs, vals)
+        and float(np.max(np.abs(signed - signed.transpose(0, 2, 1)))) <= _roundoff(row, refs, vals)
     )
     found = []
     out_of_tolerance = (per_entry / scale > row.tolerance) & (per_entry > row.floor)  # not round-off either

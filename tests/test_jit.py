@@ -98,8 +98,8 @@ def test_a_changed_callee_reaches_its_callers_cached_code(tmp_path: Path) -> Non
     edited = _run(KINEMATICS, src, cache)
     assert edited.returncode == 0, edited.stderr
     new_key, cached, pot = edited.stdout.split()
-    assert new_key != key and cached == "False"
     assert float(pot) == 2.0 * POTENTIAL  # the caller runs the edited callee
+    assert new_key != key and cached == "False"
     assert len(list(cache.rglob(jit.PREFIX + "*"))) == 1  # the old key's code is gone
 
 

@@ -114,6 +114,7 @@ def test_a_first_compile_says_so_on_stderr_and_a_cached_run_does_not(tmp_path: P
     assert second.returncode == 0 and "CompileNotice" not in second.stderr, second.stderr
 
 
+@pytest.mark.filterwarnings("default::robodyn.errors.CompileNotice")
 def test_the_command_line_shows_a_compile_notice_as_one_note_line(capsys: pytest.CaptureFixture[str]) -> None:
     with _numeric_warnings("simulate"):
         warnings.warn("compiling the kernels", CompileNotice, stacklevel=1)

@@ -144,15 +144,15 @@ def _numeric_warnings(command: str) -> Iterator[Counter[str]]:
     They would break the one-line promise (a warning and its source line in the middle of a
     progress bar); :func:`main` folds their count into one note. robodyn's own
     :class:`~robodyn.errors.ModelWarning` is one line ``robodyn COMMAND: warning: ...`` (each
-    message once), a :class:`~robodyn.errors.CompileNotice` one line ``robodyn COMMAND: note: ...``.
-    Other warnings pass through.
+    message once), a :class:`~robodyn.errors.CompileNotice` one line ``robodyn COMMAND: note: ...``
+    (said once per process by :mod:`robodyn.sim.jit`; ``PYTHONWARNINGS=ignore`` silences it, as the
+    test suite does). Other warnings pass through.
     """
     counts: Counter[str] = Counter()
     shown_once: set[str] = set()
     with warnings.catch_warnings():
         warnings.simplefilter("always", RuntimeWarning)
         warnings.simplefilter("always", ModelWarning)  # deduplicated below, by message
-        warnings.simplefilter("always", CompileNotice)  # said once per process by robodyn.sim.jit
         show = warnings.showwarning
 
         def count(

@@ -32,7 +32,6 @@ from robodyn.errors import CompileNotice
 # constants they read (tree_layout), and the closed forms that fast.py compiles (kinds).
 # tests/test_jit.py checks that each file declaring a kernel with njit is listed.
 KERNEL_SOURCES = (
-    "sim/jit.py",
     "sim/fast.py",
     "sim/tree_body.py",
     "sim/tree_events.py",

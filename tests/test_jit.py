@@ -131,11 +131,17 @@ def test_announce_says_each_thing_once() -> None:
     ]
 
 
-def test_warmup_compiles_a_group_and_says_how_long(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["warmup", "--only", "closed-forms"]) == 0
-    out = capsys.readouterr().out.splitlines()
+@pytest.mark.timeout(900)
+def test_warmup_fills_the_cache_and_says_how_long(tmp_path: Path) -> None:
+    code = "import sys; from robodyn.cli import main; sys.exit(main(['warmup', '--only', 'closed-forms']))"
+    done = _run(code, SRC, tmp_path / "cache")
+    assert done.returncode == 0, done.stderr
+    out = done.stdout.splitlines()
     assert re.fullmatch(r"closed-forms: .* \.\.\. \d+\.\d s", out[0]), out
     assert re.fullmatch(r"warmup: 1 group compiled or loaded in \d+\.\d s", out[1]), out
+    assert "note:" not in done.stderr  # its own lines say it
+    # the closed-form run kernel is in the cache of this key: a later run loads it
+    assert list((tmp_path / "cache").rglob(f"{jit.PREFIX}*/fast._kernels.locals.run-*.nbi")), done.stdout
 
 
 def test_warmup_refuses_an_unknown_group_in_one_line(capsys: pytest.CaptureFixture[str]) -> None:

@@ -7,7 +7,7 @@ with an empty ``NUMBA_CACHE_DIR`` of its own (what a fresh install pays: numba c
 kernels the run needs), then again with that cache (what every later run pays). The wall time
 and the child's CPU time (user + system: what a quiet machine's wall time would be, near
 enough, since the compile is single-threaded) are measured for each, with the load average
-before and after, and the compile note the first run printed on stderr. The goals of issue 40
+before and after, and the compile note the first run printed on stderr. The goals
 (a quiet 2-core machine: pendubot at most 15 s, panda at most 45 s) are printed beside the
 figures; on a busy machine judge by the CPU time. Prints a table and writes first_run.json to --out.
 """
@@ -25,7 +25,7 @@ from typing import Any
 
 from _common import argument_parser, finish_facts, output_folder, run_facts, write_json
 
-GOALS = {"pendubot": 15.0, "panda": 45.0}  # [s] on a fresh install, quiet 2-core machine (issue 40)
+GOALS = {"pendubot": 15.0, "panda": 45.0}  # [s] on a fresh install, quiet 2-core machine
 
 
 def _loadavg() -> list[float]:

@@ -110,7 +110,29 @@ def _cache_class() -> Any:
     class KeyedCache(caching.FunctionCache):  # type: ignore[misc]
         _impl_class = KeyedImpl
 
+        def _index_key(self, sig: Any, codegen: Any) -> Any:
+            """The key numba would give, with the kernels a closure calls named rather than pickled.
+
+            numba pickles a closure's cells, and a pickled dispatcher carries an id drawn anew in
+            each process: the closures of :mod:`robodyn.sim.fast` missed the cache in every
+            process. Within one key's folder a kernel's name says which code it is.
+            """
+            cells = self._py_func.__closure__ or ()
+            names = [_cell_name(cell.cell_contents) for cell in cells]
+            code = hashlib.sha256(self._py_func.__code__.co_code).hexdigest()
+            return (sig, codegen.magic_tuple(), (code, hashlib.sha256("|".join(names).encode()).hexdigest()))
+
     return KeyedCache
+
+
+def _cell_name(value: Any) -> str:
+    """A closure cell in a cache key: a kernel by its module and name, anything else by its pickle."""
+    func = getattr(value, "py_func", None)
+    if func is not None:
+        return f"{func.__module__}.{func.__qualname__}"
+    from numba.core.serialize import dumps
+
+    return hashlib.sha256(dumps(value)).hexdigest()
 
 
 def njit(**options: Any) -> Callable[[Callable[..., Any]], Any]:

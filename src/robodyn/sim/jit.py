@@ -8,7 +8,7 @@ therefore declared with :func:`njit`, whose cache lives in a folder of its own f
 :func:`cache_key` (robodyn's version and a hash of every file in :data:`KERNEL_SOURCES`):
 ``robodyn-<version>-<hash>/`` inside the folder numba would use (``NUMBA_CACHE_DIR`` when set,
 else the ``__pycache__`` beside the sources, else numba's user-wide cache). Other keys' folders
-there are removed when a new one is made.
+there, unused for an hour, are removed when a new one is made.
 
 A first compile on a machine takes tens of seconds to minutes. :func:`announce` says so once per
 process, as a :class:`~robodyn.errors.CompileNotice` warning (library code never prints): the
@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import hashlib
 import shutil
+import time
 import warnings
 from collections.abc import Callable
 from functools import lru_cache
@@ -46,6 +47,9 @@ KERNEL_SOURCES = (
     "kinds/pendubot.py",
 )
 PREFIX = "robodyn-"
+# An other key's folder written to within this long [s] may serve a process started before an
+# edit or an upgrade: it is left for the next new key to remove.
+IN_USE_S = 3600.0
 HASH_CHARS = 16  # of the sources' sha256 in the key: 64 bits, no two edits alike in practice
 
 WARMUP_HINT = "once per machine and robodyn version; `robodyn warmup` does it ahead"
@@ -92,7 +96,8 @@ def _keyed(base: Any) -> Any:
             path = Path(self.get_cache_path())
             if not path.is_dir():  # a new key: the other keys' code can never run again here
                 for old in path.parent.glob(PREFIX + "*"):
-                    shutil.rmtree(old, ignore_errors=True)
+                    if time.time() - old.stat().st_mtime > IN_USE_S:
+                        shutil.rmtree(old, ignore_errors=True)
             super().ensure_cache_path()
 
     Keyed.__name__ = Keyed.__qualname__ = f"Keyed{base.__name__}"

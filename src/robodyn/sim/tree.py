@@ -77,7 +77,7 @@ _TYPES: dict[str, tuple[int, tuple[float, float, float] | None]] = {
     "JointModelRevoluteUnboundedUnaligned": (CONTINUOUS, None),
     "JointModelFreeFlyer": (FREEFLYER, (0.0, 0.0, 0.0)),
 }
-# What a first compile of the tree kernels says it does (robodyn.sim.jit.announce); 85 s of CPU on 2 quiet cores
+# What a first compile of the tree kernels says it does (robodyn.sim.jit.announce): about 100 s of CPU, measured
 COMPILING = ("the tree-robot kernels", "one to two minutes")
 
 

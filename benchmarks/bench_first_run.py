@@ -23,7 +23,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from _common import argument_parser, finish_facts, output_folder, run_facts, write_json
+from _common import argument_parser, output_folder, run_facts, write_json
 
 GOALS = {"pendubot": 15.0, "panda": 45.0}  # [s] on a fresh install, quiet 2-core machine
 
@@ -74,7 +74,7 @@ def main() -> int:
             cached = timed_run(model, args.duration, cache)
         rows[model] = {"goal_s": GOALS.get(model), "first": first, "cached": cached}
     result = {"duration_s": args.duration, "runs": rows}
-    path = write_json(out, "first_run", result, finish_facts(facts))
+    path = write_json(out, "first_run", result, facts)
     print(f"robodyn simulate MODEL --duration {args.duration:g}, load average before: {facts['load_before']}")
     print(f"{'model':10} {'first wall':>11} {'first CPU':>10} {'cached wall':>12} {'cached CPU':>11} {'goal':>7}")
     for model, row in rows.items():

@@ -47,7 +47,7 @@ KERNEL_SOURCES = (
     "kinds/pendubot.py",
 )
 PREFIX = "robodyn-"
-# An other key's folder written to within this long [s] may serve a process started before an
+# Another key's folder written to within this long [s] may serve a process started before an
 # edit or an upgrade: it is left for the next new key to remove.
 IN_USE_S = 3600.0
 HASH_CHARS = 16  # of the sources' sha256 in the key: 64 bits, no two edits alike in practice

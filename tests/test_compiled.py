@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import os
 from pathlib import Path
 
 import numpy as np
@@ -237,28 +236,6 @@ def test_numba_backend_in_the_python_pipeline_agrees() -> None:
     ref = robodyn.simulate(robot, [0.3, 0.2], [0, 0], duration=0.2, dt=1e-2, integrator="dopri5", backend="aba")
     assert (got.meta["backend"], got.meta["loop"]) == ("numba", "python")
     assert _relative(got.q, ref.q) < 1e-9  # adaptive step choices see round-off, then converge to rtol
-
-
-def test_cached_steps_older_than_the_kernels_are_dropped(tmp_path: Path) -> None:
-    # numba keys tree_steps' cache on tree_steps.py alone; its steps inline tree_kernels' kernels
-    sources = [tmp_path / "tree_kernels.py", tmp_path / "tree_steps.py"]
-    cache = tmp_path / "__pycache__"
-    cache.mkdir()
-    old = [cache / "tree_steps.run_block-232.py311.nbi", cache / "tree_steps.run_block-232.py311.1.nbc"]
-    old += [cache / "tree_kernels.aba-300.py311.nbi"]
-    kept = [cache / "tree_steps.stages-125.py311.nbi", cache / "other.f-1.py311.nbi"]
-    for path in old + kept:
-        path.write_bytes(b"x")
-    sources[0].write_text("# edited\n")
-    sources[1].write_text("# older\n")
-    edit = sources[0].stat().st_mtime
-    os.utime(sources[1], (edit - 100.0,) * 2)
-    for path in old + kept[1:]:
-        os.utime(path, (edit - 10.0,) * 2)  # compiled before the edit (another module's cache is not touched)
-    os.utime(kept[0], (edit + 10.0,) * 2)  # compiled after it
-    assert sorted(tree.drop_stale_caches(cache, sources)) == sorted(old)
-    assert all(not p.exists() for p in old) and all(p.exists() for p in kept)
-    assert tree.drop_stale_caches(tmp_path / "missing", sources) == []
 
 
 def test_a_refused_numba_backend_gives_its_advice_once(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -921,6 +921,29 @@ def _explain(data: dict[str, Any]) -> str:
     return "\n".join(out) + "\n"
 
 
+def _first_run(data: dict[str, Any]) -> str:
+    """benchmarks/bench_first_run.py: robodyn simulate with an empty numba cache, then cached."""
+    out = [
+        f"`robodyn simulate MODEL --duration {data['duration_s']:g}`, each run a fresh process:",
+        "",
+        "| model | first run (empty cache): wall | its CPU | later runs (cached): wall | their CPU | goal (2 cores) |",
+        "|---|---|---|---|---|---|",
+    ]
+    notes = []
+    for model, row in data["runs"].items():
+        first, cached = row["first"], row["cached"]
+        goal = f"{row['goal_s']:g} s" if row.get("goal_s") else "–"
+        out.append(
+            f"| {model} | {first['wall_s']:.1f} s | {first['cpu_s']:.1f} s | {cached['wall_s']:.1f} s | "
+            f"{cached['cpu_s']:.1f} s | {goal} |"
+        )
+        if first.get("compile_note"):
+            notes.append(first["compile_note"])
+    if notes:
+        out += ["", f"The first run's line on stderr: `{notes[0]}`"]
+    return "\n".join(out) + "\n"
+
+
 RENDERERS: dict[str, Callable[[dict[str, Any]], str]] = {
     "explain": _explain,
     "explain_before": _explain,
@@ -937,6 +960,7 @@ RENDERERS: dict[str, Callable[[dict[str, Any]], str]] = {
     "fuzz": _fuzz,
     "fuzz_interrupts": _fuzz_interrupts,
     "world_urdfs": _world_urdfs,
+    "first_run": _first_run,
 }
 
 

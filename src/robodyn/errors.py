@@ -49,6 +49,14 @@ class ModelWarning(UserWarning):
     """
 
 
+class CompileNotice(UserWarning):
+    """A kernel compiles now, once per machine and robodyn version: the message says what and about how long.
+
+    Library code never prints; the command line shows it as one ``note:`` line on stderr, and a
+    notebook under the cell that waits (Python shows a warning once per place it is raised).
+    """
+
+
 class InputError(RobodynError, ValueError):
     """A value given by the user has the wrong shape, sign or type."""
 

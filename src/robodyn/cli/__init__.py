@@ -25,7 +25,7 @@ from collections.abc import Iterator, Sequence
 from typing import TextIO
 
 from robodyn import __version__
-from robodyn.errors import EXIT_BAD_INPUT, ModelWarning, RobodynError
+from robodyn.errors import EXIT_BAD_INPUT, CompileNotice, ModelWarning, RobodynError
 from robodyn.fileio import pause_for_test
 
 DESCRIPTION = "robodyn: rigid-body robot dynamics checked against Pinocchio, simulated and replayed."
@@ -51,9 +51,9 @@ def get_argument_parser() -> argparse.ArgumentParser:
     sub.required = True
     # Each subcommand module is light to import (its heavy imports happen inside its ``run``);
     # plain imports, in the order --help shows them, so that import-linter sees every edge.
-    from robodyn.cli import bench, check, derive, info, params, portrait, run, simulate, sweep, view
+    from robodyn.cli import bench, check, derive, info, params, portrait, run, simulate, sweep, view, warmup
 
-    for module in (info, params, check, derive, simulate, view, portrait, bench, run, sweep):
+    for module in (info, params, check, derive, simulate, view, portrait, bench, run, sweep, warmup):
         module.add_parser(sub)
     return parser
 
@@ -144,7 +144,9 @@ def _numeric_warnings(command: str) -> Iterator[Counter[str]]:
     They would break the one-line promise (a warning and its source line in the middle of a
     progress bar); :func:`main` folds their count into one note. robodyn's own
     :class:`~robodyn.errors.ModelWarning` is one line ``robodyn COMMAND: warning: ...`` (each
-    message once). Other warnings pass through.
+    message once), a :class:`~robodyn.errors.CompileNotice` one line ``robodyn COMMAND: note: ...``
+    (said once per process by :mod:`robodyn.sim.jit`; ``PYTHONWARNINGS=ignore`` silences it, as the
+    test suite does). Other warnings pass through.
     """
     counts: Counter[str] = Counter()
     shown_once: set[str] = set()
@@ -167,6 +169,8 @@ def _numeric_warnings(command: str) -> Iterator[Counter[str]]:
                 if str(message) not in shown_once:  # the file is read more than once by some commands
                     shown_once.add(str(message))
                     print(f"robodyn {command}: warning: {message}", file=sys.stderr)
+            elif issubclass(category, CompileNotice):
+                print(f"robodyn {command}: note: {message}", file=sys.stderr, flush=True)
             else:
                 show(message, category, filename, lineno, file, line)
 

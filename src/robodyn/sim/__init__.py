@@ -10,4 +10,6 @@
   method's step);
 * many states at once (``batch``), the compiled closed forms (``fast``) and the compiled path for
   any tree (``tree``, ``tree_kernels``, ``tree_steps``, ``tree_events``, ``tree_impacts``, ``whole_run``).
+* how the compiled kernels are declared and cached (``jit``: one key of robodyn's version and the
+  kernels' sources) and compiled ahead (``warmup``, ``robodyn warmup``).
 """

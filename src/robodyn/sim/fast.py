@@ -33,6 +33,7 @@ from robodyn.kinds import cart_pole, geared_arm, pendubot
 from robodyn.kinds import params as params_module
 from robodyn.kinds.formula import solve_2x2
 from robodyn.kinds.formulas import closed_form
+from robodyn.sim import jit
 from robodyn.sim.trajectory import Trajectory
 
 if TYPE_CHECKING:
@@ -44,6 +45,8 @@ Array = NDArray[np.float64]
 CODES: dict[str, int] = {"pendubot": 0, "cart_pole": 1, "geared_arm": 2}
 KINDS: dict[str, tuple[int, tuple[str, ...]]] = {kind: (code, closed_form(kind).params) for kind, code in CODES.items()}
 METHODS = ("rk4", "semi_implicit_euler")
+# What a first compile of these kernels says it does (robodyn.sim.jit.announce)
+COMPILING = ("the closed-form kernels of the built-in kinds", "about half a minute")
 
 # Closed form against Pinocchio's ABA, relative to the largest acceleration: both are exact
 # formulas evaluated in float64, so they differ by a few hundred ulps at most.
@@ -58,7 +61,7 @@ def _kernels() -> dict[str, Any]:
         import numba
     except ImportError:  # pragma: no cover - numba is a declared dependency
         raise MissingDependencyError("the fast path needs numba: pip install numba") from None
-    njit = numba.njit(cache=True, fastmath=False, nogil=True)
+    njit = jit.njit(fastmath=False, nogil=True)
 
     pm, pc, pg, pp = (njit(f) for f in (pendubot.mass, pendubot.coriolis, pendubot.gravity, pendubot.potential))
     cm, cc, cg, cp = (njit(f) for f in (cart_pole.mass, cart_pole.coriolis, cart_pole.gravity, cart_pole.potential))
@@ -152,7 +155,7 @@ def _kernels() -> dict[str, Any]:
         for k in range(Q.shape[0]):
             A[k, 0], A[k, 1] = acc(kind, p, b, Q[k, 0], Q[k, 1], V[k, 0], V[k, 1], T[k, 0], T[k, 1])
 
-    @numba.njit(cache=True, nogil=True, parallel=True)
+    @jit.njit(nogil=True, parallel=True)
     def batch_rk4(kind, p, b, nv, Q, V, dt, n, blocks):  # type: ignore[no-untyped-def]
         """Classic RK4 (the arithmetic of ``run``) on every state of Q, V (m, 2), in place, one prange over blocks."""
         h = dt
@@ -185,6 +188,8 @@ def _kernels() -> dict[str, Any]:
         return 0
 
     # Compile now (or load numba's cache), so that no timed run pays for it.
+    if not all(jit.is_cached(f) for f in (run, energy_series, acc_batch)):
+        jit.announce(*COMPILING)
     z2, z = np.zeros(2), np.zeros((2, 2))
     for method in (0, 1):
         run(2, method, np.ones(6), z2, 1, z2, z2, z2, 1e-3, 1, z.copy(), z.copy(), z.copy())
@@ -397,6 +402,6 @@ def _cumtrapz(y: Array, dt: float) -> Array:
     return out
 
 
-def warm_up() -> None:
-    """Compile (or load from numba's cache) every kernel now; later runs time the loop only."""
-    _kernels()
+def warm_up() -> dict[str, Any]:
+    """Compile (or load from numba's cache) every kernel now; later runs time the loop only. Returns them by name."""
+    return _kernels()

@@ -27,7 +27,6 @@ from __future__ import annotations
 import weakref
 from dataclasses import dataclass
 from functools import lru_cache
-from pathlib import Path
 from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
@@ -36,6 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from robodyn import dynamics
 from robodyn.errors import AssumptionError, InputError, MissingDependencyError
+from robodyn.sim import jit
 from robodyn.sim.tree_layout import (
     CONTINUOUS,
     F_ARM6,
@@ -83,8 +83,8 @@ _TYPES: dict[str, tuple[int, tuple[float, float, float] | None]] = {
     "JointModelRevoluteUnboundedUnaligned": (CONTINUOUS, None),
     "JointModelFreeFlyer": (FREEFLYER, (0.0, 0.0, 0.0)),
 }
-# The compiled kernels' modules, whose numba caches must agree with each other (drop_stale_caches).
-KERNEL_MODULES = ("tree_layout", "tree_body", "tree_flyer", "tree_kernels", "tree_steps", "tree_impacts", "tree_events")
+# What a first compile of the tree kernels says it does (robodyn.sim.jit.announce): about 100 s of CPU, measured
+COMPILING = ("the tree-robot kernels", "one to two minutes")
 
 
 @dataclass(frozen=True, eq=False)
@@ -207,25 +207,12 @@ def extract(robot: Robot) -> TreeModel:
     return TreeModel(robot.name, int(model.nq), int(model.nv), itree, ftree, grav)
 
 
-def drop_stale_caches(folder: Path, sources: list[Path]) -> list[Path]:
-    """Remove numba's cached functions of the kernel modules compiled before any of ``sources`` last changed.
-
-    numba keys a cached function on its own source file's time stamp, while the kernels inline
-    each other across modules (``tree_steps`` the kernels of ``tree_kernels``, which inline
-    ``tree_body`` and ``tree_flyer``): after an edit of one file alone, the cached functions of
-    the others would still run the old code. Every cache file of those modules older than the
-    newest source is dropped. Only the cache beside the sources (``__pycache__``, where numba
-    writes it when the folder is writable) is looked at; an install writes every file anew, so
-    its caches are never stale this way. Returns what was removed.
-    """
-    try:
-        changed = max(p.stat().st_mtime for p in sources)
-        stale = [p for source in sources for p in folder.glob(f"{source.stem}.*.nb[ic]") if p.stat().st_mtime < changed]
-    except (OSError, ValueError):  # no cache folder, no sources, or sources not on disk: nothing to compare
-        return []
-    for path in stale:
-        path.unlink(missing_ok=True)
-    return stale
+def one_joint() -> tuple[NDArray[np.int64], Array, Array]:
+    """(itree, ftree, grav) of a one-joint tree (a unit revolute about z), to load or compile the kernels with."""
+    itree = np.array([[-1, 0, 0, 0]], dtype=np.int64)
+    ftree = np.zeros((1, FCOLS))
+    ftree[0, [2, 3, 7, 11, 15, 19, 23, 27]] = 1.0
+    return itree, ftree, np.array([0.0, 0.0, -9.81])
 
 
 @lru_cache(maxsize=1)
@@ -234,16 +221,13 @@ def kernels() -> ModuleType:
 
     A one-joint tree runs each kernel once here, so that no timed run pays for loading it.
     """
-    here = Path(__file__)
-    drop_stale_caches(here.with_name("__pycache__"), [here.with_name(f"{m}.py") for m in KERNEL_MODULES])
     try:
         from robodyn.sim import tree_steps as k
     except ImportError as exc:  # pragma: no cover - numba is a declared dependency
         raise MissingDependencyError(f"the compiled path needs numba: pip install numba ({exc})") from None
-    itree = np.array([[-1, 0, 0, 0]], dtype=np.int64)
-    ftree = np.zeros((1, FCOLS))
-    ftree[0, [2, 3, 7, 11, 15, 19, 23, 27]] = 1.0
-    grav = np.array([0.0, 0.0, -9.81])
+    if not all(jit.is_cached(f) for f in (k.aba, k.rnea, k.crba, k.kinematics, k.sample)):
+        jit.announce(*COMPILING)
+    itree, ftree, grav = one_joint()
     one, ws = np.zeros(1), np.zeros((1, k.WCOLS))
     k.aba(itree, ftree, grav, one, one, one, ws, np.zeros(1))
     k.rnea(itree, ftree, grav, one, one, one, ws, np.zeros(1))
@@ -261,13 +245,13 @@ def event_kernels() -> ModuleType:
 
     A one-joint tree with a stop runs them once here, so that no timed run pays for loading them.
     """
-    steps = kernels()  # drops the stale caches of every kernel module first
+    steps = kernels()
     from robodyn.sim import tree_events as k
 
-    itree = np.array([[-1, 0, 0, 0]], dtype=np.int64)
-    ftree = np.zeros((1, FCOLS))
-    ftree[0, [2, 3, 7, 11, 15, 19, 23, 27]] = 1.0
-    grav = np.array([0.0, 0.0, -9.81])
+    if not jit.is_cached(k.run_events):
+        jit.announce(*COMPILING)
+
+    itree, ftree, grav = one_joint()
     forces, springs = np.zeros((4, 1)), np.zeros((4, 0))
     forces[3, 0] = 1e-3
     stops = np.array([[0.0], [0.0], [-1.0], [1.0], [1e-14], [0.0]])

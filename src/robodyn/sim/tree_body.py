@@ -7,8 +7,7 @@ Panda's pass 1 40 %, measured).
 
 from __future__ import annotations
 
-import numba
-
+from robodyn.sim import jit
 from robodyn.sim.tree_layout import (
     F_INERTIA,
     F_LEVER,
@@ -17,7 +16,7 @@ from robodyn.sim.tree_layout import (
     W_PA,
 )
 
-njit_inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+njit_inline = jit.njit(nogil=True, error_model="numpy", inline="always")
 
 
 @njit_inline

@@ -9,8 +9,7 @@ from __future__ import annotations
 
 import math
 
-import numba
-
+from robodyn.sim import jit
 from robodyn.sim.tree_body import body
 from robodyn.sim.tree_layout import (
     F_ARM6,
@@ -32,7 +31,7 @@ from robodyn.sim.tree_layout import (
     W_V,
 )
 
-njit = numba.njit(cache=True, nogil=True, error_model="numpy")
+njit = jit.njit(nogil=True, error_model="numpy")
 
 
 @njit

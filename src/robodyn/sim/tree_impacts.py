@@ -12,9 +12,9 @@ kernels that read it. The arithmetic and order are those of :class:`robodyn.sim.
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
+from robodyn.sim import jit
 from robodyn.sim.tree_kernels import crba
 from robodyn.sim.tree_layout import W_LAMBDA, W_LOCK
 from robodyn.sim.tree_steps import rates
@@ -31,7 +31,7 @@ PCOLS = 10
 # stops rows: index in q, index in v, lower, upper, tolerance, tree row
 S_IQ, S_IV, S_LO, S_HI, S_TOL, S_ROW = 0, 1, 2, 3, 4, 5
 
-njit = numba.njit(cache=True, error_model="numpy")  # holds the GIL: a torque callable runs in object mode
+njit = jit.njit(error_model="numpy")  # holds the GIL: a torque callable runs in object mode
 
 
 @njit

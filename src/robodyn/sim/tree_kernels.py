@@ -57,9 +57,9 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
+from robodyn.sim import jit
 from robodyn.sim.tree_body import body
 from robodyn.sim.tree_flyer import (
     ff_force,
@@ -97,7 +97,7 @@ from robodyn.sim.tree_layout import (
     W_V,
 )
 
-njit = numba.njit(cache=True, nogil=True, error_model="numpy")
+njit = jit.njit(nogil=True, error_model="numpy")
 
 
 @njit

@@ -17,12 +17,13 @@ import math
 import numba
 import numpy as np
 
+from robodyn.sim import jit
 from robodyn.sim.tree_kernels import aba, crba, integrate, kinematics, rnea
 from robodyn.sim.tree_layout import W_LAMBDA, W_LOCK, WCOLS
 
 __all__ = ["WCOLS", "aba", "crba", "integrate", "kinematics", "rnea"]
 
-njit = numba.njit(cache=True, nogil=True, error_model="numpy")
+njit = jit.njit(nogil=True, error_model="numpy")
 
 # method codes of step / batch_rollout (and of robodyn.sim.tree_events.run_events)
 RK, RK4, SEMI_IMPLICIT_EULER = 0, 1, 2
@@ -50,7 +51,7 @@ def call_torque(key: int, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         return np.full(v.size, np.nan)
 
 
-@numba.njit(cache=True, error_model="numpy")  # no nogil: a torque callable runs in object mode
+@jit.njit(error_model="numpy")  # no nogil: a torque callable runs in object mode
 def _callable_torque(cb, t, q, v):  # type: ignore[no-untyped-def]
     with numba.objmode(tau_in="float64[::1]"):
         tau_in = call_torque(cb, t, q, v)
@@ -230,7 +231,7 @@ def sample(itree, ftree, grav, t, q, u, forces, springs, cb, held, release_tol, 
     return kin, pot, _pulling(ws, held, release_tol)
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy", parallel=True)
+@jit.njit(nogil=True, error_model="numpy", parallel=True)
 def batch_rollout(itree, ftree, grav, method, tab, h, steps, Q, V, forces, springs, blocks):  # type: ignore[no-untyped-def]
     """Step every state of Q (n, nq), V (n, nv) through ``steps`` steps of h [s], in place.
 

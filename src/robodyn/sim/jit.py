@@ -1,0 +1,185 @@
+"""How robodyn's numba kernels are compiled and cached: one decorator, one cache key, one notice.
+
+numba's ``cache=True`` keys a function's machine code on its own source file and bytecode only.
+The kernels call each other across files (``tree_steps`` calls ``tree_kernels``, which inlines
+``tree_body``; ``fast`` compiles the closed forms of ``kinds``), so after an edit of a callee, or
+an upgrade of robodyn, the callers' cached code would still run the old callee. Every kernel is
+therefore declared with :func:`njit`, whose cache lives in a folder of its own for each
+:func:`cache_key` (robodyn's version and a hash of every file in :data:`KERNEL_SOURCES`):
+``robodyn-<version>-<hash>/`` inside the folder numba would use (``NUMBA_CACHE_DIR`` when set,
+else the ``__pycache__`` beside the sources, else numba's user-wide cache). Other keys' folders
+there, unused for an hour, are removed when a new one is made.
+
+A first compile on a machine takes tens of seconds to minutes. :func:`announce` says so once per
+process, as a :class:`~robodyn.errors.CompileNotice` warning (library code never prints): the
+command line prints it as one ``note:`` line on stderr, and a notebook shows it under the cell
+that waits. numba is imported on first use, never at ``import robodyn``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import shutil
+import time
+import warnings
+from collections.abc import Callable
+from functools import lru_cache
+from pathlib import Path
+from typing import Any
+
+from robodyn.errors import CompileNotice
+
+# Every file whose code or constants a kernel compiles in: the kernels' own modules, the
+# constants they read (tree_layout), and the closed forms that fast.py compiles (kinds).
+# tests/test_jit.py checks that each file declaring a kernel with njit is listed.
+KERNEL_SOURCES = (
+    "sim/fast.py",
+    "sim/tree_body.py",
+    "sim/tree_events.py",
+    "sim/tree_flyer.py",
+    "sim/tree_impacts.py",
+    "sim/tree_kernels.py",
+    "sim/tree_layout.py",
+    "sim/tree_steps.py",
+    "kinds/cart_pole.py",
+    "kinds/formula.py",
+    "kinds/geared_arm.py",
+    "kinds/pendubot.py",
+)
+PREFIX = "robodyn-"
+# Another key's folder written to within this long [s] may serve a process started before an
+# edit or an upgrade: it is left for the next new key to remove.
+IN_USE_S = 3600.0
+HASH_CHARS = 16  # of the sources' sha256 in the key: 64 bits, no two edits alike in practice
+
+WARMUP_HINT = "once per machine and robodyn version; `robodyn warmup` does it ahead"
+
+
+def cache_key(version: str, root: Path) -> str:
+    """``<version>-<hash>``: the hash covers the bytes of every :data:`KERNEL_SOURCES` file under ``root``.
+
+    Args:
+        version: robodyn's version string.
+        root: the folder of the ``robodyn`` package.
+    """
+    digest = hashlib.sha256()
+    for name in KERNEL_SOURCES:
+        digest.update(name.encode())
+        digest.update((root / name).read_bytes())
+    return f"{version}-{digest.hexdigest()[:HASH_CHARS]}"
+
+
+@lru_cache(maxsize=1)
+def current_key() -> str:
+    """The cache key of the installed sources (computed once, at the first kernel declared).
+
+    The version is the installed distribution's (``robodyn/__init__`` imports every layer, which
+    this one may not); sources run without an install count as version ``unknown``.
+    """
+    from importlib import metadata
+
+    try:
+        version = metadata.version("robodyn")
+    except metadata.PackageNotFoundError:
+        version = "unknown"
+    return cache_key(version, Path(__file__).resolve().parents[1])
+
+
+def _keyed(base: Any) -> Any:
+    """Numba's cache locator ``base``, pointed at the :func:`current_key` folder inside its own."""
+
+    class Keyed(base):  # type: ignore[misc, valid-type]
+        def get_cache_path(self) -> str:
+            return str(Path(super().get_cache_path()) / (PREFIX + current_key()))
+
+        def ensure_cache_path(self) -> None:
+            path = Path(self.get_cache_path())
+            if not path.is_dir():  # a new key: the other keys' code can never run again here
+                for old in path.parent.glob(PREFIX + "*"):
+                    if time.time() - old.stat().st_mtime > IN_USE_S:
+                        shutil.rmtree(old, ignore_errors=True)
+            super().ensure_cache_path()
+
+    Keyed.__name__ = Keyed.__qualname__ = f"Keyed{base.__name__}"
+    return Keyed
+
+
+@lru_cache(maxsize=1)
+def _cache_class() -> Any:
+    """Numba's per-function cache with every locator keyed (built once numba is imported)."""
+    from numba.core import caching
+
+    class KeyedImpl(caching.CompileResultCacheImpl):  # type: ignore[misc]
+        _locator_classes = [_keyed(c) for c in caching.CompileResultCacheImpl._locator_classes]  # noqa: RUF012
+
+    class KeyedCache(caching.FunctionCache):  # type: ignore[misc]
+        _impl_class = KeyedImpl
+
+        def _index_key(self, sig: Any, codegen: Any) -> Any:
+            """The key numba would give, with the kernels a closure calls named rather than pickled.
+
+            numba pickles a closure's cells, and a pickled dispatcher carries an id drawn anew in
+            each process: the closures of :mod:`robodyn.sim.fast` missed the cache in every
+            process. Within one key's folder a kernel's name says which code it is.
+            """
+            cells = self._py_func.__closure__ or ()
+            names = [_cell_name(cell.cell_contents) for cell in cells]
+            code = hashlib.sha256(self._py_func.__code__.co_code).hexdigest()
+            return (sig, codegen.magic_tuple(), (code, hashlib.sha256("|".join(names).encode()).hexdigest()))
+
+    return KeyedCache
+
+
+def _cell_name(value: Any) -> str:
+    """A closure cell in a cache key: a kernel by its module and name, anything else by its pickle."""
+    func = getattr(value, "py_func", None)
+    if func is not None:
+        return f"{func.__module__}.{func.__qualname__}"
+    from numba.core.serialize import dumps
+
+    return hashlib.sha256(dumps(value)).hexdigest()
+
+
+def njit(**options: Any) -> Callable[[Callable[..., Any]], Any]:
+    """``numba.njit(**options)`` with its cache in the :func:`current_key` folder.
+
+    The one way a robodyn kernel is declared: ``@njit(nogil=True, error_model="numpy")``.
+    """
+    import numba
+
+    if "cache" in options:
+        raise TypeError("njit: every kernel is cached under the key of its sources; do not pass cache")
+
+    def declare(func: Callable[..., Any]) -> Any:
+        dispatcher = numba.njit(**options)(func)
+        dispatcher._cache = _cache_class()(func)  # what numba's enable_caching() sets, keyed
+        return dispatcher
+
+    return declare
+
+
+def is_cached(dispatcher: Any) -> bool:
+    """True when ``dispatcher`` (declared with :func:`njit`) has compiled code in its cache folder."""
+    cache = getattr(dispatcher, "_cache", None)
+    path = getattr(cache, "cache_path", None)
+    if path is None:
+        return False
+    func = dispatcher.py_func
+    stem = Path(func.__code__.co_filename).stem
+    name = func.__qualname__.replace("<", "").replace(">", "")
+    return any(Path(path).glob(f"{stem}.{name}-*.nbi"))
+
+
+_ANNOUNCED: set[str] = set()
+
+
+def announce(what: str, duration: str) -> None:
+    """Warn once per process that ``what`` compiles now (``duration``: about how long it takes).
+
+    Shown as ``compiling the tree-robot kernels for this machine (about a minute, once per machine
+    and robodyn version; `robodyn warmup` does it ahead)``.
+    """
+    if what in _ANNOUNCED:
+        return
+    _ANNOUNCED.add(what)
+    warnings.warn(f"compiling {what} for this machine ({duration}, {WARMUP_HINT})", CompileNotice, stacklevel=3)

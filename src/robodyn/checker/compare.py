@@ -14,7 +14,7 @@ Over seeded random states (q uniform in [-pi, pi] around neutral, v and a unifor
   the check, because robodyn uses 1/2 v^T M v.
 
 A ``KIND = "constrained"`` formula (a closed chain's reduced Lagrangian) replaces the formula
-rows by those of :mod:`robodyn.kinds.loop_check`. Errors are relative to the largest magnitude
+rows by those of :mod:`robodyn.checker.compare_constrained`. Errors are relative to the largest magnitude
 the quantity takes over the sampled states.
 Finite differences (dM/dt, dV/dq) use a central step of ``FD_STEP`` and are held to
 ``FD_TOL``.
@@ -41,10 +41,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodyn import dynamics
-from robodyn.errors import AssumptionError, InputError
-from robodyn.kinds import any_check
-from robodyn.kinds.any_file import KIND as ANY
-from robodyn.kinds.check_rows import (
+from robodyn.checker import compare_any
+from robodyn.checker.any_kind import KIND as ANY
+from robodyn.checker.compare_constrained import loop_rows
+from robodyn.checker.constrained_kind import KIND as CONSTRAINED
+from robodyn.checker.explain import Explained, Sets, one_set
+from robodyn.checker.explain_sets import by_reading
+from robodyn.checker.hints import convention_hints
+from robodyn.checker.reference import Reference
+from robodyn.checker.rows import (
     DEFAULT_RTOL,
     FD_STEP,
     FD_TOL,
@@ -56,18 +61,13 @@ from robodyn.kinds.check_rows import (
     formula_values,
     skew_scale,
 )
-from robodyn.kinds.check_scales import scales
-from robodyn.kinds.explain import Explained, Sets, one_set
-from robodyn.kinds.explain_sets import by_reading
+from robodyn.checker.sandbox import DEFAULT_TIMEOUT
+from robodyn.checker.scales import scales
+from robodyn.checker.user_formula import UserFormula, resolve
+from robodyn.checker.velocity_terms import VECTOR
+from robodyn.errors import AssumptionError, InputError
 from robodyn.kinds.formula import Formula
-from robodyn.kinds.hints import convention_hints
-from robodyn.kinds.loop_check import loop_rows
 from robodyn.kinds.params import Params, extract, from_mapping
-from robodyn.kinds.reduced import KIND as CONSTRAINED
-from robodyn.kinds.reference import Reference
-from robodyn.kinds.sandbox import DEFAULT_TIMEOUT
-from robodyn.kinds.user import UserFormula, resolve
-from robodyn.kinds.user_coriolis import VECTOR
 from robodyn.robot import Robot
 
 Array = NDArray[np.float64]
@@ -386,7 +386,7 @@ def check(
 
     A formula file with ``KIND = "constrained"`` is a closed chain's reduced Lagrangian: it is
     compared with Pinocchio's constrained dynamics on ``loops`` (with ``springs``) at random
-    states on the loop (:mod:`robodyn.kinds.loop_check`); its parameters come from its
+    states on the loop (:mod:`robodyn.checker.compare_constrained`); its parameters come from its
     ``parameters(scene)``, or are ``params``. Other formulas check the open tree, and take no
     loops or springs (a note says so when they are given).
 
@@ -405,14 +405,14 @@ def check(
         params_source: where ``params`` came from (a file name), named in their refusals.
         formula_timeout: when ``formula`` is a file's path, the seconds its code may run: its
             import, then the whole batch of evaluations (it runs in a process of its own, see
-            :mod:`robodyn.kinds.sandbox`). A loaded :class:`UserFormula` keeps its own limit.
+            :mod:`robodyn.checker.sandbox`). A loaded :class:`UserFormula` keeps its own limit.
         loops: a constrained formula's loop closures: mappings or objects with ``frame_a``,
             ``frame_b`` and ``kind`` (:class:`robodyn.sim.constraints.Loop`).
         springs: a constrained formula's joint springs: joint -> ``{"stiffness", "rest"}`` (or
             a Spring, or ``(k, rest)``), or (joint, spring) pairs.
         scene: the scene file a constrained formula's ``parameters(scene)`` reads.
         explain: name the wrong term of each mismatching entry of M, C, G and V in the formula's own
-            symbols, and say what the knock-on rows follow from (:mod:`robodyn.kinds.explain`); the lines
+            symbols, and say what the knock-on rows follow from (:mod:`robodyn.checker.explain`); the lines
             are the report's ``explanation``.
 
     Raises:
@@ -454,7 +454,7 @@ def check(
                 )  # fmt: skip
                 rows, used, notes = list(found.rows), found.params, found.notes
             elif kind == ANY:
-                setup = any_check.prepare(robot, resolved, None if params is None else dict(params))
+                setup = compare_any.prepare(robot, resolved, None if params is None else dict(params))
                 ref = setup.reference
                 mapped = [
                     _Sample(ref.formula_q(s.q), ref.formula_v(s.v), ref.formula_v(s.a), ref.formula_tau(s.tau))
@@ -466,8 +466,8 @@ def check(
                 explained = (mapped, ref)
                 names = tuple(getattr(resolved, "names", ()))
                 if explain:
-                    follower = any_check.follower(setup, resolved, given=params is not None, seed=seed)
-                    sets = any_check.varied_sets(resolved, ref, used, mapped, rows, follower, seed=seed)
+                    follower = compare_any.follower(setup, resolved, given=params is not None, seed=seed)
+                    sets = compare_any.varied_sets(resolved, ref, used, mapped, rows, follower, seed=seed)
             else:
                 try:
                     p = extract(robot, resolved.kind)
@@ -481,7 +481,7 @@ def check(
                 explained = (states, Reference.identity(robot))
                 if explain and params is None:
                     follower = by_reading(functools.partial(_extracted, kind=resolved.kind))
-                    sets = any_check.varied_sets(resolved, explained[1], used, states, rows, follower, seed=seed)
+                    sets = compare_any.varied_sets(resolved, explained[1], used, states, rows, follower, seed=seed)
                 elif explain:
                     sets = one_set(used, used.get("g", 0.0), failure=GIVEN)
             if resolved.coriolis_form == VECTOR:
@@ -496,7 +496,7 @@ def check(
     explanation: tuple[str, ...] = ()
     terms: tuple[Explained, ...] = ()
     if explain and explained is not None:
-        explanation, terms = any_check.explain_rows(rows, kept, *explained, used, sets=sets, names=names)
+        explanation, terms = compare_any.explain_rows(rows, kept, *explained, used, sets=sets, names=names)
     elif explain and kind == CONSTRAINED:
         explanation = ("explain: not available for a KIND = 'constrained' formula (its rows are on the loop)",)
     if kind != CONSTRAINED and (tuple(loops) or springs):

@@ -6,9 +6,9 @@ import argparse
 import json
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from robodyn.checker.rows import EQUATIONS_AGREE, FAIL, PASS
+from robodyn.checker.rows import EQUATIONS_AGREE, FAIL, PASS, CheckReport, CheckRow
 from robodyn.checker.sandbox import DEFAULT_TIMEOUT, MAX_TIMEOUT
 from robodyn.cli._common import (
     add_model_arguments,
@@ -27,6 +27,9 @@ from robodyn.errors import EXIT_MISMATCH, EXIT_OK, InputError
 from robodyn.fileio import read_user_file
 from robodyn.kinds.units import UNITS
 from robodyn.wording import count
+
+if TYPE_CHECKING:
+    from robodyn.robot import Robot
 
 
 def add_parser(sub: Any) -> None:
@@ -149,7 +152,7 @@ def _check_all(args: argparse.Namespace, given: dict[str, Any] | None, process: 
     return exit_code(reports)
 
 
-def exit_code(reports: list[Any]) -> int:
+def exit_code(reports: list[CheckReport]) -> int:
     """0 when every report's equations of motion agree with Pinocchio (PASS, or a C v right in a non-Christoffel C).
 
     1 when any formula's equations of motion, or Pinocchio's own identities, disagree.
@@ -244,7 +247,7 @@ def _vector(x: Any) -> str:
     return "[" + ", ".join(f"{v:.4g}" for v in x) + "]"
 
 
-def format_report(report: Any, robot: Any) -> str:
+def format_report(report: CheckReport, robot: Robot) -> str:
     """The human-readable table with a line per mismatch naming the entry and the state."""
     lines = [
         f"model {report.model}: {report.urdf}",
@@ -301,7 +304,7 @@ def format_report(report: Any, robot: Any) -> str:
     return "\n".join(lines)
 
 
-def _mismatch_lines(r: Any) -> list[str]:
+def _mismatch_lines(r: CheckRow) -> list[str]:
     """``MISMATCH M[0,1] (M): formula .., Pinocchio ..``: the worst entry, then every other one out of tolerance."""
     label = "MISMATCH" if r.counts else "PINOCCHIO GAP"
     ref = "Pinocchio" if r.group == "formula" else "expected"
@@ -317,7 +320,7 @@ def _mismatch_lines(r: Any) -> list[str]:
     ]
 
 
-def _origin(report: Any) -> str:
+def _origin(report: CheckReport) -> str:
     """Where the parameters of a report came from, when the user did not give them."""
     if report.kind == "any":
         return "from the formula file"

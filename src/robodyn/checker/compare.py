@@ -401,14 +401,14 @@ def check(
     found, source, kind, renamed = _Compared((), {}), None, None, ()  # no formula: the structural rows alone
     if formula is not None:
         found, source, kind, renamed = _compared(formula, ask, formula_timeout)
-    used, notes, kept, explained = found.params, found.notes, found.kept, found.explained
+    used, notes, kept, explained, names = found.params, found.notes, found.kept, found.explained, found.names
     rows = [*found.rows, *structure_rows(robot, states, rtol)]
     rows.sort(key=lambda r: GROUP_ORDER.index(r.group))  # stable: keeps the order within a group
     hints = convention_hints(rows, kept, *explained, kind) if explained is not None else ()
     explanation: tuple[str, ...] = ()
     terms: tuple[Explained, ...] = ()
     if explain and explained is not None:
-        explanation, terms = compare_any.explain_rows(rows, kept, *explained, used, sets=found.sets, names=found.names)
+        explanation, terms = compare_any.explain_rows(rows, kept, *explained, used, sets=found.sets, names=names)
     elif explain and kind == CONSTRAINED:
         explanation = ("explain: not available for a KIND = 'constrained' formula (its rows are on the loop)",)
     if kind != CONSTRAINED and (tuple(loops) or springs):

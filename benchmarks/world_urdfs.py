@@ -201,8 +201,8 @@ def main() -> int:
     out = output_folder(args.out, overwrite_committed=args.overwrite_committed)
     facts = run_facts()
     # imported once, before the forks
+    import robodyn.checker.compare
     import robodyn.cli
-    import robodyn.kinds.check
     import robodyn.model.load  # noqa: F401
 
     extra = args.extra.split()

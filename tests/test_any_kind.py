@@ -1,4 +1,4 @@
-"""KIND = "any" formula files (robodyn.kinds.any_file, any_check, reference) and ``check --explain`` (kinds.explain).
+"""KIND = "any" formula files (robodyn.checker.any_kind, any_check, reference) and ``check --explain`` (kinds.explain).
 
 Four systems that are none of robodyn's built-in kinds, each with a URDF and a formula derived by hand
 in its own coordinates (examples/urdf, examples/formulas): a hanging double pendulum (angles from the
@@ -14,8 +14,8 @@ import pytest
 import sympy
 
 import robodyn
+from robodyn.checker.compare import check
 from robodyn.errors import FormulaError
-from robodyn.kinds.check import check
 
 ROOT = Path(__file__).resolve().parents[1]
 SYSTEMS = {
@@ -258,7 +258,7 @@ def test_explain_names_the_textbook_misprints():
 
 
 def test_coordinates_map_pinocchio_exactly():
-    from robodyn.kinds.reference import Reference
+    from robodyn.checker.reference import Reference
 
     robot = robodyn.load(_urdf("cart_double_pendulum"))
     ref = Reference.mapped(robot, ["hinge1", "hinge2", "cart"], [1.0, 1.0, -1.0], [0.0, 0.0, 0.3])
@@ -274,7 +274,7 @@ def test_coordinates_map_pinocchio_exactly():
 
 
 def test_a_coefficient_is_named_with_the_entrys_dimension():
-    from robodyn.kinds.explain_names import Namer
+    from robodyn.checker.explain_names import Namer
 
     namer = Namer({"m2": 1.0, "l1": 0.15, "lc2": 0.126}, 9.81)  # m2 = 1 kg: l1*lc2 has the same value
     c = 1.0 * 0.15 * 0.126

@@ -12,7 +12,7 @@ import pytest
 import robodyn
 from robodyn import dynamics
 from robodyn import kinds as formulas
-from robodyn.kinds.check import FD_TOL, check
+from robodyn.checker.compare import FD_TOL, check
 
 SAMPLES = 100  # the command line's default: the states the reports were made with
 PLANTED = 1e-6  # a relative error far above round-off (1e-13) and below any printed digit of a datasheet

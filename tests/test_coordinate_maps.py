@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 import robodyn
+from robodyn.checker.compare import check
+from robodyn.checker.reference import Reference
 from robodyn.cli import main
 from robodyn.errors import FormulaError, InputError
-from robodyn.kinds.check import check
-from robodyn.kinds.reference import Reference
 from robodyn.lagrange.coordinates import read_coordinates
 from robodyn.model.coordinate_map import coordinate_map
 

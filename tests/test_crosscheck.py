@@ -11,7 +11,7 @@ import pytest
 
 import robodyn
 from robodyn import kinds as formulas
-from robodyn.kinds.check import check
+from robodyn.checker.compare import check
 from robodyn.kinds.params import extract
 
 from . import _urdf

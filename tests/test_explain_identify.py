@@ -15,10 +15,10 @@ import pytest
 import sympy
 
 import robodyn
+from robodyn.checker.compare import check
+from robodyn.checker.explain_names import Namer
 from robodyn.cli import main
 from robodyn.errors import FormulaError
-from robodyn.kinds.check import check
-from robodyn.kinds.explain_names import Namer
 
 ROOT = Path(__file__).resolve().parents[1]
 HERE = ROOT / "tests" / "fixtures" / "explain"
@@ -193,7 +193,7 @@ def test_a_name_must_fit_at_every_set():
 
 def test_a_signed_sum_of_three_angles_is_one_term():
     # one joint measured the other way round turns cos(q1 + q2 + q3) into cos(q1 - q2 + q3): one term, not six
-    from robodyn.kinds.explain_basis import fit, q_basis
+    from robodyn.checker.explain_basis import fit, q_basis
 
     rng = np.random.default_rng(3)
     q = rng.uniform(-np.pi, np.pi, (SAMPLES, 3))

@@ -13,10 +13,11 @@ import numpy as np
 import pytest
 
 from robodyn import kinds, load
+from robodyn.checker.compare import check
+from robodyn.checker.rows import EQUATIONS_AGREE, FAIL, PASS
+from robodyn.checker.user_formula import load_user_formula
 from robodyn.cli import main
 from robodyn.errors import FormulaError
-from robodyn.kinds.check import check
-from robodyn.kinds.check_rows import EQUATIONS_AGREE, FAIL, PASS
 from robodyn.kinds.formula import Formula
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -80,7 +81,7 @@ def test_a_file_with_both_is_refused(tmp_path):
     path = _pendubot(tmp_path, "both.py", CHRISTOFFEL)
     path.write_text(path.read_text() + "\n\ndef coriolis_vector(q, v, p):\n    return 0 * v\n")
     with pytest.raises(FormulaError, match="defines both coriolis_matrix and coriolis_vector; keep one"):
-        kinds.load_user_formula(path).close()
+        load_user_formula(path).close()
 
 
 def test_the_stand_in_of_c_v_gives_the_files_momentum_rate():
@@ -90,7 +91,7 @@ def test_the_stand_in_of_c_v_gives_the_files_momentum_rate():
     def cv(q, v, p):
         return pendubot.coriolis_matrix(q, v, p) @ v
 
-    from robodyn.kinds.user_coriolis import stand_in
+    from robodyn.checker.velocity_terms import stand_in
 
     only_cv = Formula("pendubot", "cv", pendubot.param_names, pendubot.mass_matrix, stand_in(cv, "cv"),
                       pendubot.gravity, None, 2, "vector")  # fmt: skip
@@ -172,7 +173,7 @@ def test_a_file_in_robodyns_names_gets_no_note(capsys):
 def test_an_unknown_name_is_still_a_key_error_listing_the_current_names(tmp_path):
     path = tmp_path / "typo.py"
     path.write_text(_before_the_rename("cart_pole_seed.py").replace('p["M"]', 'p["M_cart"]'))
-    with kinds.load_user_formula(path) as formula, pytest.raises(FormulaError) as err:
+    with load_user_formula(path) as formula, pytest.raises(FormulaError) as err:
         formula.mass_matrix(np.zeros(2), {"m_cart": 1.0, "m": 0.1, "l": 0.5, "I": 0.0, "g": 9.81})
     assert "KeyError: 'M_cart' (line 21); the parameters are m_cart, m, l, I, g" in str(err.value)
 
@@ -180,7 +181,7 @@ def test_an_unknown_name_is_still_a_key_error_listing_the_current_names(tmp_path
 # ------------------------------------------------------------------ a NaN, and an M asymmetric by round-off
 def test_a_nan_names_the_function_entry_state_and_line(tmp_path):
     path = _pendubot(tmp_path, "nan.py", CHRISTOFFEL.replace("0.0]])", "np.log(v[0] - 5)]])"))
-    with kinds.load_user_formula(path) as formula, pytest.raises(FormulaError) as err:
+    with load_user_formula(path) as formula, pytest.raises(FormulaError) as err:
         formula.coriolis_matrix(np.array([0.5, 1.0]), np.array([0.25, -1.0]), PENDUBOT_PARAMS)
     assert str(err.value) == (
         f"{path}: coriolis_matrix returned NaN in C[1,1] at q = [0.5, 1], v = [0.25, -1] (line 27)"

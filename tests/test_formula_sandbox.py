@@ -15,12 +15,12 @@ import numpy as np
 import pytest
 
 import robodyn
+from robodyn.checker import evaluation, sandbox
+from robodyn.checker.compare import MAX_SAMPLES, check
+from robodyn.checker.file_contract import load_in_process
+from robodyn.checker.user_formula import UserFormula, load_user_formula
 from robodyn.cli import main
 from robodyn.errors import FormulaError, InputError
-from robodyn.kinds import evaluation, sandbox
-from robodyn.kinds.check import MAX_SAMPLES, check
-from robodyn.kinds.user import UserFormula, load_user_formula
-from robodyn.kinds.user_file import load_in_process
 
 ROOT = Path(__file__).resolve().parents[1]
 MINE = ROOT / "examples" / "formulas" / "pendubot_mine.py"

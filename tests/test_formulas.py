@@ -12,6 +12,7 @@ import pytest
 import sympy as sp
 
 from robodyn import kinds as formulas
+from robodyn.checker.user_formula import load_user_formula
 from robodyn.errors import FormulaError, UnknownNameError
 
 RTOL = 1e-12  # same expressions evaluated two ways: round-off only
@@ -159,34 +160,34 @@ def test_user_formula_errors_are_one_line(tmp_path):
         "KIND = 'pendubot'\ndef mass_matrix(q, p):\n  return [[1, 2, 3]]\n"
         "def coriolis_matrix(q, v, p):\n  return [[0, 0], [0, 0]]\ndef gravity(q, p):\n  return [0, 0]\n"
     )
-    f = formulas.load_user_formula(bad)
+    f = load_user_formula(bad)
     with pytest.raises(FormulaError, match=r"mass_matrix returned shape \(1, 3\), expected \(2, 2\)"):
         f.mass_matrix(np.zeros(2), PARAMS["pendubot"])
     syntax = tmp_path / "syntax.py"
     syntax.write_text("KIND = 'pendubot'\ndef mass_matrix(q, p)\n  pass\n")
     with pytest.raises(FormulaError, match="syntax.py:2: the formula file has a syntax error"):
-        formulas.load_user_formula(syntax)
+        load_user_formula(syntax)
     nokind = tmp_path / "nokind.py"
     nokind.write_text("def mass_matrix(q, p):\n  return 1\n")
     with pytest.raises(FormulaError, match="define KIND"):
-        formulas.load_user_formula(nokind)
+        load_user_formula(nokind)
     missing = tmp_path / "missing.py"
     missing.write_text("KIND = 'cart_pole'\ndef mass_matrix(q, p):\n  return 1\n")
     with pytest.raises(FormulaError, match="missing function.*coriolis_matrix or coriolis_vector, gravity"):
-        formulas.load_user_formula(missing)
+        load_user_formula(missing)
     with pytest.raises(FormulaError, match="no such formula file"):
-        formulas.load_user_formula(tmp_path / "absent.py")
+        load_user_formula(tmp_path / "absent.py")
     failing = tmp_path / "failing.py"
     failing.write_text("KIND = 'pendubot'\n1 / 0\n")
     with pytest.raises(FormulaError, match=r"failed to import: ZeroDivisionError: division by zero \(line 2\)"):
-        formulas.load_user_formula(failing)
+        load_user_formula(failing)
     raising = tmp_path / "raising.py"
     raising.write_text(
         "KIND = 'geared_arm'\ndef mass_matrix(q, p):\n  return p['mass']\n"
         "def coriolis_matrix(q, v, p):\n  return [[0]]\ndef gravity(q, p):\n  return [0]\n"
     )
     with pytest.raises(FormulaError, match=r"mass_matrix raised KeyError: 'mass' \(line 3\)"):
-        formulas.load_user_formula(raising).mass_matrix(np.zeros(1), PARAMS["geared_arm"])
+        load_user_formula(raising).mass_matrix(np.zeros(1), PARAMS["geared_arm"])
 
 
 def test_user_formula_non_finite_and_key_errors_name_the_fix(tmp_path):
@@ -197,7 +198,7 @@ def test_user_formula_non_finite_and_key_errors_name_the_fix(tmp_path):
         "def coriolis_matrix(q, v, p):\n    return np.zeros((2, 2))\n"
         "def gravity(q, p):\n    return np.array([np.nan, 0.0])\n"
     )
-    formula = formulas.load_user_formula(f)
+    formula = load_user_formula(f)
     with pytest.raises(FormulaError, match=r"KeyError: 'mass1' \(line 4\); the parameters are m1, m2, l1"):
         formula.mass_matrix(np.zeros(2), PARAMS["pendubot"])
     with pytest.raises(FormulaError, match=r"gravity returned NaN in G\[0\] at q = \[0, 0\] \(line 8\)$"):

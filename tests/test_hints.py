@@ -1,4 +1,4 @@
-"""Convention hints (robodyn.kinds.hints): a failing formula that is right under another convention says so first.
+"""Convention hints (robodyn.checker.hints): a failing formula that is right under another convention says so first.
 
 Each slip is planted in a correct hand derivation (the hanging double pendulum in the
 {joint: (sign, offset)} form, the 3-link arm in absolute angles in the matrix form, the built-in
@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 
 import robodyn
+from robodyn.checker.compare import check
 from robodyn.cli import main
-from robodyn.kinds.check import check
 
 ROOT = Path(__file__).resolve().parents[1]
 PENDULUM = ROOT / "examples" / "urdf" / "double_pendulum.urdf"

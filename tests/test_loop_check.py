@@ -242,7 +242,7 @@ def test_real_subprocess_exit_codes():
 
 
 def test_loaded_formula_reports_its_independent_coordinates(tmp_path):
-    from robodyn.kinds.user import load_user_formula
+    from robodyn.checker.user_formula import load_user_formula
 
     with load_user_formula(str(FORMULA)) as formula:
         assert formula.kind == "constrained" and formula.independent == ("joint_a",) and formula.dof == 1

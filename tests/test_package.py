@@ -42,6 +42,17 @@ def test_unknown_attribute_is_an_attribute_error():
         raise AssertionError("expected AttributeError")
 
 
+def test_check_stays_the_function_once_the_checker_package_is_imported():
+    # A subpackage named like a public function would replace it on first import: robodyn.check is
+    # the function, robodyn.checker the package. Fresh process: an earlier test may have imported either.
+    code = (
+        "import robodyn, robodyn.checker.compare, robodyn.checker.rows; "
+        "print(robodyn.check is robodyn.checker.compare.check, robodyn.CheckReport is robodyn.checker.rows.CheckReport)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
+    assert out == "True True"
+
+
 # ------------------------------------------------------------------ the house
 MAX_MODULE_LINES = 520  # "about 500": a module past this holds more than one concept
 
@@ -143,3 +154,19 @@ def test_robodyn_0_1_import_paths_and_robot_view_are_gone():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0 and out.stdout.strip() == "False", (out.stdout, out.stderr)
+
+
+def test_layout_page_gives_the_layers_ci_checks():
+    import re
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    config = (root / "pyproject.toml").read_text(encoding="utf-8")  # no tomllib: Python 3.10 is supported
+    listed = re.search(r'type = "layers"\nlayers = \[(.*?)\]', config, re.S)
+    assert listed is not None, "pyproject.toml no longer has the layers contract"
+    checked = re.findall(r'"([^"]+)"', listed.group(1))
+    page = " ".join((root / "docs" / "reference" / "layout.md").read_text(encoding="utf-8").split())
+    stated = re.search(r"as `lint-imports` checks them, are (.*?): a module imports", page)
+    assert stated is not None, "docs/reference/layout.md no longer states the layer order"
+    documented = [layer.strip().strip("`") for layer in stated.group(1).split(" > ")]
+    assert documented == [layer.replace("robodyn.", "") for layer in checked]

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from robodyn.checker.compare import DEFAULT_RTOL, check
 from robodyn.cli import main
 from robodyn.errors import ModelError
-from robodyn.kinds.check import DEFAULT_RTOL, check
 from robodyn.model import sources as robot_library
 from robodyn.model.consistency import all_findings
 from robodyn.model.load import load

@@ -27,7 +27,7 @@ from robodyn.errors import (
 __version__ = "0.2.0"
 
 if TYPE_CHECKING:
-    from robodyn.kinds.check import CheckReport, check
+    from robodyn.checker.compare import CheckReport, check
     from robodyn.model.load import load
     from robodyn.robot import Robot
 
@@ -45,9 +45,9 @@ def __getattr__(name: str) -> Any:
 
         value = Robot
     elif name == "check":
-        from robodyn.kinds.check import check as value
+        from robodyn.checker.compare import check as value
     elif name == "CheckReport":
-        from robodyn.kinds.check import CheckReport
+        from robodyn.checker.compare import CheckReport
 
         value = CheckReport
     elif name == "extract_params":

@@ -11,7 +11,7 @@ once); this file puts them in the format of ``robodyn check --formula``:
     robodyn check examples/textbook/linkage/linkage.toml --formula examples/textbook/linkage/reduced_formula.py
 
 (linkage.toml names this file in [check] formula, so ``robodyn run`` checks it too.) The
-contract of a constrained formula (robodyn.kinds.reduced):
+contract of a constrained formula (robodyn.checker.constrained_kind):
 
 * ``KIND = "constrained"``; ``INDEPENDENT`` names the URDF joints of the formula's coordinates;
 * ``parameters(scene)`` -> {name: number}: here the URDF's masses and lengths and the scene's spring;

@@ -6,8 +6,10 @@ import argparse
 import json
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+from robodyn.checker.rows import EQUATIONS_AGREE, FAIL, PASS, CheckReport, CheckRow
+from robodyn.checker.sandbox import DEFAULT_TIMEOUT, MAX_TIMEOUT
 from robodyn.cli._common import (
     add_model_arguments,
     add_passive_argument,
@@ -23,10 +25,11 @@ from robodyn.cli._common import (
 )
 from robodyn.errors import EXIT_MISMATCH, EXIT_OK, InputError
 from robodyn.fileio import read_user_file
-from robodyn.kinds.check_rows import EQUATIONS_AGREE, FAIL, PASS
-from robodyn.kinds.sandbox import DEFAULT_TIMEOUT, MAX_TIMEOUT
 from robodyn.kinds.units import UNITS
 from robodyn.wording import count
+
+if TYPE_CHECKING:
+    from robodyn.robot import Robot
 
 
 def add_parser(sub: Any) -> None:
@@ -87,8 +90,8 @@ def add_parser(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Check each model, print a table (or JSON) per model; exit 1 if any FAILs (:func:`exit_code`)."""
-    from robodyn.kinds.sandbox import FormulaProcess
-    from robodyn.kinds.user import looks_like_file
+    from robodyn.checker.sandbox import FormulaProcess
+    from robodyn.checker.user_formula import looks_like_file
 
     if args.params is not None and args.formula in (None, "auto"):
         raise InputError("--params needs --formula KIND: parameters belong to one formula kind")
@@ -104,9 +107,9 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _check_all(args: argparse.Namespace, given: dict[str, Any] | None, process: Any) -> int:
-    from robodyn.kinds.check import check
+    from robodyn.checker.compare import check
+    from robodyn.checker.user_formula import load_user_formula
     from robodyn.kinds.params import detect_kind
-    from robodyn.kinds.user import load_user_formula
 
     targets = [_target(args, name) for name in args.models]  # bad input fails before any work
     for robot, _ in targets:
@@ -149,7 +152,7 @@ def _check_all(args: argparse.Namespace, given: dict[str, Any] | None, process: 
     return exit_code(reports)
 
 
-def exit_code(reports: list[Any]) -> int:
+def exit_code(reports: list[CheckReport]) -> int:
     """0 when every report's equations of motion agree with Pinocchio (PASS, or a C v right in a non-Christoffel C).
 
     1 when any formula's equations of motion, or Pinocchio's own identities, disagree.
@@ -176,7 +179,7 @@ def _target(args: argparse.Namespace, name: str) -> tuple[Any, Any]:
 
 def _samples(text: str) -> int:
     """Argparse type: a whole number from 1 to MAX_SAMPLES (the help states it; a test holds the two together)."""
-    from robodyn.kinds.check import MAX_SAMPLES  # here, not at the top: it loads Pinocchio
+    from robodyn.checker.compare import MAX_SAMPLES  # here, not at the top: it loads Pinocchio
 
     value = positive_int(text)
     if value > MAX_SAMPLES:
@@ -233,7 +236,7 @@ def _unit(name: str, kind: str | None) -> str:
     """`` kg`` for a parameter: a built-in kind's table, or (KIND = "any") guessed from the name as --explain does."""
     unit = PARAM_UNITS.get(name, "")
     if not unit and kind == "any":
-        from robodyn.kinds.explain_names import parameter_dimension
+        from robodyn.checker.explain_names import parameter_dimension
 
         dim = parameter_dimension(name)
         unit = _DIMENSION_UNITS.get(dim, "") if dim is not None else ""
@@ -244,7 +247,7 @@ def _vector(x: Any) -> str:
     return "[" + ", ".join(f"{v:.4g}" for v in x) + "]"
 
 
-def format_report(report: Any, robot: Any) -> str:
+def format_report(report: CheckReport, robot: Robot) -> str:
     """The human-readable table with a line per mismatch naming the entry and the state."""
     lines = [
         f"model {report.model}: {report.urdf}",
@@ -301,7 +304,7 @@ def format_report(report: Any, robot: Any) -> str:
     return "\n".join(lines)
 
 
-def _mismatch_lines(r: Any) -> list[str]:
+def _mismatch_lines(r: CheckRow) -> list[str]:
     """``MISMATCH M[0,1] (M): formula .., Pinocchio ..``: the worst entry, then every other one out of tolerance."""
     label = "MISMATCH" if r.counts else "PINOCCHIO GAP"
     ref = "Pinocchio" if r.group == "formula" else "expected"
@@ -317,7 +320,7 @@ def _mismatch_lines(r: Any) -> list[str]:
     ]
 
 
-def _origin(report: Any) -> str:
+def _origin(report: CheckReport) -> str:
     """Where the parameters of a report came from, when the user did not give them."""
     if report.kind == "any":
         return "from the formula file"

@@ -208,9 +208,9 @@ def _jsonable(obj: Any) -> Any:
 
 
 def _check(scene: Any, robot: Any, reduction: Any, q0: Any, v0: Any, torque: Any, summary: dict[str, Any]) -> int:
+    from robodyn.checker.compare import check
+    from robodyn.checker.sandbox import DEFAULT_TIMEOUT as DEFAULT_FORMULA_TIMEOUT
     from robodyn.errors import FormulaError, UnknownNameError
-    from robodyn.kinds.check import check
-    from robodyn.kinds.sandbox import DEFAULT_TIMEOUT as DEFAULT_FORMULA_TIMEOUT
     from robodyn.studies.exactness import prove_exact
 
     c = scene.check
@@ -231,7 +231,7 @@ def _check(scene: Any, robot: Any, reduction: Any, q0: Any, v0: Any, torque: Any
     except UnknownNameError as exc:  # a frame or joint of [constraints] or [springs], or the formula's INDEPENDENT
         where = ("check", "formula") if "INDEPENDENT" in exc.what else _constraint_key(exc)
         raise scene.error(*where, str(exc)) from None
-    from robodyn.kinds.check_rows import EQUATIONS_AGREE, FAIL
+    from robodyn.checker.rows import EQUATIONS_AGREE, FAIL
 
     failures = [row.quantity for row in report.failures]
     verdict = {FAIL: "FAILED", EQUATIONS_AGREE: "passed (equations of motion; C is not Christoffel's)"}

@@ -3,7 +3,7 @@
 The file defines ``make(robot, **gains)`` returning a callable tau(t, q, v) -> torques, with nv
 entries (zero on passive joints) or one per actuated joint [N m | N]; the gains are the keyword
 arguments given to :func:`robodyn.control.make`. It follows the pattern of a user's formula file
-(:mod:`robodyn.kinds.user`): an error on import, in ``make`` or in a call, and a torque of the
+(:mod:`robodyn.checker.user_formula`): an error on import, in ``make`` or in a call, and a torque of the
 wrong shape or not finite, raise :class:`InputError` in one line naming the file and the line.
 
 The callable gets read-only copies of q and v (a write into them raises, and the run is refused

@@ -126,7 +126,7 @@ class Formula:
 
     ``coriolis_form`` is ``"matrix"`` when ``coriolis_matrix`` is the formula's own C, and ``"vector"``
     when the formula gives only C v (a user's ``coriolis_vector``): ``coriolis_matrix`` is then a
-    stand-in whose product with v is that C v (:mod:`robodyn.kinds.user_coriolis`), right in every
+    stand-in whose product with v is that C v (:mod:`robodyn.checker.velocity_terms`), right in every
     equation of motion but not itself a C to compare.
     """
 

@@ -3,7 +3,7 @@
 Every kind resolves through :data:`KINDS`; a miss names the kinds that exist. The kinds are
 ``cart_pole``, ``geared_arm`` and ``pendubot`` (one module each, closed form written once).
 Coordinates and units are Pinocchio's (link angles [rad], cart position [m]). A user's own
-derivation loads through :mod:`robodyn.kinds.user` into the same :class:`Formula` type.
+derivation loads through :mod:`robodyn.checker.user_formula` into the same :class:`Formula` type.
 """
 
 from __future__ import annotations

@@ -62,7 +62,7 @@ class CoordinateMap:
         return tuple(float(x) for x in np.diag(self.A))
 
     def with_rows(self, A: Array, b: Array) -> CoordinateMap:
-        """The same joints with another A and b (a candidate map, :mod:`robodyn.kinds.hints`)."""
+        """The same joints with another A and b (a candidate map, :mod:`robodyn.checker.hints`)."""
         return CoordinateMap(self.joints, np.asarray(A, dtype=np.float64), np.asarray(b, dtype=np.float64))
 
     def check_units(self, prismatic: Sequence[bool], where: str) -> tuple[bool, ...]:

@@ -19,7 +19,7 @@ joint frame, which is the child link's frame):
 Links are in model order (parents before children): ``robot.links[0]`` or ``robot["shoulder"]``.
 
 The table is plain numbers, so it travels to a formula file's own process
-(:mod:`robodyn.kinds.sandbox`) as JSON (:meth:`LinkTable.as_dict`, :meth:`LinkTable.from_dict`).
+(:mod:`robodyn.checker.sandbox`) as JSON (:meth:`LinkTable.as_dict`, :meth:`LinkTable.from_dict`).
 """
 
 from __future__ import annotations

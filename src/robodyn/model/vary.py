@@ -1,6 +1,6 @@
 """A robot with its per-link values changed by given factors: the parameter sets ``check --explain`` compares at.
 
-``--explain`` (:mod:`robodyn.kinds.explain`) names a wrong term by a product of the formula's
+``--explain`` (:mod:`robodyn.checker.explain`) names a wrong term by a product of the formula's
 parameters that equals its coefficient at several parameter sets, not at one: the model's per-link
 values are varied and the formula's parameters with them. :func:`varied` builds one such model.
 Each per-link value is a :data:`Quantity` ``(joint index, field, component)``:

@@ -200,7 +200,7 @@ def read_scene(path: str | Path) -> Scene:
         if "formula_timeout" in check:
             if "formula" not in check:
                 raise _fail(path, "[check] formula_timeout", "needs formula (the file the time limit is for)")
-            from robodyn.kinds.sandbox import MAX_TIMEOUT  # the same bound as --formula-timeout
+            from robodyn.checker.sandbox import MAX_TIMEOUT  # the same bound as --formula-timeout
 
             _number(path, "check", "formula_timeout", check["formula_timeout"], positive=True, high=MAX_TIMEOUT)
         if "closed_form" in check:

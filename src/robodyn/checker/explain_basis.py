@@ -10,7 +10,7 @@
 The sparsest exact fit is taken (:func:`fit`): every single term first, then every pair among the
 best-correlated terms, then orthogonal matching pursuit up to :data:`MAX_TERMS` terms. A fit is exact
 when what it leaves is round-off (:data:`FIT_RTOL` of the difference, or :data:`ROUNDOFF` of the
-entry's scale). Terms are named q1, q2, ..., v1, v2, ... here; :mod:`robodyn.kinds.explain` shows them
+entry's scale). Terms are named q1, q2, ..., v1, v2, ... here; :mod:`robodyn.checker.explain` shows them
 in the formula's own names.
 """
 

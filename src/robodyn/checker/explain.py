@@ -2,13 +2,13 @@
 
 For every entry of M, C, G (and V) that is out of tolerance, the difference formula - Pinocchio over
 the sampled states is fitted sparsely in a basis of the terms rigid-body dynamics is made of
-(:mod:`robodyn.kinds.explain_basis`: cos(q2), sin(q1 + q2), q2*cos(q3), sin(q2)*v1, ...).
+(:mod:`robodyn.checker.explain_basis`: cos(q2), sin(q1 + q2), q2*cos(q3), sin(q2)*v1, ...).
 
 A coefficient is then named across parameter values, not at one set of them, where a coincidence
 (0.8 * 0.25 = 0.5 * 0.4) would pass for a name: the fit's terms are refitted at the varied parameter
-sets (:class:`Sets`, gathered by :mod:`robodyn.kinds.explain_sets`), so that each coefficient is a
+sets (:class:`Sets`, gathered by :mod:`robodyn.checker.explain_sets`), so that each coefficient is a
 vector over the sets, and a product of the file's parameters (or a sum or difference of two) names it
-only when it is the one that equals it at every set (:mod:`robodyn.kinds.explain_names`). Each entry
+only when it is the one that equals it at every set (:mod:`robodyn.checker.explain_names`). Each entry
 comes out as an :class:`Explained`, of status ``named`` (every term has its one name), ``candidates``
 (several fit: listed, with why they cannot be told apart), ``unnamed`` (none fits, or the terms change
 form with the parameters: why) or ``no_fit`` (no sum of at most :data:`MAX_TERMS` terms is exact), and
@@ -30,8 +30,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from robodyn.kinds.check_rows import Accumulator, CheckRow
-from robodyn.kinds.explain_basis import (
+from robodyn.checker.explain_basis import (
     MAX_TERMS,
     Basis,
     Fit,
@@ -41,7 +40,7 @@ from robodyn.kinds.explain_basis import (
     q_basis,
     velocity_basis,
 )
-from robodyn.kinds.explain_names import (
+from robodyn.checker.explain_names import (
     MAX_FACTORS,
     NAME_RTOL,
     Dim,
@@ -52,6 +51,7 @@ from robodyn.kinds.explain_names import (
     sub,
     term_dimension,
 )
+from robodyn.checker.rows import Accumulator, CheckRow
 
 Array = NDArray[np.float64]
 
@@ -62,7 +62,7 @@ MAX_CANDIDATES = 4  # candidates listed for a term; past them, how many more
 # ---------------------------------------------------------------------------------------- the parameter sets
 @dataclass(frozen=True)
 class Sets:
-    """The formula's parameters and formula - Pinocchio at the parameter sets (:mod:`robodyn.kinds.explain_sets`).
+    """The formula's parameters and formula - Pinocchio at the parameter sets (:mod:`robodyn.checker.explain_sets`).
 
     ``params[0]`` is the check's own set; ``differences[key]`` (S - 1, k, *shape) and ``scales[key]`` (S - 1,)
     are at the varied sets, at the check's first k states; ``gravity`` (S,) [m/s^2]. ``followed``: constant
@@ -347,7 +347,7 @@ def explain(
 
     ``acc``: the formula rows' accumulators (key -> (Pinocchio, formula) per sample), ``samples``: the
     states (``.q``, ``.v`` in the formula's coordinates), ``prismatic[i]``: coordinate i is a length;
-    ``sets``: the parameter sets (:mod:`robodyn.kinds.explain_sets`; None: the check's own only, and then
+    ``sets``: the parameter sets (:mod:`robodyn.checker.explain_sets`; None: the check's own only, and then
     nothing is named, only candidates given); ``names``: the formula's coordinates (``NAMES``).
     """
     sets = sets if sets is not None else one_set(params, g, failure="no varied parameter set was asked for")

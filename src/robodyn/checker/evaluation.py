@@ -1,7 +1,7 @@
 """A formula evaluated at a batch of points in one call: where (:class:`Points`), what came back (:class:`Values`).
 
 ``robodyn check`` needs M, C, G (and V) of a formula at a few hundred points. A user's formula
-file runs in a process of its own (:mod:`robodyn.kinds.sandbox`), so the points go there in one
+file runs in a process of its own (:mod:`robodyn.checker.sandbox`), so the points go there in one
 message and the values come back in one: one round trip per check, not one per call. A built-in
 kind is evaluated in-process by the same :func:`evaluate`. Each function is evaluated over all of
 its points before the next one starts, so that a formula that never returns can be named.
@@ -102,7 +102,7 @@ def evaluate(formula: Formula, p: Params, points: Points, *, on_start: Callable[
 
     Raises:
         ValueError: potential-energy points for a formula without ``potential_energy``.
-        FormulaError: whatever a user's function does wrong (see :mod:`robodyn.kinds.user_file`).
+        FormulaError: whatever a user's function does wrong (see :mod:`robodyn.checker.file_contract`).
     """
     functions: dict[str, Callable[..., Any] | None] = {
         "mass_matrix": formula.mass_matrix,

@@ -1,13 +1,13 @@
 """A ``KIND = "any"`` formula against Pinocchio: the model it describes, and Pinocchio in its coordinates.
 
-The file (:mod:`robodyn.kinds.any_file`) names the joints its q1, q2, ... stand for. The model it
+The file (:mod:`robodyn.checker.any_kind`) names the joints its q1, q2, ... stand for. The model it
 describes is the robot with every other joint locked at ``LOCKED`` (default: the neutral pose) and
 welded to its parent, by the same reduction as ``--lock`` (:func:`robodyn.model.reduce.reduce`).
 Its parameters are the file's ``PARAMETERS`` or its ``parameters(robot)`` of that model's per-link
 table (:func:`robodyn.model.links.link_table`). Pinocchio's M, C, G, RNEA and ABA are then mapped to
-the formula's coordinates exactly (:class:`robodyn.kinds.reference.Reference`), and
-:mod:`robodyn.kinds.check` compares them row by row as for a built-in kind. :func:`explain_rows` hands
-``--explain`` (:mod:`robodyn.kinds.explain`) what it fits, with the coordinates' kinds (angle or length).
+the formula's coordinates exactly (:class:`robodyn.checker.reference.Reference`), and
+:mod:`robodyn.checker.compare` compares them row by row as for a built-in kind. :func:`explain_rows` hands
+``--explain`` (:mod:`robodyn.checker.explain`) what it fits, with the coordinates' kinds (angle or length).
 """
 
 from __future__ import annotations
@@ -19,13 +19,13 @@ from typing import Any
 import numpy as np
 
 from robodyn import dynamics
+from robodyn.checker.constrained_kind import checked_parameters
+from robodyn.checker.explain import Explained, Sets, explain, failing_keys
+from robodyn.checker.explain_sets import Follower, by_table, by_values, parameter_sets
+from robodyn.checker.reference import Reference
+from robodyn.checker.rows import Accumulator, CheckRow
 from robodyn.errors import FormulaError, InputError
-from robodyn.kinds.check_rows import Accumulator, CheckRow
-from robodyn.kinds.explain import Explained, Sets, explain, failing_keys
-from robodyn.kinds.explain_sets import Follower, by_table, by_values, parameter_sets
 from robodyn.kinds.formula import Formula
-from robodyn.kinds.reduced import checked_parameters
-from robodyn.kinds.reference import Reference
 from robodyn.model.coordinate_map import CoordinateMap
 from robodyn.model.links import JOINT_TYPES, LinkTable, link_table
 from robodyn.model.reduce import reduce
@@ -111,7 +111,7 @@ def _notes(
 
 
 def follower(setup: AnySetup, formula: Formula, *, given: bool, seed: int) -> Follower:
-    """How the file's parameters follow a varied model (:mod:`robodyn.kinds.explain_sets`).
+    """How the file's parameters follow a varied model (:mod:`robodyn.checker.explain_sets`).
 
     Its ``parameters(robot)`` is asked again; or each constant (``PARAMETERS``, ``--params``) is matched to
     the per-link value it equals.
@@ -149,7 +149,7 @@ def explain_rows(
     sets: Sets | None = None,
     names: Sequence[str] = (),
 ) -> tuple[tuple[str, ...], tuple[Explained, ...]]:
-    """``--explain``'s lines and named terms (:func:`robodyn.kinds.explain.explain`), coordinate kinds from ``ref``."""
+    """``--explain``'s lines and terms (:func:`~robodyn.checker.explain.explain`); coordinate kinds from ``ref``."""
     prismatic = list(ref.prismatic)
     g = float(np.linalg.norm(dynamics.gravity_vector(ref.robot.model)))
     return explain(rows, kept, states, used, prismatic=prismatic, g=g, sets=sets, names=names or None)

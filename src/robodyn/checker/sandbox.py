@@ -15,7 +15,7 @@ the file and evaluates it (:func:`serve`); robodyn's process never runs a line o
   and line it was in; robodyn kills its process group ``GRACE`` seconds later in any case.
   Every wait on robodyn's side has its own deadline (the child's start, each reply, its exit
   after the kill): a child that never answers is an error, never a hang.
-* A ``SystemExit`` is caught where it is raised (:mod:`robodyn.kinds.user_file`); a process that
+* A ``SystemExit`` is caught where it is raised (:mod:`robodyn.checker.file_contract`); a process that
   ends anyway (``os._exit``, a crash) is an error naming the file, never a result.
 
 Not a security boundary: the file still runs with the user's rights. It is a boundary against
@@ -42,11 +42,11 @@ from typing import IO, Any
 
 import numpy as np
 
+from robodyn.checker import any_kind, constrained_kind
+from robodyn.checker.evaluation import FUNCTIONS, Points, Values, evaluate, value_shape
+from robodyn.checker.file_contract import load_in_process, renamed_notes
 from robodyn.errors import FormulaError, InputError
-from robodyn.kinds import any_file, reduced
-from robodyn.kinds.evaluation import FUNCTIONS, Points, Values, evaluate, value_shape
 from robodyn.kinds.formula import Array, Formula
-from robodyn.kinds.user_file import load_in_process, renamed_notes
 from robodyn.userfile import user_line
 
 DEFAULT_TIMEOUT = 60.0
@@ -66,7 +66,7 @@ _FRAME = struct.Struct("<QQ")  # header length, body length
 # The child imports this very robodyn: its folder goes on sys.path unless it is there already.
 _CHILD = (
     "import sys; sys.argv[1] in sys.path or sys.path.insert(0, sys.argv[1]); "
-    "import robodyn.kinds.sandbox as s; s.serve()"
+    "import robodyn.checker.sandbox as s; s.serve()"
 )
 _SRC = str(Path(__file__).resolve().parents[2])
 
@@ -205,7 +205,7 @@ class _Child:
                         "potential": formula.potential_energy is not None,
                         "coriolis": formula.coriolis_form,
                         "independent": list(getattr(formula, "independent", ())),
-                        **any_file.loaded_header(formula),
+                        **any_kind.loaded_header(formula),
                     }
                 )
             elif header["op"] == "evaluate" and self.formula is not None:
@@ -217,7 +217,7 @@ class _Child:
                 self.send({"op": "values", "renamed": renamed}, {name: values.of(name) for name in FUNCTIONS})
             elif header["op"] == "call" and self.formula is not None:  # a constrained file's parameters, on_the_loop
                 formula, self.running = self.formula, str(header.get("function"))
-                serve_call = any_file.serve if formula.kind == any_file.KIND else reduced.serve
+                serve_call = any_kind.serve if formula.kind == any_kind.KIND else constrained_kind.serve
                 self.send(*_limited(self.timeout, lambda: serve_call(formula, header, arrays)))
             else:
                 self.send({"op": "error", "message": f"{self.source}: robodyn sent a request out of order"})

@@ -1,16 +1,16 @@
 """What a user's formula file must be, checked inside the process that runs it.
 
 The file defines ``KIND`` (one of the built-in kinds) and the functions ``mass_matrix(q, p)``,
-``coriolis_matrix(q, v, p)`` (or ``coriolis_vector(q, v, p)``: C v alone, :mod:`robodyn.kinds.user_coriolis`),
+``coriolis_matrix(q, v, p)`` (or ``coriolis_vector(q, v, p)``: C v alone, :mod:`robodyn.checker.velocity_terms`),
 ``gravity(q, p)``, optionally ``potential_energy(q, p)``, where ``p`` maps the kind's parameter names
 to floats; it also answers the names the kind's parameters had before (the textbook's ``M`` for the
 cart's mass, :data:`robodyn.kinds.units.RENAMED`), and :func:`renamed_notes` says which a file used.
 ``KIND = "constrained"`` is a closed chain's reduced Lagrangian, which also defines ``INDEPENDENT``,
-``parameters(scene)`` and ``on_the_loop(q, v, p)`` (:mod:`robodyn.kinds.reduced`). Every returned value is
+``parameters(scene)`` and ``on_the_loop(q, v, p)`` (:mod:`robodyn.checker.constrained_kind`). Every returned value is
 shape-checked and must be finite; an error, an exception or a ``sys.exit`` names the user's file and line.
 
 This module imports and runs the user's code in the current process, so robodyn calls it only
-in the formula's own process (:mod:`robodyn.kinds.sandbox`); :func:`robodyn.kinds.user.load_user_formula`
+in the formula's own process (:mod:`robodyn.checker.sandbox`); :func:`robodyn.checker.user_formula.load_user_formula`
 is the safe entry point.
 """
 
@@ -25,16 +25,16 @@ from typing import Any
 
 import numpy as np
 
+from robodyn.checker.any_kind import KIND as ANY
+from robodyn.checker.any_kind import load_any
+from robodyn.checker.constrained_kind import KIND as CONSTRAINED
+from robodyn.checker.constrained_kind import ConstrainedFormula, independent_names
+from robodyn.checker.velocity_terms import BOTH_OPTIONS, coriolis_function, defines_coriolis
 from robodyn.errors import FormulaError
-from robodyn.kinds.any_file import KIND as ANY
-from robodyn.kinds.any_file import load_any
 from robodyn.kinds.formula import Array, Formula
 from robodyn.kinds.formulas import KINDS, get
 from robodyn.kinds.geared_arm import from_motor_coordinates
-from robodyn.kinds.reduced import KIND as CONSTRAINED
-from robodyn.kinds.reduced import ConstrainedFormula, independent_names
 from robodyn.kinds.units import RENAMED, RENAMED_MEANING
-from robodyn.kinds.user_coriolis import BOTH_OPTIONS, coriolis_function, defines_coriolis
 from robodyn.userfile import at_line, exit_call, import_user_file
 
 REQUIRED_FUNCTIONS = ("mass_matrix", "coriolis_matrix", "gravity")
@@ -155,7 +155,7 @@ def load_in_process(path: Path, source: str) -> Formula:
 
 
 def _constrained(module: ModuleType, source: str, path: Path) -> ConstrainedFormula:
-    """A ``KIND = "constrained"`` file (the contract: :mod:`robodyn.kinds.reduced`), its functions wrapped."""
+    """A ``KIND = "constrained"`` file (contract: :mod:`~robodyn.checker.constrained_kind`), its functions wrapped."""
     independent = independent_names(getattr(module, "INDEPENDENT", None), source)
     missing = [f for f in (*REQUIRED_FUNCTIONS, *CONSTRAINED_FUNCTIONS) if not callable(getattr(module, f, None))]
     if missing:

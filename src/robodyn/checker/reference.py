@@ -73,7 +73,7 @@ class Reference:
         )
 
     def remapped(self, A: Array, offsets: Array) -> Reference:
-        """The same joints under another map (a convention hint's candidate, :mod:`robodyn.kinds.hints`)."""
+        """The same joints under another map (a convention hint's candidate, :mod:`robodyn.checker.hints`)."""
         return Reference(self.robot, self.columns, self.q_columns, self.pairs, A, offsets)
 
     @cached_property

@@ -13,8 +13,11 @@ Over seeded random states (q uniform in [-pi, pi] around neutral, v and a unifor
   Disagreements there are Pinocchio's own gaps; they are reported plainly but do not fail
   the check, because robodyn uses 1/2 v^T M v.
 
-A ``KIND = "constrained"`` formula (a closed chain's reduced Lagrangian) replaces the formula
-rows by those of :mod:`robodyn.kinds.loop_check`. Errors are relative to the largest magnitude
+Each kind of formula is compared by a function of its own (``_COMPARISONS``), all returning the
+same typed result: a ``KIND = "constrained"`` formula (a closed chain's reduced Lagrangian) on the
+loop (:mod:`robodyn.checker.compare_constrained`), a ``KIND = "any"`` one in its own coordinates
+(:mod:`robodyn.checker.compare_any`), a built-in kind's with the model's parameters. The rows that
+need no formula are :mod:`robodyn.checker.structure`'s. Errors are relative to the largest magnitude
 the quantity takes over the sampled states.
 Finite differences (dM/dt, dV/dq) use a central step of ``FD_STEP`` and are held to
 ``FD_TOL``.
@@ -33,18 +36,22 @@ from __future__ import annotations
 import functools
 import time
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from robodyn import dynamics
-from robodyn.errors import AssumptionError, InputError
-from robodyn.kinds import any_check
-from robodyn.kinds.any_file import KIND as ANY
-from robodyn.kinds.check_rows import (
+from robodyn.checker import compare_any
+from robodyn.checker.any_kind import KIND as ANY
+from robodyn.checker.compare_constrained import loop_rows
+from robodyn.checker.constrained_kind import KIND as CONSTRAINED
+from robodyn.checker.explain import Explained, Sets, one_set
+from robodyn.checker.explain_sets import by_reading
+from robodyn.checker.hints import convention_hints
+from robodyn.checker.reference import Reference
+from robodyn.checker.rows import (
     DEFAULT_RTOL,
     FD_STEP,
     FD_TOL,
@@ -56,18 +63,14 @@ from robodyn.kinds.check_rows import (
     formula_values,
     skew_scale,
 )
-from robodyn.kinds.check_scales import scales
-from robodyn.kinds.explain import Explained, Sets, one_set
-from robodyn.kinds.explain_sets import by_reading
+from robodyn.checker.sandbox import DEFAULT_TIMEOUT
+from robodyn.checker.scales import scales
+from robodyn.checker.structure import structure_rows
+from robodyn.checker.user_formula import UserFormula, resolve
+from robodyn.checker.velocity_terms import VECTOR
+from robodyn.errors import AssumptionError, InputError
 from robodyn.kinds.formula import Formula
-from robodyn.kinds.hints import convention_hints
-from robodyn.kinds.loop_check import loop_rows
 from robodyn.kinds.params import Params, extract, from_mapping
-from robodyn.kinds.reduced import KIND as CONSTRAINED
-from robodyn.kinds.reference import Reference
-from robodyn.kinds.sandbox import DEFAULT_TIMEOUT
-from robodyn.kinds.user import UserFormula, resolve
-from robodyn.kinds.user_coriolis import VECTOR
 from robodyn.robot import Robot
 
 Array = NDArray[np.float64]
@@ -101,21 +104,6 @@ def _draw_samples(robot: Robot, samples: int, seed: int) -> list[_Sample]:
         q, v = robot.random_state(rng, speed=SPEED)
         out.append(_Sample(q, v, rng.uniform(-SPEED, SPEED, robot.nv), rng.uniform(-TORQUE, TORQUE, robot.nv)))
     return out
-
-
-def _mdot(mass: Callable[[Array], Array], integrate: Callable[[Array, Array], Array], q: Array, v: Array) -> Array:
-    """dM/dt along v by a central difference of step FD_STEP."""
-    return (mass(integrate(q, FD_STEP * v)) - mass(integrate(q, -FD_STEP * v))) / (2 * FD_STEP)
-
-
-def _grad(potential: Callable[[Array], float], integrate: Callable[[Array, Array], Array], q: Array, nv: int) -> Array:
-    """dV/dq by central differences of step FD_STEP along each tangent direction."""
-    grad = np.empty(nv)
-    for i in range(nv):
-        e = np.zeros(nv)
-        e[i] = FD_STEP
-        grad[i] = (potential(integrate(q, e)) - potential(integrate(q, -e))) / (2 * FD_STEP)
-    return grad
 
 
 def _given_params(kind: str, params: Mapping[str, float], where: str) -> Params:
@@ -240,131 +228,106 @@ def _formula_rows(
     return rows
 
 
-def _structure_rows(robot: Robot, samples: list[_Sample], rtol: float) -> list[CheckRow]:
-    model, data = robot.model, robot.data
-    fd_tol = max(rtol, FD_TOL)
-    integrate = lambda q, dq: dynamics.integrate(model, q, dq)  # noqa: E731
-    mass = lambda q: dynamics.mass_matrix(model, data, q)  # noqa: E731
-    spd = Accumulator("M symmetric positive definite", "structure", "kg m^2", rtol)
-    skew = Accumulator("N = dM/dt - 2C skew", "structure", "kg m^2/s", fd_tol)
-    grad = Accumulator("G = dV/dq", "structure", "N m", fd_tol)
-    nle = Accumulator("C v + G = RNEA(q, v, 0)", "identity", "N m", rtol)
-    columns = Accumulator("CRBA = RNEA columns", "identity", "kg m^2", rtol)
-    inverse = Accumulator("RNEA(q, v, ABA(q, v, tau)) = tau", "identity", "N m", rtol)
-    forward = Accumulator("M^-1 (tau - nle) = ABA", "identity", "rad/s^2", rtol)
-    kinetic = Accumulator(
-        "1/2 v^T M v = computeKineticEnergy", "pinocchio", "J", rtol, counts=False,
-        note="Pinocchio's computeKineticEnergy leaves out armature on joints with a non-canonical axis; "
-        "robodyn uses 1/2 v^T M v",
+@dataclass(frozen=True)
+class _Request:
+    """What every kind of formula's comparison is asked: the states, the tolerance, the user's options."""
+
+    robot: Robot
+    states: list[_Sample]  # drawn on ``robot``'s own coordinates
+    samples: int
+    seed: int
+    rtol: float
+    params: Mapping[str, float] | None
+    params_source: str | None
+    loops: Iterable[Any]
+    springs: Any
+    scene: str | Path | None
+    explain: bool
+
+
+@dataclass(frozen=True)
+class _Compared:
+    """One formula's comparison, whatever its kind: its rows, the parameters used, and what --explain needs."""
+
+    rows: tuple[CheckRow, ...]
+    params: dict[str, float]
+    notes: tuple[str, ...] = ()
+    kept: dict[str, Accumulator] = field(default_factory=dict)  # the formula rows' accumulators, for --explain
+    explained: tuple[list[_Sample], Reference] | None = None  # and the states they were taken at
+    sets: Sets | None = None  # and formula - Pinocchio at the varied parameter sets
+    names: tuple[str, ...] = ()  # the formula's coordinates (NAMES)
+
+
+def _constrained(formula: Formula, ask: _Request) -> _Compared:
+    """A closed chain's reduced Lagrangian against Pinocchio's constrained dynamics, on the loop."""
+    found = loop_rows(
+        ask.robot, formula, loops=ask.loops, springs=ask.springs, scene=None if ask.scene is None else str(ask.scene),
+        params=ask.params, samples=ask.samples, seed=ask.seed, rtol=ask.rtol,
     )  # fmt: skip
-    mimic = dynamics.has_mimic_joints(model)
-    coriolis = Accumulator(
-        "computeCoriolisMatrix = C by RNEA", "pinocchio", "kg m^2/s", rtol, counts=False,
-    )  # fmt: skip
-    n_scale = 0.0  # N's reference magnitude over the samples (see skew_scale)
-    min_eig_ratio = np.inf
-    aba_ok = True
-    energy_refused = False
-    for s in samples:
-        M = mass(s.q)
-        raw = np.array(M)
-        eig = np.linalg.eigvalsh(raw) if np.all(np.isfinite(raw)) else np.full(robot.nv, np.nan)
-        min_eig_ratio = min(min_eig_ratio, eig[0] / eig[-1])
-        sc = scales(robot, s, raw)
-        # Positive definiteness: a non-positive eigenvalue shows as an error of its size. An eigenvalue
-        # within round-off of zero (a body without inertia: icub) is still singular, so no floor here.
-        spd.add(np.zeros(1), np.array([max(0.0, -eig[0]) + (eig[-1] if eig[0] <= 0 else 0.0)]))
-        C = dynamics.coriolis_matrix(model, data, s.q, s.v)
-        coriolis.add(
-            dynamics.pinocchio_coriolis_matrix(model, data, s.q, s.v),
-            C if mimic else dynamics.christoffel_coriolis(model, data, s.q, s.v),
-            sc.floor(sc.coriolis_terms),
-        )
-        G = dynamics.gravity(model, data, s.q)
-        Mdot = _mdot(mass, integrate, s.q, s.v)
-        n_scale = max(n_scale, skew_scale(Mdot, C, M, s.v))
-        N = Mdot - 2 * C
-        skew.add(np.zeros_like(N), N + N.T, sc.floor(sc.mass * sc.speed / FD_STEP))
-        grad.add(
-            G,
-            _grad(lambda q: dynamics.potential_energy(model, data, q), integrate, s.q, robot.nv),
-            sc.floor(sc.energy / FD_STEP),
-        )
-        b = dynamics.nonlinear_effects(model, data, s.q, s.v)
-        nle.add(b, C @ s.v + G, sc.floor(sc.mass * sc.speed**2 + sc.energy))
-        zero = np.zeros(robot.nv)
-        cols = np.column_stack([dynamics.rnea(model, data, s.q, zero, e) - G for e in np.eye(robot.nv)])
-        columns.add(M, cols, sc.floor(sc.mass + sc.energy))
-        try:
-            a_crba = dynamics.crba_solve(model, data, s.q, s.v, s.tau)
-        except np.linalg.LinAlgError:  # M not positive definite: the rows solving through it fail, saying so
-            a_crba = np.full(robot.nv, np.nan)
-            forward.note = inverse.note = (
-                forward.note or f"M(q) is not positive definite at sample {len(forward.pairs)}"
-            )
-        try:
-            a_aba = dynamics.aba(model, data, s.q, s.v, s.tau)
-        except (RuntimeError, ValueError):
-            aba_ok, a_aba = False, a_crba
-        forward.add(a_aba, a_crba, sc.forward_floor(a_aba))
-        # tau -> a -> tau: ABA solves with a matrix off by eps |M|, which comes back through RNEA as eps |M| |a|
-        # (|a| is up to |M^-1| |tau - nle|: cond(M) times the torques' terms on an ill-conditioned M)
-        a_size = float(np.abs(a_crba).max())
-        inverse.add(s.tau, dynamics.rnea(model, data, s.q, s.v, a_crba), sc.floor(sc.mass * a_size + sc.torque_terms))
-        T = 0.5 * float(s.v @ M @ s.v)
-        t_floor = sc.floor(sc.mass * sc.speed**2)
-        try:
-            kinetic.add(T, dynamics.pinocchio_kinetic_energy(model, data, s.q, s.v), t_floor)
-        except RuntimeError:  # computeKineticEnergy refuses mimic joints
-            energy_refused = True
-            kinetic.add(T, T)
-    nle_row = nle.row(samples)
-    if mimic:  # C itself comes from RNEA here: the identity holds by construction
-        nle_row = replace(
-            nle_row, note="on mimic joints robodyn's C is built from RNEA, so this row holds by construction"
-        )
-    rows = [
-        spd.row(samples),
-        skew.row(samples, zero_reference_scale=n_scale),
-        grad.row(samples),
-        nle_row,
-        columns.row(samples),
-        inverse.row(samples),
+    return _Compared(tuple(found.rows), found.params, found.notes)
+
+
+def _any(formula: Formula, ask: _Request) -> _Compared:
+    """A ``KIND = "any"`` formula against Pinocchio in the formula's own coordinates."""
+    setup = compare_any.prepare(ask.robot, formula, None if ask.params is None else dict(ask.params))
+    ref = setup.reference
+    mapped = [
+        _Sample(ref.formula_q(s.q), ref.formula_v(s.v), ref.formula_v(s.a), ref.formula_tau(s.tau))
+        for s in _draw_samples(setup.robot, ask.samples, ask.seed)
     ]
-    forward_row = forward.row(samples)
-    if not aba_ok:
-        forward_row = replace(forward_row, counts=False, applicable=False, note="ABA refuses mimic joints")
-    rows.append(forward_row)
-    kinetic_row = kinetic.row(samples, scalar=True)
-    if energy_refused:
-        kinetic_row = replace(
-            kinetic_row, counts=False, applicable=False, note="computeKineticEnergy refuses mimic joints"
-        )
-    elif kinetic_row.passed:
-        kinetic_row = replace(kinetic_row, note="")
-    else:
-        unaligned = [j.name for j in robot.joints if "Unaligned" in j.kind and robot.armature[j.idx_v] != 0]
-        if unaligned:
-            kinetic_row = replace(
-                kinetic_row,
-                note=f"Pinocchio's computeKineticEnergy leaves out the armature of joint(s) {', '.join(unaligned)} "
-                "(non-canonical axis, RevoluteUnaligned); 1/2 v^T M v includes it and is what robodyn uses",
-            )
-        else:
-            kinetic_row = replace(kinetic_row, note="Pinocchio's kinetic-energy routine disagrees with 1/2 v^T M v")
-    rows.append(kinetic_row)
-    coriolis_row = coriolis.row(samples)
-    if not coriolis_row.passed:
-        coriolis_row = replace(
-            coriolis_row,
-            note="Pinocchio's computeCoriolisMatrix is wrong on models with mimic joints (C v + G != RNEA, "
-            "dM/dt - 2C not skew); robodyn's C is the Christoffel matrix from RNEA"
-            if mimic
-            else "Pinocchio's computeCoriolisMatrix disagrees with the Christoffel C from RNEA",
-        )
-    rows.append(coriolis_row)
-    rows[0] = replace(rows[0], note=f"min over samples of lambda_min / lambda_max = {min_eig_ratio:.3g}")
-    return rows
+    kept: dict[str, Accumulator] = {}
+    rows = _formula_rows(
+        setup.robot, formula, Params(ANY, setup.params), mapped, ask.rtol, None, reference=ref, keep=kept
+    )
+    sets = None
+    if ask.explain:
+        follower = compare_any.follower(setup, formula, given=ask.params is not None, seed=ask.seed)
+        sets = compare_any.varied_sets(formula, ref, setup.params, mapped, rows, follower, seed=ask.seed)
+    names = tuple(getattr(formula, "names", ()))
+    return _Compared(tuple(rows), setup.params, setup.notes, kept, (mapped, ref), sets, names)
+
+
+def _built_in(formula: Formula, ask: _Request) -> _Compared:
+    """A built-in kind's formula (its closed form, or a user's file of that kind) with the model's parameters."""
+    robot = ask.robot
+    try:
+        p = extract(robot, formula.kind)
+    except AssumptionError as exc:  # say which model: the message names only the assumption it breaks
+        raise AssumptionError(str(exc), path=robot.urdf_path or robot.name) from None
+    given = None if ask.params is None else (f"{ask.params_source}: " if ask.params_source else "")
+    if ask.params is not None and given is not None:
+        p = _given_params(formula.kind, ask.params, given)
+    used = p.as_dict()
+    kept: dict[str, Accumulator] = {}
+    rows = _formula_rows(robot, formula, p, ask.states, ask.rtol, given, keep=kept)
+    explained = (ask.states, Reference.identity(robot))
+    sets = None
+    if ask.explain and ask.params is None:
+        follower = by_reading(functools.partial(_extracted, kind=formula.kind))
+        sets = compare_any.varied_sets(formula, explained[1], used, ask.states, rows, follower, seed=ask.seed)
+    elif ask.explain:
+        sets = one_set(used, used.get("g", 0.0), failure=GIVEN)
+    return _Compared(tuple(rows), used, (), kept, explained, sets)
+
+
+# How each kind of formula is compared: the file kinds by name, every other kind as a built-in one.
+_COMPARISONS: dict[str, Callable[[Formula, _Request], _Compared]] = {CONSTRAINED: _constrained, ANY: _any}
+
+
+def _compared(
+    formula: Formula | str, ask: _Request, timeout: float
+) -> tuple[_Compared, str | None, str | None, tuple[str, ...]]:
+    """``formula`` (a file's path: loaded now, closed after) compared by its kind: (result, source, kind, renamed)."""
+    resolved = resolve(formula, timeout=timeout) if isinstance(formula, str) else formula
+    try:
+        source, kind = (formula if isinstance(formula, str) else resolved.source), resolved.kind
+        found = _COMPARISONS.get(kind, _built_in)(resolved, ask)
+        if resolved.coriolis_form == VECTOR:
+            found = replace(found, notes=(*found.notes, C_NOT_CHECKED.format(source=source)))
+        return found, source, kind, (resolved.renamed if isinstance(resolved, UserFormula) else ())
+    finally:
+        if isinstance(formula, str) and isinstance(resolved, UserFormula):
+            resolved.close()  # the file's process was this check's own
 
 
 def check(
@@ -386,7 +349,7 @@ def check(
 
     A formula file with ``KIND = "constrained"`` is a closed chain's reduced Lagrangian: it is
     compared with Pinocchio's constrained dynamics on ``loops`` (with ``springs``) at random
-    states on the loop (:mod:`robodyn.kinds.loop_check`); its parameters come from its
+    states on the loop (:mod:`robodyn.checker.compare_constrained`); its parameters come from its
     ``parameters(scene)``, or are ``params``. Other formulas check the open tree, and take no
     loops or springs (a note says so when they are given).
 
@@ -405,14 +368,14 @@ def check(
         params_source: where ``params`` came from (a file name), named in their refusals.
         formula_timeout: when ``formula`` is a file's path, the seconds its code may run: its
             import, then the whole batch of evaluations (it runs in a process of its own, see
-            :mod:`robodyn.kinds.sandbox`). A loaded :class:`UserFormula` keeps its own limit.
+            :mod:`robodyn.checker.sandbox`). A loaded :class:`UserFormula` keeps its own limit.
         loops: a constrained formula's loop closures: mappings or objects with ``frame_a``,
             ``frame_b`` and ``kind`` (:class:`robodyn.sim.constraints.Loop`).
         springs: a constrained formula's joint springs: joint -> ``{"stiffness", "rest"}`` (or
             a Spring, or ``(k, rest)``), or (joint, spring) pairs.
         scene: the scene file a constrained formula's ``parameters(scene)`` reads.
         explain: name the wrong term of each mismatching entry of M, C, G and V in the formula's own
-            symbols, and say what the knock-on rows follow from (:mod:`robodyn.kinds.explain`); the lines
+            symbols, and say what the knock-on rows follow from (:mod:`robodyn.checker.explain`); the lines
             are the report's ``explanation``.
 
     Raises:
@@ -433,70 +396,19 @@ def check(
         raise InputError(f"rtol must be a positive number, got {rtol}")
     start = time.perf_counter()
     states = _draw_samples(robot, samples, seed)
-    rows: list[CheckRow] = []
-    used: dict[str, float] = {}
-    kind = None
-    source = None
-    notes: tuple[str, ...] = ()
-    renamed: tuple[str, ...] = ()
-    kept: dict[str, Accumulator] = {}  # the formula rows' accumulators, for --explain
-    explained: tuple[list[_Sample], Reference] | None = None  # and the states they were taken at
-    sets: Sets | None = None  # and formula - Pinocchio at the varied parameter sets
-    names: tuple[str, ...] = ()  # the formula's coordinates (NAMES)
+    ask = _Request(robot, states, samples, seed, rtol, params, params_source, loops, springs, scene, explain)
+    renamed: tuple[str, ...]
+    found, source, kind, renamed = _Compared((), {}), None, None, ()  # no formula: the structural rows alone
     if formula is not None:
-        resolved = resolve(formula, timeout=formula_timeout) if isinstance(formula, str) else formula
-        try:
-            source, kind = (formula if isinstance(formula, str) else resolved.source), resolved.kind
-            if kind == CONSTRAINED:
-                found = loop_rows(
-                    robot, resolved, loops=loops, springs=springs, scene=None if scene is None else str(scene),
-                    params=params, samples=samples, seed=seed, rtol=rtol,
-                )  # fmt: skip
-                rows, used, notes = list(found.rows), found.params, found.notes
-            elif kind == ANY:
-                setup = any_check.prepare(robot, resolved, None if params is None else dict(params))
-                ref = setup.reference
-                mapped = [
-                    _Sample(ref.formula_q(s.q), ref.formula_v(s.v), ref.formula_v(s.a), ref.formula_tau(s.tau))
-                    for s in _draw_samples(setup.robot, samples, seed)
-                ]
-                used, notes = setup.params, setup.notes
-                p_any = Params(ANY, used)
-                rows += _formula_rows(setup.robot, resolved, p_any, mapped, rtol, None, reference=ref, keep=kept)
-                explained = (mapped, ref)
-                names = tuple(getattr(resolved, "names", ()))
-                if explain:
-                    follower = any_check.follower(setup, resolved, given=params is not None, seed=seed)
-                    sets = any_check.varied_sets(resolved, ref, used, mapped, rows, follower, seed=seed)
-            else:
-                try:
-                    p = extract(robot, resolved.kind)
-                except AssumptionError as exc:  # say which model: the message names only the assumption it breaks
-                    raise AssumptionError(str(exc), path=robot.urdf_path or robot.name) from None
-                given = None if params is None else (f"{params_source}: " if params_source else "")
-                if params is not None and given is not None:
-                    p = _given_params(resolved.kind, params, given)
-                used = p.as_dict()
-                rows += _formula_rows(robot, resolved, p, states, rtol, given, keep=kept)
-                explained = (states, Reference.identity(robot))
-                if explain and params is None:
-                    follower = by_reading(functools.partial(_extracted, kind=resolved.kind))
-                    sets = any_check.varied_sets(resolved, explained[1], used, states, rows, follower, seed=seed)
-                elif explain:
-                    sets = one_set(used, used.get("g", 0.0), failure=GIVEN)
-            if resolved.coriolis_form == VECTOR:
-                notes += (C_NOT_CHECKED.format(source=source),)
-            renamed = resolved.renamed if isinstance(resolved, UserFormula) else ()
-        finally:
-            if isinstance(formula, str) and isinstance(resolved, UserFormula):
-                resolved.close()  # the file's process was this check's own
-    rows += _structure_rows(robot, states, rtol)
+        found, source, kind, renamed = _compared(formula, ask, formula_timeout)
+    used, notes, kept, explained, names = found.params, found.notes, found.kept, found.explained, found.names
+    rows = [*found.rows, *structure_rows(robot, states, rtol)]
     rows.sort(key=lambda r: GROUP_ORDER.index(r.group))  # stable: keeps the order within a group
     hints = convention_hints(rows, kept, *explained, kind, names) if explained is not None else ()
     explanation: tuple[str, ...] = ()
     terms: tuple[Explained, ...] = ()
     if explain and explained is not None:
-        explanation, terms = any_check.explain_rows(rows, kept, *explained, used, sets=sets, names=names)
+        explanation, terms = compare_any.explain_rows(rows, kept, *explained, used, sets=found.sets, names=names)
     elif explain and kind == CONSTRAINED:
         explanation = ("explain: not available for a KIND = 'constrained' formula (its rows are on the loop)",)
     if kind != CONSTRAINED and (tuple(loops) or springs):

@@ -24,12 +24,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from robodyn.checker.evaluation import Points
+from robodyn.checker.explain import Sets
+from robodyn.checker.reference import Reference
+from robodyn.checker.rows import formula_values
 from robodyn.errors import RobodynError
-from robodyn.kinds.check_rows import formula_values
-from robodyn.kinds.evaluation import Points
-from robodyn.kinds.explain import Sets
 from robodyn.kinds.formula import Formula
-from robodyn.kinds.reference import Reference
 from robodyn.model.links import LinkTable, link_table
 from robodyn.model.vary import GRAVITY, Quantity, quantities, varied
 from robodyn.robot import Robot

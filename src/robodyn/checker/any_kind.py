@@ -18,13 +18,13 @@ The file defines
   distinct, one per joint of ``JOINTS``): ``--explain`` writes its terms in them (``cos(phi1)``,
   velocities ``phi1_dot``); default q1, q2, ... and v1, v2, ...;
 * ``mass_matrix(q, p)`` (n, n) [kg m^2 | kg], ``coriolis_matrix(q, v, p)`` (n, n) (or
-  ``coriolis_vector(q, v, p)`` (n,): C v alone, :mod:`robodyn.kinds.user_coriolis`) and
+  ``coriolis_vector(q, v, p)`` (n,): C v alone, :mod:`robodyn.checker.velocity_terms`) and
   ``gravity(q, p)`` (n,) [N m | N], and optionally ``potential_energy(q, p)`` [J], with n = len(JOINTS),
   ``q`` and ``v`` (n,) in the formula's coordinates and ``p`` the parameters.
 
-This module checks the contract where the file runs (its own process, :mod:`robodyn.kinds.sandbox`);
+This module checks the contract where the file runs (its own process, :mod:`robodyn.checker.sandbox`);
 each broken rule is one :class:`~robodyn.errors.FormulaError` line naming the file. The comparison
-with Pinocchio, in the formula's coordinates, is :mod:`robodyn.kinds.any_check`.
+with Pinocchio, in the formula's coordinates, is :mod:`robodyn.checker.compare_any`.
 """
 
 from __future__ import annotations
@@ -39,10 +39,10 @@ from typing import Any
 
 import numpy as np
 
+from robodyn.checker.constrained_kind import call_user, checked_parameters, independent_names
+from robodyn.checker.velocity_terms import coriolis_function
 from robodyn.errors import FormulaError, InputError
 from robodyn.kinds.formula import Formula
-from robodyn.kinds.reduced import call_user, checked_parameters, independent_names
-from robodyn.kinds.user_coriolis import coriolis_function
 from robodyn.model.coordinate_map import coordinate_map
 
 KIND = "any"

@@ -1,6 +1,6 @@
 """--explain's names: a coefficient as a product of a formula's parameters, and the dimensions that pick one.
 
-A fitted coefficient (:mod:`robodyn.kinds.explain`) is a vector over the parameter sets (the check's
+A fitted coefficient (:mod:`robodyn.checker.explain`) is a vector over the parameter sets (the check's
 own and the varied ones). It is named by a product of the file's parameters (up to :data:`MAX_FACTORS`
 of them, times g) with a small rational factor (:data:`RATIONALS`), or a sum or difference of two such
 products with their common factors taken out (``m2*(lc1 - l1)``), that equals it to :data:`NAME_RTOL`
@@ -61,7 +61,7 @@ class Namer:
     """Names coefficients by products of parameters (up to :data:`MAX_FACTORS`, times g) with a small rational factor.
 
     ``params`` is one parameter set or several (the check's own first, then the varied ones, see
-    :mod:`robodyn.kinds.explain_sets`); a coefficient is then a vector over the sets, and a name must equal
+    :mod:`robodyn.checker.explain_sets`); a coefficient is then a vector over the sets, and a name must equal
     it at every set. Where every factor's dimension is known (:func:`parameter_dimension`) a product must
     have the coefficient's dimension; one of unknown dimension is kept only when none of known dimension fits.
     """

@@ -1,6 +1,6 @@
 """A closed chain's reduced Lagrangian against Pinocchio's constrained dynamics, at random states on the loop.
 
-A ``KIND = "constrained"`` formula (the contract: :mod:`robodyn.kinds.reduced`) gives M(theta),
+A ``KIND = "constrained"`` formula (the contract: :mod:`robodyn.checker.constrained_kind`) gives M(theta),
 C(theta, omega) and G(theta) (springs included) in the independent coordinates theta, and
 ``on_the_loop``, which maps (theta, omega) to the full state. At seeded random (theta, omega, tau)
 -- theta uniform within the independent joints' URDF limits (within [-pi, pi]), omega uniform in
@@ -37,8 +37,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodyn import constrained, dynamics
-from robodyn.errors import FormulaError, InputError, UnknownNameError
-from robodyn.kinds.check_rows import (
+from robodyn.checker.constrained_kind import LoopStates, checked_parameters
+from robodyn.checker.rows import (
     FD_STEP,
     FD_TOL,
     Accumulator,
@@ -47,8 +47,8 @@ from robodyn.kinds.check_rows import (
     formula_values,
     skew_scale,
 )
+from robodyn.errors import FormulaError, InputError, UnknownNameError
 from robodyn.kinds.formula import Formula
-from robodyn.kinds.reduced import LoopStates, checked_parameters
 from robodyn.robot import JointInfo, Robot
 
 Array = NDArray[np.float64]

@@ -7,7 +7,7 @@ transposed. Each gives a wall of mismatches whose terms name nothing of it.
 
 :func:`convention_hints` tries each such convention on the formula values the check has already
 evaluated (the formula is not run again): Pinocchio is re-mapped to each candidate's coordinates
-(:meth:`robodyn.kinds.reference.Reference.remapped`) at the same formula states, on the first
+(:meth:`robodyn.checker.reference.Reference.remapped`) at the same formula states, on the first
 :data:`HINT_SAMPLES` of them, and a candidate is reported when under it M, C, G (and V when the
 file gives it) ALL agree, to the check's own tolerance (its rtol of each quantity's scale, or its
 round-off floor). The candidates, for q_formula = A q_urdf + b:
@@ -37,8 +37,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from robodyn.kinds.check_rows import Accumulator, CheckRow
-from robodyn.kinds.reference import Reference
+from robodyn.checker.reference import Reference
+from robodyn.checker.rows import Accumulator, CheckRow
 from robodyn.model.coordinate_map import CoordinateMap
 
 Array = NDArray[np.float64]

@@ -3,10 +3,10 @@
 The file defines ``KIND`` (one of the built-in kinds) and the functions ``mass_matrix(q, p)``,
 ``coriolis_matrix(q, v, p)`` (or ``coriolis_vector(q, v, p)``, C v alone), ``gravity(q, p)``, optionally
 ``potential_energy(q, p)``, where ``p`` maps the kind's parameter names (current or earlier) to floats
-(the contract: :mod:`robodyn.kinds.user_file`); or
-``KIND = "constrained"``, a closed chain's reduced Lagrangian (:mod:`robodyn.kinds.reduced`).
+(the contract: :mod:`robodyn.checker.file_contract`); or
+``KIND = "constrained"``, a closed chain's reduced Lagrangian (:mod:`robodyn.checker.constrained_kind`).
 
-:func:`load_user_formula` imports the file in its own process (:mod:`robodyn.kinds.sandbox`),
+:func:`load_user_formula` imports the file in its own process (:mod:`robodyn.checker.sandbox`),
 under a time limit, and returns a :class:`UserFormula`: each of its functions is a round trip
 to that process, and :meth:`UserFormula.evaluate` evaluates a whole batch of points in one.
 ``sys.exit``, ``os._exit``, a hang or a ``print`` in the file become one :class:`FormulaError`
@@ -23,12 +23,12 @@ from typing import Any
 
 import numpy as np
 
+from robodyn.checker.constrained_kind import LoopStates, checked_parameters
+from robodyn.checker.evaluation import Points, Values
+from robodyn.checker.sandbox import DEFAULT_TIMEOUT, FormulaProcess
 from robodyn.errors import FormulaError
-from robodyn.kinds.evaluation import Points, Values
 from robodyn.kinds.formula import Array, Formula
 from robodyn.kinds.formulas import get
-from robodyn.kinds.reduced import LoopStates, checked_parameters
-from robodyn.kinds.sandbox import DEFAULT_TIMEOUT, FormulaProcess
 
 
 def looks_like_file(spec: str) -> bool:
@@ -52,7 +52,7 @@ class UserFormula(Formula):
     path: Path = field(default=Path(), kw_only=True)
     process: FormulaProcess | None = field(default=None, kw_only=True, compare=False, repr=False)
     independent: tuple[str, ...] = field(default=(), kw_only=True)  # KIND = "constrained": its coordinates' joints
-    # KIND = "any" (robodyn.kinds.any_file): independent is JOINTS; q_formula = A q_urdf + b (offsets); LOCKED
+    # KIND = "any" (robodyn.checker.any_kind): independent is JOINTS; q_formula = A q_urdf + b (offsets); LOCKED
     matrix: tuple[tuple[float, ...], ...] = field(default=(), kw_only=True)  # A of q_formula = A q_urdf + b
     offsets: tuple[float, ...] = field(default=(), kw_only=True)
     locked: tuple[tuple[str, float], ...] = field(default=(), kw_only=True)

@@ -1,7 +1,7 @@
 """The round-off floors of ``robodyn check``'s rows: the magnitudes each sample's quantities are summed from.
 
 A row passes within an absolute floor of ``ROUNDOFF`` eps times the magnitude of the terms its
-quantity is computed from (:mod:`robodyn.kinds.check_rows`): |M|, the sample's speeds and
+quantity is computed from (:mod:`robodyn.checker.rows`): |M|, the sample's speeds and
 accelerations, the energy scale |g| sum m_i |c_i|; the round trips through M are held to cond(M)
 |a| on top. :func:`scales` reads them for one sample.
 """
@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodyn import dynamics
-from robodyn.kinds.check_rows import EPS, ROUNDOFF
+from robodyn.checker.rows import EPS, ROUNDOFF
 from robodyn.robot import Robot
 
 Array = NDArray[np.float64]

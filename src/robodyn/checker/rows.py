@@ -5,8 +5,8 @@ a :class:`CheckReport` is everything one check found. :class:`Accumulator` colle
 (reference, value) pairs sample by sample and reduces them to a row; :func:`formula_points`
 and :func:`formula_values` evaluate a formula (a user's file in one round trip to its
 process) at every state a check needs, finite-difference neighbours included. Both the
-open-chain check (:mod:`robodyn.kinds.check`) and the reduced-Lagrangian check of a closed
-chain (:mod:`robodyn.kinds.loop_check`) are built from them.
+open-chain check (:mod:`robodyn.checker.compare`) and the reduced-Lagrangian check of a closed
+chain (:mod:`robodyn.checker.compare_constrained`) are built from them.
 """
 
 from __future__ import annotations
@@ -18,9 +18,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robodyn.kinds.evaluation import Points, Values, evaluate
+from robodyn.checker.evaluation import Points, Values, evaluate
+from robodyn.checker.user_formula import UserFormula
 from robodyn.kinds.formula import Formula
-from robodyn.kinds.user import UserFormula
 
 Array = NDArray[np.float64]
 
@@ -142,7 +142,7 @@ class CheckReport:
     explanation: tuple[str, ...] = ()  # --explain: the lines naming each mismatching entry's wrong term
     renamed: tuple[str, ...] = ()  # one note per earlier parameter name the formula file read (p["M"])
     # --explain, for machines: per mismatching entry {quantity, entry, label, status, terms, reason}
-    # (robodyn.kinds.explain.Explained.as_dict)
+    # (robodyn.checker.explain.Explained.as_dict)
     explain_terms: tuple[dict[str, Any], ...] = ()
     hints: tuple[str, ...] = ()  # ``hint: ...`` lines: a convention under which the mismatch vanishes (kinds.hints)
 

@@ -16,10 +16,10 @@ linkage in theta). It defines
 
 ``q`` and ``v`` are (n,) arrays of the independent coordinates (n = len(INDEPENDENT)).
 This module holds what is checked where the file runs (in its own process,
-:mod:`robodyn.kinds.sandbox`): :class:`ConstrainedFormula` and the batch calls
+:mod:`robodyn.checker.sandbox`): :class:`ConstrainedFormula` and the batch calls
 :func:`loop_states` and :func:`checked_parameters`, whose errors are one
 :class:`~robodyn.errors.FormulaError` line naming the file, the function and the user's line.
-The comparison with Pinocchio is :mod:`robodyn.kinds.loop_check`.
+The comparison with Pinocchio is :mod:`robodyn.checker.compare_constrained`.
 """
 
 from __future__ import annotations

@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from robodyn.cli._against import add_against_argument, run_against
 from robodyn.cli._common import (
     add_model_arguments,
     add_passive_argument,
@@ -79,11 +80,15 @@ def add_parser(sub: Any) -> None:
         "Pinocchio fitted over the samples, its coefficient named by the file's parameters)",
     )
     p.add_argument("--json", action="store_true", help="print the report as JSON")
+    # --against: another engine's reading of the same URDF (robodyn.cli._against; issue 35).
+    add_against_argument(p)
     p.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Check each model, print a table (or JSON) per model; exit 1 if any mismatches."""
+    if args.against is not None:  # another engine's reading of the file, not a formula: its own path
+        return run_against(args)
     from robodyn.kinds.sandbox import FormulaProcess
     from robodyn.kinds.user import looks_like_file
 

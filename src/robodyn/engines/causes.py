@@ -117,15 +117,15 @@ def joint_causes(engine: str, kind: str, mine: JointReading, theirs: JointReadin
             )
         )
     if not _same(mine.armature, theirs.armature):
-        where = {
-            "mujoco": "<joint armature=...> in MJCF",
-            "drake": "<drake:rotor_inertia> and <drake:gear_ratio> in a <transmission>",
-            "pybullet": "PyBullet has no armature",
-        }[engine]
+        option = {
+            "mujoco": "giving MuJoCo the armature (<joint armature=...> in MJCF)",
+            "drake": "giving Drake the rotor (<drake:rotor_inertia> and <drake:gear_ratio> in a <transmission>)",
+        }.get(engine)
         found.append(
             (
-                f"armature: robodyn {mine.armature:.6g} (SRDF <rotor_params>), {engine} {theirs.armature:.6g} kg m^2",
-                where,
+                f"armature: robodyn {mine.armature:.6g} kg m^2 (SRDF <rotor_params>), {engine} {theirs.armature:.6g}"
+                + (" (PyBullet has no armature)" if engine == "pybullet" else ""),
+                option,
             )
         )
     return found

@@ -5,6 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from robodyn.errors import MissingDependencyError
+
 AGREE, DIFFER, REFUSED = "agree", "differ", "refused"
 
 
@@ -93,10 +95,20 @@ class AgainstReport:
         }
 
     def to_dataframe(self) -> Any:
-        """One row per cause (or per agreeing / refusing reading) as a pandas DataFrame (pandas must be installed)."""
-        import pandas as pd
+        """:meth:`rows` as a pandas DataFrame.
 
-        rows = []
+        Raises:
+            MissingDependencyError: pandas is not installed.
+        """
+        try:
+            import pandas as pd
+        except ImportError:
+            raise MissingDependencyError("AgainstReport.to_dataframe needs pandas: pip install pandas") from None
+        return pd.DataFrame(self.rows())
+
+    def rows(self) -> list[dict[str, Any]]:
+        """One row per cause (or per agreeing / refusing reading): engine, reading, status, where, cause, option, M, Cv, G."""
+        rows: list[dict[str, Any]] = []
         for c in self.comparisons:
             head = {"engine": c.engine, "reading": c.reading, "status": c.status}
             for cause in c.causes:
@@ -105,7 +117,7 @@ class AgainstReport:
                 rows.append({**head, "where": "", "cause": "unexplained", "option": None, **c.unexplained})
             if not c.causes and c.unexplained is None:
                 rows.append({**head, "where": "", "cause": c.refused or "", "option": None, **c.differences})
-        return pd.DataFrame(rows)
+        return rows
 
 
 def format_report(report: AgainstReport) -> str:
@@ -122,8 +134,9 @@ def format_report(report: AgainstReport) -> str:
         )
         for cause in c.causes:
             effect = ", ".join(f"{_name(k)} {v:.1e}" for k, v in cause.effect.items())
+            shown = f" [effect: {effect}]" if any(cause.effect.values()) else ""
             removed = f"; removed by {cause.option}" if cause.option else ""
-            lines.append(f"    {cause.where}: {cause.what} [effect: {effect}]{removed}")
+            lines.append(f"    {cause.where}: {cause.what}{shown}{removed}")
         if c.unexplained is not None:
             left = ", ".join(f"{_name(k)} {v:.1e}" for k, v in c.unexplained.items())
             lines.append(f"    unexplained: a difference no named cause accounts for ({left})")

@@ -87,10 +87,13 @@ def test_a_link_without_inertial(folder: Path) -> None:
     assert cause.effect["G"] > 0.1  # a kilogram at the tip: a torque that is not there
 
 
-@pytest.mark.parametrize("case", ["zero_mass", "zero_mass_moving", "rotated", "merged_rotated"])
+@pytest.mark.parametrize(
+    "case", ["zero_mass", "zero_mass_moving", "rotated", "merged_rotated", "continuous", "continuous_limit", "prismatic"]
+)
 def test_read_right_by_these_versions(folder: Path, case: str) -> None:
     # MuJoCo 4.0.0 keeps a rotated inertia's rotation (mujoco#3559) and merges a fixed link with a rotated,
     # non-diagonal inertia in the right frame (mujoco#2982); PyBullet keeps both once it trusts the file.
+    # A continuous joint's (cos, sin) in robodyn is one angle in each engine; a prismatic joint moves in metres.
     report = _report(folder, case)
     for engine, reading in (
         ("mujoco", "default"),

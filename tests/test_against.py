@@ -88,7 +88,8 @@ def test_a_link_without_inertial(folder: Path) -> None:
 
 
 @pytest.mark.parametrize(
-    "case", ["zero_mass", "zero_mass_moving", "rotated", "merged_rotated", "continuous", "continuous_limit", "prismatic"]
+    "case",
+    ["zero_mass", "zero_mass_moving", "rotated", "merged_rotated", "continuous", "continuous_limit", "prismatic"],
 )
 def test_read_right_by_these_versions(folder: Path, case: str) -> None:
     # MuJoCo 4.0.0 keeps a rotated inertia's rotation (mujoco#3559) and merges a fixed link with a rotated,

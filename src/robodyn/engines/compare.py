@@ -111,6 +111,11 @@ def _relative(a: dict[str, Array], b: dict[str, Array], scale: dict[str, float])
     return {k: float(np.abs(a[k] - b[k]).max() / scale[k]) for k in QUANTITIES}
 
 
+def _effect(a: dict[str, Array], b: dict[str, Array], scale: dict[str, float], rtol: float) -> dict[str, float]:
+    """A cause's effect on M, C v, G: 0 where it is within ``rtol`` (rounding, not the cause)."""
+    return {k: (x if x > rtol else 0.0) for k, x in _relative(a, b, scale).items()}
+
+
 def _read(robot: Robot, engine: str, reading: str) -> EngineReading:
     from robodyn.model.files import package_dirs
 
@@ -193,7 +198,7 @@ def _causes(
             patch = robot.model.copy()
             _set_inertia(patch, j, theirs.bodies[name])
             _set_inertia(everything, j, theirs.bodies[name])
-            effect = _relative(_evaluate(patch, robot, states), mine, scale)
+            effect = _effect(_evaluate(patch, robot, states), mine, scale, rtol)
             found.append(Cause(f"{bodies[name].links[0]} ({name})", said[0], said[1], effect))
         joint = robot.joint(name)
         for what, option in names.joint_causes(
@@ -203,7 +208,7 @@ def _causes(
             if what.startswith("armature"):
                 patch = robot.model.copy()
                 patch.armature[joint.idx_v] = everything.armature[joint.idx_v] = theirs.joints[name].armature
-                effect = _relative(_evaluate(patch, robot, states), mine, scale)
+                effect = _effect(_evaluate(patch, robot, states), mine, scale, rtol)
             found.append(Cause(name, what, option, effect))
     return found, _evaluate(everything, robot, states)
 

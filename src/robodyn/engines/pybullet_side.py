@@ -26,7 +26,7 @@ from robodyn.engines.reading import (
     group_inertia,
     joint_origins,
     portable_copy,
-    quiet_stdout,
+    quiet_native_output,
     require,
 )
 from robodyn.errors import EngineRefusedError
@@ -43,14 +43,14 @@ def _matrix(p: Any, quaternion: Sequence[float]) -> Array:
 def read(urdf: Path, package_dirs: Sequence[Path], reading: str) -> EngineReading:
     """Load ``urdf`` into a fresh DIRECT PyBullet client with its default flags or trusting the file."""
     require("pybullet", "pybullet")
-    with quiet_stdout():
+    with quiet_native_output():
         import pybullet as p
 
         client = p.connect(p.DIRECT)
     flags = 0 if reading == DEFAULT else p.URDF_USE_INERTIA_FROM_FILE
     with portable_copy(urdf, package_dirs) as path:
         try:
-            with quiet_stdout():
+            with quiet_native_output():
                 body = p.loadURDF(str(path), useFixedBase=True, flags=flags, physicsClientId=client)
         except p.error as exc:
             p.disconnect(client)

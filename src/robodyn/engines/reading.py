@@ -168,19 +168,24 @@ def joint_origins(urdf: Path) -> dict[str, tuple[str, Array, Array]]:
 
 
 @contextmanager
-def quiet_stdout() -> Iterator[None]:
-    """Silence what native code prints on file descriptor 1 (PyBullet's loader warnings) while inside."""
+def quiet_native_output() -> Iterator[None]:
+    """Silence what native code prints on file descriptors 1 and 2 while inside.
+
+    PyBullet prints a banner and its loader's warnings there; its errors still reach the caller as exceptions.
+    """
+    import ctypes
     import sys
 
     sys.stdout.flush()
-    saved = os.dup(1)
+    sys.stderr.flush()
+    saved = {fd: os.dup(fd) for fd in (1, 2)}
     try:
         with open(os.devnull, "wb") as null:
-            os.dup2(null.fileno(), 1)
+            for fd in saved:
+                os.dup2(null.fileno(), fd)
             yield
     finally:
-        import ctypes
-
         ctypes.CDLL(None).fflush(None)  # what C's stdio buffered goes to /dev/null, not to the next print
-        os.dup2(saved, 1)
-        os.close(saved)
+        for fd, copy in saved.items():
+            os.dup2(copy, fd)
+            os.close(copy)

@@ -107,7 +107,10 @@ class AgainstReport:
         return pd.DataFrame(self.rows())
 
     def rows(self) -> list[dict[str, Any]]:
-        """One row per cause (or per agreeing / refusing reading): engine, reading, status, where, cause, option, M, Cv, G."""
+        """One row per cause (or per agreeing or refusing reading).
+
+        Keys: engine, reading, status, where, cause, option, M, Cv, G.
+        """
         rows: list[dict[str, Any]] = []
         for c in self.comparisons:
             head = {"engine": c.engine, "reading": c.reading, "status": c.status}

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import robodyn
+from robodyn import dynamics
 from robodyn.cli import main
 from robodyn.engines import against, compare
 from robodyn.engines.reading import BodyInertia, EngineReading
@@ -151,9 +152,9 @@ def test_a_dropped_rotation_is_named_and_explains_the_whole_difference(
 
         def evaluate(q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             qq = np.array(q, dtype=float)
-            M = robodyn.dynamics.mass_matrix(model, data, qq)
-            G = robodyn.dynamics.gravity(model, data, qq)
-            return M, robodyn.dynamics.nonlinear_effects(model, data, qq, v) - G, G
+            M = dynamics.mass_matrix(model, data, qq)
+            G = dynamics.gravity(model, data, qq)
+            return M, dynamics.nonlinear_effects(model, data, qq, v) - G, G
 
         return EngineReading(
             engine,

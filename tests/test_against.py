@@ -229,3 +229,25 @@ def test_a_real_run() -> None:
     )
     assert run.returncode == EXIT_OK, run.stderr
     assert "drake 1.51.1, default reading" in run.stdout
+
+
+def test_a_difference_no_cause_explains_is_reported(folder: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # An engine whose gravity is 1 % stronger: no body, joint or armature differs, yet G does.
+    robot = robodyn.load(urdfs.write("collision", folder))
+    read = compare._read
+
+    def stronger(robot: robodyn.Robot, engine: str, reading: str) -> EngineReading:
+        honest = read(robot, engine, reading)
+
+        def evaluate(q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            M, Cv, G = honest.evaluate(q, v)
+            return M, Cv, 1.01 * G
+
+        return EngineReading(engine, honest.version, reading, honest.option, honest.names, honest.bodies,
+                             honest.joints, evaluate)  # fmt: skip
+
+    monkeypatch.setattr(compare, "_read", stronger)
+    (comparison,) = against(robot, "mujoco", samples=SAMPLES, readings=("default",)).comparisons
+    assert comparison.causes == () and comparison.status == "differ"
+    assert comparison.unexplained is not None
+    assert comparison.unexplained["G"] == pytest.approx(0.01, rel=1e-6) and comparison.unexplained["M"] < RTOL

@@ -10,7 +10,6 @@ together must reproduce the engine: whatever is left is reported as unexplained.
 from __future__ import annotations
 
 import time
-import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from typing import Any
 
@@ -21,6 +20,7 @@ from robodyn.engines import causes as names
 from robodyn.engines.reading import DEFAULT, ENGINES, TRUSTED, Array, BodyInertia, EngineReading, JointReading, require
 from robodyn.engines.report import AgainstReport, Cause, Comparison
 from robodyn.errors import EngineRefusedError, InputError, UnknownNameError
+from robodyn.model.files import read_xml
 from robodyn.robot import Robot
 
 _MODULES = {"mujoco": "mujoco", "pybullet": "pybullet", "drake": "pydrake"}
@@ -245,7 +245,7 @@ def robodyn_joint(robot: Robot, name: str) -> JointReading:
 def _axis(robot: Robot, name: str) -> Array:
     """The unit axis the URDF gives ``name`` (robodyn's validated reading of the file)."""
     assert robot.urdf_path is not None  # checked by _require_tree
-    for joint in ET.parse(robot.urdf_path).getroot().findall("joint"):
+    for joint in read_xml(robot.urdf_path, "URDF").findall("joint"):
         if joint.get("name") == name:
             element = joint.find("axis")
             axis = (
@@ -261,7 +261,7 @@ def file_links(robot: Robot) -> names.FileLinks:
     """The URDF's links without ``<inertial>`` and those whose mass is 0."""
     assert robot.urdf_path is not None  # checked by _require_tree
     lacking, zero = set(), set()
-    for link in ET.parse(robot.urdf_path).getroot().findall("link"):
+    for link in read_xml(robot.urdf_path, "URDF").findall("link"):
         mass = link.find("inertial/mass")
         if link.find("inertial") is None:
             lacking.add(str(link.get("name")))

@@ -113,10 +113,10 @@ def portable_copy(urdf: Path, package_dirs: Sequence[Path], extra: ET.Element | 
     Engines resolve ``package://`` URIs and relative paths each their own way (or not at all); the copy makes
     every engine read the same mesh files as Pinocchio. Nothing physical in the file changes.
     """
-    from robodyn.model.files import resolve_resource
+    from robodyn.model.files import read_xml, resolve_resource
 
-    tree = ET.parse(urdf)
-    root = tree.getroot()
+    root = read_xml(urdf, "URDF")  # as robodyn read it: a blank line before the XML declaration is no error
+    tree = ET.ElementTree(root)
     for mesh in root.iter("mesh"):
         name = mesh.get("filename") or ""
         found = resolve_resource(name, package_dirs) if "://" in name else urdf.parent / name
@@ -156,8 +156,10 @@ def rpy_matrix(rpy: Sequence[float]) -> Array:
 
 def joint_origins(urdf: Path) -> dict[str, tuple[str, Array, Array]]:
     """Child link -> (parent link, rotation, translation) of its joint's <origin>, read from the file."""
+    from robodyn.model.files import read_xml
+
     out = {}
-    for joint in ET.parse(urdf).getroot().findall("joint"):
+    for joint in read_xml(urdf, "URDF").findall("joint"):
         origin = joint.find("origin")
         xyz = [float(x) for x in (origin.get("xyz", "0 0 0") if origin is not None else "0 0 0").split()]
         rpy = [float(x) for x in (origin.get("rpy", "0 0 0") if origin is not None else "0 0 0").split()]

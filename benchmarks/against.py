@@ -19,7 +19,7 @@ from collections import Counter
 from pathlib import Path
 from typing import Any
 
-from world_urdfs import erd_files, label_of, pybullet_files
+from world_urdfs import erd_files, label_of, portable, pybullet_files
 
 from _common import argument_parser, output_folder, run_facts, write_json
 
@@ -64,7 +64,7 @@ def survey_file(path: Path, engines: tuple[str, ...], samples: int) -> dict[str,
             return {**row, "skipped": "no moving joint" if robot.nv == 0 else "a joint other than 1-DoF"}
         report = robodyn.against(robot, engines, samples=samples)
     except RobodynError as exc:
-        return {**row, "skipped": f"robodyn: {' '.join(str(exc).split())[:160]}"}
+        return {**row, "skipped": portable(f"robodyn: {' '.join(str(exc).split())[:200]}")}
     except Exception as exc:  # a crash of the comparison itself: a row of its own, counted, not the end of the survey
         return {**row, "crashed": f"{type(exc).__name__}: {' '.join(str(exc).split())[:160]}"}
     row["seconds"] = time.perf_counter() - start
@@ -75,7 +75,7 @@ def survey_file(path: Path, engines: tuple[str, ...], samples: int) -> dict[str,
             "status": c.status,
             "causes": sorted({cause_of(cause.what) for cause in c.causes}),
             "unexplained": c.unexplained is not None,
-            "refused": c.refused,
+            "refused": portable(c.refused) if c.refused is not None else None,
         }
         for c in report.comparisons
     ]

@@ -189,7 +189,10 @@ def test_cli_exit_codes(folder: Path, capsys: pytest.CaptureFixture[str]) -> Non
     assert "REFUSED: mujoco 4.0.0 refuses refused.urdf: Error: inertia must satisfy A + B >= C" in out
 
 
-def test_cli_json_and_rows() -> None:
+def test_cli_json_and_rows(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["check", "pendubot", "--against", "mujoco", "--samples", "5", "--json"]) == EXIT_OK
+    printed = json.loads(capsys.readouterr().out)
+    assert [c["status"] for c in printed["comparisons"]] == ["agree", "agree"] and printed["samples"] == SAMPLES
     report = against(robodyn.load("pendubot"), "pybullet", samples=SAMPLES)
     data = json.loads(json.dumps(report.as_dict()))
     assert (

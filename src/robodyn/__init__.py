@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 from robodyn.errors import (
     AssumptionError,
     DivergenceError,
+    EngineRefusedError,
     FormulaError,
     InputError,
     MissingDependencyError,
@@ -28,6 +29,7 @@ __version__ = "0.2.0"
 
 if TYPE_CHECKING:
     from robodyn.checker.compare import CheckReport, check
+    from robodyn.engines import AgainstReport, against
     from robodyn.model.load import load
     from robodyn.robot import Robot
 
@@ -44,6 +46,12 @@ def __getattr__(name: str) -> Any:
         from robodyn.robot import Robot
 
         value = Robot
+    elif name == "against":
+        from robodyn.engines import against as value
+    elif name == "AgainstReport":
+        from robodyn.engines import AgainstReport
+
+        value = AgainstReport
     elif name == "check":
         from robodyn.checker.compare import check as value
     elif name == "CheckReport":
@@ -77,9 +85,11 @@ def __getattr__(name: str) -> Any:
 
 
 __all__ = [
+    "AgainstReport",
     "AssumptionError",
     "CheckReport",
     "DivergenceError",
+    "EngineRefusedError",
     "FormulaError",
     "InputError",
     "MissingDependencyError",
@@ -90,6 +100,7 @@ __all__ = [
     "UnavailableError",
     "UnknownNameError",
     "__version__",
+    "against",
     "batch",
     "check",
     "control",

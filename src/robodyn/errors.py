@@ -152,6 +152,10 @@ class SceneError(InputError):
     """A scene file is missing, malformed or says something impossible."""
 
 
+class EngineRefusedError(ModelError):
+    """Another engine (MuJoCo, PyBullet, Drake) refuses a file; the message is the engine's own, on one line."""
+
+
 class MissingDependencyError(RobodynError, ImportError):
     """An optional dependency is not installed; the message says how to install it."""
 

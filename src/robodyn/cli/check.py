@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 
 from robodyn.checker.rows import EQUATIONS_AGREE, FAIL, PASS, CheckReport, CheckRow
 from robodyn.checker.sandbox import DEFAULT_TIMEOUT, MAX_TIMEOUT
+from robodyn.cli._against import add_against_argument, run_against
 from robodyn.cli._common import (
     add_model_arguments,
     add_passive_argument,
@@ -85,11 +86,15 @@ def add_parser(sub: Any) -> None:
         "Pinocchio fitted over the samples, its coefficient named by the file's parameters)",
     )
     p.add_argument("--json", action="store_true", help="print the report as JSON")
+    # --against: another engine's reading of the same URDF (robodyn.cli._against; issue 35).
+    add_against_argument(p)
     p.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Check each model, print a table (or JSON) per model; exit 1 if any FAILs (:func:`exit_code`)."""
+    if args.against is not None:  # another engine's reading of the file, not a formula: its own path
+        return run_against(args)
     from robodyn.checker.sandbox import FormulaProcess
     from robodyn.checker.user_formula import looks_like_file
 

@@ -1,0 +1,149 @@
+"""``robodyn check --against``: every URDF of example-robot-data and pybullet_data against each engine installed.
+
+    python benchmarks/against.py [--sets erd,pybullet] [--engines mujoco,pybullet,drake] [--limit N]
+                                 [--samples 5] [--out bench-out]
+
+For each file robodyn loads (fixed base, revolute, continuous and prismatic joints only), each installed
+engine reads it with its defaults and trusting the file (``robodyn.against``). The table counts, per engine
+and reading: the files compared, those that agree at rtol 1e-9, those that differ (by cause), those the engine
+refuses, and any difference no cause explains; with robodyn's time (its load and the comparison, engines
+included). It writes ``against.json`` and ``against.md`` (the table) to ``--out``.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import time
+import warnings
+from collections import Counter
+from pathlib import Path
+from typing import Any
+
+from world_urdfs import erd_files, label_of, portable, pybullet_files
+
+from _common import argument_parser, output_folder, run_facts, write_json
+
+# The named causes, by the words each line starts with (robodyn.engines.causes).
+CAUSES = (
+    "no <inertial>",
+    "zero-mass link",
+    "mass read differently",
+    "centre of mass read differently",
+    "inertia taken from the collision shape",
+    "inertia rotation dropped",
+    "inertia's off-diagonal terms dropped",
+    "a diagonalisation",
+    "inertia rotated differently",
+    "inertia changed by the URDF compiler",
+    "rotational inertia read differently",
+    "axis read differently",
+    "limits read differently",
+    "damping read differently",
+    "armature",
+)
+_MODULES = {"mujoco": "mujoco", "pybullet": "pybullet", "drake": "pydrake"}
+
+
+def cause_of(what: str) -> str:
+    """The named cause a cause line starts with."""
+    return next((c for c in CAUSES if what.startswith(c)), what.split(":")[0])
+
+
+def survey_file(path: Path, engines: tuple[str, ...], samples: int) -> dict[str, Any]:
+    """One file's row: skipped (with why) or, per engine and reading, its status and causes."""
+    import robodyn
+    from robodyn.errors import RobodynError
+
+    start = time.perf_counter()
+    row: dict[str, Any] = {"file": label_of(path)}
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            robot = robodyn.load(path)
+        if robot.nv == 0 or any(j.nv != 1 for j in robot.joints):
+            return {**row, "skipped": "no moving joint" if robot.nv == 0 else "a joint other than 1-DoF"}
+        report = robodyn.against(robot, engines, samples=samples)
+    except RobodynError as exc:
+        return {**row, "skipped": portable(f"robodyn: {' '.join(str(exc).split())[:200]}")}
+    except Exception as exc:  # a crash of the comparison itself: a row of its own, counted, not the end of the survey
+        return {**row, "crashed": f"{type(exc).__name__}: {' '.join(str(exc).split())[:160]}"}
+    row["seconds"] = time.perf_counter() - start
+    row["readings"] = [
+        {
+            "engine": c.engine,
+            "reading": c.reading,
+            "status": c.status,
+            "causes": sorted({cause_of(cause.what) for cause in c.causes}),
+            "unexplained": c.unexplained is not None,
+            "refused": portable(c.refused) if c.refused is not None else None,
+        }
+        for c in report.comparisons
+    ]
+    return row
+
+
+def table(rows: list[dict[str, Any]]) -> str:
+    """The Markdown table: per engine and reading, files compared, agree, differ by cause, refused, unexplained."""
+    tallies: dict[tuple[str, str], Counter[str]] = {}
+    causes: dict[tuple[str, str], Counter[str]] = {}
+    for row in rows:
+        for r in row.get("readings", []):
+            key = (r["engine"], r["reading"])
+            tallies.setdefault(key, Counter())[r["status"]] += 1
+            tallies[key]["unexplained"] += r["unexplained"]
+            causes.setdefault(key, Counter()).update(r["causes"])
+    lines = [
+        "| engine | reading | files | agree | differ | causes (files) | refused | unexplained |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for (engine, reading), t in tallies.items():
+        named = "; ".join(f"{c} ({n})" for c, n in causes[(engine, reading)].most_common()) or "–"
+        files = t["agree"] + t["differ"] + t["refused"]
+        lines.append(
+            f"| {engine} | {reading} | {files} | {t['agree']} | {t['differ']} | {named} | {t['refused']} | "
+            f"{t['unexplained']} |"
+        )
+    skipped = [row for row in rows if "skipped" in row]
+    crashed = [row for row in rows if "crashed" in row]
+    seconds = [row["seconds"] for row in rows if "seconds" in row]
+    total = f"{sum(seconds):.1f} s in all, {max(seconds):.2f} s at most" if seconds else "none compared"
+    lines.append("")
+    lines.append(
+        f"{len(rows)} files; {len(crashed)} crashed the comparison; {len(skipped)} not compared (robodyn refuses "
+        f"them, or a joint that is not 1-DoF, or none moves); robodyn's time, engines included: {total}."
+    )
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    """Run the survey and write ``against.json`` and ``against.md``."""
+    parser = argument_parser(__doc__ or "")
+    parser.add_argument("--sets", default="erd,pybullet", help="erd (example-robot-data), pybullet (pybullet_data)")
+    parser.add_argument("--engines", default="mujoco,pybullet,drake", help="engines, those installed only")
+    parser.add_argument("--limit", type=int, default=0, help="at most this many files per set (0: all)")
+    parser.add_argument("--samples", type=int, default=5, help="seeded states per comparison (default 5)")
+    args = parser.parse_args()
+    out = output_folder(args.out, overwrite_committed=args.overwrite_committed)
+    engines = tuple(e for e in args.engines.split(",") if importlib.util.find_spec(_MODULES[e]) is not None)
+    facts = run_facts()
+    files: list[Path] = []
+    for name in args.sets.split(","):
+        found = erd_files() if name == "erd" else pybullet_files(random_only=False)
+        files += found[: args.limit] if args.limit else found
+    rows = []
+    for path in files:
+        rows.append(survey_file(path, engines, args.samples))
+        shown = (
+            rows[-1].get("skipped")
+            or rows[-1].get("crashed")
+            or ", ".join(f"{r['engine']}/{r['reading']} {r['status']}" for r in rows[-1]["readings"])
+        )
+        print(f"{rows[-1]['file']}: {shown}", flush=True)
+    text = table(rows)
+    print(text)
+    write_json(out, "against", {"engines": list(engines), "samples": args.samples, "rows": rows}, facts)
+    (out / "against.md").write_text(text)
+
+
+if __name__ == "__main__":
+    main()

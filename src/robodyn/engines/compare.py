@@ -1,0 +1,277 @@
+"""``robodyn.against(robot, "mujoco")``: does another engine read this URDF as Pinocchio does, and if not, why.
+
+For each engine and each reading (its defaults, and the option that makes it trust the file) the engine's
+bodies and joints are compared with robodyn's, then M(q), C(q, v) v and G(q) at seeded states. Each body or
+joint that differs is a candidate cause; applied alone to a copy of robodyn's model (that body's inertia, that
+joint's armature replaced by the engine's), it gives the cause's effect on M, C v and G. All of them applied
+together must reproduce the engine: whatever is left is reported as unexplained.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from robodyn import dynamics
+from robodyn.engines import causes as names
+from robodyn.engines.reading import DEFAULT, ENGINES, TRUSTED, Array, BodyInertia, EngineReading, JointReading, require
+from robodyn.engines.report import AgainstReport, Cause, Comparison
+from robodyn.errors import EngineRefusedError, InputError, UnknownNameError
+from robodyn.model.files import read_xml
+from robodyn.robot import Robot
+
+_MODULES = {"mujoco": "mujoco", "pybullet": "pybullet", "drake": "pydrake"}
+QUANTITIES = ("M", "Cv", "G")
+
+
+def against(
+    robot: Robot,
+    engines: str | Sequence[str] = "mujoco",
+    *,
+    samples: int = 20,
+    seed: int = 0,
+    rtol: float = 1e-9,
+    readings: Sequence[str] = (DEFAULT, TRUSTED),
+) -> AgainstReport:
+    """Compare robodyn's reading of ``robot``'s URDF with each engine's, naming the cause of each difference.
+
+    Args:
+        robot: a fixed-base robot loaded from a URDF (built-in, example-robot-data or a path).
+        engines: ``"mujoco"``, ``"pybullet"``, ``"drake"`` or a sequence of them.
+        samples: number of seeded random states at which M, C v and G are compared.
+        seed: seed of those states.
+        rtol: relative tolerance, against each quantity's largest entry over the states (and, for bodies,
+            the largest mass [kg], centre-of-mass distance [m] and inertia entry [kg m^2] of the robot).
+        readings: ``"default"`` (the engine's defaults) and/or ``"trusted"`` (the option that trusts the file).
+
+    Raises:
+        UnknownNameError: an engine that is not one of mujoco, pybullet, drake.
+        MissingDependencyError: an engine that is not installed (the message names the extra).
+        InputError: a robot without a URDF file, or with a joint other than revolute, continuous, prismatic.
+    """
+    start = time.perf_counter()
+    chosen = (engines,) if isinstance(engines, str) else tuple(engines)
+    for engine in chosen:
+        if engine not in ENGINES:
+            raise UnknownNameError("engine", engine, ENGINES)
+        require(_MODULES[engine], engine)
+    _require_tree(robot)
+    rng = np.random.default_rng(seed)
+    states = [robot.random_state(rng) for _ in range(samples)]
+    mine = _evaluate(robot.model, robot, states)
+    comparisons = tuple(
+        _compare(robot, engine, reading, states, mine, rtol)
+        for engine in chosen
+        for reading in readings
+        if engine != "drake" or reading == DEFAULT  # Drake has no option that trusts the file more
+    )
+    return AgainstReport(robot.name, rtol, samples, seed, comparisons, time.perf_counter() - start)
+
+
+def _require_tree(robot: Robot) -> None:
+    if robot.urdf_path is None:
+        raise InputError(f"{robot.name}: --against reads the robot's URDF file, and this robot has none")
+    odd = [j.name for j in robot.joints if j.nv != 1]
+    if odd:
+        raise InputError(
+            f"{robot.name}: joint {odd[0]} has {robot.joint(odd[0]).nv} velocities; --against compares fixed-base "
+            "robots whose joints are revolute, continuous or prismatic (no --free-flyer)"
+        )
+
+
+def _kind(robot: Robot, name: str) -> str:
+    joint = robot.joint(name)
+    return "continuous" if joint.nq == 2 else "prismatic" if joint.kind.startswith("JointModelP") else "revolute"
+
+
+def _scalars(robot: Robot, q: Array) -> Array:
+    """One coordinate per joint: a continuous joint's (cos, sin) becomes its angle [rad]."""
+    out = []
+    for j in robot.joints:
+        out.append(np.arctan2(q[j.idx_q + 1], q[j.idx_q]) if j.nq == 2 else q[j.idx_q])
+    return np.array(out)
+
+
+def _evaluate(model: Any, robot: Robot, states: list[tuple[Array, Array]]) -> dict[str, Array]:
+    """M, C v, G of ``model`` (robodyn's or a patched copy) at ``states``, stacked over the states."""
+    data = model.createData()
+    out: dict[str, list[Array]] = {k: [] for k in QUANTITIES}
+    for q, v in states:
+        G = dynamics.gravity(model, data, q)
+        out["M"].append(dynamics.mass_matrix(model, data, q))
+        out["Cv"].append(dynamics.nonlinear_effects(model, data, q, v) - G)
+        out["G"].append(G)
+    return {k: np.array(x) for k, x in out.items()}
+
+
+def _relative(a: dict[str, Array], b: dict[str, Array], scale: dict[str, float]) -> dict[str, float]:
+    return {k: float(np.abs(a[k] - b[k]).max() / scale[k]) for k in QUANTITIES}
+
+
+def _effect(a: dict[str, Array], b: dict[str, Array], scale: dict[str, float], rtol: float) -> dict[str, float]:
+    """A cause's effect on M, C v, G: 0 where it is within ``rtol`` (rounding, not the cause)."""
+    return {k: (x if x > rtol else 0.0) for k, x in _relative(a, b, scale).items()}
+
+
+def _read(robot: Robot, engine: str, reading: str) -> EngineReading:
+    from robodyn.model.files import package_dirs
+
+    assert robot.urdf_path is not None  # checked by _require_tree
+    dirs = package_dirs(robot.urdf_path)
+    if engine == "mujoco":
+        from robodyn.engines import mujoco_side
+
+        return mujoco_side.read(robot.urdf_path, dirs, reading)
+    if engine == "pybullet":
+        from robodyn.engines import pybullet_side
+
+        return pybullet_side.read(robot.urdf_path, dirs, reading)
+    from robodyn.engines import drake_side
+
+    return drake_side.read(robot.urdf_path, dirs, reading, root_link=_root_link(robot))
+
+
+def _root_link(robot: Robot) -> str:
+    model = robot.model
+    return next(str(f.name) for f in model.frames if f.parentJoint == 0 and str(f.type).endswith("BODY"))
+
+
+def _compare(
+    robot: Robot, engine: str, reading: str, states: list[tuple[Array, Array]], mine: dict[str, Array], rtol: float
+) -> Comparison:
+    start = time.perf_counter()
+    try:
+        theirs = _read(robot, engine, reading)
+    except EngineRefusedError as exc:
+        return Comparison(engine, "", reading, "", {}, (), None, str(exc), time.perf_counter() - start)
+    if set(theirs.names) != set(robot.joint_names):
+        told = f"{engine} moves joints {sorted(theirs.names)}, robodyn {sorted(robot.joint_names)}"
+        return Comparison(
+            engine, theirs.version, reading, theirs.option, {}, (), None, told, time.perf_counter() - start
+        )
+    order = [theirs.names.index(name) for name in robot.joint_names]
+    values: dict[str, list[Array]] = {k: [] for k in QUANTITIES}
+    for q, v in states:
+        M, Cv, G = theirs.evaluate(_scalars(robot, q)[np.argsort(order)], v[np.argsort(order)])
+        for k, x in zip(QUANTITIES, (M[np.ix_(order, order)], Cv[order], G[order]), strict=True):
+            values[k].append(x)
+    engine_values = {k: np.array(x) for k, x in values.items()}
+    scale = {k: float(np.abs(mine[k]).max()) or 1.0 for k in QUANTITIES}
+    differences = _relative(engine_values, mine, scale)
+    found, patched = _causes(robot, theirs, states, mine, scale, rtol)
+    residual = _relative(engine_values, patched, scale)
+    unexplained = residual if max(residual.values()) > rtol else None
+    return Comparison(
+        engine,
+        theirs.version,
+        reading,
+        theirs.option,
+        differences,
+        tuple(found),
+        unexplained,
+        None,
+        time.perf_counter() - start,
+    )
+
+
+def _causes(
+    robot: Robot,
+    theirs: EngineReading,
+    states: list[tuple[Array, Array]],
+    mine: dict[str, Array],
+    scale: dict[str, float],
+    rtol: float,
+) -> tuple[list[Cause], dict[str, Array]]:
+    """Each difference with its effect, and M, C v, G of robodyn's model with every difference applied."""
+    bodies = robodyn_bodies(robot)
+    tol = _tolerances(bodies, rtol)
+    links = file_links(robot)
+    everything = robot.model.copy()
+    found = []
+    for name in robot.joint_names:
+        j = robot.model.getJointId(name)
+        said = names.body_cause(theirs.engine, theirs.reading, bodies[name], theirs.bodies[name], links, tol)
+        if said is not None:
+            patch = robot.model.copy()
+            _set_inertia(patch, j, theirs.bodies[name])
+            _set_inertia(everything, j, theirs.bodies[name])
+            effect = _effect(_evaluate(patch, robot, states), mine, scale, rtol)
+            found.append(Cause(f"{bodies[name].links[0]} ({name})", said[0], said[1], effect))
+        joint = robot.joint(name)
+        for what, option in names.joint_causes(
+            theirs.engine, _kind(robot, name), robodyn_joint(robot, name), theirs.joints[name]
+        ):
+            effect = {k: 0.0 for k in QUANTITIES}
+            if what.startswith("armature"):
+                patch = robot.model.copy()
+                patch.armature[joint.idx_v] = everything.armature[joint.idx_v] = theirs.joints[name].armature
+                effect = _effect(_evaluate(patch, robot, states), mine, scale, rtol)
+            found.append(Cause(name, what, option, effect))
+    return found, _evaluate(everything, robot, states)
+
+
+def _set_inertia(model: Any, joint: int, body: BodyInertia) -> None:
+    import pinocchio as pin
+
+    model.inertias[joint] = pin.Inertia(body.mass, body.com, body.inertia)
+
+
+def robodyn_bodies(robot: Robot) -> dict[str, BodyInertia]:
+    """Per moving joint, the inertia Pinocchio holds (its link and the links merged into it), in the link's frame."""
+    model = robot.model
+    out = {}
+    for name in robot.joint_names:
+        j = model.getJointId(name)
+        links = tuple(str(f.name) for f in model.frames if f.parentJoint == j and str(f.type).endswith("BODY"))
+        inertia = model.inertias[j]
+        out[name] = BodyInertia(links, float(inertia.mass), np.array(inertia.lever), np.array(inertia.inertia))
+    return out
+
+
+def robodyn_joint(robot: Robot, name: str) -> JointReading:
+    """The joint's axis in its link's frame, limits (nan on a continuous joint), damping and armature."""
+    model = robot.model
+    joint = robot.joint(name)
+    axis = _axis(robot, name)
+    lower, upper = np.nan, np.nan
+    if joint.nq == 1:
+        lower, upper = float(model.lowerPositionLimit[joint.idx_q]), float(model.upperPositionLimit[joint.idx_q])
+    return JointReading(axis, lower, upper, float(model.damping[joint.idx_v]), float(model.armature[joint.idx_v]))
+
+
+def _axis(robot: Robot, name: str) -> Array:
+    """The unit axis the URDF gives ``name`` (robodyn's validated reading of the file)."""
+    assert robot.urdf_path is not None  # checked by _require_tree
+    for joint in read_xml(robot.urdf_path, "URDF").findall("joint"):
+        if joint.get("name") == name:
+            element = joint.find("axis")
+            axis = (
+                np.array([float(x) for x in element.get("xyz", "1 0 0").split()])
+                if element is not None
+                else np.array([1.0, 0, 0])
+            )
+            return axis / np.linalg.norm(axis)
+    return np.array([1.0, 0.0, 0.0])
+
+
+def file_links(robot: Robot) -> names.FileLinks:
+    """The URDF's links without ``<inertial>`` and those whose mass is 0."""
+    assert robot.urdf_path is not None  # checked by _require_tree
+    lacking, zero = set(), set()
+    for link in read_xml(robot.urdf_path, "URDF").findall("link"):
+        mass = link.find("inertial/mass")
+        if link.find("inertial") is None:
+            lacking.add(str(link.get("name")))
+        elif mass is not None and float(mass.get("value", "0")) == 0.0:
+            zero.add(str(link.get("name")))
+    return names.FileLinks(frozenset(lacking), frozenset(zero))
+
+
+def _tolerances(bodies: dict[str, BodyInertia], rtol: float) -> names.Tolerances:
+    mass = max((b.mass for b in bodies.values()), default=1.0) or 1.0
+    length = max((float(np.abs(b.com).max()) for b in bodies.values()), default=1.0) or 1.0
+    inertia = max((float(np.abs(b.inertia).max()) for b in bodies.values()), default=1.0) or 1.0
+    return names.Tolerances(rtol * mass, rtol * length, rtol * inertia)

@@ -1,0 +1,124 @@
+"""MuJoCo's reading of a URDF: ``mujoco.MjModel.from_xml_path`` with its URDF compiler defaults, or trusting the file.
+
+MuJoCo's URDF compiler fuses links welded by fixed joints into their parent (``fusestatic``), computes the
+inertia of a link without ``<inertial>`` from its geometry (``inertiafromgeom="auto"``) and can balance
+inertias that break the triangle inequality (``balanceinertia``). The trusted reading adds
+``<mujoco><compiler fusestatic="false" balanceinertia="false" inertiafromgeom="false"/></mujoco>``
+to a temporary copy of the file. Both copies set ``strippath="false"`` and give mesh files as absolute
+paths, so that MuJoCo finds the meshes Pinocchio finds (no physical quantity changes).
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from robodyn.engines.reading import (
+    DEFAULT,
+    Array,
+    BodyInertia,
+    EngineReading,
+    JointReading,
+    WorldBody,
+    engine_version,
+    group_inertia,
+    portable_copy,
+    require,
+)
+from robodyn.errors import EngineRefusedError
+
+TRUST = {"fusestatic": "false", "balanceinertia": "false", "inertiafromgeom": "false"}
+TRUST_OPTION = '<mujoco><compiler fusestatic="false" balanceinertia="false" inertiafromgeom="false"/></mujoco>'
+
+
+def read(urdf: Path, package_dirs: Sequence[Path], reading: str) -> EngineReading:
+    """Load ``urdf`` into MuJoCo (fixed base) with its defaults (``reading="default"``) or trusting the file."""
+    require("mujoco", "mujoco")
+    import mujoco
+
+    compiler = ET.Element("compiler", {"strippath": "false", **({} if reading == DEFAULT else TRUST)})
+    extension = ET.Element("mujoco")
+    extension.append(compiler)
+    with portable_copy(urdf, package_dirs, extension) as path:
+        try:
+            model = mujoco.MjModel.from_xml_path(str(path))
+        except ValueError as exc:
+            said = " ".join(str(exc).split())
+            raise EngineRefusedError(f"mujoco {mujoco.__version__} refuses {urdf.name}: {said}") from None
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    joints = [
+        j
+        for j in range(model.njnt)
+        if int(model.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+    ]
+    names = tuple(model.joint(j).name for j in joints)
+    return EngineReading(
+        engine="mujoco",
+        version=engine_version("mujoco"),
+        reading=reading,
+        option="compiler defaults" if reading == DEFAULT else TRUST_OPTION,
+        names=names,
+        bodies=_bodies(model, data, joints),
+        joints={model.joint(j).name: _joint(model, j) for j in joints},
+        evaluate=_evaluator(model, data, joints),
+    )
+
+
+def _bodies(model: Any, data: Any, joints: list[int]) -> dict[str, BodyInertia]:
+    """Per moving joint, its body and the bodies welded below it, in the joint body's frame."""
+    owner = {int(model.jnt_bodyid[j]): model.joint(j).name for j in joints}
+    parts: dict[str, list[WorldBody]] = {name: [] for name in owner.values()}
+    for b in range(1, model.nbody):
+        a = b
+        while a not in owner and a != 0:
+            a = int(model.body_parentid[a])
+        if a == 0:
+            continue  # welded to the world
+        R = data.ximat[b].reshape(3, 3)
+        parts[owner[a]].append(
+            WorldBody(
+                model.body(b).name,
+                float(model.body_mass[b]),
+                data.xipos[b].copy(),
+                R @ np.diag(model.body_inertia[b]) @ R.T,
+            )
+        )
+    return {
+        name: group_inertia(parts[name], data.xmat[b].reshape(3, 3).copy(), data.xpos[b].copy())
+        for b, name in owner.items()
+    }
+
+
+def _joint(model: Any, j: int) -> JointReading:
+    limited = bool(model.jnt_limited[j])
+    lower, upper = (float(x) for x in model.jnt_range[j]) if limited else (np.nan, np.nan)
+    dof = int(model.jnt_dofadr[j])
+    return JointReading(
+        model.jnt_axis[j].copy(), lower, upper, float(model.dof_damping[dof]), float(model.dof_armature[dof])
+    )
+
+
+def _evaluator(model: Any, data: Any, joints: list[int]) -> Any:
+    import mujoco
+
+    qadr = np.array([model.jnt_qposadr[j] for j in joints])
+    vadr = np.array([model.jnt_dofadr[j] for j in joints])
+
+    def evaluate(q: Array, v: Array) -> tuple[Array, Array, Array]:
+        data.qpos[:] = model.qpos0
+        data.qpos[qadr] = q
+        data.qvel[:] = 0.0
+        mujoco.mj_forward(model, data)
+        G = data.qfrc_bias[vadr].copy()
+        full = np.zeros((model.nv, model.nv))
+        mujoco.mj_fullM(model, data, full)
+        data.qvel[vadr] = v
+        mujoco.mj_forward(model, data)
+        return full[np.ix_(vadr, vadr)], data.qfrc_bias[vadr] - G, G
+
+    return evaluate

@@ -1,0 +1,96 @@
+"""Small URDFs, each reproducing one way an engine reads a file differently from Pinocchio (tests/test_against.py)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+BOX = '<collision><geometry><box size="0.1 0.05 0.3"/></geometry></collision>'
+
+
+def inertial(mass: float, *, xyz: str = "0 0 -0.1", rpy: str = "0 0 0", inertia: str = "") -> str:
+    """An <inertial>; ``inertia`` is the six ixx.. attributes (default: distinct diagonal moments)."""
+    moments = inertia or 'ixx="0.003" iyy="0.0025" izz="0.002" ixy="0" ixz="0" iyz="0"'
+    return f'<inertial><origin xyz="{xyz}" rpy="{rpy}"/><mass value="{mass!r}"/><inertia {moments}/></inertial>'
+
+
+def arm(
+    link2: str,
+    *,
+    extra: str = "",
+    joint2: str = '<limit lower="-2" upper="2" effort="5" velocity="5"/>',
+) -> str:
+    """A two-joint arm; ``link2`` is the second moving link's content; ``extra`` more links and joints."""
+    return f"""<?xml version="1.0"?>
+<robot name="arm">
+  <link name="base">{inertial(2.0)}</link>
+  <link name="link1">{inertial(1.0)}{BOX}</link>
+  <link name="link2">{link2}</link>
+  <joint name="joint1" type="revolute"><parent link="base"/><child link="link1"/>
+    <origin xyz="0 0 0"/><axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="5" velocity="5"/></joint>
+  <joint name="joint2" type="revolute"><parent link="link1"/><child link="link2"/>
+    <origin xyz="0 0 -0.3" rpy="0.2 0 0"/><axis xyz="0 1 0"/>{joint2}</joint>
+  {extra}
+</robot>
+"""
+
+
+def tip(content: str, *, rpy: str = "0 0 0") -> str:
+    """A link ``tip`` with ``content``, welded to link2 by a fixed joint."""
+    return (
+        f'<link name="tip">{content}</link><joint name="tip_joint" type="fixed"><parent link="link2"/>'
+        f'<child link="tip"/><origin xyz="0 0.05 -0.3" rpy="{rpy}"/></joint>'
+    )
+
+
+ROTATED = 'ixx="0.004" iyy="0.0035" izz="0.003" ixy="0.0004" ixz="-0.0002" iyz="0.0003"'
+CASES = {
+    # a fixed link without <inertial>, with a collision box
+    "no_inertial": arm(inertial(0.5) + BOX, extra=tip(BOX)),
+    # a moving link of mass 0 (the fixed tip below it carries mass, so M stays invertible)
+    "zero_mass_moving": arm(
+        inertial(0.0, inertia='ixx="0" iyy="0" izz="0" ixy="0" ixz="0" iyz="0"'), extra=tip(inertial(0.3))
+    ),
+    # a fixed link of mass 0
+    "zero_mass": arm(
+        inertial(0.5) + BOX, extra=tip(inertial(0.0, inertia='ixx="0" iyy="0" izz="0" ixy="0" ixz="0" iyz="0"') + BOX)
+    ),
+    # the file's inertia is not its collision box's
+    "collision": arm(inertial(0.5) + BOX),
+    # an inertia whose <origin rpy> rotates it
+    "rotated": arm(inertial(0.5, rpy="0.4 -0.3 0.9") + BOX),
+    # a fixed link with a rotated, non-diagonal inertia, merged into its parent
+    "merged_rotated": arm(
+        inertial(0.5) + BOX, extra=tip(inertial(0.3, rpy="0.3 0.6 -0.2", inertia=ROTATED), rpy="0.5 0 0.4")
+    ),
+    # joint damping in <dynamics>
+    "damping": arm(
+        inertial(0.5), joint2='<limit lower="-2" upper="2" effort="5" velocity="5"/><dynamics damping="0.7"/>'
+    ),
+    # a continuous joint with a <limit> (its bounds mean nothing on a continuous joint)
+    "continuous_limit": arm(inertial(0.5)).replace(
+        'type="revolute"><parent link="link1"', 'type="continuous"><parent link="link1"'
+    ),
+    # a revolute <limit> without lower and upper: URDF's defaults are 0 and 0
+    "limit_defaults": arm(inertial(0.5), joint2='<limit effort="5" velocity="5"/>'),
+    # a prismatic joint
+    "prismatic": arm(inertial(0.5)).replace(
+        'type="revolute"><parent link="link1"', 'type="prismatic"><parent link="link1"'
+    ),
+    # a continuous joint: no limits
+    "continuous": arm(inertial(0.5), joint2="").replace(
+        'type="revolute"><parent link="link1"', 'type="continuous"><parent link="link1"'
+    ),
+}
+
+ROTOR_SRDF = """<?xml version="1.0"?>
+<robot name="arm"><rotor_params><joint name="joint2" mass="2e-6" gear_ratio="40"/></rotor_params></robot>
+"""
+
+
+def write(case: str, folder: Path) -> Path:
+    """Write ``CASES[case]`` to ``folder/case.urdf``; the armature case also gets ``case.srdf``."""
+    path = folder / f"{case}.urdf"
+    path.write_text(CASES["collision"] if case == "armature" else CASES[case])
+    if case == "armature":
+        (folder / f"{case}.srdf").write_text(ROTOR_SRDF)
+    return path

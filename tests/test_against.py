@@ -1,0 +1,256 @@
+"""robodyn check MODEL --against ENGINE: each engine's reading of a URDF, and the cause of each difference.
+
+Engine versions: the causes below are what mujoco 4.0.0, pybullet 3.2.7 and drake 1.51.1 do. MuJoCo and PyBullet
+are in the test extra, so these tests run in CI; Drake (a 42 MB wheel) is too.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import robodyn
+from robodyn import dynamics
+from robodyn.cli import main
+from robodyn.engines import against, compare
+from robodyn.engines.reading import BodyInertia, EngineReading
+from robodyn.errors import EXIT_BAD_INPUT, EXIT_MISMATCH, EXIT_MISSING_DEPENDENCY, EXIT_OK, MissingDependencyError
+from tests import _against_urdfs as urdfs
+
+ENGINES = ("mujoco", "pybullet", "drake")
+SAMPLES = 5  # seeded states per comparison: every cause here moves M, C v or G at any state
+# Engines that agree do so to ~1e-15 (double-precision sums in another order); a cause moves M by >= 1e-6.
+RTOL = 1e-9
+VERSIONS = {"mujoco": "4.0.0", "pybullet": "3.2.7", "drake": "1.51.1"}
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return tmp_path_factory.mktemp("against")
+
+
+def _report(folder: Path, case: str, engines: tuple[str, ...] = ENGINES) -> robodyn.AgainstReport:
+    return against(robodyn.load(urdfs.write(case, folder)), engines, samples=SAMPLES, rtol=RTOL)
+
+
+def _causes(report: robodyn.AgainstReport, engine: str, reading: str) -> list[str]:
+    (comparison,) = [c for c in report.comparisons if c.engine == engine and c.reading == reading]
+    assert comparison.refused is None, comparison.refused
+    assert comparison.unexplained is None, comparison.unexplained  # every difference carries its cause
+    return [f"{cause.where}: {cause.what}" for cause in comparison.causes]
+
+
+def test_versions_are_the_ones_these_causes_were_seen_with(folder: Path) -> None:
+    report = _report(folder, "collision")
+    assert {c.engine: c.version for c in report.comparisons} == VERSIONS
+
+
+def test_pendubot_agrees_with_mujoco_and_drake() -> None:
+    report = against(robodyn.load("pendubot"), ("mujoco", "drake"), samples=SAMPLES)
+    assert report.status == "agree"
+    assert [(c.engine, c.reading) for c in report.comparisons] == [
+        ("mujoco", "default"),
+        ("mujoco", "trusted"),
+        ("drake", "default"),  # Drake has no option that trusts the file more
+    ]
+    assert max(max(c.differences.values()) for c in report.comparisons) < RTOL
+
+
+def test_pybullet_takes_inertia_from_the_collision_shape_unless_told(folder: Path) -> None:
+    report = _report(folder, "collision", ("pybullet",))
+    said = _causes(report, "pybullet", "default")
+    assert said == [
+        "link1 (joint1): inertia taken from the collision shape",
+        "link2 (joint2): inertia taken from the collision shape",
+    ]
+    assert {c.option for c in report.comparisons[0].causes} == {"flags=URDF_USE_INERTIA_FROM_FILE"}
+    assert _causes(report, "pybullet", "trusted") == []
+
+
+def test_a_link_without_inertial(folder: Path) -> None:
+    report = _report(folder, "no_inertial")
+    assert _causes(report, "mujoco", "default") == [
+        "link2 (joint2): no <inertial> on tip: mujoco gives it a mass from its geometry (robodyn 0.5 kg, mujoco 2 kg)"
+    ]
+    assert _causes(report, "mujoco", "trusted") == []  # inertiafromgeom="false": the tip weighs nothing
+    expected = (
+        "link2 (joint2): no <inertial> on tip: pybullet gives it its default 1 kg (robodyn 0.5 kg, pybullet 1.5 kg)"
+    )
+    assert expected in _causes(report, "pybullet", "default")
+    assert _causes(report, "pybullet", "trusted") == [expected]  # URDF_USE_INERTIA_FROM_FILE does not remove it
+    assert _causes(report, "drake", "default") == []  # Drake gives a link without <inertial> mass 0 from URDF
+    (cause,) = report.comparisons[1 + 2].causes  # pybullet, trusted
+    assert cause.effect["G"] > 0.1  # a kilogram at the tip: a torque that is not there
+
+
+@pytest.mark.parametrize(
+    "case",
+    ["zero_mass", "zero_mass_moving", "rotated", "merged_rotated", "continuous", "continuous_limit", "prismatic"],
+)
+def test_read_right_by_these_versions(folder: Path, case: str) -> None:
+    # MuJoCo 4.0.0 keeps a rotated inertia's rotation (mujoco#3559) and merges a fixed link with a rotated,
+    # non-diagonal inertia in the right frame (mujoco#2982); PyBullet keeps both once it trusts the file.
+    # A continuous joint's (cos, sin) in robodyn is one angle in each engine; a prismatic joint moves in metres.
+    report = _report(folder, case)
+    for engine, reading in (
+        ("mujoco", "default"),
+        ("mujoco", "trusted"),
+        ("pybullet", "trusted"),
+        ("drake", "default"),
+    ):
+        assert _causes(report, engine, reading) == [], (engine, reading)
+
+
+def test_armature_from_an_srdf(folder: Path) -> None:
+    report = _report(folder, "armature")
+    for engine in ENGINES:
+        said = [c for c in _causes(report, engine, "default") if c.startswith("joint2: armature")]
+        assert said == [
+            f"joint2: armature: robodyn 0.0032 kg m^2 (SRDF <rotor_params>), {engine} 0"
+            + (" (PyBullet has no armature)" if engine == "pybullet" else "")
+        ]
+    cause = next(c for c in report.comparisons[0].causes if c.what.startswith("armature"))
+    assert cause.effect["M"] > 1e-2 and cause.effect["G"] == 0.0 and cause.effect["Cv"] == 0.0
+
+
+def test_a_limit_without_bounds_is_read_differently(folder: Path) -> None:
+    # URDF's lower and upper default to 0: Pinocchio holds [0, 0]; every engine here reads no limit at all.
+    report = _report(folder, "limit_defaults")
+    for engine in ENGINES:
+        said = [c for c in _causes(report, engine, "default") if "limits" in c]
+        assert said == [
+            f"joint2: limits read differently: robodyn [0, 0] rad, {engine} none (no effect on M, C v, G; "
+            "acts in simulation)"
+        ]
+
+
+def test_damping_is_read_alike(folder: Path) -> None:
+    report = _report(folder, "damping")
+    assert not [c for c in report.comparisons for cause in c.causes if "damping" in cause.what]
+
+
+def test_a_dropped_rotation_is_named_and_explains_the_whole_difference(
+    folder: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # An engine that drops the <inertial> rpy (as MuJoCo did before mujoco#3559 was fixed), built from MuJoCo's reading.
+    robot = robodyn.load(urdfs.write("rotated", folder))
+    read = compare._read
+
+    def dropping(robot: robodyn.Robot, engine: str, reading: str) -> EngineReading:
+        honest = read(robot, engine, reading)
+        body = honest.bodies["joint2"]
+        moments = np.diag(np.linalg.eigvalsh(body.inertia))
+        wrong = BodyInertia(body.links, body.mass, body.com, moments)
+        model = robot.model.copy()
+        compare._set_inertia(model, model.getJointId("joint2"), wrong)
+        data = model.createData()
+
+        def evaluate(q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            qq = np.array(q, dtype=float)
+            M = dynamics.mass_matrix(model, data, qq)
+            G = dynamics.gravity(model, data, qq)
+            return M, dynamics.nonlinear_effects(model, data, qq, v) - G, G
+
+        return EngineReading(
+            engine,
+            honest.version,
+            reading,
+            honest.option,
+            honest.names,
+            {**honest.bodies, "joint2": wrong},
+            honest.joints,
+            evaluate,
+        )
+
+    monkeypatch.setattr(compare, "_read", dropping)
+    report = against(robot, "mujoco", samples=SAMPLES, readings=("default",))
+    assert _causes(report, "mujoco", "default") == [
+        "link2 (joint2): inertia rotation dropped: mujoco keeps the principal moments in the link's axes"
+    ]
+    assert report.comparisons[0].causes[0].effect["M"] > 1e-3
+
+
+def test_cli_exit_codes(folder: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["check", "pendubot", "--against", "mujoco", "--samples", "5"]) == EXIT_OK
+    assert "every engine agrees with robodyn" in capsys.readouterr().out
+    assert main(["check", "pendubot", "--against", "pybullet", "--samples", "5"]) == EXIT_MISMATCH
+    out = capsys.readouterr().out
+    assert "link2 (joint2): no <inertial> on tip: pybullet gives it its default 1 kg" in out
+    # moments 0.003, 0.0025, 0.002 rotated: Pinocchio takes them; MuJoCo's A + B >= C test fails by a rounding
+    path = urdfs.write("rotated", folder).with_name("refused.urdf")
+    path.write_text(urdfs.CASES["rotated"].replace('iyy="0.0025" izz="0.002"', 'iyy="0.002" izz="0.001"'))
+    assert main(["check", str(path), "--against", "mujoco", "--samples", "5"]) == EXIT_BAD_INPUT
+    out = capsys.readouterr().out
+    assert "REFUSED: mujoco 4.0.0 refuses refused.urdf: Error: inertia must satisfy A + B >= C" in out
+
+
+def test_cli_json_and_rows(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["check", "pendubot", "--against", "mujoco", "--samples", "5", "--json"]) == EXIT_OK
+    printed = json.loads(capsys.readouterr().out)
+    assert [c["status"] for c in printed["comparisons"]] == ["agree", "agree"] and printed["samples"] == SAMPLES
+    report = against(robodyn.load("pendubot"), "pybullet", samples=SAMPLES)
+    data = json.loads(json.dumps(report.as_dict()))
+    assert (
+        data["status"] == "differ"
+        and data["comparisons"][0]["causes"][0]["option"] == "flags=URDF_USE_INERTIA_FROM_FILE"
+    )
+    assert {row["cause"] for row in report.rows()} >= {"inertia taken from the collision shape"}
+
+
+def test_an_engine_not_installed(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "mujoco" else real(name, *a))
+    with pytest.raises(MissingDependencyError, match=r"pip install 'robodyn\[mujoco\]'"):
+        against(robodyn.load("pendubot"), "mujoco")
+    assert main(["check", "pendubot", "--against", "mujoco"]) == EXIT_MISSING_DEPENDENCY
+    assert "robodyn[mujoco]" in capsys.readouterr().err
+
+
+def test_free_flyer_and_formula_are_refused_with_against(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["check", "pendubot", "--against", "mujoco", "--free-flyer"]) == EXIT_BAD_INPUT
+    assert main(["check", "pendubot", "--against", "mujoco", "--formula", "pendubot"]) == EXIT_BAD_INPUT
+    with pytest.raises(SystemExit) as exited:
+        main(["check", "pendubot", "--against", "bullet"])
+    assert exited.value.code == EXIT_BAD_INPUT
+    assert "expected one or more of mujoco, pybullet, drake" in capsys.readouterr().err
+
+
+def test_a_real_run() -> None:
+    run = subprocess.run(
+        [sys.executable, "-m", "robodyn", "check", "pendubot", "--against", "mujoco,drake", "--samples", "5"],
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=300,
+    )
+    assert run.returncode == EXIT_OK, run.stderr
+    assert "drake 1.51.1, default reading" in run.stdout
+
+
+def test_a_difference_no_cause_explains_is_reported(folder: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # An engine whose gravity is 1 % stronger: no body, joint or armature differs, yet G does.
+    robot = robodyn.load(urdfs.write("collision", folder))
+    read = compare._read
+
+    def stronger(robot: robodyn.Robot, engine: str, reading: str) -> EngineReading:
+        honest = read(robot, engine, reading)
+
+        def evaluate(q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            M, Cv, G = honest.evaluate(q, v)
+            return M, Cv, 1.01 * G
+
+        return EngineReading(engine, honest.version, reading, honest.option, honest.names, honest.bodies,
+                             honest.joints, evaluate)  # fmt: skip
+
+    monkeypatch.setattr(compare, "_read", stronger)
+    (comparison,) = against(robot, "mujoco", samples=SAMPLES, readings=("default",)).comparisons
+    assert comparison.causes == () and comparison.status == "differ"
+    assert comparison.unexplained is not None
+    assert comparison.unexplained["G"] == pytest.approx(0.01, rel=1e-6) and comparison.unexplained["M"] < RTOL

@@ -67,10 +67,24 @@ def models_dir() -> Path:
     return Path(__file__).resolve().parents[3] / "models"
 
 
+# Suffixes that make a bare name a file: robodyn's own, and the two formats it names to refuse them.
+FILE_SUFFIXES = (".urdf", ".xml", ".xacro", ".sdf")
+XACRO = "http://www.ros.org/wiki/xacro"  # the namespace of xacro's macros
+
+
 def looks_like_path(name_or_path: str | Path) -> bool:
     """True when the argument should be read as a file path rather than a model name."""
     text = str(name_or_path)
-    return isinstance(name_or_path, Path) or text.endswith((".urdf", ".xml")) or "/" in text or "\\" in text
+    return isinstance(name_or_path, Path) or text.endswith(FILE_SUFFIXES) or "/" in text or "\\" in text
+
+
+def not_urdf(path: Path) -> str | None:
+    """Why ``path`` is no URDF judging by its suffix (a xacro or an SDFormat file), with the way to one; else None."""
+    if path.suffix == ".xacro":
+        return f"a xacro file: robodyn reads URDF; {_expand(path)}"
+    if path.suffix == ".sdf":
+        return "an SDFormat file: robodyn reads URDF only (SDFormat is not supported; export a URDF from its source)"
+    return None
 
 
 def find_srdf(urdf: Path) -> Path | None:
@@ -306,9 +320,24 @@ def _check_srdf_root(root: ET.Element, path: Path) -> None:
         )
 
 
+def _expand(path: Path) -> str:
+    """``expand it first: xacro arm.urdf.xacro > arm.urdf (pip install xacro)``."""
+    if path.name.endswith(".urdf.xacro"):
+        target = path.stem
+    elif path.suffix == ".xacro":
+        target = f"{path.stem}.urdf"
+    else:  # macros in a file named as a URDF: the expanded one needs another name
+        target = f"{path.stem}_expanded.urdf"
+    return f"expand it first: xacro {path.name} > {target} (pip install xacro)"
+
+
 def _check_urdf_root(root: ET.Element, path: Path) -> None:
+    if root.tag == "sdf":
+        raise ModelError("root element is <sdf>, expected <robot>: " + str(not_urdf(Path("x.sdf"))), path=path)
     if root.tag != "robot":
         raise ModelError(f"root element is <{root.tag}>, expected <robot>", path=path)
+    if any(element.tag.startswith(f"{{{XACRO}}}") for element in root.iter()):
+        raise ModelError(f"holds xacro macros (<xacro:...>): robodyn reads plain URDF; {_expand(path)}", path=path)
     if not root.get("name"):
         raise ModelError("<robot> has no name attribute (an empty xacro stub?)", path=path)
     if root.find("link") is None:

@@ -40,7 +40,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodyn import dynamics
-from robodyn.errors import AssumptionError, InputError
+from robodyn.errors import AssumptionError, InputError, RobodynError
 from robodyn.kinds import any_check
 from robodyn.kinds.any_file import KIND as ANY
 from robodyn.kinds.check_rows import (
@@ -85,12 +85,32 @@ class _Sample:
 
 
 def _draw_samples(robot: Robot, samples: int, seed: int) -> list[_Sample]:
+    """``samples`` seeded states; the last poses are the neutral one and the SRDF's named ones.
+
+    A run starts from the neutral pose unless told otherwise, and a mass matrix can be singular
+    there only (iCub's at q = 0): those poses are always checked, whatever the draw. They take the
+    last places, so that the random states keep their numbers.
+    """
     rng = np.random.default_rng(seed)
     out = []
     for _ in range(samples):
         q, v = robot.random_state(rng, speed=SPEED)
         out.append(_Sample(q, v, rng.uniform(-SPEED, SPEED, robot.nv), rng.uniform(-TORQUE, TORQUE, robot.nv)))
+    fixed = _fixed_poses(robot)[:samples]
+    for k, q in enumerate(fixed, start=samples - len(fixed)):
+        out[k] = replace(out[k], q=q)
     return out
+
+
+def _fixed_poses(robot: Robot) -> list[Array]:
+    """The neutral configuration, then the SRDF's ``<group_state>`` ones (none where the SRDF cannot give them)."""
+    from robodyn.model.files import reference_configurations
+
+    try:
+        named = list(reference_configurations(robot).values())
+    except RobodynError:  # the SRDF's states are the check's extra samples, not its input: the neutral pose stays
+        named = []
+    return [robot.neutral(), *named]
 
 
 def _mdot(mass: Callable[[Array], Array], integrate: Callable[[Array, Array], Array], q: Array, v: Array) -> Array:
@@ -253,7 +273,8 @@ def _structure_rows(robot: Robot, samples: list[_Sample], rtol: float) -> list[C
         sc = scales(robot, s, raw)
         # Positive definiteness: a non-positive eigenvalue shows as an error of its size. An eigenvalue
         # within round-off of zero (a body without inertia: icub) is still singular, so no floor here.
-        spd.add(np.zeros(1), np.array([max(0.0, -eig[0]) + (eig[-1] if eig[0] <= 0 else 0.0)]))
+        singular = eig[0] <= SINGULAR_RATIO * eig[-1]  # as simulate refuses it
+        spd.add(np.zeros(1), np.array([max(0.0, -eig[0]) + (eig[-1] if singular else 0.0)]))
         C = dynamics.coriolis_matrix(model, data, s.q, s.v)
         coriolis.add(
             dynamics.pinocchio_coriolis_matrix(model, data, s.q, s.v),

@@ -323,3 +323,13 @@ def test_the_wire_refuses_what_robodyn_did_not_write():
     forged = b'{"op": "values", "arrays": [["M", [1000]]]}'
     with pytest.raises(ValueError, match="longer than the message"):
         wire.read_message(io.BytesIO(wire._FRAME.pack(len(forged), 8) + forged + bytes(8)))
+
+
+def test_a_formula_path_that_is_a_loop_of_links_is_one_line(tmp_path, capsys):
+    """issue 39 item 11: ``RuntimeError: Symlink loop`` came with a traceback (Path.resolve on Python 3.11)."""
+    first, second = tmp_path / "first.py", tmp_path / "second.py"
+    first.symlink_to(second)
+    second.symlink_to(first)
+    assert main(["check", "pendubot", "--formula", str(first)]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert "first.py: no such formula file (a symbolic link to nothing, or a loop of links)" in line, line

@@ -10,6 +10,7 @@ about the functions they later call from the file.
 from __future__ import annotations
 
 import importlib.util
+import os
 import sys
 from pathlib import Path
 from types import ModuleType, TracebackType
@@ -39,8 +40,9 @@ def import_user_file(
     """
     source = str(path) if source is None else source
     if not path.is_file():
-        raise error(f"{source}: no such {what} file (expected a .py file defining {expected})")
-    name = f"robodyn_user_{what.replace(' ', '_')}_{abs(hash(str(path.resolve())))}"
+        broken = " (a symbolic link to nothing, or a loop of links)" if path.is_symlink() else ""
+        raise error(f"{source}: no such {what} file{broken} (expected a .py file defining {expected})")
+    name = f"robodyn_user_{what.replace(' ', '_')}_{abs(hash(str(real_path(path))))}"
     spec = importlib.util.spec_from_file_location(name, path)
     if spec is None or spec.loader is None:
         raise error(f"{source}: cannot be imported as a Python module")
@@ -61,6 +63,14 @@ def import_user_file(
     return module
 
 
+def real_path(path: Path) -> Path:
+    """``path`` with its links followed, never raising: a loop of links stays a path that is no file.
+
+    ``Path.resolve`` raises ``RuntimeError`` on a loop in Python 3.11 (``OSError`` from 3.13).
+    """
+    return Path(os.path.realpath(path))
+
+
 def exit_call(exc: SystemExit) -> str:
     """``sys.exit(0)``, ``sys.exit()`` or ``sys.exit('bye')``: the call as the user would have written it."""
     return "sys.exit()" if exc.code is None else f"sys.exit({exc.code!r})"
@@ -68,10 +78,10 @@ def exit_call(exc: SystemExit) -> str:
 
 def user_line(tb: TracebackType | None, user_file: Path) -> int | None:
     """The line of the deepest frame of ``tb`` in ``user_file`` (not in numpy or robodyn), or None."""
-    target = user_file.resolve()
+    target = real_path(user_file)
     line = None
     while tb is not None:
-        if Path(tb.tb_frame.f_code.co_filename).resolve() == target:
+        if real_path(Path(tb.tb_frame.f_code.co_filename)) == target:
             line = tb.tb_lineno
         tb = tb.tb_next
     return line

@@ -48,7 +48,7 @@ from robodyn.kinds.evaluation import FUNCTIONS, Points, Values, evaluate, value_
 from robodyn.kinds.formula import Array, Formula
 from robodyn.kinds.user_file import load_in_process
 from robodyn.kinds.wire import encode, read_message
-from robodyn.userfile import user_line
+from robodyn.userfile import real_path, user_line
 
 DEFAULT_TIMEOUT = 60.0
 """Seconds of the formula's own time per request (its import; then one check's whole batch).
@@ -234,7 +234,7 @@ class FormulaProcess:
             seconds = math.nan
         if not 0 < seconds <= MAX_TIMEOUT:  # NaN fails too
             raise InputError(f"the formula time limit must be > 0 and <= {MAX_TIMEOUT:g} s, got {timeout!r}")
-        self.path, self.source, self.timeout = path.resolve(), source, seconds
+        self.path, self.source, self.timeout = real_path(path), source, seconds
         self._child: _Running | None = _Running(source)
 
     def load(self) -> dict[str, Any]:

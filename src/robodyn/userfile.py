@@ -12,8 +12,11 @@ from __future__ import annotations
 import importlib.util
 import os
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from types import ModuleType, TracebackType
+from typing import IO
 
 from robodyn.errors import InputError, RobodynError
 
@@ -49,7 +52,8 @@ def import_user_file(
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
     try:
-        spec.loader.exec_module(module)
+        with _robodyn_streams_kept():
+            spec.loader.exec_module(module)
     except SyntaxError as exc:
         raise error(f"{source}:{exc.lineno}: the {what} file has a syntax error: {exc.msg}") from None
     except SystemExit as exc:  # a user's file defines things; it does not decide robodyn's exit code
@@ -61,6 +65,32 @@ def import_user_file(
     finally:
         sys.modules.pop(name, None)
     return module
+
+
+@contextmanager
+def _robodyn_streams_kept() -> Iterator[None]:
+    """Keep robodyn's ``sys.stdout`` and ``sys.stderr`` as they were, whatever a user's file does to them at import.
+
+    A file that closes or replaces them (``sys.stdout.close()``) would otherwise break robodyn's own
+    report: a closed one is opened again on its file descriptor (which closing ``sys.stdout`` leaves open).
+    """
+    saved = {"stdout": sys.stdout, "stderr": sys.stderr}
+    fds = {name: _descriptor(stream) for name, stream in saved.items()}
+    try:
+        yield
+    finally:
+        for name, stream in saved.items():
+            fd = fds[name]
+            if stream is not None and stream.closed:
+                stream = None if fd is None else open(os.dup(fd), "w", buffering=1, encoding="utf-8", errors="replace")
+            setattr(sys, name, stream if stream is not None else open(os.devnull, "w", encoding="utf-8"))
+
+
+def _descriptor(stream: IO[str] | None) -> int | None:
+    try:
+        return stream.fileno() if stream is not None else None
+    except (AttributeError, OSError, ValueError):  # a stream without one (pytest's capture, io.StringIO)
+        return None
 
 
 def real_path(path: Path) -> Path:

@@ -229,7 +229,9 @@ def test_the_swing_up_example_scene_balances(tmp_path: Path, capsys: pytest.Capt
     assert np.max(np.abs(wrapped(traj.q[traj.t >= traj.t[-1] - 1.0, 1]))) < UPRIGHT_TOL
 
 
-CLOSES_STDOUT = "import sys\nimport numpy as np\nsys.stdout.close()\n\n\ndef make(robot):\n    return lambda t, q, v: np.zeros(1)\n"
+CLOSES_STDOUT = (
+    "import sys\nimport numpy as np\nsys.stdout.close()\n\n\ndef make(robot):\n    return lambda t, q, v: np.zeros(1)\n"
+)
 
 
 def test_a_scene_controller_that_closes_stdout_at_import_leaves_robodyn_its_report(tmp_path: Path) -> None:

@@ -13,6 +13,7 @@ import robodyn
 from robodyn import dynamics
 from robodyn import kinds as formulas
 from robodyn.checker.compare import FD_TOL, check
+from robodyn.errors import RobodynError
 
 SAMPLES = 100  # the command line's default: the states the issue's reports were made with
 PLANTED = 1e-6  # a relative error far above round-off (1e-13) and below any printed digit of a datasheet
@@ -40,10 +41,38 @@ def test_a_tiny_gravity_torque_passes_the_finite_difference_row():
 
 
 def test_an_ill_conditioned_mass_matrix_passes_its_round_trips():
-    # icub: bodies without inertia make M ill-conditioned; the ABA round trip was 6e-9 against 1e-9 at seed 0
+    # icub: bodies without inertia make M ill-conditioned; the ABA round trip was 6e-9 against 1e-9 at seed 0.
+    # At its neutral pose (always a sample) M is singular, 6e-18 of its largest eigenvalue: that row alone fails.
     report = check(robodyn.load("icub"), samples=SAMPLES, seed=0)
     assert report.row("RNEA(q, v, ABA(q, v, tau)) = tau").passed
-    assert report.passed
+    assert [r.quantity for r in report.failures] == ["M symmetric positive definite"]
+
+
+# Two revolute joints, z then y at 0.3 m along x; link1 has nothing, link2 is a 1 kg point mass 0.3 m back
+# along -x (with a 1e-20 kg m^2 speck of inertia): at q2 = 0 it sits on joint 1's axis, which then moves
+# nothing (M[0, 0] = 1e-20 kg m^2 against m a^2 = 0.09); anywhere else it swings off the axis.
+SINGULAR_AT_ZERO = """<robot name="on_axis">
+  <link name="base"/><link name="link1"/>
+  <link name="link2"><inertial><origin xyz="-0.3 0 0"/><mass value="1"/>
+    <inertia ixx="1e-20" iyy="1e-20" izz="1e-20" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="link1"/><axis xyz="0 0 1"/>
+    <limit lower="-3" upper="3" effort="10" velocity="5"/></joint>
+  <joint name="j2" type="revolute"><parent link="link1"/><child link="link2"/><origin xyz="0.3 0 0"/>
+    <axis xyz="0 1 0"/><limit lower="-3" upper="3" effort="10" velocity="5"/></joint>
+</robot>
+"""
+
+
+def test_a_mass_matrix_singular_only_at_the_neutral_pose_fails_the_check(tmp_path):
+    """issue 39 item 8: random poses never hit q2 = 0 exactly, so the check passed where simulate refuses."""
+    path = tmp_path / "on_axis.urdf"
+    path.write_text(SINGULAR_AT_ZERO)
+    robot = robodyn.load(path)
+    for samples in (1, 5):
+        report = check(robot, samples=samples, seed=0)
+        assert "M symmetric positive definite" in {r.quantity for r in report.failures}, samples
+    with pytest.raises(RobodynError, match=r"the mass matrix M\(q0\) is singular"):  # what simulate says there
+        robodyn.simulate(robot, robot.neutral(), np.zeros(2), duration=0.01, dt=1e-3)
 
 
 def _scaled(fn, index, relative=PLANTED):

@@ -125,3 +125,13 @@ def test_explain_prints_the_named_terms_and_json_carries_them(capsys):
     assert [m["entry"] for m in next(r for r in report["rows"] if r["quantity"] == "M")["mismatches"]] == [[0, 1]]
     m01 = next(e for e in report["explain_terms"] if e["label"] == "M[0,1]")  # a built-in kind, in its own names
     assert (m01["status"], [(t["basis"], t["name"]) for t in m01["terms"]]) == ("named", [("cos(q2)", "m2*l1*lc2")])
+
+
+def test_a_refused_formula_on_a_model_with_mimic_joints_is_one_line(capsys):
+    """issue 39 item 11: the mimic warning came before the refusal (two lines for one refusal)."""
+    formula = Path(__file__).parents[1] / "examples" / "formulas" / "pendubot_mine.py"
+    assert main(["check", "panda", "--formula", str(formula)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "not a pendubot: expected 2 moving joint(s), found 9" in err, err
+    assert main(["check", "panda", "--samples", "2"]) == 0  # a check that runs still says the coupling is ignored
+    assert "the coupling is ignored" in capsys.readouterr().err

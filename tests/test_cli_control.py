@@ -8,6 +8,8 @@ upright and stay there; every bad input is one line on stderr, exit 2, no file w
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -225,6 +227,23 @@ def test_the_swing_up_example_scene_balances(tmp_path: Path, capsys: pytest.Capt
     traj = robodyn.Trajectory.load(tmp_path / "cart_pole_swing_up.npz")
     assert np.max(np.abs(wrapped(traj.q[:, 1]))) > 3.0  # from hanging
     assert np.max(np.abs(wrapped(traj.q[traj.t >= traj.t[-1] - 1.0, 1]))) < UPRIGHT_TOL
+
+
+CLOSES_STDOUT = (
+    "import sys\nimport numpy as np\nsys.stdout.close()\n\n\ndef make(robot):\n    return lambda t, q, v: np.zeros(1)\n"
+)
+
+
+def test_a_scene_controller_that_closes_stdout_at_import_leaves_robodyn_its_report(tmp_path: Path) -> None:
+    """issue 39 item 11: robodyn's report, printed in the watched child, hit 'I/O operation on closed file'."""
+    (tmp_path / "closer.py").write_text(CLOSES_STDOUT, encoding="utf-8")
+    path = scene_file(tmp_path, 'kind = "file"\npath = "closer.py"')
+    done = subprocess.run(
+        [sys.executable, "-m", "robodyn", "run", str(path), "--out", str(tmp_path / "out")],
+        capture_output=True, text=True, timeout=300, check=False,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert done.stderr == "" and "summary:" in done.stdout, done.stdout + done.stderr
 
 
 @pytest.mark.parametrize(

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import robodyn
-from robodyn.checker import evaluation, sandbox
+from robodyn.checker import evaluation, sandbox, wire
 from robodyn.checker.compare import MAX_SAMPLES, check
 from robodyn.checker.file_contract import load_in_process
 from robodyn.checker.user_formula import UserFormula, load_user_formula
@@ -233,6 +233,49 @@ def test_import_cannot_read_robodyn_stdin_or_stop_it(tmp_path, body, message):
         load_user_formula(path)
 
 
+# Run with a readable stdin and a replaced sys.stdin: the formula's process must still read nothing.
+READABLE_STDIN_RUN = """
+import io, sys
+sys.stdin = io.StringIO("a line robodyn's caller typed\\n")
+from robodyn.errors import FormulaError
+from robodyn.checker.user_formula import load_user_formula
+try:
+    load_user_formula(sys.argv[1])
+except FormulaError as exc:
+    print(exc)
+"""
+
+
+def test_a_formula_never_reads_robodyn_stdin_whatever_it_holds(tmp_path):
+    path = tmp_path / "reads.py"
+    path.write_text("input()\n")
+    done = subprocess.run(
+        [sys.executable, "-c", READABLE_STDIN_RUN, str(path)],
+        input="a line on robodyn's own stdin\n" * 1000,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=True,
+    )
+    assert "failed to import: EOFError: EOF when reading a line (line 1)" in done.stdout, done.stdout + done.stderr
+
+
+def test_a_reused_formula_process_gives_each_import_an_empty_stdin(tmp_path):
+    path = tmp_path / "leaves_a_stdin.py"  # its first import leaves a readable sys.stdin; its second reads it
+    path.write_text(
+        "import builtins, io, sys\nimported = getattr(builtins, 'imported', 0)\nbuiltins.imported = imported + 1\n"
+        "if imported:\n    input()\nsys.stdin = io.StringIO('left by the first import\\n')\n"
+        "import numpy as np\nKIND = 'pendubot'\n" + FUNCTIONS
+    )
+    process = sandbox.FormulaProcess(path, str(path))
+    try:
+        assert process.load()["kind"] == "pendubot"
+        with pytest.raises(FormulaError, match=r"failed to import: EOFError: EOF when reading a line \(line 5\)"):
+            process.load()
+    finally:
+        process.close()
+
+
 def test_base_exceptions_in_a_function_are_one_line(tmp_path):
     path = tmp_path / "interrupts.py"
     path.write_text(
@@ -267,16 +310,26 @@ def test_limits_are_refused_in_one_line(capsys):
 def test_the_wire_refuses_what_robodyn_did_not_write():
     import io
 
-    message = sandbox.encode({"op": "values"}, {"M": np.arange(8.0).reshape(2, 2, 2), "V": np.empty(0)})
-    header, arrays = sandbox.read_message(io.BytesIO(message))
+    message = wire.encode({"op": "values"}, {"M": np.arange(8.0).reshape(2, 2, 2), "V": np.empty(0)})
+    header, arrays = wire.read_message(io.BytesIO(message))
     assert header == {"op": "values"}
     np.testing.assert_array_equal(arrays["M"], np.arange(8.0).reshape(2, 2, 2))
     assert arrays["V"].shape == (0,)
-    assert sandbox.read_message(io.BytesIO(b"")) is None
+    assert wire.read_message(io.BytesIO(b"")) is None
     with pytest.raises(ValueError, match="cut short"):
-        sandbox.read_message(io.BytesIO(message[:-1]))
+        wire.read_message(io.BytesIO(message[:-1]))
     with pytest.raises(ValueError, match="bytes"):
-        sandbox.read_message(io.BytesIO(b"\xff" * 16))
+        wire.read_message(io.BytesIO(b"\xff" * 16))
     forged = b'{"op": "values", "arrays": [["M", [1000]]]}'
     with pytest.raises(ValueError, match="longer than the message"):
-        sandbox.read_message(io.BytesIO(sandbox._FRAME.pack(len(forged), 8) + forged + bytes(8)))
+        wire.read_message(io.BytesIO(wire._FRAME.pack(len(forged), 8) + forged + bytes(8)))
+
+
+def test_a_formula_path_that_is_a_loop_of_links_is_one_line(tmp_path, capsys):
+    """issue 39 item 11: ``RuntimeError: Symlink loop`` came with a traceback (Path.resolve on Python 3.11)."""
+    first, second = tmp_path / "first.py", tmp_path / "second.py"
+    first.symlink_to(second)
+    second.symlink_to(first)
+    assert main(["check", "pendubot", "--formula", str(first)]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert "first.py: no such formula file (a symbolic link to nothing, or a loop of links)" in line, line

@@ -33,6 +33,8 @@ ROBODYN = Path(sys.executable).parent / "robodyn"
 
 # Numbers read by float() and by urdfdom's strtod are both correctly rounded: identical.
 EXACT = 0.0
+# Pinocchio adds a link's inertia to its (empty) body: a rounding of 0.1 m or of 1e-3 kg m^2 at most.
+ONE_ROUNDING = 1e-15
 
 MASS1 = '<mass value="1.336"/>'
 INERTIAL1 = '<origin xyz="0.10 0 0" rpy="0 0 0"/>'
@@ -303,6 +305,31 @@ def test_the_triangle_inequality_is_tested_on_the_principal_moments(tmp_path, ca
     assert "link1: principal moments of inertia 0.001, 0.001, 0.003 kg m^2 break the triangle inequality" in line
 
 
+def test_an_inertial_without_inertia_is_a_point_mass_never_refused_where_it_cannot_move(tmp_path, capfd):
+    """Seven files of airo-models and others: ``<inertial>`` with a mass and no ``<inertia>`` (urdfdom refuses it).
+
+    On a fixed base the root is the world (loaded, a ``welded_root`` note); where the link moves, a
+    refusal naming the way past, which loads it as a point mass at the written centre of mass.
+    """
+    root = mutated(tmp_path, BASE, f'{BASE}<inertial><mass value="2"/></inertial>', "root.urdf")
+    moving = mutated(tmp_path, INERTIA1, "", "moving.urdf")
+    robodyn.load(root)
+    assert capfd.readouterr().err == ""  # urdfdom never saw the incomplete inertial
+    assert main(["check", str(root), "--samples", "3"]) == 0
+    assert main(["info", str(root)]) == 0
+    out = capfd.readouterr().out
+    assert "welded_root       base: <inertial> has a mass of 2 kg but no <inertia> (read as a point mass" in out, out
+    with pytest.raises(ModelError, match="base: <inertial> has a mass of 2 kg but no <inertia>"):
+        robodyn.load(root, free_flyer=True)  # the base moves
+    line = refused(moving, capfd, command="check")
+    assert "link1: <inertial> has a mass of 1.336 kg but no <inertia>" in line and "--no-physics-check" in line, line
+    inertia = robodyn.load(moving, check_physics=False).model.inertias[1]
+    assert capfd.readouterr().err == ""
+    assert inertia.mass == 1.336
+    np.testing.assert_allclose(inertia.lever, [0.10, 0.0, 0.0], rtol=0, atol=ONE_ROUNDING)
+    np.testing.assert_allclose(inertia.inertia, np.zeros((3, 3)), rtol=0, atol=ONE_ROUNDING)  # a point mass
+
+
 @pytest.mark.parametrize(
     ("case", "old", "new", "message"),
     [
@@ -327,6 +354,23 @@ def test_the_limits_let_every_library_magnitude_through():
 
 
 # --------------------------------------------------------------------------- 4. unreadable files
+
+
+DRAKE = '<drake:collision_filter_group name="g"><drake:member link="link1"/></drake:collision_filter_group>'
+
+
+def test_a_prefix_used_without_its_namespace_is_read_as_urdfdom_reads_it(tmp_path, capfd):
+    """airo-models' UR arms write ``<limit drake:acceleration=...>`` and Drake elements, never declaring ``drake``."""
+    text = PENDUBOT.replace(LIMIT1, LIMIT1.replace("<limit ", '<limit drake:acceleration="2.5" '), 1)
+    path = tmp_path / "drake.urdf"
+    path.write_text(text.replace("</robot>", DRAKE + "</robot>"), encoding="utf-8")
+    read, plain = robodyn.load(path).model, robodyn.load("pendubot").model
+    q = np.array([0.3, -0.7])
+    np.testing.assert_array_equal(pin.crba(read, read.createData(), q), pin.crba(plain, plain.createData(), q))
+    assert main(["check", str(path), "--samples", "3"]) == 0
+    assert capfd.readouterr().err == ""
+    document = urdf.read_document(path)  # yourdfpy and lxml, as an edited robot is written
+    assert [j.name for j in document.urdf.robot.joints] == ["joint1", "joint2", "tip_joint"]
 
 
 def test_unreadable_files_are_one_line(tmp_path, capfd):

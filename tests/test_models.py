@@ -151,3 +151,32 @@ def test_unknown_model_names_close_matches_first():
     with pytest.raises(UnknownNameError, match=r"unknown model 'pendubott'; did you mean pendubot") as info:
         load("pendubott")
     assert "robodyn info --list" in str(info.value) and info.value.choices  # the full list stays on the error
+
+
+XACRO_TEXT = (
+    '<robot name="arm" xmlns:xacro="http://www.ros.org/wiki/xacro">'
+    '<xacro:property name="damping" value="0.1"/><link name="base"/></robot>'
+)
+
+
+def test_an_existing_file_is_a_path_and_xacro_or_sdf_is_named(tmp_path, monkeypatch, capsys):
+    """issue 39 item 7: ``stretch.xacro`` in the current folder was 'unknown model'; a xacro with a path, a number error."""
+    from robodyn.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "mybot").write_text((Path(__file__).parents[1] / "models" / "pendubot.urdf").read_text())
+    assert load("mybot").nv == 2  # a bare name that is no model's but a file's
+    (tmp_path / "stretch.xacro").write_text(XACRO_TEXT)
+    (tmp_path / "model.sdf").write_text('<sdf version="1.6"><model name="m"/></sdf>')
+    (tmp_path / "arm.urdf").write_text(XACRO_TEXT)
+    expected = {
+        "stretch.xacro": "stretch.xacro: a xacro file: robodyn reads URDF; "
+        "expand it first: xacro stretch.xacro > stretch.urdf (pip install xacro)",
+        str(tmp_path / "arm.urdf"): "arm.urdf: holds xacro macros (<xacro:...>): robodyn reads plain URDF; "
+        "expand it first: xacro arm.urdf > arm_expanded.urdf (pip install xacro)",
+        "model.sdf": "model.sdf: an SDFormat file: robodyn reads URDF only",
+    }
+    for given, message in expected.items():
+        assert main(["info", given]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and message in err, err

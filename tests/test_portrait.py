@@ -100,3 +100,32 @@ def test_the_command_refuses_an_unknown_joint_in_one_line(tmp_path, capsys) -> N
     assert main(["portrait", "geared_arm", "--joint", "elbow", "--out", str(tmp_path / "x")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "elbow" in err and not (tmp_path / "x" / "portrait.png").exists()
+
+
+# portrait.csv writes q, v and the energy to 10 significant digits (%.10g): q rounded by up to 5e-10 rad moves the
+# Pendubot's energy by ~1e-9 J (|dE/dq| ~ 2 N m); 1e-8 J keeps a factor 10, and q and v crossed are 0.77 J off.
+CSV_ENERGY_TOL = 1e-8  # [J]
+
+
+def test_the_lqr_portrait_is_centred_on_its_equilibrium_and_its_csv_rows_are_their_states_energies(
+    tmp_path, capsys
+) -> None:
+    """issue 39 item 10: q and v crossed in the CSV (0.77 J off) and a portrait off the LQR's q_eq both passed."""
+    robot = robodyn.load("pendubot")
+    q_eq = robodyn.control.design(robot).q_eq
+    assert q_eq[0] != robot.neutral()[0]  # joint1's upright differs from its neutral angle: the centre tells
+    out = tmp_path / "portrait"
+    assert main(["portrait", "pendubot", "--lqr", "--joint", "joint1", "--resolution", "21", "--out", str(out)]) == 0
+    capsys.readouterr()
+    record = json.loads((out / "portrait.json").read_text())
+    assert record["reference_q"] == q_eq.tolist()
+    assert record["region"]["q0"] == q_eq[0]
+    assert sum(record["q_range"]) / 2 == pytest.approx(q_eq[0], rel=1e-15)  # one turn and a bit about it
+    with (out / "portrait.csv").open() as fh:
+        rows = np.array(list(csv.reader(fh))[1:], dtype=np.float64)
+    rng = np.random.default_rng(0)
+    for q1, v1, energy in rows[rng.choice(len(rows), 25, replace=False)]:
+        q = q_eq.copy()
+        q[0] = q1
+        expected = 0.5 * robot.M(q)[0, 0] * v1**2 + robot.potential_energy(q)
+        assert energy == pytest.approx(expected, rel=0, abs=CSV_ENERGY_TOL)

@@ -26,6 +26,10 @@ REFUSED = {
     "romeo_small": "triangle",  # shoulder and elbow yaw links break Ixx + Izz >= Iyy
 }
 
+# Robots whose mass matrix is singular at the neutral pose (always among check's samples), as simulate says there:
+# icub's neck, 6e-18 of its largest eigenvalue at q = 0. That row fails, and only that one.
+SINGULAR_AT_NEUTRAL = {"icub"}
+
 ROBOTS = robot_library.distinct_robots()
 
 
@@ -86,7 +90,11 @@ def test_every_robot_info_and_check(name):
     samples = 5 if robot.nv > 20 else 10
     rtol = ILL_CONDITIONED_RTOL if name in ILL_CONDITIONED else DEFAULT_RTOL
     report = check(robot, samples=samples, seed=1, rtol=rtol)
-    assert report.passed, [(r.quantity, r.max_rel_error) for r in report.failures]
+    failures = [(r.quantity, r.max_rel_error) for r in report.failures]
+    if name in SINGULAR_AT_NEUTRAL:
+        assert [quantity for quantity, _ in failures] == ["M symmetric positive definite"], failures
+        return
+    assert report.passed, failures
 
 
 def test_free_flyer_option_adds_six_dof():

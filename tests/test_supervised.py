@@ -60,15 +60,22 @@ def test_os_exit_in_a_scenes_controller_file_is_no_finished_run(tmp_path: Path) 
     assert "the controller file ended the simulation's process" in done.stderr
 
 
+LOOPS = "        while True:\n            pass\n"
+# issue 39 item 10: a time limit that is a plain Exception is caught here, and the run ends 0 with the fall-back torque
+LOOPS_INSIDE_A_TRY = (
+    "        try:\n"
+    + LOOPS.replace("        ", "            ")
+    + ("        except Exception:\n            return np.zeros(1)\n")
+)
+
+
 @pytest.mark.timeout(120)
+@pytest.mark.parametrize("body", [LOOPS, LOOPS_INSIDE_A_TRY], ids=["loop", "loop_in_try_except_exception"])
 def test_an_endless_loop_in_tau_ends_at_the_call_limit(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, body: str
 ) -> None:
     monkeypatch.setattr("robodyn.control.user.CALL_TIMEOUT", 0.5)  # the forked child inherits it
-    path = controller(
-        tmp_path,
-        "def make(robot, **gains):\n    def tau(t, q, v):\n        while True:\n            pass\n    return tau\n",
-    )
+    path = controller(tmp_path, f"def make(robot, **gains):\n    def tau(t, q, v):\n{body}    return tau\n")
     assert main(["simulate", "pendubot", "--controller", str(path), "--duration", "0.05"]) == 2
     assert capsys.readouterr().err.splitlines() == [
         f"robodyn simulate: error: {path}: the controller did not return within 0.5 s at t = 0 s (an endless loop?)"

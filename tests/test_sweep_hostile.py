@@ -136,17 +136,41 @@ def test_a_cluster_option_out_of_bounds_is_one_line_before_any_work(flags, expec
     assert not (tmp_path / "out").exists()
 
 
-def test_an_error_in_a_worker_is_robodyns_one_line(tmp_path):
-    """A user measure that raises in its worker: robodyn's line alone, none of Dask's log lines around it."""
-    (tmp_path / "m.py").write_text("def boom(trajectory):\n    raise ValueError('no')\n")
+@pytest.mark.parametrize(
+    ("body", "said"),
+    [
+        ("raise ValueError('no')", "{m}:boom: raised ValueError: no (line 3)"),
+        ("raise KeyboardInterrupt", "{m}:boom: raised KeyboardInterrupt (line 3)"),  # hung past 180 s (issue 39)
+        (
+            "os._exit(3)",
+            "chunk 0 (runs 0-1) ended every worker that ran it (os._exit in a measure or controller "
+            "file, a crash, or the memory's end?); no chunk was written, and {out}, made by this "
+            "sweep, is removed",
+        ),
+    ],
+    ids=["raises", "keyboard_interrupt", "os_exit"],
+)
+def test_an_error_in_a_worker_is_robodyns_one_line_and_leaves_no_empty_folder(tmp_path, body, said):
+    """A user measure that fails in its worker: robodyn's line alone, none of Dask's log lines around it.
+
+    Nothing was written, so the results folder this sweep made (its manifest, the models of its
+    ``[params]``) is removed: no folder that looks like a sweep's results but holds none.
+    """
+    (tmp_path / "m.py").write_text(f"import os\ndef boom(trajectory):\n    {body}\n")
     path = tmp_path / "sweep.toml"
     path.write_text(_toml({"model": "pendubot", "duration": 0.1, "dt": 0.01, "measure": ["final_state", "m.py:boom"],
-                           "q0": {"joint1": [0.1, 0.2]}}))  # fmt: skip
-    done = _robodyn(["sweep", str(path), "--out", str(tmp_path / "out"), "--workers", "1", "--quiet"], timeout=300)
+                           "q0": {"joint1": [0.1, 0.2]}, "params": {"m1": [1.2, 1.3]}}))  # fmt: skip
+    out = tmp_path / "out"
+    # Dask retries a task whose worker died on 3 fresh workers (allowed-failures): once is enough to see it
+    env = {**os.environ, "DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES": "0"}
+    done = subprocess.run(
+        [sys.executable, "-m", "robodyn", "sweep", str(path), "--out", str(out), "--workers", "1", "--quiet"],
+        capture_output=True, text=True, timeout=300, env=env, check=False,
+    )  # fmt: skip
     assert done.returncode == 2, done.stderr
-    assert done.stderr.strip().splitlines() == [
-        f"robodyn sweep: error: {tmp_path / 'm.py'}:boom: raised ValueError: no (line 2)"
-    ], done.stderr
+    expected = "robodyn sweep: error: " + said.format(m=tmp_path / "m.py", out=out)
+    assert done.stderr.strip().splitlines() == [expected], done.stderr
+    assert not out.exists()
 
 
 def test_killing_the_scheduler_mid_sweep_is_one_line_exit_5_and_keeps_the_chunks(tmp_path):

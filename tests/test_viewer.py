@@ -706,3 +706,58 @@ def test_a_sprung_joint_is_drawn_as_a_coil_riding_on_its_frame(pendubot: robodyn
         _, placements = viewer.animation.read_keyframes(playback.animation, coil.path)
         np.testing.assert_allclose(placements[k], pendubot.data.oMf[frame].homogeneous, atol=TRANSFORM_ATOL)
     assert viewer.build(pendubot, motion).springs == ()  # no springs, no coil
+
+
+FLOAT32_ROUNDING = 1e-7  # relative: a float32's half ulp is 6e-8
+
+ONE_MESH = """<robot name="meshed">
+  <link name="base"/>
+  <link name="arm"><inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/>
+    </inertial><visual><geometry><mesh filename="MESH"/></geometry></visual></link>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="arm"/><axis xyz="0 1 0"/>
+    <limit lower="-3" upper="3" effort="10" velocity="5"/></joint>
+</robot>
+"""
+
+
+def _meshed(tmp_path: Path, mesh: str) -> robodyn.Robot:
+    path = tmp_path / "meshed.urdf"
+    path.write_text(ONE_MESH.replace("MESH", mesh))
+    return robodyn.load(path)
+
+
+def test_a_glb_mesh_is_drawn_as_its_triangles(tmp_path: Path) -> None:
+    """issue 39 item 9: a .glb mesh was 'not drawn (unsupported shape)', leaving a nearly empty page."""
+    import meshcat
+    import meshcat.geometry
+    import trimesh
+
+    from robodyn.viewer.geometry import geometry_objects, object_commands
+
+    (tmp_path / "box.glb").write_bytes(trimesh.creation.box(extents=(0.1, 0.2, 0.3)).export(file_type="glb"))
+    objects, geoms, skipped = geometry_objects(_meshed(tmp_path, "box.glb"), None, np.zeros((1, 1)))
+    assert skipped == [] and [o.kind for o in objects] == ["mesh"]
+    sent = object_commands(meshcat, objects[0], geoms[0])[0].lower()["object"]["geometries"][0]
+    assert sent["format"] == "obj"
+    vertices = np.array([line.split()[1:] for line in sent["data"].splitlines() if line.startswith("v ")], dtype=float)
+    # the box as written; glTF stores float32 vertices: 0.3 m comes back as 0.30000002 m
+    np.testing.assert_allclose(np.ptp(vertices, axis=0), [0.1, 0.2, 0.3], rtol=FLOAT32_ROUNDING)
+
+
+def test_an_unresolved_package_mesh_names_ros_package_path_which_resolves_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from robodyn.errors import ModelError
+    from robodyn.model.load import load_geometry
+
+    (tmp_path / "robot").mkdir()
+    robot = _meshed(tmp_path / "robot", "package://nopkg/box.stl")
+    with pytest.raises(ModelError, match=r"package://nopkg/box.stl could not be found.*ROS_PACKAGE_PATH"):
+        load_geometry(robot)
+    share = tmp_path / "share"
+    (share / "nopkg").mkdir(parents=True)
+    import trimesh
+
+    (share / "nopkg" / "box.stl").write_bytes(trimesh.creation.box().export(file_type="stl"))
+    monkeypatch.setenv("ROS_PACKAGE_PATH", str(share))  # the advice, followed
+    assert len(load_geometry(robot).geometryObjects) == 1

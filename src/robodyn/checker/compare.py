@@ -65,10 +65,10 @@ from robodyn.checker.rows import (
 )
 from robodyn.checker.sandbox import DEFAULT_TIMEOUT
 from robodyn.checker.scales import scales
-from robodyn.checker.structure import structure_rows
+from robodyn.checker.structure import SINGULAR_RATIO, structure_rows
 from robodyn.checker.user_formula import UserFormula, resolve
 from robodyn.checker.velocity_terms import VECTOR
-from robodyn.errors import AssumptionError, InputError
+from robodyn.errors import AssumptionError, InputError, RobodynError
 from robodyn.kinds.formula import Formula
 from robodyn.kinds.params import Params, extract, from_mapping
 from robodyn.robot import Robot
@@ -77,7 +77,6 @@ Array = NDArray[np.float64]
 __all__ = ["DEFAULT_RTOL", "FD_STEP", "FD_TOL", "MAX_SAMPLES", "CheckReport", "CheckRow", "check"]
 SPEED = 2.0  # |v|, |a| sampled up to this [rad/s, rad/s^2 | m/s, m/s^2]
 TORQUE = 1.0  # |tau| sampled up to this [N m | N]
-SINGULAR_RATIO = 1e-12  # lambda_min / lambda_max of M at or below this: singular to working precision (as simulate)
 NON_NEGATIVE = ("m1", "m2", "m_cart", "m", "I1", "I2", "I", "J_l", "J_m")  # masses [kg], inertias [kg m^2]: given >= 0
 # The most random states one check takes: ~40 s for the Pendubot with a formula file (6 s of it the file's, inside
 # sandbox.DEFAULT_TIMEOUT). The worst error over 10^5 states is rarely beaten by more; another seed explores as well.
@@ -98,12 +97,32 @@ class _Sample:
 
 
 def _draw_samples(robot: Robot, samples: int, seed: int) -> list[_Sample]:
+    """``samples`` seeded states; the last poses are the neutral one and the SRDF's named ones.
+
+    A run starts from the neutral pose unless told otherwise, and a mass matrix can be singular
+    there only (iCub's at q = 0): those poses are always checked, whatever the draw. They take the
+    last places, so that the random states keep their numbers.
+    """
     rng = np.random.default_rng(seed)
     out = []
     for _ in range(samples):
         q, v = robot.random_state(rng, speed=SPEED)
         out.append(_Sample(q, v, rng.uniform(-SPEED, SPEED, robot.nv), rng.uniform(-TORQUE, TORQUE, robot.nv)))
+    fixed = _fixed_poses(robot)[:samples]
+    for k, q in enumerate(fixed, start=samples - len(fixed)):
+        out[k] = replace(out[k], q=q)
     return out
+
+
+def _fixed_poses(robot: Robot) -> list[Array]:
+    """The neutral configuration, then the SRDF's ``<group_state>`` ones (none where the SRDF cannot give them)."""
+    from robodyn.model.files import reference_configurations
+
+    try:
+        named = list(reference_configurations(robot).values())
+    except RobodynError:  # the SRDF's states are the check's extra samples, not its input: the neutral pose stays
+        named = []
+    return [robot.neutral(), *named]
 
 
 def _given_params(kind: str, params: Mapping[str, float], where: str) -> Params:

@@ -35,7 +35,7 @@ from robodyn.kinds.formula import Array, Formula
 from robodyn.kinds.formulas import KINDS, get
 from robodyn.kinds.geared_arm import from_motor_coordinates
 from robodyn.kinds.units import RENAMED, RENAMED_MEANING
-from robodyn.userfile import at_line, exit_call, import_user_file
+from robodyn.userfile import at_line, exit_call, import_user_file, real_path
 
 REQUIRED_FUNCTIONS = ("mass_matrix", "coriolis_matrix", "gravity")
 CONSTRAINED_FUNCTIONS = ("parameters", "on_the_loop")
@@ -106,7 +106,7 @@ def load_in_process(path: Path, source: str) -> Formula:
     formulas in the motor angle theta_m = n theta_l, as the textbook's Example 6.1.1 does; they are mapped to the
     link coordinate (M_l = n^2 M_m, C_l = n^2 C_m, G_l = n G_m).
     """
-    path = path.resolve()
+    path = real_path(path)
     module = import_user_file(
         path, what="formula", expected="KIND, mass_matrix, coriolis_matrix, gravity", source=source, error=FormulaError
     )

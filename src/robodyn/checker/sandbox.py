@@ -7,8 +7,11 @@ the file and evaluates it (:func:`serve`); robodyn's process never runs a line o
 
 * The child's stdout and stderr are pipes robodyn reads and keeps to itself: what the formula
   prints never reaches robodyn's stdout or stderr (the last line is quoted only when the
-  process dies, where it may say why). Its stdin is ``/dev/null``.
-* Replies travel on a private copy of the child's original stdout as JSON headers with raw
+  process dies, where it may say why). Its stdin is ``/dev/null`` from its start (whatever robodyn's
+  own stdin is, and whatever ran in robodyn's process before), and is reset before each import:
+  ``input()`` in a formula always raises EOFError.
+* Requests travel on a pipe of their own (passed as an extra descriptor, never as stdin); replies
+  on a private copy of the child's original stdout as JSON headers with raw
   float64 arrays, never pickles: nothing the child sends can run code in robodyn.
 * Each request (import the file; evaluate a batch of points) gets ``timeout`` seconds of the
   formula's own time. The child interrupts itself at the limit (SIGALRM) to say which function
@@ -29,7 +32,6 @@ import math
 import os
 import queue
 import signal
-import struct
 import subprocess
 import sys
 import threading
@@ -40,14 +42,13 @@ from pathlib import Path
 from types import FrameType
 from typing import IO, Any
 
-import numpy as np
-
 from robodyn.checker import any_kind, constrained_kind
 from robodyn.checker.evaluation import FUNCTIONS, Points, Values, evaluate, value_shape
 from robodyn.checker.file_contract import load_in_process, renamed_notes
+from robodyn.checker.wire import encode, read_message
 from robodyn.errors import FormulaError, InputError
 from robodyn.kinds.formula import Array, Formula
-from robodyn.userfile import user_line
+from robodyn.userfile import real_path, user_line
 
 DEFAULT_TIMEOUT = 60.0
 """Seconds of the formula's own time per request (its import; then one check's whole batch).
@@ -58,69 +59,17 @@ default check (100 samples, ~1,000 calls) and 6 s for the largest (100,000 sampl
 MAX_TIMEOUT = 86400.0  # [s] a day: the longest time limit accepted (the limit must be a real bound)
 GRACE = 2.0  # [s] after the limit, robodyn waits this long for the child's own report, then kills it
 STARTUP_TIMEOUT = 120.0  # [s] for a fresh Python with NumPy and robodyn to start (no user code runs yet)
-MAX_MESSAGE = 2**30  # [bytes] a reply larger than this is refused unread
 SETTLE = 5.0  # [s] a process whose pipe closed gets this long to exit before it is killed
 OUTPUT_TAIL = 4096  # [bytes] of the child's printed output kept, for the last line of a dead process
 
-_FRAME = struct.Struct("<QQ")  # header length, body length
 # The child imports this very robodyn: its folder goes on sys.path unless it is there already.
+# Its requests come on the descriptor named by sys.argv[2] (on POSIX; on Windows, its stdin).
 _CHILD = (
     "import sys; sys.argv[1] in sys.path or sys.path.insert(0, sys.argv[1]); "
-    "import robodyn.checker.sandbox as s; s.serve()"
+    "import robodyn.checker.sandbox as s; s.serve(int(sys.argv[2]))"
 )
+_OWN_PIPE = os.name == "posix"  # a pipe passed to the child besides stdin (subprocess's pass_fds)
 _SRC = str(Path(__file__).resolve().parents[2])
-
-
-# ---------------------------------------------------------------------------------------- the wire
-def encode(header: Mapping[str, Any], arrays: Mapping[str, Array] | None = None) -> bytes:
-    """One message: JSON ``header`` and float64 ``arrays`` (their names and shapes go in the header)."""
-    arrays = arrays or {}
-    blobs = [np.ascontiguousarray(a, dtype="<f8") for a in arrays.values()]
-    head = json.dumps({**header, "arrays": [[n, list(b.shape)] for n, b in zip(arrays, blobs, strict=True)]}).encode()
-    body = b"".join(b.tobytes() for b in blobs)
-    return _FRAME.pack(len(head), len(body)) + head + body
-
-
-def read_message(stream: IO[bytes]) -> tuple[dict[str, Any], dict[str, Array]] | None:
-    """The next message on ``stream``, None at its end; ValueError if it is not one robodyn wrote."""
-    prefix = _read_exactly(stream, _FRAME.size)
-    if prefix is None:
-        return None
-    n_head, n_body = _FRAME.unpack(prefix)
-    if n_head + n_body > MAX_MESSAGE:
-        raise ValueError(f"a message of {n_head + n_body} bytes (at most {MAX_MESSAGE})")
-    head, body = _read_exactly(stream, n_head), _read_exactly(stream, n_body)
-    if head is None or body is None:
-        raise ValueError("a message cut short")
-    header = json.loads(head)
-    if not isinstance(header, dict) or not isinstance(header.get("arrays"), list):
-        raise ValueError("a message without a header")
-    arrays, offset = {}, 0
-    for entry in header.pop("arrays"):
-        name, shape = entry if isinstance(entry, list) and len(entry) == 2 else (None, None)
-        if not isinstance(name, str) or not isinstance(shape, list) or not all(_is_count(n) for n in shape):
-            raise ValueError("an array without a name or shape")
-        size = math.prod(shape) * 8
-        if offset + size > len(body):
-            raise ValueError("arrays longer than the message")
-        arrays[name] = np.frombuffer(body, dtype="<f8", count=size // 8, offset=offset).reshape(shape).copy()
-        offset += size
-    return header, arrays
-
-
-def _is_count(n: object) -> bool:
-    return isinstance(n, int) and not isinstance(n, bool) and n >= 0
-
-
-def _read_exactly(stream: IO[bytes], n: int) -> bytes | None:
-    chunks, got = [], 0
-    while got < n:
-        chunk = stream.read(n - got)
-        if not chunk:
-            return None
-        chunks.append(chunk)
-        got += len(chunk)
-    return b"".join(chunks)
 
 
 def _points_arrays(points: Points) -> dict[str, Array]:
@@ -138,11 +87,18 @@ class _OutOfTime(BaseException):
     """Raised in the child by SIGALRM; a BaseException so that a formula's ``except Exception`` lets it by."""
 
 
-def serve() -> None:
-    """The formula's process: import the file, evaluate batches, until robodyn closes its end of the pipe."""
+def serve(request_fd: int = 0) -> None:
+    """The formula's process: import the file, evaluate batches, until robodyn closes its end of the pipe.
+
+    Args:
+        request_fd: the descriptor robodyn's requests come on (0, stdin, where no other pipe could be passed).
+    """
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is robodyn's to handle (it kills this process)
-    requests, replies = os.fdopen(os.dup(0), "rb"), os.dup(1)
-    os.dup2(os.open(os.devnull, os.O_RDONLY), 0)  # input() in a formula reads nothing
+    requests, replies = os.fdopen(os.dup(request_fd), "rb"), os.dup(1)
+    if request_fd != 0:
+        os.close(request_fd)
+    os.dup2(os.open(os.devnull, os.O_RDONLY), 0)  # input() in a formula reads nothing (already so on POSIX)
+    _empty_stdin()
     os.dup2(2, 1)  # print() in a formula goes to the captured stderr, never to robodyn's stdout
     inbox: queue.Queue[tuple[dict[str, Any], dict[str, Array]]] = queue.Queue()
     threading.Thread(target=_receive, args=(requests, inbox), daemon=True).start()
@@ -151,6 +107,11 @@ def serve() -> None:
     while True:
         header, arrays = inbox.get()
         child.handle(header, arrays)
+
+
+def _empty_stdin() -> None:
+    """``sys.stdin`` on ``/dev/null`` again: whatever an earlier import put there, ``input()`` raises EOFError."""
+    sys.stdin = open(os.devnull, encoding="utf-8")  # lives as long as the process
 
 
 def _receive(requests: IO[bytes], inbox: queue.Queue[tuple[dict[str, Any], dict[str, Array]]]) -> None:
@@ -195,6 +156,7 @@ class _Child:
             if header["op"] == "load":
                 self.path, self.source, self.timeout = Path(header["path"]), header["source"], header["timeout"]
                 self.running = "import"
+                _empty_stdin()
                 formula = self.formula = _limited(self.timeout, lambda: load_in_process(self.path, self.source))
                 self.send(
                     {
@@ -274,7 +236,7 @@ class FormulaProcess:
             seconds = math.nan
         if not 0 < seconds <= MAX_TIMEOUT:  # NaN fails too
             raise InputError(f"the formula time limit must be > 0 and <= {MAX_TIMEOUT:g} s, got {timeout!r}")
-        self.path, self.source, self.timeout = path.resolve(), source, seconds
+        self.path, self.source, self.timeout = real_path(path), source, seconds
         self.renamed: dict[str, None] = {}  # notes on the earlier parameter names the file read, in order
         self._child: _Running | None = _Running(source)
 
@@ -354,17 +316,25 @@ class _Running:
     def __init__(self, source: str) -> None:
         self.source = source
         flags = ["-u", "-P"] if sys.version_info >= (3, 11) else ["-u"]  # -P: no cwd on sys.path
+        theirs, ours = os.pipe() if _OWN_PIPE else (0, -1)
         try:
             self.process = subprocess.Popen(
-                [sys.executable, *flags, "-c", _CHILD, _SRC],
-                stdin=subprocess.PIPE,
+                [sys.executable, *flags, "-c", _CHILD, _SRC, str(theirs)],
+                stdin=subprocess.DEVNULL if _OWN_PIPE else subprocess.PIPE,  # never robodyn's own stdin
                 stdout=subprocess.PIPE,
                 stderr=subprocess.PIPE,
+                pass_fds=(theirs,) if _OWN_PIPE else (),
                 start_new_session=True,  # its own process group: killed whole, and Ctrl-C stays robodyn's
             )
         except OSError as exc:
+            if _OWN_PIPE:
+                os.close(ours)
             raise FormulaError(f"{source}: cannot start a Python process for the formula: {exc}") from None
-        self._finalizer = weakref.finalize(self, _kill, self.process)
+        finally:
+            if _OWN_PIPE:
+                os.close(theirs)
+        self.requests = os.fdopen(ours, "wb") if _OWN_PIPE else self.process.stdin
+        self._finalizer = weakref.finalize(self, _kill, self.process, self.requests)
         self.inbox: queue.Queue[tuple[dict[str, Any], dict[str, Array]] | Exception | None] = queue.Queue()
         self.output = _Tail()
         threading.Thread(target=_replies, args=(self.process.stdout, self.inbox), daemon=True).start()
@@ -389,7 +359,7 @@ class _Running:
         """Send one request; wait for its reply (progress notes along the way) ``limit + GRACE`` seconds at most."""
         self._wait_until_ready()
         message = encode(header, arrays)
-        threading.Thread(target=_write, args=(self.process.stdin, message), daemon=True).start()
+        threading.Thread(target=_write, args=(self.requests, message), daemon=True).start()
         deadline = time.monotonic() + limit + GRACE
         while True:
             reply = self._next(deadline, running)
@@ -428,7 +398,7 @@ class _Running:
         self._finalizer()
 
 
-def _kill(process: subprocess.Popen[bytes]) -> None:
+def _kill(process: subprocess.Popen[bytes], requests: IO[bytes] | None) -> None:
     if process.returncode is None:  # not reaped yet: its pid (the group's id) cannot have been reused
         if hasattr(os, "killpg"):
             try:
@@ -443,7 +413,7 @@ def _kill(process: subprocess.Popen[bytes]) -> None:
             )  # SIGKILL cannot be refused; a process stuck in the kernel is left, not waited for
         except subprocess.TimeoutExpired:
             pass
-    for stream in (process.stdin, process.stdout, process.stderr):
+    for stream in (requests, process.stdin, process.stdout, process.stderr):
         try:
             if stream is not None:
                 stream.close()

@@ -20,6 +20,8 @@ from robodyn.checker.rows import FD_STEP, FD_TOL, Accumulator, CheckRow, skew_sc
 from robodyn.checker.scales import scales
 from robodyn.robot import Robot
 
+SINGULAR_RATIO = 1e-12  # lambda_min / lambda_max of M at or below this: singular to working precision (as simulate)
+
 Array = NDArray[np.float64]
 
 
@@ -72,7 +74,8 @@ def structure_rows(robot: Robot, samples: list[Any], rtol: float) -> list[CheckR
         sc = scales(robot, s, raw)
         # Positive definiteness: a non-positive eigenvalue shows as an error of its size. An eigenvalue
         # within round-off of zero (a body without inertia: icub) is still singular, so no floor here.
-        spd.add(np.zeros(1), np.array([max(0.0, -eig[0]) + (eig[-1] if eig[0] <= 0 else 0.0)]))
+        singular = eig[0] <= SINGULAR_RATIO * eig[-1]  # as simulate refuses it
+        spd.add(np.zeros(1), np.array([max(0.0, -eig[0]) + (eig[-1] if singular else 0.0)]))
         C = dynamics.coriolis_matrix(model, data, s.q, s.v)
         coriolis.add(
             dynamics.pinocchio_coriolis_matrix(model, data, s.q, s.v),

@@ -117,8 +117,6 @@ def _check_all(args: argparse.Namespace, given: dict[str, Any] | None, process: 
     from robodyn.kinds.params import detect_kind
 
     targets = [_target(args, name) for name in args.models]  # bad input fails before any work
-    for robot, _ in targets:
-        warn_ignored_mimic(robot, mimic=args.mimic, command="check")
     user = load_user_formula(args.formula, process=process) if process is not None else None
     reports = []
     robots = [robot for robot, _ in targets]
@@ -141,6 +139,7 @@ def _check_all(args: argparse.Namespace, given: dict[str, Any] | None, process: 
             explain=args.explain,
             **where,
         )
+        warn_ignored_mimic(robot, mimic=args.mimic, command="check")  # after the check: a refusal is one line
         reports.append(report)
         if not args.json:
             if len(robots) > 1:

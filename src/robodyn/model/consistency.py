@@ -16,6 +16,7 @@ inertia_singular   warning  a body with mass whose inertia is not positive defin
 negative_joint     error    negative armature, damping or friction on a joint
 limits_reversed    error    a joint's lower position limit is above its upper one
 mesh_missing       warning  a mesh file the URDF refers to does not exist
+inertia_missing    error    an <inertial> with a mass and no <inertia>: read as a point mass
 welded_root        note     an impossible inertia on a link welded to the fixed base: the
                             dynamics never sees it (with a free flyer it is an error)
 massless_inertia   note     a link of zero mass with a non-zero inertia: read literally
@@ -125,6 +126,7 @@ class LinkInertial:
     xyz: tuple[float, float, float]  # [m] centre of mass in the link frame
     rpy: tuple[float, float, float]  # [rad] orientation of the inertia's frame in the link frame
     inertia: np.ndarray  # (3, 3) [kg m^2] about the centre of mass, in the inertial frame
+    inertia_written: bool = True  # False: an <inertial> with a mass but no <inertia> (read as zero)
 
 
 def _vector(element: ET.Element | None, attribute: str) -> tuple[float, float, float]:
@@ -151,7 +153,10 @@ def link_inertials(root: ET.Element) -> list[LinkInertial]:
                 [[t["ixx"], t["ixy"], t["ixz"]], [t["ixy"], t["iyy"], t["iyz"]], [t["ixz"], t["iyz"], t["izz"]]]
             )
         origin = inertial.find("origin") if inertial is not None else None
-        out.append(LinkInertial(str(link.get("name")), mass, _vector(origin, "xyz"), _vector(origin, "rpy"), I))
+        written = inertial is None or inertial.find("inertia") is not None
+        out.append(
+            LinkInertial(str(link.get("name")), mass, _vector(origin, "xyz"), _vector(origin, "rpy"), I, written)
+        )
     return out
 
 
@@ -187,7 +192,7 @@ def link_findings(inertials: Sequence[LinkInertial], *, welded: Collection[str] 
     """
     findings: list[Finding] = []
     for link in inertials:
-        for f in _inertia_findings(link.link, link.mass, link.inertia):
+        for f in _inertia_findings(link.link, link.mass, link.inertia) + _unwritten(link):
             if f.severity != "error":
                 continue
             if link.link in welded:
@@ -200,6 +205,13 @@ def link_findings(inertials: Sequence[LinkInertial], *, welded: Collection[str] 
                 )
             findings.append(f)
     return findings
+
+
+def _unwritten(link: LinkInertial) -> list[Finding]:
+    if link.inertia_written or link.mass == 0:
+        return []
+    message = f"<inertial> has a mass of {link.mass:g} kg but no <inertia> (read as a point mass, zero inertia)"
+    return [Finding(link.link, "error", message, "inertia_missing")]
 
 
 def massless_inertia_findings(inertials: Sequence[LinkInertial]) -> list[Finding]:

@@ -13,8 +13,10 @@ Every URDF and SRDF is read by :func:`read_xml`, within limits stated there: at 
 the dynamics are read anyway, each with a :class:`~robodyn.errors.ModelWarning`: white space before
 the ``<?xml ...?>`` declaration (urdfdom reads it, expat refuses it), and a visual or collision
 ``<mesh scale="x y z 1">``, read as ``x y z`` (urdfdom drops that geometry). A NUL byte is refused by
-name. The file is handed to expat in one piece: fed in 64 KiB chunks (``ET.parse``), expat 2.5
-rescans an unfinished token from its start at each chunk, so a 20 MB comment took 4.6 s instead of 0.1 s.
+name; a namespace prefix used without its declaration (``drake:``) is declared, as urdfdom reads it
+(:mod:`robodyn.model.prefixes`). The file is handed to expat in one piece: fed in 64 KiB chunks
+(``ET.parse``), expat 2.5 rescans an unfinished token from its start at each chunk, so a 20 MB
+comment took 4.6 s instead of 0.1 s.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import importlib.resources
 import os
 import warnings
 import xml.etree.ElementTree as ET
+import xml.parsers.expat
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import lru_cache
@@ -32,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from robodyn.errors import ModelError, ModelWarning
+from robodyn.model.prefixes import declare_unbound_prefixes
 from robodyn.model.urdf import parse_numbers
 from robodyn.robot import Robot, joint_coordinates
 
@@ -63,10 +67,24 @@ def models_dir() -> Path:
     return Path(__file__).resolve().parents[3] / "models"
 
 
+# Suffixes that make a bare name a file: robodyn's own, and the two formats it names to refuse them.
+FILE_SUFFIXES = (".urdf", ".xml", ".xacro", ".sdf")
+XACRO = "http://www.ros.org/wiki/xacro"  # the namespace of xacro's macros
+
+
 def looks_like_path(name_or_path: str | Path) -> bool:
     """True when the argument should be read as a file path rather than a model name."""
     text = str(name_or_path)
-    return isinstance(name_or_path, Path) or text.endswith((".urdf", ".xml")) or "/" in text or "\\" in text
+    return isinstance(name_or_path, Path) or text.endswith(FILE_SUFFIXES) or "/" in text or "\\" in text
+
+
+def not_urdf(path: Path) -> str | None:
+    """Why ``path`` is no URDF judging by its suffix (a xacro or an SDFormat file), with the way to one; else None."""
+    if path.suffix == ".xacro":
+        return f"a xacro file: robodyn reads URDF; {_expand(path)}"
+    if path.suffix == ".sdf":
+        return "an SDFormat file: robodyn reads URDF only (SDFormat is not supported; export a URDF from its source)"
+    return None
 
 
 def find_srdf(urdf: Path) -> Path | None:
@@ -85,6 +103,9 @@ MAX_FILE_BYTES = 8 * 2**20
 # namespaced extensions, and keeps recursive readers (ET.tostring, yourdfpy) far from
 # Python's recursion limit.
 MAX_XML_DEPTH = 64
+
+
+_UNBOUND_PREFIX = xml.parsers.expat.errors.codes[xml.parsers.expat.errors.XML_ERROR_UNBOUND_PREFIX]
 
 
 class _DoctypeError(Exception):
@@ -124,10 +145,13 @@ def read_xml(path: Path, what: str) -> ET.Element:
     if not data.strip():
         raise ModelError(f"the {what} file is empty (expected XML with a <robot> element)", path=path)
     data = _skip_blank_prefix(data, path, what)
-    parser = ET.XMLParser(target=_TreeBuilder())
     try:
-        parser.feed(data)  # in one piece: linear time (see the module docstring)
-        root = parser.close()
+        try:
+            root = _parse(data)
+        except ET.ParseError as exc:
+            if exc.code != _UNBOUND_PREFIX:
+                raise
+            root = _parse(declare_unbound_prefixes(data))  # drake:... as urdfdom reads it: a name it ignores
     except _DoctypeError as exc:
         raise ModelError(
             f"<!DOCTYPE {exc}> declared (expected none: robodyn refuses DTDs and entity declarations, "
@@ -145,6 +169,12 @@ def read_xml(path: Path, what: str) -> ET.Element:
         _read_homogeneous_scales(root, path)
         _skip_unknown_geometry(root, path)
     return root
+
+
+def _parse(data: bytes) -> ET.Element:
+    parser = ET.XMLParser(target=_TreeBuilder())
+    parser.feed(data)  # in one piece: linear time (see the module docstring)
+    return parser.close()
 
 
 def _skip_blank_prefix(data: bytes, path: Path, what: str) -> bytes:
@@ -290,9 +320,24 @@ def _check_srdf_root(root: ET.Element, path: Path) -> None:
         )
 
 
+def _expand(path: Path) -> str:
+    """``expand it first: xacro arm.urdf.xacro > arm.urdf (pip install xacro)``."""
+    if path.name.endswith(".urdf.xacro"):
+        target = path.stem
+    elif path.suffix == ".xacro":
+        target = f"{path.stem}.urdf"
+    else:  # macros in a file named as a URDF: the expanded one needs another name
+        target = f"{path.stem}_expanded.urdf"
+    return f"expand it first: xacro {path.name} > {target} (pip install xacro)"
+
+
 def _check_urdf_root(root: ET.Element, path: Path) -> None:
+    if root.tag == "sdf":
+        raise ModelError("root element is <sdf>, expected <robot>: " + str(not_urdf(Path("x.sdf"))), path=path)
     if root.tag != "robot":
         raise ModelError(f"root element is <{root.tag}>, expected <robot>", path=path)
+    if any(element.tag.startswith(f"{{{XACRO}}}") for element in root.iter()):
+        raise ModelError(f"holds xacro macros (<xacro:...>): robodyn reads plain URDF; {_expand(path)}", path=path)
     if not root.get("name"):
         raise ModelError("<robot> has no name attribute (an empty xacro stub?)", path=path)
     if root.find("link") is None:

@@ -457,5 +457,10 @@ def load_geometry(robot: Robot, *, kind: str = "visual") -> pin.GeometryModel:
     errors = urdfdom_errors(said)
     if failure is not None or errors:
         told = "; ".join(([failure] if failure else []) + errors)
+        if "package://" in told:  # a ROS package robodyn cannot find: where its packages are is the user's to say
+            told += (
+                " (expected the folder that holds that package on ROS_PACKAGE_PATH, "
+                "e.g. ROS_PACKAGE_PATH=/path/to/share; folders separated by ':')"
+            )
         raise ModelError(f"cannot load {kind} geometry: {told}", path=robot.urdf_path)
     return geometry

@@ -31,6 +31,7 @@ from robodyn.model.files import (
     find_srdf,
     looks_like_path,
     models_dir,
+    not_urdf,
     robots_dir,
 )
 from robodyn.registry import Registry
@@ -253,9 +254,16 @@ def model_sources() -> Registry[ModelSource]:
 
 
 def resolve(name_or_path: str | Path, *, srdf: str | Path | None = None) -> ModelSource:
-    """Turn a built-in or library name, or a URDF path, into a :class:`ModelSource`."""
-    if looks_like_path(name_or_path):
+    """Turn a built-in or library name, or a URDF path, into a :class:`ModelSource`.
+
+    A name that is no model's but an existing file's (``mybot`` in the current folder) is that file.
+    """
+    sources = model_sources()
+    if looks_like_path(name_or_path) or (str(name_or_path) not in sources and Path(name_or_path).is_file()):
         urdf = Path(name_or_path)
+        refused = not_urdf(urdf)
+        if refused is not None and urdf.is_file():
+            raise ModelError(refused, path=urdf)
         if urdf.is_dir():
             raise ModelError("is a directory (expected a path to a .urdf file or a model name)", path=urdf)
         if urdf.exists() and not urdf.is_file():
@@ -264,7 +272,6 @@ def resolve(name_or_path: str | Path, *, srdf: str | Path | None = None) -> Mode
             raise ModelError("no such URDF file (expected a path to a .urdf file or a model name)", path=urdf)
         found = Path(srdf) if srdf is not None else find_srdf(urdf)
         return ModelSource(urdf, found, f"URDF file {urdf.name}")
-    sources = model_sources()
     if str(name_or_path) not in sources:
         raise UnknownModelError(str(name_or_path), sources.names())
     source = sources.get(str(name_or_path))

@@ -20,7 +20,9 @@ character references, the declared encoding) cannot make urdfdom read another ro
 
 Beyond syntax: every joint type known, the links and joints a tree (one root link, every
 joint's links present, one parent per link, no cycle), every axis a usable direction, each
-``<inertial>`` complete (``<mass value>``, all six ``<inertia>`` terms, as urdfdom requires),
+``<inertial>`` complete (``<mass value>``, all six ``<inertia>`` terms, as urdfdom requires; an
+``<inertial>`` with a mass and no ``<inertia>`` at all is a point mass, refused by the physics check
+except where it cannot move),
 and the sizes and magnitudes within the limits below, refused before Pinocchio is called.
 
 The check does not use yourdfpy: importing it (trimesh, scipy.spatial, networkx) costs about a
@@ -35,6 +37,7 @@ from __future__ import annotations
 
 import copy
 import difflib
+import io
 import math
 import os
 import re
@@ -352,8 +355,8 @@ def _check_inertials(root: ET.Element, path: Path) -> None:
             continue
         _single(inertial, "origin", where, path, required=False)
         mass = _single(inertial, "mass", where, path, required=True)
-        inertia = _single(inertial, "inertia", where, path, required=True)
-        if mass is None or inertia is None:  # refused above: for the type checker
+        inertia = _single(inertial, "inertia", where, path, required=False)  # none: a point mass (urdf_text)
+        if mass is None:  # refused above: for the type checker
             continue
         value = float(mass.get("value", "0"))
         if not (value == 0 or MASS_MIN <= value <= MASS_MAX):
@@ -364,11 +367,12 @@ def _check_inertials(root: ET.Element, path: Path) -> None:
                 f"(expected 0 or a mass between {MASS_MIN:g} and {MASS_MAX:g} kg)",
                 path=path,
             )
-        for name in _REQUIRED["inertia"]:
-            term = float(inertia.get(name, "0"))
+        terms = {name: inertia.get(name) for name in _REQUIRED["inertia"]} if inertia is not None else {}
+        for name, text in terms.items():
+            term = float(text or "0")
             if abs(term) > INERTIA_MAX or 0 < abs(term) < INERTIA_TINY:
                 raise ModelError(
-                    f"{where}: <inertia {name}={inertia.get(name)!r}> is out of range (expected 0 or a "
+                    f"{where}: <inertia {name}={text!r}> is out of range (expected 0 or a "
                     f"normal double of magnitude at most {INERTIA_MAX:g} kg m^2; subnormals are refused)",
                     path=path,
                 )
@@ -384,7 +388,16 @@ def _check_inertials(root: ET.Element, path: Path) -> None:
 
 
 def urdf_text(root: ET.Element) -> str:
-    """The XML text of ``root`` that Pinocchio is given: the tree robodyn read and validated."""
+    """The XML text of ``root`` that Pinocchio is given: the tree robodyn read and validated.
+
+    An ``<inertial>`` with a mass and no ``<inertia>`` (which urdfdom refuses) gets a zero one: a
+    point mass, as robodyn reads it (:func:`robodyn.model.consistency.link_inertials`).
+    """
+    bare = [i for i in root.iter("inertial") if i.find("inertia") is None]
+    if bare:
+        root = copy.deepcopy(root)
+        for inertial in (i for i in root.iter("inertial") if i.find("inertia") is None):
+            ET.SubElement(inertial, "inertia", {name: "0" for name in _REQUIRED["inertia"]})
     return ET.tostring(root, encoding="unicode")
 
 
@@ -416,10 +429,14 @@ def read_document(path: Path) -> Document:
     import yourdfpy
     from lxml import etree
 
+    from robodyn.model.prefixes import declare_unbound_prefixes
+
     try:
-        source = etree.parse(str(path), etree.XMLParser(remove_comments=True, remove_blank_text=True)).getroot()
+        data = declare_unbound_prefixes(Path(path).read_bytes())  # drake:... read as urdfdom reads it
+        parser = etree.XMLParser(remove_comments=True, remove_blank_text=True)
+        source = etree.fromstring(data, parser)
         urdf = yourdfpy.URDF.load(
-            str(path),
+            io.BytesIO(data),
             build_scene_graph=False,
             build_collision_scene_graph=False,
             load_meshes=False,

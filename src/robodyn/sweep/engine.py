@@ -188,6 +188,9 @@ def run_chunks(
                 if client is None:
                     client = stack.enter_context(client_for(scheduler=scheduler, workers=workers))
                 _submit_and_collect(client, pending, job, store, bar, on_chunk, local=local)
+    except RobodynError:
+        store.discard_if_empty()  # a refusal found only once the sweep ran: no folder of nothing left behind
+        raise
     except KeyboardInterrupt:
         written = sum(store.done(c.id) for c in plan.chunks)
         raise SweepInterrupted(
@@ -276,6 +279,11 @@ def _result(dd: Any, future: Any, chunk: Chunk, store: Store) -> Any:
         raise  # robodyn's own line, from the worker
     except (OSError, TimeoutError, dd.client.FutureCancelledError, dd.CancelledError) as exc:
         raise _lost(exc, store) from None
+    except dd.KilledWorker:  # its workers died running it: os._exit in a user's file, a crash, memory
+        raise RobodynError(
+            f"chunk {chunk.index} (runs {chunk.runs[0]}-{chunk.runs[-1]}) ended every worker that ran it "
+            f"(os._exit in a measure or controller file, a crash, or the memory's end?); {_kept(store)}"
+        ) from None
     except MemoryError:
         raise UnavailableError(
             f"chunk {chunk.index} (runs {chunk.runs[0]}-{chunk.runs[-1]}) ran out of memory in its worker; "
@@ -291,12 +299,13 @@ def _result(dd: Any, future: Any, chunk: Chunk, store: Store) -> Any:
 
 def _lost(exc: BaseException, store: Store) -> UnavailableError:
     """The error for a scheduler (or its connection) that went away mid-sweep."""
-    return UnavailableError(
-        f"the Dask scheduler went away mid-sweep ({type(exc).__name__}); {_kept(store)}; "
-        "run the same command again to resume from them"
-    )
+    again = "; run the same command again to resume from them" if store.chunks else ""
+    return UnavailableError(f"the Dask scheduler went away mid-sweep ({type(exc).__name__}); {_kept(store)}{again}")
 
 
 def _kept(store: Store) -> str:
+    """What is left of the sweep's folder after a failure (:meth:`Store.discard_if_empty` removes a fresh empty one)."""
     n = len(store.chunks)
+    if n == 0 and store.fresh:
+        return f"no chunk was written, and {store.folder}, made by this sweep, is removed"
     return f"{n} chunk{'s' if n != 1 else ''} written in {store.results} are kept"

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 import reprlib
+import threading
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -99,8 +100,11 @@ def _user_values(name: str, fn: UserMeasure, trajectory: Trajectory) -> dict[str
         value = fn(trajectory)
     except SystemExit as exc:
         raise InputError(f"{name}: called {exit_call(exc)}{at_line(exc, path)}") from None
-    except Exception as exc:  # a user's function can raise anything
-        raise InputError(f"{name}: raised {type(exc).__name__}: {exc}{at_line(exc, path)}") from None
+    except BaseException as exc:  # a user's function can raise anything, KeyboardInterrupt included
+        if isinstance(exc, KeyboardInterrupt) and threading.current_thread() is threading.main_thread():
+            raise  # maybe Ctrl-C; elsewhere (a Dask worker's thread) only the function can have raised it
+        what = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+        raise InputError(f"{name}: raised {what}{at_line(exc, path)}") from None
     items = value.items() if isinstance(value, Mapping) else [("", value)]
     out = {}
     for key, x in items:

@@ -55,6 +55,7 @@ import numpy as np
 
 from robodyn.errors import InputError, UnknownNameError
 from robodyn.fileio import is_number, read_user_file
+from robodyn.userfile import real_path
 
 TOP_KEYS = (
     "chunk",
@@ -157,7 +158,7 @@ def load(source: str | Path | Mapping[str, Any]) -> SweepSpec:
         raise InputError(f"{path}: not valid TOML: {exc}") from None
     except RecursionError:
         raise InputError(f"{path}: arrays or tables nested too deeply to read (a sweep file nests a few)") from None
-    return parse(data, name=str(path), base=path.resolve().parent)
+    return parse(data, name=str(path), base=real_path(path).parent)
 
 
 def parse(data: Mapping[str, Any], *, name: str, base: Path) -> SweepSpec:
@@ -277,7 +278,7 @@ def resolve(spec: SweepSpec, name: str) -> str:
     if not looks_like_path:
         return name
     path = Path(name)
-    return str(path if path.is_absolute() else (spec.base / path).resolve())
+    return str(path if path.is_absolute() else real_path(spec.base / path))
 
 
 # ----------------------------------------------------------------------------- values

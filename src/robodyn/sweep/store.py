@@ -11,6 +11,7 @@ sweep (other model, duration, measures or files) is refused rather than mixed.
 from __future__ import annotations
 
 import json
+import shutil
 from collections.abc import Mapping
 from pathlib import Path
 from typing import IO, Any
@@ -46,8 +47,10 @@ def _read_manifest(path: Path) -> dict[str, Any]:
 class Store:
     """The results folder of one sweep (``digest``); created if missing."""
 
-    def __init__(self, folder: Path, digest: str, source: str) -> None:
+    def __init__(self, folder: Path, digest: str, source: str, *, fresh: bool = False) -> None:
+        """Open (or create) the results folder ``folder``; ``fresh``: this sweep made ``folder`` (it had none)."""
         self.folder = Path(folder)
+        self.fresh = fresh
         self.results = self.folder / RESULTS
         self.digest = digest
         try:
@@ -67,6 +70,11 @@ class Store:
             self.chunks = {}
             self._write_manifest(source)
         self.source = source
+
+    def discard_if_empty(self) -> None:
+        """Remove the folder when this sweep made it and wrote no chunk into it (models, manifest and all)."""
+        if self.fresh and not self.chunks:
+            shutil.rmtree(self.folder, ignore_errors=True)
 
     def done(self, chunk_id: str) -> bool:
         """True when the chunk is in the manifest and its file exists."""

@@ -1,9 +1,9 @@
 """The robot's shapes: Pinocchio's visual geometry as meshcat objects, with their placements.
 
-Each drawable geometry (box, sphere, ellipsoid, cylinder, capsule, or an STL/DAE/OBJ mesh on
-disk) becomes a :class:`SceneObject` holding its world placement at every rendered frame;
-the others are named as skipped. Colours: the URDF's when it gives one, else the static base
-in grey and one colour per moving joint.
+Each drawable geometry (box, sphere, ellipsoid, cylinder, capsule, or an STL/DAE/OBJ/glTF mesh on
+disk; glTF sent as its triangles, through trimesh) becomes a :class:`SceneObject` holding its world
+placement at every rendered frame; the others are named as skipped. Colours: the URDF's when it
+gives one, else the static base in grey and one colour per moving joint.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ BASE_COLOR = 0x5D6D7E
 LINK_COLORS = (0xE67E22, 0x27AE60, 0xC0392B, 0x8E44AD, 0xF1C40F, 0x16A085, 0xD35400, 0x2E86C1)
 _PINOCCHIO_DEFAULT_RGBA = (0.9, 0.9, 0.9, 1.0)
 
-_MESH_FORMATS = {".stl": "stl", ".dae": "dae", ".obj": "obj"}
+_MESH_FORMATS = {".stl": "stl", ".dae": "dae", ".obj": "obj", ".glb": "glb", ".gltf": "glb"}
 
 
 @dataclass(frozen=True, eq=False)
@@ -142,6 +142,10 @@ def _meshcat_geometry(mc: Any, geom: Any, kind: str) -> Any:
     if kind == "capsule":  # drawn as its cylindrical hull: meshcat 0.3 has no capsule
         return mc.geometry.Cylinder(2.0 * float(g.halfLength) + 2.0 * float(g.radius), float(g.radius))
     path = str(geom.meshPath)
+    if _MESH_FORMATS[Path(path).suffix.lower()] == "glb":  # meshcat has no glTF loader: its triangles as an OBJ
+        import trimesh
+
+        return mc.geometry.MeshGeometry(trimesh.load(path, force="mesh").export(None, file_type="obj"), "obj")
     loader = {
         "stl": mc.geometry.StlMeshGeometry,
         "dae": mc.geometry.DaeMeshGeometry,

@@ -44,9 +44,15 @@ CLASS = {
     "dropped_m12": (_replaced(DOUBLE, M12, "m12 = m2 * lc2**2 + I2"), 9.0),  # M[0,1]: 1 of M's 3
     "dropped_g0_term": (_replaced(DOUBLE, G0, "m1 * lc1 * g * np.sin(q[0])"), 9.0),  # G[0]: 1 of G's 2
     "c_sign": (_replaced(DOUBLE, H, 'h = p["m2"]'), 7.0),  # C[0,0], C[0,1], C[1,0]: 3 of C's 4 (C[1,1] = 0)
-    "loops": (_replaced(DOUBLE, "def mass_matrix(q, p):", "def mass_matrix(q, p):\n    while True:\n        pass"), 0.0),
+    "loops": (
+        _replaced(DOUBLE, "def mass_matrix(q, p):", "def mass_matrix(q, p):\n    while True:\n        pass"),
+        0.0,
+    ),
     "exits": (_replaced(DOUBLE, "import math", "import math\nimport sys\nsys.exit(3)"), 0.0),
-    "writes": (_replaced(DOUBLE, "def gravity(q, p):", "def gravity(q, p):\n    open('pwned.txt', 'w').write('x')"), 0.0),
+    "writes": (
+        _replaced(DOUBLE, "def gravity(q, p):", "def gravity(q, p):\n    open('pwned.txt', 'w').write('x')"),
+        0.0,
+    ),
     "socket": (_replaced(DOUBLE, "import math", "import math\nimport socket"), 0.0),
     "nan": (_replaced(DOUBLE, "    return np.array([(m1", "    return np.nan * np.array([(m1"), 0.0),
 }
@@ -102,7 +108,7 @@ def test_a_planted_slip_is_charged_to_the_entries_it_touches(graded: tuple[Path,
 
 
 def test_hostile_files_get_zero_with_one_line(graded: tuple[Path, Path, Path]) -> None:
-    assignment, subs, out = graded
+    _, subs, out = graded
     for student, needle in HOSTILE.items():
         r = _result(out, student)
         assert r["score"] == 0.0 and r["verdict"] == "ERROR"
@@ -166,7 +172,9 @@ def test_notebook_helper_gives_the_clis_score(graded: tuple[Path, Path, Path], t
     assert notebook_check(assignment, vars(module))[0] == 9.0  # a notebook's globals(): functions by their source
 
 
-def test_rerun_resumes_and_regrades_only_what_changed(graded: tuple[Path, Path, Path], capsys: pytest.CaptureFixture[str]) -> None:
+def test_rerun_resumes_and_regrades_only_what_changed(
+    graded: tuple[Path, Path, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
     assignment, subs, out = graded
     (subs / "dropped_m12" / "dynamics.py").write_text(DOUBLE)  # the student fixed it
     try:
@@ -182,7 +190,9 @@ def test_rerun_resumes_and_regrades_only_what_changed(graded: tuple[Path, Path, 
 
 def test_teacher_coordinates_are_imposed(tmp_path: Path) -> None:
     toml = ASSIGNMENT.format(urdf=ROOT / "examples/urdf/double_pendulum.urdf", feedback="entries")
-    toml += '[coordinates]\njoints = ["shoulder", "elbow"]\nmap = [[1, 0], [0, -1]]\noffsets = [1.5707963267948966, 0]\n'
+    toml += (
+        '[coordinates]\njoints = ["shoulder", "elbow"]\nmap = [[1, 0], [0, -1]]\noffsets = [1.5707963267948966, 0]\n'
+    )
     (tmp_path / "a.toml").write_text(toml)
     (tmp_path / "mine.py").write_text(_replaced(DOUBLE, COORDS, 'COORDINATES = {"shoulder": (1.0, 0.0)}'))
     score, top, feedback = notebook_check(tmp_path / "a.toml", tmp_path / "mine.py")
@@ -190,7 +200,9 @@ def test_teacher_coordinates_are_imposed(tmp_path: Path) -> None:
 
 
 def test_christoffel_not_required_grades_c_v(tmp_path: Path) -> None:
-    (tmp_path / "a.toml").write_text('model = "pendubot"\nsamples = 10\nchristoffel = false\n[points]\nM = 2\nC = 2\nG = 2\n')
+    (tmp_path / "a.toml").write_text(
+        'model = "pendubot"\nsamples = 10\nchristoffel = false\n[points]\nM = 2\nC = 2\nG = 2\n'
+    )
     for name, expected in (("pendubot_mine.py", 6.0), ("pendubot_cv.py", 6.0), ("pendubot_grouped_c.py", 6.0)):
         assert notebook_check(tmp_path / "a.toml", ROOT / "examples/formulas" / name)[0] == expected, name
     slip = tmp_path / "slip.py"  # G[1]'s term dropped: G[1] loses 1 of G's 2; C v is not charged for it

@@ -150,7 +150,10 @@ def _check_solution(assignment: Any, args: argparse.Namespace) -> int:
     for r in results[1:]:
         status = "NOT CAUGHT" if r.score == top else "caught"
         print(f"{status:>10}  {r.score:g} / {top:g}  {r.source}")
-    print(f"{len(results) - 1 - len(missed)} of {len(results) - 1} mutants lose points" + ("" if ok else "; the solution does not get full marks"))
+    print(
+        f"{len(results) - 1 - len(missed)} of {len(results) - 1} mutants lose points"
+        + ("" if ok else "; the solution does not get full marks")
+    )
     sys.stdout.flush()
     return EXIT_OK if ok and not missed else EXIT_MISMATCH
 

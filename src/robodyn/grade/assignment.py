@@ -97,7 +97,7 @@ def _points(raw: Any, where: str) -> dict[str, float]:
     if not isinstance(raw, dict) or not raw:
         raise InputError(f"{where}: [points] must give the points of at least one of {', '.join(QUANTITIES)}")
     out = {}
-    for name, value in raw.items():
+    for name in raw:
         if name not in QUANTITIES:
             raise InputError(f"{where}: [points] names {name!r}; expected any of {', '.join(QUANTITIES)}")
         out[name] = _number(raw, name, 0.0, f"{where} [points]", low=0.0, high=1e6)

@@ -173,7 +173,9 @@ def named_terms(report: Any) -> tuple[str, ...]:
     return tuple(out)
 
 
-def feedback_text(assignment: Assignment, result_score: float, quantities: tuple[QuantityScore, ...], report: Any) -> str:
+def feedback_text(
+    assignment: Assignment, result_score: float, quantities: tuple[QuantityScore, ...], report: Any
+) -> str:
     """The student's feedback at the assignment's level: verdict, entries or terms."""
     lines = [f"score: {result_score:g} / {assignment.max_score:g}"]
     if assignment.feedback == "verdict":
@@ -183,12 +185,14 @@ def feedback_text(assignment: Assignment, result_score: float, quantities: tuple
         lines.append(f"{q.name}: {q.score:g} / {q.max_score:g}  ({why})")
     if assignment.feedback == "terms" and report is not None:
         lines += [f"hint: {h}" if not h.startswith("hint") else h for h in report.hints]
-        lines += [line for line in report.explanation if not line.startswith("explain:") and " follows from " not in line]
+        lines += [
+            line for line in report.explanation if not line.startswith("explain:") and " follows from " not in line
+        ]
     return "\n".join(lines) + "\n"
 
 
 def prepared(assignment: Assignment, submission: Path, folder: Path) -> Path:
-    """A copy of ``submission`` under ``folder`` (same name: messages read the same), the teacher's coordinates appended."""
+    """A copy of ``submission`` in ``folder`` (same name: messages read the same), teacher coordinates added."""
     target = folder / submission.name
     shutil.copyfile(submission, target)
     extra = assignment.coordinate_lines()
@@ -198,7 +202,9 @@ def prepared(assignment: Assignment, submission: Path, folder: Path) -> Path:
     return target.resolve()
 
 
-def grade_file(assignment: Assignment, submission: str | Path, *, student: str = "", source: str = "") -> SubmissionResult:
+def grade_file(
+    assignment: Assignment, submission: str | Path, *, student: str = "", source: str = ""
+) -> SubmissionResult:
     """Grade one formula file; never raises for what the file does (its error is the result's one line)."""
     import time
 
@@ -241,7 +247,9 @@ def grade_file(assignment: Assignment, submission: str | Path, *, student: str =
     )
 
 
-def error_result(assignment: Assignment, student: str, source: str, key: str, why: str, start: float) -> SubmissionResult:
+def error_result(
+    assignment: Assignment, student: str, source: str, key: str, why: str, start: float
+) -> SubmissionResult:
     """0 for everything asked, with the one line that says why."""
     import time
 

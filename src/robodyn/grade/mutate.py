@@ -91,7 +91,7 @@ def _walk_apply(tree: ast.Module, index: int, kind: str) -> ast.AST:
                 setattr(parent, name, _mutated(target, kind))
                 return tree
             if isinstance(value, list) and any(v is target for v in value):
-                value[[i for i, v in enumerate(value) if v is target][0]] = _mutated(target, kind)
+                value[next(i for i, v in enumerate(value) if v is target)] = _mutated(target, kind)
                 return tree
     return tree
 

@@ -43,7 +43,10 @@ def formula_source(namespace: Mapping[str, Any]) -> str:
 
 
 def notebook_check(
-    assignment_path: str | Path, functions_or_module: str | Path | types.ModuleType | Mapping[str, Any], *, student: str = "notebook"
+    assignment_path: str | Path,
+    functions_or_module: str | Path | types.ModuleType | Mapping[str, Any],
+    *,
+    student: str = "notebook",
 ) -> tuple[float, float, str]:
     """Grade a notebook's answer: ``(score, max_score, feedback)``, as ``robodyn grade`` would."""
     assignment = load_assignment(assignment_path)

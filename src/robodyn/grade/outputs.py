@@ -70,7 +70,10 @@ def _in_folder(entry: Path, root: Path, assignment: Assignment) -> Submission:
         return Submission(entry.name, None, entry.name, f"{entry.name}: no {named} in the submission")
     listed = ", ".join(str(p.relative_to(entry)) for p in files[:5])
     return Submission(
-        entry.name, None, entry.name, f"{entry.name}: several .py files ({listed}); the assignment's file = '...' picks one"
+        entry.name,
+        None,
+        entry.name,
+        f"{entry.name}: several .py files ({listed}); the assignment's file = '...' picks one",
     )
 
 
@@ -80,7 +83,9 @@ def _grade_one(assignment_path: str, submission: Submission) -> dict[str, Any]:
 
     assignment = load_assignment(assignment_path)
     if submission.path is None:
-        result = error_result(assignment, submission.student, submission.source, "", submission.problem, time.perf_counter())
+        result = error_result(
+            assignment, submission.student, submission.source, "", submission.problem, time.perf_counter()
+        )
     else:
         result = grade_file(assignment, submission.path, student=submission.student, source=submission.source)
     return result.as_dict()
@@ -161,7 +166,16 @@ def write_gradebook(path: Path, results: Iterable[SubmissionResult], assignment:
         w = csv.writer(f)
         w.writerow(["student", "source", "score", "max_score", *names, "error"])
         for r in results:
-            w.writerow([r.student, r.source, f"{r.score:g}", f"{r.max_score:g}", *(f"{q.score:g}" for q in r.quantities), r.error])
+            w.writerow(
+                [
+                    r.student,
+                    r.source,
+                    f"{r.score:g}",
+                    f"{r.max_score:g}",
+                    *(f"{q.score:g}" for q in r.quantities),
+                    r.error,
+                ]
+            )
 
 
 def gradescope_results(result: SubmissionResult, *, visibility: str = "visible") -> dict[str, Any]:

@@ -34,7 +34,11 @@ class ClassSummary:
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready dict, with the score statistics."""
         s = np.asarray(self.scores, dtype=float)
-        stats = {"students": len(s), "mean": float(s.mean()) if len(s) else 0.0, "median": float(np.median(s)) if len(s) else 0.0}
+        stats = {
+            "students": len(s),
+            "mean": float(s.mean()) if len(s) else 0.0,
+            "median": float(np.median(s)) if len(s) else 0.0,
+        }
         full = sum(1 for x in self.scores if x == self.max_score)
         return {
             **stats,
@@ -75,7 +79,7 @@ def _chart(path: Path, summary: ClassSummary, title: str) -> None:
 
     fig, ax = plt.subplots(figsize=(6, 3.2))
     top = summary.max_score
-    bins = np.linspace(0, top, min(20, max(4, int(np.ceil(top))) ) + 1) if top > 0 else 4
+    bins = list(np.linspace(0, top, min(20, max(4, int(np.ceil(top)))) + 1)) if top > 0 else 4
     ax.hist(summary.scores, bins=bins, color="tab:blue", edgecolor="white")
     ax.set_xlabel(f"score (of {top:g} points)")
     ax.set_ylabel("students")

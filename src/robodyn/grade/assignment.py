@@ -25,18 +25,12 @@ An example (``examples/grading/pendubot.toml``; the guide is ``docs/guides/gradi
 from __future__ import annotations
 
 import math
-import sys
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from robodyn.errors import InputError
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - Python 3.10
-    import tomli as tomllib
 
 QUANTITIES = ("M", "C", "G", "V")
 FEEDBACK = ("terms", "entries", "verdict")
@@ -84,6 +78,25 @@ class Assignment:
         return "\n".join(lines) + "\n"
 
 
+def _toml() -> Any:
+    """The stdlib TOML reader (Python >= 3.11), or tomli on Python 3.10."""
+    try:
+        import tomllib
+
+        return tomllib
+    except ModuleNotFoundError:
+        try:
+            import tomli  # type: ignore[import-not-found]
+
+            return tomli
+        except ModuleNotFoundError:
+            from robodyn.errors import MissingDependencyError
+
+            raise MissingDependencyError(
+                "assignment files need tomllib (Python >= 3.11) or tomli: pip install tomli"
+            ) from None
+
+
 def _number(raw: Mapping[str, Any], key: str, default: float, where: str, *, low: float, high: float) -> float:
     value = raw.get(key, default)
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
@@ -123,11 +136,12 @@ def load_assignment(path: str | Path) -> Assignment:
     """Read and check an assignment file; one-line :class:`InputError` naming the key on anything wrong."""
     path = Path(path)
     where = str(path)
+    toml = _toml()
     try:
-        raw = tomllib.loads(path.read_text(encoding="utf-8"))
+        raw = toml.loads(path.read_text(encoding="utf-8"))
     except OSError as exc:
         raise InputError(f"{where}: cannot read the assignment: {exc.strerror}") from None
-    except tomllib.TOMLDecodeError as exc:
+    except toml.TOMLDecodeError as exc:
         raise InputError(f"{where}: not valid TOML: {exc}") from None
     unknown = sorted(set(raw) - set(KEYS))
     if unknown:

@@ -54,15 +54,24 @@ CLASS = {
         0.0,
     ),
     "socket": (_replaced(DOUBLE, "import math", "import math\nimport socket"), 0.0),
+    "memory": (_replaced(DOUBLE, "import numpy as np", "import numpy as np\n\nBIG = np.empty(2**31)"), 0.0),  # 16 GiB
     "nan": (_replaced(DOUBLE, "    return np.array([(m1", "    return np.nan * np.array([(m1"), 0.0),
 }
-HOSTILE = {"loops": "within 3 s", "exits": "exit", "writes": "open", "socket": "socket", "nan": "NaN"}
+HOSTILE = {
+    "memory": "MemoryError",
+    "loops": "within 3 s",
+    "exits": "exit",
+    "writes": "open",
+    "socket": "socket",
+    "nan": "NaN",
+}
 PLANTED = {"dropped_m12": ("M[0,1]",), "dropped_g0_term": ("G[0]",), "c_sign": ("C[0,0]", "C[0,1]", "C[1,0]")}
 ASSIGNMENT = """
 title = "Double pendulum"
 model = "{urdf}"
 samples = 10
 time_limit = 3
+memory_mb = 1024
 feedback = "{feedback}"
 [points]
 M = 3

@@ -118,10 +118,10 @@ def _grade_class(assignment: Any, args: argparse.Namespace) -> int:
 
 
 def _gradescope(assignment: Any, args: argparse.Namespace) -> int:
-    from robodyn.grade.outputs import Submission, _in_folder, grade_class, write_gradescope
+    from robodyn.grade.outputs import Submission, grade_class, submission_in_folder, write_gradescope
 
     folder: Path = args.submissions
-    picked = _in_folder(folder, folder.parent, assignment)
+    picked = submission_in_folder(folder, folder.parent, assignment)
     submission = Submission("submission", picked.path, picked.source, picked.problem)
     with tempfile.TemporaryDirectory(prefix="robodyn-gradescope-") as tmp:
         out = args.out if args.out is not None else Path(tmp)

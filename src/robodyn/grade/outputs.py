@@ -55,11 +55,12 @@ def find_submissions(folder: Path, assignment: Assignment) -> list[Submission]:
         if entry.is_file() and entry.suffix == ".py":
             out.append(Submission(entry.stem, entry, entry.name))
         elif entry.is_dir():
-            out.append(_in_folder(entry, folder, assignment))
+            out.append(submission_in_folder(entry, folder, assignment))
     return out
 
 
-def _in_folder(entry: Path, root: Path, assignment: Assignment) -> Submission:
+def submission_in_folder(entry: Path, root: Path, assignment: Assignment) -> Submission:
+    """The file a student's folder ``entry`` gives (named relative to ``root``), or the one line why none."""
     files = _python_files(entry)
     if assignment.file:
         files = [p for p in files if p.name == assignment.file]

@@ -243,3 +243,18 @@ def test_bad_assignment_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixtur
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "[points] names 'Q'" in err
     assert load_assignment(ROOT / "examples/grading/double_pendulum/assignment.toml").max_score == 10.0
+
+
+def test_the_program_refuses_a_missing_submissions_folder_in_one_line(tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    assignment = ROOT / "examples/grading/double_pendulum/assignment.toml"
+    run = subprocess.run(
+        [sys.executable, "-m", "robodyn", "grade", str(assignment), str(tmp_path / "none"), "--out", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert run.returncode == 2 and run.stderr.count("\n") == 1 and "SUBMISSIONS must be a folder" in run.stderr

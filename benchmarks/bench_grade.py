@@ -23,9 +23,9 @@ from _common import argument_parser, output_folder, run_facts, write_json
 
 ROOT = Path(__file__).resolve().parents[1]
 FORMULAS = ROOT / "examples/formulas"
-DOUBLE = (FORMULAS / "double_pendulum.py").read_text()
+DOUBLE = (ROOT / "examples/grading/double_pendulum/solution.py").read_text()
 PENDUBOT = (FORMULAS / "pendubot_mine.py").read_text()
-THREE = (FORMULAS / "three_link_absolute.py").read_text()
+THREE = (ROOT / "examples/grading/three_link/solution.py").read_text()
 COORDS = 'COORDINATES = {"shoulder": (1.0, math.pi / 2), "elbow": (-1.0, 0.0)}  # q_formula = sign * q_urdf + offset'
 MATRIX = "COORDINATES = [[1, 0], [0, -1]]\nOFFSETS = [math.pi / 2, 0.0]"
 M12, M12_DROPPED = "m12 = m2 * (lc2**2 + l1 * lc2 * c2) + I2", "m12 = m2 * lc2**2 + I2"

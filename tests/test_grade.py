@@ -20,7 +20,7 @@ from robodyn.grade import load_assignment, notebook_check
 from robodyn.grade.mutate import mutants
 
 ROOT = Path(__file__).resolve().parents[1]
-DOUBLE = (ROOT / "examples/formulas/double_pendulum.py").read_text()
+DOUBLE = (ROOT / "examples/grading/double_pendulum/solution.py").read_text()  # a copy of the example, frozen here
 PENDUBOT = (ROOT / "examples/formulas/pendubot_mine.py").read_text()
 EXACT = 1e-9  # scores are sums of shares points / entries, rounded to 6 decimals: equal to far better than this
 

@@ -12,7 +12,7 @@ def test_every_subcommand_is_registered():
     parser = get_argument_parser()
     sub = next(a for a in parser._actions if a.dest == "command")
     assert set(sub.choices) == {
-        "info", "params", "check", "derive", "simulate", "view", "portrait", "bench", "run", "sweep", "warmup",
+        "info", "params", "check", "derive", "simulate", "view", "portrait", "bench", "run", "sweep", "grade", "warmup",
     }  # fmt: skip
 
 
@@ -20,7 +20,7 @@ def test_help_is_plain_text(capsys):
     """``robodyn --help`` and each subcommand's help show no reST markup (``x``, :func:, :class:)."""
     for argv in (
         ["--help"],
-        *([name, "--help"] for name in ("info", "params", "check", "simulate", "bench", "warmup")),
+        *([name, "--help"] for name in ("info", "params", "check", "simulate", "bench", "grade", "warmup")),
     ):
         with pytest.raises(SystemExit):
             main(argv)

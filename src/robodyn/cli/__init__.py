@@ -51,9 +51,9 @@ def get_argument_parser() -> argparse.ArgumentParser:
     sub.required = True
     # Each subcommand module is light to import (its heavy imports happen inside its ``run``);
     # plain imports, in the order --help shows them, so that import-linter sees every edge.
-    from robodyn.cli import bench, check, derive, info, params, portrait, run, simulate, sweep, view, warmup
+    from robodyn.cli import bench, check, derive, grade, info, params, portrait, run, simulate, sweep, view, warmup
 
-    for module in (info, params, check, derive, simulate, view, portrait, bench, run, sweep, warmup):
+    for module in (info, params, check, derive, simulate, view, portrait, bench, run, sweep, grade, warmup):
         module.add_parser(sub)
     return parser
 

@@ -1,0 +1,218 @@
+"""A class's submissions found, graded (resuming what is done) and written out.
+
+``--out DIR`` receives ``results/<student>.json`` (each submission's result with its content hash,
+the resume key), ``feedback/<student>.txt``, ``gradebook.csv`` and, from :mod:`robodyn.grade.report`,
+the class report. One submission's Gradescope ``results.json`` is :func:`gradescope_results`.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import re
+from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from robodyn.grade.assignment import Assignment, load_assignment
+from robodyn.grade.grading import SubmissionResult, digest, error_result, grade_file
+
+SKIPPED = ("__pycache__", ".ipynb_checkpoints")
+VISIBILITY = ("hidden", "after_due_date", "after_published", "visible")  # Gradescope's visibility values
+
+
+@dataclass(frozen=True)
+class Submission:
+    """One student's work: the file to grade, or the one-line reason there is none."""
+
+    student: str
+    path: Path | None  # None: no single formula file could be picked (``problem`` says why)
+    source: str
+    problem: str = ""
+
+
+def _safe(name: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("._") or "student"
+
+
+def _python_files(folder: Path) -> list[Path]:
+    return sorted(p for p in folder.rglob("*.py") if not any(part in SKIPPED for part in p.parts))
+
+
+def find_submissions(folder: Path, assignment: Assignment) -> list[Submission]:
+    """The submissions of ``folder``: each ``*.py`` file in it, and each sub-folder (one a student).
+
+    A student's folder gives the file the assignment names (``file = ...``, found anywhere inside),
+    or its one ``.py`` file; several, or none, is that student's one-line problem.
+    """
+    out = []
+    for entry in sorted(folder.iterdir()):
+        if entry.name.startswith(".") or entry.name in SKIPPED:
+            continue
+        if entry.is_file() and entry.suffix == ".py":
+            out.append(Submission(entry.stem, entry, entry.name))
+        elif entry.is_dir():
+            out.append(submission_in_folder(entry, folder, assignment))
+    return out
+
+
+def submission_in_folder(entry: Path, root: Path, assignment: Assignment) -> Submission:
+    """The file a student's folder ``entry`` gives (named relative to ``root``), or the one line why none."""
+    files = _python_files(entry)
+    if assignment.file:
+        files = [p for p in files if p.name == assignment.file]
+    if len(files) == 1:
+        return Submission(entry.name, files[0], str(files[0].relative_to(root)))
+    named = f"a file named {assignment.file}" if assignment.file else "a .py file"
+    if not files:
+        return Submission(entry.name, None, entry.name, f"{entry.name}: no {named} in the submission")
+    listed = ", ".join(str(p.relative_to(entry)) for p in files[:5])
+    return Submission(
+        entry.name,
+        None,
+        entry.name,
+        f"{entry.name}: several .py files ({listed}); the assignment's file = '...' picks one",
+    )
+
+
+def _grade_one(assignment_path: str, submission: Submission) -> dict[str, Any]:
+    """Worker entry point (a process of the pool): grade and return a JSON-ready dict."""
+    import time
+
+    assignment = load_assignment(assignment_path)
+    if submission.path is None:
+        result = error_result(
+            assignment, submission.student, submission.source, "", submission.problem, time.perf_counter()
+        )
+    else:
+        result = grade_file(assignment, submission.path, student=submission.student, source=submission.source)
+    return result.as_dict()
+
+
+def _cached(out: Path, submission: Submission, assignment: Assignment) -> SubmissionResult | None:
+    file = out / "results" / f"{_safe(submission.student)}.json"
+    if submission.path is None or not file.is_file():
+        return None
+    try:
+        result = SubmissionResult.from_dict(json.loads(file.read_text(encoding="utf-8")))
+    except (ValueError, KeyError, TypeError):
+        return None  # a half-written or older file: graded again
+    return result if result.digest == digest(assignment, submission.path) else None
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".part")
+    tmp.write_text(text, encoding="utf-8")
+    os.replace(tmp, path)
+
+
+def save_result(out: Path, result: SubmissionResult) -> None:
+    """The submission's result (the resume record) and its feedback file, each written atomically."""
+    name = _safe(result.student)
+    _write_atomic(out / "results" / f"{name}.json", json.dumps(result.as_dict(), indent=1))
+    _write_atomic(out / "feedback" / f"{name}.txt", result.feedback)
+
+
+def grade_class(
+    assignment: Assignment,
+    submissions: Sequence[Submission],
+    out: Path,
+    *,
+    jobs: int = 1,
+    on_result: Callable[[SubmissionResult, bool], None] | None = None,
+) -> list[SubmissionResult]:
+    """Grade every submission not already graded in ``out`` (same content hash), in ``jobs`` processes.
+
+    ``on_result(result, resumed)`` is called as each one is done, in completion order. Results are
+    returned in the order of ``submissions``.
+    """
+    results: dict[str, SubmissionResult] = {}
+    todo = []
+    for s in submissions:
+        cached = _cached(out, s, assignment)
+        if cached is not None:
+            results[s.student] = cached
+            if on_result:
+                on_result(cached, True)
+        else:
+            todo.append(s)
+
+    def done(d: dict[str, Any]) -> None:
+        result = SubmissionResult.from_dict(d)
+        save_result(out, result)
+        results[result.student] = result
+        if on_result:
+            on_result(result, False)
+
+    if jobs <= 1 or len(todo) <= 1:
+        for s in todo:
+            done(_grade_one(str(assignment.path), s))
+    else:
+        with ProcessPoolExecutor(max_workers=jobs) as pool:
+            for d in pool.map(_grade_one, [str(assignment.path)] * len(todo), todo):
+                done(d)
+    return [results[s.student] for s in submissions]
+
+
+def write_gradebook(path: Path, results: Iterable[SubmissionResult], assignment: Assignment) -> None:
+    """The class's gradebook: student, score, max, the points of each asked quantity, and the one-line error."""
+    results = list(results)
+    names = [q.name for q in results[0].quantities] if results else list(assignment.points)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f)
+        w.writerow(["student", "source", "score", "max_score", *names, "error"])
+        for r in results:
+            w.writerow(
+                [
+                    r.student,
+                    r.source,
+                    f"{r.score:g}",
+                    f"{r.max_score:g}",
+                    *(f"{q.score:g}" for q in r.quantities),
+                    r.error,
+                ]
+            )
+
+
+def gradescope_results(result: SubmissionResult, *, visibility: str = "visible") -> dict[str, Any]:
+    """Gradescope's autograder ``results.json`` for one submission: a test per asked quantity.
+
+    The format is Gradescope's documented one (https://gradescope-autograders.readthedocs.io/en/latest/specs/):
+    ``score``, ``output``, ``execution_time`` [s], ``visibility`` and ``tests``, each with ``name``,
+    ``score``, ``max_score``, ``status`` and ``output``.
+    """
+    if visibility not in VISIBILITY:
+        raise ValueError(f"visibility must be one of {', '.join(VISIBILITY)}, got {visibility!r}")
+    tests = []
+    for q in result.quantities:
+        why = q.reason or (f"wrong: {', '.join(q.wrong)}" if q.wrong else "right")
+        tests.append(
+            {
+                "name": q.name,
+                "score": q.score,
+                "max_score": q.max_score,
+                "status": "passed" if q.score == q.max_score else "failed",
+                "output": why,
+                "visibility": visibility,
+            }
+        )
+    return {
+        "score": result.score,
+        "execution_time": max(1, round(result.wall_time_s)),
+        "output": result.feedback,
+        "output_format": "text",
+        "visibility": visibility,
+        "stdout_visibility": "hidden",
+        "tests": tests,
+        "extra_data": {"robodyn_verdict": result.verdict, "max_score": result.max_score},
+    }
+
+
+def write_gradescope(path: Path, result: SubmissionResult, *, visibility: str = "visible") -> None:
+    """Write :func:`gradescope_results` to ``path`` (``/autograder/results/results.json``)."""
+    _write_atomic(path, json.dumps(gradescope_results(result, visibility=visibility), indent=1))

@@ -303,7 +303,6 @@ SWING_EFFORT = 0.76
 # holds a constant torque, and link 1 leans to the angle where gravity balances it instead of
 # pumping. Measured from hanging on the Spong-Block Pendubot, 30 s runs (closed_loop_family):
 # 0.1 to 0.6 x its hold torque never balance, the built-in's 2 N m (0.75 x) balances at 11 s.
-# (Link 1 then never passes the horizontal: more time would not help.)
 NEED_PENDUBOT = 0.7
 # Cart-pole: Astrom-Furuta's swing takes more swings the smaller the acceleration; measured from
 # hanging on the built-in cart-pole, 30 s runs: 0.02 to 0.15 x (m_cart + m) g never balance, 0.2 x

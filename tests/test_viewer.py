@@ -588,7 +588,7 @@ def test_springs_split_the_potential_and_their_couples_join_the_torques(
 
 def test_a_switched_controller_records_its_mode_and_the_replay_charts_it(tmp_path: Path) -> None:
     out = tmp_path / "swing.npz"
-    argv = ["simulate", "cart_pole", "--q0", "0,3.14159", "--controller", "swing_up", "--duration", "4", "--out"]
+    argv = ["simulate", "cart_pole", "--q0", "0,3.14159", "--controller", "swing_up", "--duration", "5", "--out"]
     assert main([*argv, str(out)]) == 0
     motion = Trajectory.load(out)
     mode = motion.meta["controller"]["mode"]

@@ -944,9 +944,33 @@ def _first_run(data: dict[str, Any]) -> str:
     return "\n".join(out) + "\n"
 
 
+def _swing_up(data: dict[str, Any]) -> str:
+    out = [
+        "| family | start | runs | balanced | balanced where the effort allows it | did not, with a reason | "
+        "time to balance median / max | peak torque / effort limit (max) |",
+        "|---|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    for label, family in data["families"].items():
+        for start, s in family["starts"].items():
+            times = "-" if s["time_median_s"] is None else f"{s['time_median_s']:.1f} s / {s['time_max_s']:.1f} s"
+            out.append(
+                f"| {label} | {start} | {family['n']} | {100 * s['balanced']:.0f} % | "
+                f"{100 * s['able_balanced']:.0f} % of {s['able']} | {100 * s['failed_with_reason']:.0f} % | {times} | "
+                f"{s['peak_over_effort_max']:.3g} |"
+            )
+    first = next(iter(data["families"].values()))
+    reading = (
+        f"Each run {first['duration_s']:g} s, RK4 at dt = {data['dt_s']:g} s; balanced means upright within "
+        f"{data['balance_tol_rad']:g} rad over the whole last {data['hold_s']:g} s with the torque within its limit "
+        "(`robodyn.control.outcome`); the effort allows it where it is at least what the swing is said to need."
+    )
+    return "\n".join(out) + "\n\n" + reading + "\n"
+
+
 RENDERERS: dict[str, Callable[[dict[str, Any]], str]] = {
     "explain": _explain,
     "explain_before": _explain,
+    "swing_up": _swing_up,
     "scaling": _scaling,
     "fidelity": _fidelity,
     "overhead": _overhead,

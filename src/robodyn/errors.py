@@ -10,7 +10,8 @@ Exit codes (documented in the README):
 * 2 -- bad input: a missing or malformed file, wrong vector lengths, an unknown name;
 * 3 -- a simulation diverged (partial results are written first);
 * 4 -- an optional dependency is missing;
-* 5 -- a resource is unavailable (e.g. a port in use).
+* 5 -- a resource is unavailable (e.g. a port in use);
+* 6 -- a controller did not reach its goal (``simulate --controller swing_up`` ended not balanced).
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ EXIT_BAD_INPUT = 2
 EXIT_DIVERGED = 3
 EXIT_MISSING_DEPENDENCY = 4
 EXIT_UNAVAILABLE = 5
+EXIT_NOT_BALANCED = 6
 
 
 class RobodynError(Exception):

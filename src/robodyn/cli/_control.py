@@ -93,3 +93,16 @@ def print_controllers(*, as_json: bool) -> None:
     for row in rows:
         print(f"{row['name']:<10} {row['description']}")
     print("or a file NAME.py defining make(robot, **gains) that returns tau(t, q, v)")
+
+
+def outcome(controller: Any, trajectory: Any) -> Any:
+    """The :class:`robodyn.control.outcome.Outcome` of a swing-up run (balanced or not, and why), or None.
+
+    Only a built-in ``swing_up`` has a goal to judge: other controllers return None.
+    """
+    from robodyn.control import Switched
+    from robodyn.control.outcome import judge
+
+    if not isinstance(controller, Switched) or len(trajectory.t) < 2:
+        return None
+    return judge(controller, trajectory.t, trajectory.q, trajectory.v, trajectory.tau)

@@ -14,9 +14,10 @@ another output, an unknown frame or joint in a constraint, a coupling cycle, a n
 stiffness, a restitution outside [0, 1], a loop whose frames cannot meet, an unknown
 controller or gain, gains of the wrong shape, a controller file that raises, an equilibrium
 that is not one, --controller with --torque); 3 the run diverged
-or its constraint solver failed to converge; 130 interrupted by Ctrl-C. A run that stops early
-writes what it computed as ``x.partial.npz`` (and ``x.partial.csv``), beside and never over
-the ``x.npz`` of an earlier complete run.
+or its constraint solver failed to converge; 6 ``--controller swing_up`` did not balance by the
+end (the summary's ``outcome:`` line and one line on stderr say why, where known); 130 interrupted
+by Ctrl-C. A run that stops early writes what it computed as ``x.partial.npz`` (and
+``x.partial.csv``), beside and never over the ``x.npz`` of an earlier complete run.
 """
 
 from __future__ import annotations
@@ -47,7 +48,7 @@ from robodyn.cli._interrupts import held
 from robodyn.cli._output import partial_path, refuse_clobbering, writable_path
 from robodyn.cli._summary import _report, note_clamped_q0
 from robodyn.cli.view import add_ground_argument
-from robodyn.errors import EXIT_DIVERGED, EXIT_OK, InputError, UnknownNameError
+from robodyn.errors import EXIT_DIVERGED, EXIT_NOT_BALANCED, EXIT_OK, InputError, UnknownNameError
 from robodyn.fileio import read_user_file
 from robodyn.registry import BACKENDS
 
@@ -328,6 +329,9 @@ def run(args: argparse.Namespace) -> int:
             out, csv = (None if p is None else partial_path(p) for p in (out, csv))
         _write(trajectory, out, csv, written)
         _report(trajectory, out, csv, as_json=args.json, effort=robot.model.effortLimit)
+        verdict = _control.outcome(built[0] if built else None, trajectory) if failure is None else None
+        if verdict is not None and not args.json:
+            print(verdict.line())
     if failure is not None:
         print(f"robodyn simulate: {failure}{_partial_note(out, csv, kept)}", file=sys.stderr)
         return EXIT_INTERRUPTED if isinstance(failure, SimulationInterrupted) else EXIT_DIVERGED
@@ -336,6 +340,9 @@ def run(args: argparse.Namespace) -> int:
         said = f"its trajectory is written to {where}" if written else "no --out or --csv, nothing to write"
         print(f"robodyn simulate: interrupted after the run had finished; {said}", file=sys.stderr)
         return EXIT_INTERRUPTED
+    if verdict is not None and not verdict.balanced:
+        print(f"robodyn simulate: the controller did not reach its goal: {verdict.reason}", file=sys.stderr)
+        return EXIT_NOT_BALANCED
     if args.view:
         from robodyn.cli.view import serve_and_play
 

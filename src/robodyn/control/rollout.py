@@ -166,3 +166,114 @@ def _cuda(robot: Robot, policy: object, Q: Array, V: Array, dt: float, steps: in
     )
     q[blown], v[blown] = np.nan, np.nan
     return Rollout(q, v, q_min, q_max, dt, steps, "cuda", wall)
+
+
+@dataclass(frozen=True, eq=False)
+class FamilyRollout:
+    """Per run of a family (m,): when it entered the upright for good, its error and torque, the switch's use.
+
+    ``time_to_balance`` [s] (NaN: outside at the end), ``final_error`` [rad] the largest wrapped
+    angle error over the last ``hold`` seconds, ``peak_torque`` [N m | N] the largest |u| applied,
+    ``entered_region`` whether the LQR ever took over, ``q_min``/``q_max`` (m, 2) the range swept.
+    """
+
+    time_to_balance: Array
+    final_error: Array
+    peak_torque: Array
+    entered_region: NDArray[np.bool_]
+    q_min: Array
+    q_max: Array
+    q: Array
+    v: Array
+    wall_time_s: float
+
+
+def closed_loop_family(
+    kind: str,
+    law: str,
+    c: Array,
+    p: Array,
+    b: Array,
+    q0: Array,
+    v0: Array,
+    *,
+    duration: float,
+    dt: float,
+    upright: Array,
+    angular: NDArray[np.bool_],
+    hold: float,
+) -> FamilyRollout:
+    """RK4 closed loops of m different systems of one built-in kind at once, each with its own controller.
+
+    ``c`` (SIZE, m) stacks the controllers' parameter vectors (:func:`robodyn.control.compiled.law_of`),
+    ``p`` (n_params, m) the kinds' closed-form parameters, ``b`` (2, m) the damping; the law
+    (:func:`robodyn.sim.torque_laws.law`, the body the GPU compiles) and the closed form act
+    element-wise, so one NumPy pass steps the whole family. The balance measure is
+    :func:`robodyn.control.outcome.inside_upright` sample by sample, as the sweep's ``time_to_balance``.
+    """
+    from robodyn.control import outcome
+    from robodyn.kinds.formulas import closed_form
+    from robodyn.sim import torque_laws as tl
+
+    form = closed_form(kind)
+    torque = tl.law(kind, law)
+    act = c[tl.ACT] > 0.5
+    steps = step_count(duration, dt)
+    hold_steps = round(hold / dt)
+
+    def rates(q: Array, v: Array) -> tuple[Array, Array, Array]:
+        u = torque(c, p, b, q[0], q[1], v[0], v[1])
+        m11, m12, m22 = form.mass(p, q[0], q[1])
+        c11, c12, c21, c22 = form.coriolis(p, q[0], q[1], v[0], v[1])
+        g0, g1 = form.gravity(p, q[0], q[1])
+        r0 = np.where(act, 0.0, u) - (c11 * v[0] + c12 * v[1]) - g0 - b[0] * v[0]
+        r1 = np.where(act, u, 0.0) - (c21 * v[0] + c22 * v[1]) - g1 - b[1] * v[1]
+        det = m11 * m22 - m12 * m12
+        return np.stack([(m22 * r0 - m12 * r1) / det, (m11 * r1 - m12 * r0) / det]), u, m11
+
+    Q, V = np.array(q0, dtype=np.float64).T.copy(), np.array(v0, dtype=np.float64).T.copy()
+    m = Q.shape[1]
+    q_min, q_max = Q.copy(), Q.copy()
+    last_out = np.full(m, -1)
+    error = np.zeros(m)
+    peak = np.zeros(m)
+    entered = np.zeros(m, dtype=bool)
+    start = time.perf_counter()
+    with np.errstate(all="ignore"):
+        for step in range(steps + 1):
+            inside = outcome.inside_upright(Q.T, upright, angular)
+            last_out[~inside] = step
+            if step >= steps - hold_steps:
+                error = np.fmax(error, outcome.angle_error(Q.T, upright, angular))
+            if step == steps:
+                break
+            k1v, u, _ = rates(Q, V)
+            peak = np.fmax(peak, np.abs(u))
+            entered |= _inside_region(c, Q, V)
+            k1q = V
+            k2v = rates(Q + 0.5 * dt * k1q, V + 0.5 * dt * k1v)[0]
+            k2q = V + 0.5 * dt * k1v
+            k3v = rates(Q + 0.5 * dt * k2q, V + 0.5 * dt * k2v)[0]
+            k3q = V + 0.5 * dt * k2v
+            k4v = rates(Q + dt * k3q, V + dt * k3v)[0]
+            k4q = V + dt * k3v
+            Q = Q + dt / 6.0 * (k1q + 2.0 * k2q + 2.0 * k3q + k4q)
+            V = V + dt / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v)
+            np.fmin(q_min, Q, out=q_min)
+            np.fmax(q_max, Q, out=q_max)
+    wall = time.perf_counter() - start
+    finite = np.isfinite(Q).all(axis=0) & np.isfinite(V).all(axis=0)
+    ttb = np.where((last_out < steps) & finite, (last_out + 1) * dt, np.nan)
+    error[~finite] = np.nan
+    return FamilyRollout(ttb, error, peak, entered, q_min.T, q_max.T, Q.T, V.T, wall)
+
+
+def _inside_region(c: Array, Q: Array, V: Array) -> NDArray[np.bool_]:
+    """Whether each state lies in its controller's region e^T P e < rho (the switch's own test)."""
+    from robodyn.sim import torque_laws as tl
+
+    e = np.stack([Q[0] - c[tl.Q_EQ], Q[1] - c[tl.Q_EQ + 1], V[0], V[1]])
+    for i in range(2):
+        e[i] = np.where(c[tl.ANGULAR + i] > 0.5, (e[i] + np.pi) % (2.0 * np.pi) - np.pi, e[i])
+    value = sum(e[i] * c[tl.P + 4 * i + j] * e[j] for i in range(4) for j in range(4))
+    return np.asarray(value < c[tl.RHO])

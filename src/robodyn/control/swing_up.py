@@ -28,7 +28,14 @@ W = 1/2 k_E (E - E_up)^2 + 1/2 k_D q1'^2 + 1/2 k_P (q1 - pi/2)^2, the outer loop
 gives dW/dt = -k_V q1'^2, so E -> E_up with link 1 upright at rest: link 2 then rides the
 homoclinic orbit into the upright. The denominator must stay positive for every energy from
 hanging up: k_D > k_E (E_up - E_hanging) max Mbar, checked when the controller is made.
+Near that bound w grows without limit, so the law's torque is clipped to ``swing_effort``, by
+default 0.76 times the model's hold torque |G_1| with both links horizontal (or the effort limit
+if smaller): with a 1000 N m shoulder the unclipped law spins the elbow through many turns.
 Assumes: lossless joints, the torque on the shoulder is the only input, the state is measured.
+
+Every number comes from the model: E_up from its potential at the upright, Mbar and hbar from its
+M, C, G, the gains from its energy and time scales, the torque cap from its gravity torque. Whether
+a run balanced, and why not, is :mod:`robodyn.control.outcome`'s to say.
 """
 
 from __future__ import annotations
@@ -67,6 +74,7 @@ class CartPoleEnergy:
     l: float
     J: float
     g: float
+    m_total: float
     energy_up: float = 0.0
 
     def energy(self, q: Array, v: Array) -> float:
@@ -90,7 +98,9 @@ class PendubotEnergy:
     """Fantoni-Lozano-Spong energy swing-up of a Pendubot through collocated PFL; call as tau(t, q, v) -> (u [N m],).
 
     Gains ``k_energy`` [1/J^2 scale], ``k_d``, ``k_p``, ``k_v`` as in the module's W; ``energy_up`` [J]
-    the target, the total energy at the upright equilibrium at rest.
+    the target, the total energy at the upright equilibrium at rest; ``swing_effort`` [N m] the
+    torque the swing may use (the law's output is clipped to it); ``hold_torque`` [N m] the model's
+    torque to hold both links horizontal, |G_1| there, the scale of every torque in the swing.
     """
 
     plant: Plant
@@ -100,6 +110,8 @@ class PendubotEnergy:
     k_p: float
     k_v: float
     energy_up: float
+    swing_effort: float
+    hold_torque: float
 
     def energy(self, q: Array, v: Array) -> float:
         """Total mechanical energy 1/2 v^T M v + V [J] (armature included)."""
@@ -115,7 +127,8 @@ class PendubotEnergy:
         q1_error = float(wrap(q[0] - np.pi / 2))
         numerator = self.k_v * float(v[0]) + self.k_p * q1_error + self.k_energy * e * float(hbar[0])
         w = -numerator / (self.k_energy * e * float(Mbar[0, 0]) + self.k_d)
-        return self.plant.saturate(Mbar @ np.array([w]) + hbar)
+        u = np.clip(Mbar @ np.array([w]) + hbar, -self.swing_effort, self.swing_effort)
+        return self.plant.saturate(u)
 
 
 def rail_guard(plant: Plant, y: float, vy: float, accel: float, brake: float) -> float:
@@ -137,14 +150,20 @@ def rail_guard(plant: Plant, y: float, vy: float, accel: float, brake: float) ->
 def cart_pole(
     plant: Plant,
     *,
-    k_energy: float = 1.0,
+    k_energy: float | None = None,
     accel_max: float | None = None,
-    k_position: float = 2.0,
-    k_velocity: float = 3.0,
-    kick: float = 0.1,
+    k_position: float | None = None,
+    k_velocity: float | None = None,
+    kick: float | None = None,
     energy_offset: float = 0.0,
 ) -> CartPoleEnergy:
-    """The cart-pole's swing-up law.
+    """The cart-pole's swing-up law, its default gains scaled from the model's own numbers.
+
+    With the pole's natural frequency w0 = sqrt(m g l / J) [rad/s] and its energy scale m g l [J],
+    the law is the same on every cart-pole up to scale when k_energy ~ 1 / (m g l w0),
+    k_position ~ w0^2, k_velocity ~ w0 and kick ~ w0. The defaults are the dimensionless gains
+    first tuned on the built-in cart-pole (k_energy = 1, k_position = 2, k_velocity = 3, kick = 0.1
+    there, w0 = 3.836 rad/s), rescaled by the model's w0 and m g l.
 
     ``accel_max`` defaults to g (Astrom-Furuta's n = 1), capped at 80 % of what the effort limit gives.
 
@@ -153,13 +172,42 @@ def cart_pole(
     p = params.extract(plant.robot, "cart_pole")
     m, l, g = p["m"], p["l"], p["g"]
     J = m * l * l + p["I"]
+    m_total = p["m_cart"] + m
+    energy_scale, omega = _pole_scale(m, l, J, g)
+    ref_energy, ref_omega = _pole_scale(*_CART_POLE_REFERENCE)
+    k_energy = 1.0 * (ref_energy * ref_omega) / (energy_scale * omega) if k_energy is None else k_energy
+    k_position = 2.0 * (omega / ref_omega) ** 2 if k_position is None else k_position
+    k_velocity = 3.0 * (omega / ref_omega) if k_velocity is None else k_velocity
+    kick = 0.1 * (omega / ref_omega) if kick is None else kick
     if accel_max is None:
-        accel_max = min(g, 0.8 * float(plant.effort[0]) / (p["m_cart"] + m))
+        accel_max = min(g, 0.8 * float(plant.effort[0]) / m_total)
     _positive(k_energy=k_energy, accel_max=accel_max)
     _non_negative(k_position=k_position, k_velocity=k_velocity, kick=kick)
     return CartPoleEnergy(
-        plant, collocated(plant.robot), k_energy, accel_max, k_position, k_velocity, kick, m, l, J, g, energy_offset
+        plant,
+        collocated(plant.robot),
+        k_energy,
+        accel_max,
+        k_position,
+        k_velocity,
+        kick,
+        m,
+        l,
+        J,
+        g,
+        m_total,
+        energy_offset,
     )
+
+
+def _pole_scale(m: float, l: float, J: float, g: float) -> tuple[float, float]:
+    """(m g l [J], w0 = sqrt(m g l / J) [rad/s]): the pole's energy and time scales."""
+    energy = abs(m * g * l)
+    return energy, float(np.sqrt(energy / J)) if J > 0 and energy > 0 else 1.0
+
+
+# (m, l, J, g) of the built-in cart-pole, where the dimensionless gains were tuned.
+_CART_POLE_REFERENCE = (0.1, 0.5, 0.1 * 0.5 * 0.5 + 8.3333333e-3, 9.81)
 
 
 def pendubot(
@@ -170,6 +218,7 @@ def pendubot(
     k_p: float | None = None,
     k_v: float | None = None,
     energy_offset: float = 0.0,
+    swing_effort: float | None = None,
 ) -> PendubotEnergy:
     """The Pendubot's swing-up, its default gains scaled from the model's own numbers.
 
@@ -182,9 +231,18 @@ def pendubot(
     * ``k_p`` to ``K_P_RATIO`` k_d w0^2 (holds link 1 near upright), ``k_v`` to ``K_V_RATIO`` k_d w0
       (dissipates W): 30 and 2 on the built-in model, where they were tuned.
 
+    The swing uses at most ``swing_effort`` [N m]: by default ``SWING_EFFORT`` times the hold torque
+    u_hold = |G_1| with both links horizontal (the torque every swing is scaled by), or the effort
+    limit if smaller. Unclipped, the law's w grows without bound where its denominator nears k_d - k_d_min
+    (a shoulder with a 1000 N m motor then spins the elbow through dozens of turns before it settles).
+
     ``energy_offset`` [J] shifts the target E_up (for experiments; the upright needs 0).
     """
-    given = {name: value for name, value in (("k_d", k_d), ("k_p", k_p), ("k_v", k_v)) if value is not None}
+    given = {
+        name: value
+        for name, value in (("k_d", k_d), ("k_p", k_p), ("k_v", k_v), ("swing_effort", swing_effort))
+        if value is not None
+    }
     _positive(k_energy=k_energy, **given)  # before any arithmetic on them (the defaults come from the model)
     if not is_number(energy_offset):
         raise InputError(f"swing_up gain energy_offset must be a finite number, got {energy_offset!r:.40}")
@@ -206,8 +264,50 @@ def pendubot(
             f"swing_up gain k_d = {k_d!r} must exceed k_energy (E_up - E_hanging) max Mbar = {k_d_min:.4g} "
             "(else the Pendubot law divides by zero on the way up)"
         )
-    return PendubotEnergy(plant, pfl, k_energy, float(k_d), k_p, k_v, energy_up)
+    hold = hold_torque(plant)
+    cap = min(float(plant.effort[0]), SWING_EFFORT * hold) if swing_effort is None else float(swing_effort)
+    return PendubotEnergy(plant, pfl, k_energy, float(k_d), k_p, k_v, energy_up, cap, hold)
 
+
+def hold_torque(plant: Plant) -> float:
+    """|G_1| [N m] with both links horizontal (q = upright - (pi/2, 0)): the torque that holds the arm out straight."""
+    robot = plant.robot
+    horizontal = plant.upright() - np.array([np.pi / 2, 0.0])
+    return abs(float(dynamics.gravity(robot.model, robot.data, horizontal)[0]))
+
+
+def swing_need(law: PendubotEnergy | CartPoleEnergy) -> tuple[float, str]:
+    """(the effort [N m | N] the swing-up needs, how it was found): the level below which it is not expected to work.
+
+    Pendubot: ``NEED_PENDUBOT`` times the hold torque; cart-pole: ``NEED_CART_POLE`` (m_cart + m) g, the
+    force that gives the cart an acceleration of that fraction of g (see the constants for how each
+    was measured).
+    """
+    if isinstance(law, PendubotEnergy):
+        return (
+            NEED_PENDUBOT * law.hold_torque,
+            f"{NEED_PENDUBOT:g} x the {law.hold_torque:.4g} N m that holds the arm horizontal",
+        )
+    weight = law.m_total * law.g
+    return (
+        NEED_CART_POLE * weight,
+        f"an acceleration of {NEED_CART_POLE:g} g for the {law.m_total:.4g} kg cart and pole",
+    )
+
+
+# The swing's torque cap as a fraction of the hold torque |G_1(horizontal)|: 2 N m on the built-in
+# Pendubot (hold torque 2.664 N m) stays its effort limit, so its documented runs are unchanged.
+SWING_EFFORT = 0.76
+# The effort limits below which a swing-up is not expected: fractions of the hold torque (Pendubot)
+# and of the weight (m_cart + m) g (cart-pole). Pendubot: below the hold torque the clipped law
+# holds a constant torque, and link 1 leans to the angle where gravity balances it instead of
+# pumping. Measured from hanging on the Spong-Block Pendubot, 30 s runs (closed_loop_family):
+# 0.1 to 0.6 x its hold torque never balance, the built-in's 2 N m (0.75 x) balances at 11 s.
+NEED_PENDUBOT = 0.7
+# Cart-pole: Astrom-Furuta's swing takes more swings the smaller the acceleration; measured from
+# hanging on the built-in cart-pole, 30 s runs: 0.02 to 0.15 x (m_cart + m) g never balance, 0.2 x
+# balances at 19.7 s, 0.3 x at 12.9 s, 0.5 x at 6.7 s. So "needs" means: to balance within 30 s.
+NEED_CART_POLE = 0.2
 
 # The default k_d sits this factor above its bound k_E (E_up - E_hanging) max Mbar.
 K_D_FACTOR = 1.02

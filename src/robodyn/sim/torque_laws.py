@@ -50,7 +50,7 @@ GAINS = 28  # the energy law's numbers, GAIN_NAMES[law] in order
 SIZE = GAINS + 13
 GAIN_NAMES = {
     "lqr": (),
-    "pendubot_energy": ("k_energy", "k_d", "k_p", "k_v", "energy_up", "potential_offset"),
+    "pendubot_energy": ("k_energy", "k_d", "k_p", "k_v", "energy_up", "potential_offset", "swing_effort"),
     "cart_pole_energy": (
         *("k_energy", "accel_max", "k_position", "k_velocity", "kick", "m", "l", "J", "g", "energy_up"),
         *("rail", "rail_lo", "rail_hi"),
@@ -136,14 +136,14 @@ def law(kind: str, name: str, jit: Any = None) -> Callable[..., Any]:
 
     @use
     def pendubot_energy(c, p, b, q0, q1, v0, v1):  # type: ignore[no-untyped-def]
-        """The shoulder torque of :class:`~robodyn.control.swing_up.PendubotEnergy`, unsaturated."""
+        """The shoulder torque of :class:`~robodyn.control.swing_up.PendubotEnergy`, clipped to its swing effort."""
         k_energy, k_d, k_p, k_v = c[GAINS], c[GAINS + 1], c[GAINS + 2], c[GAINS + 3]
         mbar, hbar, m11, m12, m22 = reduced(c, p, b, q0, q1, v0, v1)
         kinetic = 0.5 * (m11 * v0 * v0 + 2.0 * m12 * v0 * v1 + m22 * v1 * v1)
         e = kinetic + (potential(p, q0, q1) + c[GAINS + 5]) - c[GAINS + 4]
         numerator = k_v * v0 + k_p * wrap(q0 - math.pi / 2) + k_energy * e * hbar
         w = -numerator / (k_energy * e * mbar + k_d)
-        return mbar * w + hbar
+        return smaller(larger(mbar * w + hbar, -c[GAINS + 6]), c[GAINS + 6])
 
     @use
     def cart_pole_energy(c, p, b, q0, q1, v0, v1):  # type: ignore[no-untyped-def]

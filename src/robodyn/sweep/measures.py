@@ -5,7 +5,9 @@ Built in (columns in brackets):
 * ``final_state``: the state at the end [q.<joint>, v.<joint>] in rad | m and rad/s | m/s;
 * ``energy_drift``: E(end) - E(0) [J] (kinetic + potential; the work of a controller counts);
 * ``time_to_balance``: the first time [s] from which every revolute coordinate stays within
-  ``BALANCE_TOL`` of the upright until the end; NaN if the run ends outside (cart-pole, Pendubot);
+  ``BALANCE_TOL`` of the upright until the end; NaN if the run ends outside (cart-pole, Pendubot).
+  The test is :mod:`robodyn.control.outcome`'s, the one that ``robodyn simulate``'s outcome line and
+  ``benchmarks/bench_swing_up.py`` read: a run balanced when time_to_balance <= duration - 1 s;
 * ``lyapunov``: Benettin's largest Lyapunov exponent [1/s] (twins renormalised every
   ``LYAPUNOV_INTERVAL``; the twin's direction seeded by the sweep's seed plus the run number);
 * ``wall_time``: the run's wall-clock time [s] (a vectorised chunk's time shared evenly).
@@ -28,6 +30,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from robodyn.control.outcome import BALANCE_TOL as BALANCE_TOL
+from robodyn.control.outcome import balanced_from, inside_upright
 from robodyn.errors import InputError
 from robodyn.sim.trajectory import Trajectory
 from robodyn.userfile import at_line, exit_call, import_user_file
@@ -35,8 +39,6 @@ from robodyn.userfile import at_line, exit_call, import_user_file
 Array = NDArray[np.float64]
 
 MEASURES = ("energy_drift", "final_state", "lyapunov", "time_to_balance", "wall_time")
-# |angle error| below this [rad] counts as balanced (0.05 rad, about 3 degrees).
-BALANCE_TOL = 0.05
 # Benettin's renormalisation interval [s]: short against the built-in kinds' divergence time (~0.3 s).
 LYAPUNOV_INTERVAL = 0.1
 # Measures a vectorised chunk computes without a trajectory.
@@ -49,20 +51,6 @@ UserMeasure = Callable[[Trajectory], Any]
 def is_user(name: str) -> bool:
     """True for ``file.py:function``."""
     return ":" in name
-
-
-def balanced_from(inside: NDArray[np.bool_], dt: float) -> float:
-    """Time [s] from which every sample is ``inside`` (samples every ``dt`` from t = 0); NaN if the last is not."""
-    if inside.size == 0 or not inside[-1]:
-        return math.nan
-    outside = np.flatnonzero(~inside)
-    return 0.0 if outside.size == 0 else float(outside[-1] + 1) * dt
-
-
-def inside_upright(q: Array, upright: Array, angular: NDArray[np.bool_]) -> NDArray[np.bool_]:
-    """Whether each state of q (n, nq) has every revolute coordinate within BALANCE_TOL of ``upright``."""
-    error = (q[:, angular] - upright[angular] + np.pi) % (2.0 * np.pi) - np.pi
-    return np.all(np.abs(error) < BALANCE_TOL, axis=1)
 
 
 def from_trajectory(

@@ -169,3 +169,24 @@ def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
     return mask
+
+
+def toml_module(files: str) -> Any:
+    """The TOML reader: the stdlib's tomllib (Python >= 3.11), or tomli on Python 3.10.
+
+    Raises:
+        MissingDependencyError: neither is there (``files``, e.g. "scene files", names what needed it).
+    """
+    try:
+        import tomllib
+
+        return tomllib
+    except ModuleNotFoundError:
+        try:
+            import tomli  # type: ignore[import-not-found]
+
+            return tomli
+        except ModuleNotFoundError:
+            from robodyn.errors import MissingDependencyError
+
+            raise MissingDependencyError(f"{files} need tomllib (Python >= 3.11) or tomli: pip install tomli") from None

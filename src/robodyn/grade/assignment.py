@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from robodyn.errors import InputError
+from robodyn.fileio import toml_module
 
 QUANTITIES = ("M", "C", "G", "V")
 FEEDBACK = ("terms", "entries", "verdict")
@@ -78,25 +79,6 @@ class Assignment:
         return "\n".join(lines) + "\n"
 
 
-def _toml() -> Any:
-    """The stdlib TOML reader (Python >= 3.11), or tomli on Python 3.10."""
-    try:
-        import tomllib
-
-        return tomllib
-    except ModuleNotFoundError:
-        try:
-            import tomli  # type: ignore[import-not-found]
-
-            return tomli
-        except ModuleNotFoundError:
-            from robodyn.errors import MissingDependencyError
-
-            raise MissingDependencyError(
-                "assignment files need tomllib (Python >= 3.11) or tomli: pip install tomli"
-            ) from None
-
-
 def _number(raw: Mapping[str, Any], key: str, default: float, where: str, *, low: float, high: float) -> float:
     value = raw.get(key, default)
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
@@ -136,7 +118,7 @@ def load_assignment(path: str | Path) -> Assignment:
     """Read and check an assignment file; one-line :class:`InputError` naming the key on anything wrong."""
     path = Path(path)
     where = str(path)
-    toml = _toml()
+    toml = toml_module("assignment files")
     try:
         raw = toml.loads(path.read_text(encoding="utf-8"))
     except OSError as exc:

@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodyn.errors import SceneError
-from robodyn.fileio import is_number, read_user_file
+from robodyn.fileio import is_number, read_user_file, toml_module
 from robodyn.sim.constraints import Constraints
 
 if TYPE_CHECKING:
@@ -111,7 +111,7 @@ def read_scene(path: str | Path) -> Scene:
             of the wrong type or sign, or leaves out what a part it asks for needs.
     """
     path = Path(path)
-    toml = _toml()
+    toml = toml_module("scene files")
     data = _parse(path, toml, _read_text(path))
     for table, body in data.items():
         if table not in TABLES:
@@ -312,25 +312,6 @@ def _parse(path: Path, toml: Any, text: str) -> dict[str, Any]:
         raise SceneError(
             f"{path}: arrays or tables nested too deeply to read; a scene nests a few levels at most"
         ) from None
-
-
-def _toml() -> Any:
-    """The stdlib TOML reader (Python >= 3.11), or tomli on Python 3.10."""
-    try:
-        import tomllib
-
-        return tomllib
-    except ModuleNotFoundError:
-        try:
-            import tomli  # type: ignore[import-not-found]
-
-            return tomli
-        except ModuleNotFoundError:
-            from robodyn.errors import MissingDependencyError
-
-            raise MissingDependencyError(
-                "scene files need tomllib (Python >= 3.11) or tomli: pip install tomli"
-            ) from None
 
 
 # The defaults of ``robodyn simulate`` (--duration, --dt, --integrator). A backend left out

@@ -130,17 +130,6 @@ def portable_copy(urdf: Path, package_dirs: Sequence[Path], extra: ET.Element | 
         yield path
 
 
-def rotation_from_quaternion(w: float, x: float, y: float, z: float) -> Array:
-    """The rotation matrix of a unit quaternion (w, x, y, z)."""
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-        ]
-    )
-
-
 def rpy_matrix(rpy: Sequence[float]) -> Array:
     """URDF's fixed-axis roll, pitch, yaw as a rotation matrix: Rz(yaw) Ry(pitch) Rx(roll)."""
     r, p, y = rpy

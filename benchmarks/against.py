@@ -7,7 +7,7 @@ For each file robodyn loads (fixed base, revolute, continuous and prismatic join
 engine reads it with its defaults and trusting the file (``robodyn.against``). The table counts, per engine
 and reading: the files compared, those that agree at rtol 1e-9, those that differ (by cause), those the engine
 refuses, and any difference no cause explains; with robodyn's time (its load and the comparison, engines
-included). It writes ``against.json`` and ``against.md`` (the table) to ``--out``.
+included). It writes ``against.json`` to ``--out``; the benchmarks page renders its table.
 """
 
 from __future__ import annotations
@@ -15,7 +15,6 @@ from __future__ import annotations
 import importlib.util
 import time
 import warnings
-from collections import Counter
 from pathlib import Path
 from typing import Any
 
@@ -82,41 +81,8 @@ def survey_file(path: Path, engines: tuple[str, ...], samples: int) -> dict[str,
     return row
 
 
-def table(rows: list[dict[str, Any]]) -> str:
-    """The Markdown table: per engine and reading, files compared, agree, differ by cause, refused, unexplained."""
-    tallies: dict[tuple[str, str], Counter[str]] = {}
-    causes: dict[tuple[str, str], Counter[str]] = {}
-    for row in rows:
-        for r in row.get("readings", []):
-            key = (r["engine"], r["reading"])
-            tallies.setdefault(key, Counter())[r["status"]] += 1
-            tallies[key]["unexplained"] += r["unexplained"]
-            causes.setdefault(key, Counter()).update(r["causes"])
-    lines = [
-        "| engine | reading | files | agree | differ | causes (files) | refused | unexplained |",
-        "|---|---|---|---|---|---|---|---|",
-    ]
-    for (engine, reading), t in tallies.items():
-        named = "; ".join(f"{c} ({n})" for c, n in causes[(engine, reading)].most_common()) or "–"
-        files = t["agree"] + t["differ"] + t["refused"]
-        lines.append(
-            f"| {engine} | {reading} | {files} | {t['agree']} | {t['differ']} | {named} | {t['refused']} | "
-            f"{t['unexplained']} |"
-        )
-    skipped = [row for row in rows if "skipped" in row]
-    crashed = [row for row in rows if "crashed" in row]
-    seconds = [row["seconds"] for row in rows if "seconds" in row]
-    total = f"{sum(seconds):.1f} s in all, {max(seconds):.2f} s at most" if seconds else "none compared"
-    lines.append("")
-    lines.append(
-        f"{len(rows)} files; {len(crashed)} crashed the comparison; {len(skipped)} not compared (robodyn refuses "
-        f"them, or a joint that is not 1-DoF, or none moves); robodyn's time, engines included: {total}."
-    )
-    return "\n".join(lines) + "\n"
-
-
 def main() -> None:
-    """Run the survey and write ``against.json`` and ``against.md``."""
+    """Run the survey and write ``against.json`` (the benchmarks page renders its table)."""
     parser = argument_parser(__doc__ or "")
     parser.add_argument("--sets", default="erd,pybullet", help="erd (example-robot-data), pybullet (pybullet_data)")
     parser.add_argument("--engines", default="mujoco,pybullet,drake", help="engines, those installed only")
@@ -139,10 +105,8 @@ def main() -> None:
             or ", ".join(f"{r['engine']}/{r['reading']} {r['status']}" for r in rows[-1]["readings"])
         )
         print(f"{rows[-1]['file']}: {shown}", flush=True)
-    text = table(rows)
-    print(text)
     write_json(out, "against", {"engines": list(engines), "samples": args.samples, "rows": rows}, facts)
-    (out / "against.md").write_text(text)
+    print(f"wrote {out / 'against.json'}: the benchmarks page renders its table (docs/hooks/robodyn_docs.py)")
 
 
 if __name__ == "__main__":

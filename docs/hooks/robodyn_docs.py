@@ -23,6 +23,7 @@ import os
 import posixpath
 import re
 import sys
+from collections import Counter
 from collections.abc import Callable
 from contextlib import redirect_stdout
 from pathlib import Path
@@ -798,6 +799,40 @@ def _arrow(old: int | None, new: int) -> str:
     return f"{old} → {new}" if old is not None and old != new else f"{new}"
 
 
+def _against(data: dict[str, Any]) -> str:
+    """benchmarks/against.py: per engine and reading, files compared, agree, differ by cause, refused, unexplained."""
+    rows = data["rows"]
+    tallies: dict[tuple[str, str], Counter[str]] = {}
+    causes: dict[tuple[str, str], Counter[str]] = {}
+    for row in rows:
+        for r in row.get("readings", []):
+            key = (r["engine"], r["reading"])
+            tallies.setdefault(key, Counter())[r["status"]] += 1
+            tallies[key]["unexplained"] += r["unexplained"]
+            causes.setdefault(key, Counter()).update(r["causes"])
+    lines = [
+        "| engine | reading | files | agree | differ | causes (files) | refused | unexplained |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for (engine, reading), t in tallies.items():
+        named = "; ".join(f"{c} ({n})" for c, n in causes[(engine, reading)].most_common()) or "–"
+        files = t["agree"] + t["differ"] + t["refused"]
+        lines.append(
+            f"| {engine} | {reading} | {files} | {t['agree']} | {t['differ']} | {named} | {t['refused']} | "
+            f"{t['unexplained']} |"
+        )
+    skipped = [row for row in rows if "skipped" in row]
+    crashed = [row for row in rows if "crashed" in row]
+    seconds = [row["seconds"] for row in rows if "seconds" in row]
+    total = f"{sum(seconds):.1f} s in all, {max(seconds):.2f} s at most" if seconds else "none compared"
+    lines.append("")
+    lines.append(
+        f"{len(rows)} files; {len(crashed)} crashed the comparison; {len(skipped)} not compared (robodyn refuses "
+        f"them, or a joint that is not 1-DoF, or none moves); robodyn's time, engines included: {total}."
+    )
+    return "\n".join(lines) + "\n"
+
+
 def _world_urdfs(data: dict[str, Any]) -> str:
     """Per set: exit codes of info and check before and after; then every file's, with the reason of a refusal."""
     before = data.get("before", {}).get("summary", {})
@@ -984,6 +1019,7 @@ RENDERERS: dict[str, Callable[[dict[str, Any]], str]] = {
     "fuzz": _fuzz,
     "fuzz_interrupts": _fuzz_interrupts,
     "world_urdfs": _world_urdfs,
+    "against": _against,
     "first_run": _first_run,
 }
 

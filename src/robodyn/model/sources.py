@@ -253,13 +253,21 @@ def model_sources() -> Registry[ModelSource]:
     return registry
 
 
+def _is_file(name: str | Path) -> bool:
+    """True when ``name`` is an existing file; False also where the system cannot take it as a path (too long)."""
+    try:
+        return Path(name).is_file()
+    except OSError:  # ENAMETOOLONG and the like: a name, not a file
+        return False
+
+
 def resolve(name_or_path: str | Path, *, srdf: str | Path | None = None) -> ModelSource:
     """Turn a built-in or library name, or a URDF path, into a :class:`ModelSource`.
 
     A name that is no model's but an existing file's (``mybot`` in the current folder) is that file.
     """
     sources = model_sources()
-    if looks_like_path(name_or_path) or (str(name_or_path) not in sources and Path(name_or_path).is_file()):
+    if looks_like_path(name_or_path) or (str(name_or_path) not in sources and _is_file(name_or_path)):
         urdf = Path(name_or_path)
         refused = not_urdf(urdf)
         if refused is not None and urdf.is_file():

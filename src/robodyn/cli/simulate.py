@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -69,10 +70,13 @@ PROGRESS_EVERY = 10.0
 
 
 class ProgressLines:
-    """``robodyn simulate: t = 0.12 s of 0.5 s (24 %), 10 s so far`` on ``stream``, every PROGRESS_EVERY seconds.
+    """``robodyn simulate: t = 0.12 s of 0.5 s (24 %), 10 s after its first steps`` on ``stream``, every 10 s.
 
     A run's progress hook (:func:`robodyn.simulate`'s ``progress``); a run shorter than
-    PROGRESS_EVERY prints nothing. ``clock`` [s] is ``time.monotonic`` (a test gives its own).
+    PROGRESS_EVERY prints nothing. The clock starts at the hook's first call, after the run's first
+    steps: what came before them (a first compile of the kernels, which can take minutes) is the
+    compile notice's to say, and a short run that had to compile first is still silent. ``clock`` [s]
+    is ``time.monotonic`` (a test gives its own).
     """
 
     def __init__(self, stream: Any, duration: float, *, clock: Any = None) -> None:
@@ -80,18 +84,22 @@ class ProgressLines:
 
         self.stream, self.duration = stream, float(duration)
         self.clock = clock if clock is not None else time.monotonic
-        self.start = self.clock()
-        self.next = self.start + PROGRESS_EVERY
+        self.start: float | None = None
+        self.next = math.inf
 
     def __call__(self, t: float) -> None:
         """The run has reached ``t`` [s] from its start."""
         now = self.clock()
+        if self.start is None:
+            self.start, self.next = now, now + PROGRESS_EVERY
+            return
         if now < self.next:
             return
         self.next = now + PROGRESS_EVERY
         share = 100.0 * t / self.duration if self.duration > 0 else 100.0
         print(
-            f"robodyn simulate: t = {t:.6g} s of {self.duration:g} s ({share:.3g} %), {now - self.start:.0f} s so far",
+            f"robodyn simulate: t = {t:.6g} s of {self.duration:g} s ({share:.3g} %), "
+            f"{now - self.start:.0f} s after its first steps",
             file=self.stream,
             flush=True,
         )

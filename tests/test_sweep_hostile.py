@@ -66,7 +66,8 @@ def test_each_row_has_simulates_verdict_on_every_path(controller, path, duration
     verdicts = {"diverged": 0, "ok": 0}
     for q0 in starts:
         code = _simulate_exit(q0, controller, duration, dt, capsys)
-        assert code in (0, 3)
+        # 6: ran to its end without balancing (a 0.6 s swing-up cannot): not diverged, the row's status is "ok"
+        assert code in (0, 3, 6)
         expected = "diverged" if code == 3 else "ok"
         verdicts[expected] += 1
         assert rows[q0] == expected, (q0, rows)

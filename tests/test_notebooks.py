@@ -295,4 +295,6 @@ def test_a_wrong_answer_fails_its_hidden_test(tmp_path: Path) -> None:
     )
     errors = execute(planted, tmp_path)
     assert errors and "AssertionError" in str(errors)
-    assert book.cells[index + 1].source in str(errors), "the error must come from the hidden test after the solution"
+    assert book.cells[index + 1].source in "\n".join(errors), (
+        "the error must come from the hidden test after the solution"
+    )

@@ -205,7 +205,7 @@ def test_each_notebook_states_checked_figures_and_ends_with_exercises(path: Path
         assert role(cells[i + 2]) == "test", f"{path.name}: {question[:40]!r}'s solution has no hidden-test cell"
 
 
-# --- Exercises a teacher can set (nbgrader's conventions, which Otter reads too) ---------------------
+# --- Exercises a teacher can set (nbgrader's conventions) -------------------------------------------
 #
 # After each "**Exercise N.**" question: a solution cell (metadata nbgrader.solution, tag "solution")
 # whose answer lies between "### BEGIN SOLUTION" and "### END SOLUTION", then an autograded test cell

@@ -1,4 +1,4 @@
-"""Every notebook in ``notebooks/`` runs from top to bottom (nbclient), and is stored without outputs.
+"""Every notebook in ``notebooks/`` runs from top to bottom (nbclient), alone in an empty folder, stored without outputs.
 
 The notebooks assert what they show (the check passes, the energy is kept...), and every figure or
 verdict their text states is checked against the value it comes from (see ``claims_of``), so a
@@ -8,6 +8,7 @@ change that breaks the story, or a sentence its own numbers contradict, fails he
 from __future__ import annotations
 
 import re
+import shutil
 import time
 from pathlib import Path
 
@@ -117,11 +118,59 @@ def execute(book, folder: Path):
     return [o for cell in book.cells if cell.cell_type == "code" for o in cell.outputs if o.output_type == "error"]
 
 
+def alone(path: Path, folder: Path) -> Path:
+    """``path`` copied into ``folder``, empty but for it: a student's download, or a hosted notebook service."""
+    assert not any(folder.iterdir()), f"{folder} is not empty"
+    return Path(shutil.copy(path, folder / path.name))
+
+
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
-def test_notebook_runs_and_its_text_matches_its_numbers(path: Path) -> None:
+def test_notebook_runs_alone_and_its_text_matches_its_numbers(path: Path, tmp_path: Path) -> None:
+    """Each notebook runs copied alone into an empty folder (the kernel's working folder), hidden tests included."""
+    nbformat = pytest.importorskip("nbformat")
+    copy = alone(path, tmp_path)
+    book = nbformat.read(copy, as_version=4)
+    assert not execute(with_claim_checks(book), tmp_path)
+
+
+# --- Notebooks that run anywhere ------------------------------------------------------------------
+#
+# A notebook reads nothing beside itself: the examples it needs ship inside the package
+# (pyproject's force-include, examples -> robodyn/examples) and are found by robodyn.example().
+
+OUTSIDE = re.compile(r"""(Path\(\s*["']\.\.["']\s*\)|["']\.\./|["']examples/)""")
+EXAMPLE_CALL = re.compile(r"""robodyn\.example\(\s*["']([^"']+)["']\s*\)""")
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
+def test_notebook_reads_no_path_outside_itself(path: Path) -> None:
     nbformat = pytest.importorskip("nbformat")
     book = nbformat.read(path, as_version=4)
-    assert not execute(with_claim_checks(book), path.parent)
+    for index, cell in enumerate(book.cells):
+        if cell.cell_type == "code":
+            assert not OUTSIDE.search(cell.source), f"{path.name} cell {index} reads a path beside the notebook"
+
+
+def test_the_examples_the_notebooks_name_ship_with_the_package() -> None:
+    import robodyn
+
+    root = Path(__file__).resolve().parents[1]
+    from robodyn.fileio import toml_module
+
+    pyproject = toml_module("pyproject.toml").loads((root / "pyproject.toml").read_text(encoding="utf-8"))
+    shipped = pyproject["tool"]["hatch"]["build"]["targets"]["wheel"]["force-include"]
+    assert shipped.get("examples") == "robodyn/examples", "the wheel must carry examples/ as robodyn/examples"
+    nbformat = pytest.importorskip("nbformat")
+    sources = [cell.source for path in NOTEBOOKS for cell in nbformat.read(path, as_version=4).cells]
+    named = {m for source in sources for m in EXAMPLE_CALL.findall(source)}
+    assert named, "no notebook names a shipped example"
+    for relative in sorted(named):
+        assert robodyn.example(relative).exists(), relative
+        assert (root / "examples" / relative).exists(), f"{relative} is not under examples/, which the wheel ships"
+    with pytest.raises(robodyn.InputError, match="expected a path under one of"):
+        robodyn.example("textbook/no_such_example")
+    with pytest.raises(robodyn.InputError):
+        robodyn.example("../pyproject.toml")
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
@@ -145,10 +194,72 @@ def test_each_notebook_states_checked_figures_and_ends_with_exercises(path: Path
         i for i, cell in enumerate(book.cells) if cell.cell_type == "markdown" and "## Exercises" in cell.source
     ]
     assert headings, f"{path.name}: no '## Exercises' section"
-    exercises = [c for c in book.cells[headings[0] :] if c.cell_type == "markdown" and "**Exercise" in c.source]
+    cells = book.cells[headings[0] :]
+    exercises = [i for i, c in enumerate(cells) if c.cell_type == "markdown" and "**Exercise" in c.source]
     assert len(exercises) >= 2, f"{path.name}: {len(exercises)} exercise(s), want two or three"
-    for cell in exercises:
-        assert claims_of(cell.source), f"{path.name}: an exercise whose answer is not checked: {cell.source[:60]!r}"
+    for i in exercises:
+        question = cells[i].source
+        assert not claims_of(question) and "Answer" not in question, f"{path.name}: an answer in {question[:60]!r}"
+        assert i + 2 < len(cells), f"{path.name}: {question[:40]!r} has no solution and test cells after it"
+        assert role(cells[i + 1]) == "solution", f"{path.name}: {question[:40]!r} is not followed by a solution cell"
+        assert role(cells[i + 2]) == "test", f"{path.name}: {question[:40]!r}'s solution has no hidden-test cell"
+
+
+# --- Exercises a teacher can set (nbgrader's conventions) -------------------------------------------
+#
+# After each "**Exercise N.**" question: a solution cell (metadata nbgrader.solution, tag "solution")
+# whose answer lies between "### BEGIN SOLUTION" and "### END SOLUTION", then an autograded test cell
+# (nbgrader.grade with points, tag "hidden-test") whose checks lie between "### BEGIN HIDDEN TESTS" and
+# "### END HIDDEN TESTS". nbgrader's generate_assignment makes the student's copy; student_copy does
+# the same here.
+
+SOLUTION = re.compile(r"### BEGIN SOLUTION\n(.*?)### END SOLUTION\n?", re.S)
+HIDDEN = re.compile(r"### BEGIN HIDDEN TESTS\n(.*?)### END HIDDEN TESTS\n?", re.S)
+STUB = "# YOUR CODE HERE\nraise NotImplementedError()\n"
+
+
+def role(cell) -> str | None:
+    """ "solution" or "test" as nbgrader's metadata and the cell's markers both say; else None."""
+    meta = cell.metadata.get("nbgrader", {})
+    if cell.cell_type != "code":
+        return None
+    if meta.get("solution") and not meta.get("grade") and SOLUTION.search(cell.source):
+        return "solution"
+    if meta.get("grade") and meta.get("points", 0) > 0 and meta.get("locked") and HIDDEN.search(cell.source):
+        return "test"
+    return None
+
+
+def student_copy(book):
+    """What nbgrader hands out: each solution replaced by a stub, each hidden test removed."""
+    nbformat = pytest.importorskip("nbformat")
+    copy = nbformat.from_dict(book)
+    for cell in copy.cells:
+        if role(cell) == "solution":
+            cell.source = SOLUTION.sub(STUB, cell.source)
+        elif role(cell) == "test":
+            cell.source = HIDDEN.sub("", cell.source)
+    return copy
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
+def test_the_students_copy_holds_no_answer_and_no_hidden_test(path: Path) -> None:
+    nbformat = pytest.importorskip("nbformat")
+    book = nbformat.read(path, as_version=4)
+    solutions = [c for c in book.cells if role(c) == "solution"]
+    tests = [c for c in book.cells if role(c) == "test"]
+    assert len(solutions) >= 2 and len(tests) == len(solutions), (
+        f"{path.name}: solutions {len(solutions)}, tests {len(tests)}"
+    )
+    ids = [c.metadata["nbgrader"]["grade_id"] for c in solutions + tests]
+    assert len(set(ids)) == len(ids), f"{path.name}: nbgrader grade_ids must be unique"
+    for cell in tests:
+        assert "assert" in HIDDEN.search(cell.source).group(1), f"{path.name}: a hidden test that checks nothing"
+    handed_out = "\n".join(c.source for c in student_copy(book).cells)
+    for cell in solutions:
+        answer = [line for line in SOLUTION.search(cell.source).group(1).splitlines() if line.strip()]
+        assert answer and not any(line in handed_out for line in answer if "=" in line), f"{path.name}: an answer leaks"
+    assert "BEGIN HIDDEN TESTS" not in handed_out
 
 
 def test_a_planted_contradiction_fails(tmp_path: Path) -> None:
@@ -169,3 +280,21 @@ def test_a_planted_contradiction_fails(tmp_path: Path) -> None:
     verdict.cells[index].source = cell.source + "\n\nThe run diverges.<!-- holds: False -->"
     errors = execute(with_claim_checks(verdict), path.parent)
     assert errors and "is false" in str(errors)
+
+
+def test_a_wrong_answer_fails_its_hidden_test(tmp_path: Path) -> None:
+    """A solution cell whose answer is off by half fails the hidden test after it, in the exercise it belongs to."""
+    nbformat = pytest.importorskip("nbformat")
+    path = next(p for p in NOTEBOOKS if p.stem == "geared_arm")
+    book = nbformat.read(path, as_version=4)
+    index = next(i for i, c in enumerate(book.cells) if role(c) == "solution")
+    name = re.search(r"np\.ndim\((\w+)\)", book.cells[index + 1].source).group(1)  # the answer the test reads
+    planted = nbformat.from_dict(book)
+    planted.cells[index].source = book.cells[index].source.replace(
+        "### END SOLUTION", f"{name} = {name} * 1.5\n### END SOLUTION"
+    )
+    errors = execute(planted, tmp_path)
+    assert errors and "AssertionError" in str(errors)
+    assert book.cells[index + 1].source in "\n".join(errors), (
+        "the error must come from the hidden test after the solution"
+    )

@@ -30,6 +30,7 @@ __version__ = "0.2.0"
 if TYPE_CHECKING:
     from robodyn.checker.compare import CheckReport, check
     from robodyn.engines import AgainstReport, against
+    from robodyn.model.files import example
     from robodyn.model.load import load
     from robodyn.robot import Robot
 
@@ -58,6 +59,8 @@ def __getattr__(name: str) -> Any:
         from robodyn.checker.compare import CheckReport
 
         value = CheckReport
+    elif name == "example":
+        from robodyn.model.files import example as value
     elif name == "extract_params":
         from robodyn.kinds.params import extract as value
     elif name == "batch":
@@ -104,6 +107,7 @@ __all__ = [
     "batch",
     "check",
     "control",
+    "example",
     "extract_params",
     "formulas",
     "inertia",

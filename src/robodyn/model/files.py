@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from robodyn.errors import ModelError, ModelWarning
+from robodyn.errors import InputError, ModelError, ModelWarning
 from robodyn.model.prefixes import declare_unbound_prefixes
 from robodyn.model.urdf import parse_numbers
 from robodyn.robot import Robot, joint_coordinates
@@ -65,6 +65,32 @@ def models_dir() -> Path:
     if packaged.is_dir():
         return packaged
     return Path(__file__).resolve().parents[3] / "models"
+
+
+def examples_dir() -> Path:
+    """Folder holding the examples (scenes, URDFs, formula files, the textbook's and the grading examples).
+
+    They ship inside the wheel as ``robodyn/examples`` so that a notebook downloaded alone runs after
+    ``pip install robodyn``; a source checkout reads the repository's ``examples/``.
+    """
+    packaged = Path(str(importlib.resources.files("robodyn"))) / "examples"
+    if packaged.is_dir():
+        return packaged
+    return Path(__file__).resolve().parents[3] / "examples"
+
+
+def example(relative: str | Path = "") -> Path:
+    """The path of one shipped example, e.g. ``example("textbook/linkage/linkage.toml")``.
+
+    Raises:
+        InputError: ``relative`` names no file or folder of the examples; the message lists the top level.
+    """
+    root = examples_dir()
+    path = root / relative
+    if Path(relative).is_absolute() or ".." in Path(relative).parts or not path.exists():
+        choices = ", ".join(sorted(p.name for p in root.iterdir() if not p.name.startswith((".", "_"))))
+        raise InputError(f"example {str(relative)!r}: no such file; expected a path under one of {choices}")
+    return path
 
 
 # Suffixes that make a bare name a file: robodyn's own, and the two formats it names to refuse them.

@@ -15,25 +15,7 @@ from robodyn.sim.chatter import CHATTER_IMPACTS, CHATTER_STEPS, chattering, warn
 # between stops 0.05 rad apart: the diagonal stiffness estimate calls the damping stable at 1 ms
 # (rate ~1e3 1/s), but the two light bodies coupled through M are not, and the stops catch the
 # oscillation: the tip strikes its stops about every 4 steps and the ledger ends ~8 J off.
-FINGER = """<?xml version="1.0"?>
-<robot name="light_finger">
-  <link name="base"/>
-  <link name="palm"><inertial><origin xyz="0.5 0 0"/><mass value="50"/>
-    <inertia ixx="1e-3" iyy="1e-3" izz="1e-3" ixy="0" ixz="0" iyz="0"/></inertial></link>
-  <link name="finger"><inertial><origin xyz="0.01 0 0"/><mass value="0.005"/>
-    <inertia ixx="1e-8" iyy="1e-8" izz="1e-8" ixy="0" ixz="0" iyz="0"/></inertial></link>
-  <link name="tip"><inertial><origin xyz="0.01 0 0"/><mass value="0.005"/>
-    <inertia ixx="1e-8" iyy="1e-8" izz="1e-8" ixy="0" ixz="0" iyz="0"/></inertial></link>
-  <joint name="wrist" type="revolute"><parent link="base"/><child link="palm"/><axis xyz="0 1 0"/>
-    <limit lower="-1.5" upper="1.5" effort="10" velocity="10"/></joint>
-  <joint name="finger_joint" type="revolute"><parent link="palm"/><child link="finger"/>
-    <origin xyz="0.2 0 0"/><axis xyz="0 1 0"/><limit lower="-0.05" upper="0.05" effort="1" velocity="10"/>
-    <dynamics damping="0.0005"/></joint>
-  <joint name="tip_joint" type="revolute"><parent link="finger"/><child link="tip"/>
-    <origin xyz="0.02 0 0"/><axis xyz="0 1 0"/><limit lower="-0.05" upper="0.05" effort="1" velocity="10"/>
-    <dynamics damping="0.0005"/></joint>
-</robot>
-"""
+FINGER = Path(__file__).resolve().parents[1] / "examples" / "light_finger.urdf"
 RUN = ["--duration", "0.05", "--v0", "3,0,0"]
 # What a run that followed the advice must reach: no chattering, and a ledger closed to round-off
 # (the lossless run closes it to ~1e-10 J, the 0.1 ms run to ~3e-11 J; the chattering one is ~8 J off).
@@ -49,10 +31,8 @@ def _simulate(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[dict, str
 
 
 @pytest.fixture
-def finger(tmp_path: Path) -> str:
-    path = tmp_path / "light_finger.urdf"
-    path.write_text(FINGER)
-    return str(path)
+def finger() -> str:
+    return str(FINGER)
 
 
 def test_a_chattering_finger_is_named_and_each_cure_works(finger: str, capsys: pytest.CaptureFixture[str]) -> None:

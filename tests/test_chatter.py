@@ -62,6 +62,7 @@ def test_the_window_counts_impacts_within_its_steps() -> None:
     meta = {"dt": dt, "damping": [0.1], "impact_log": _log("a", inside, dt) + _log("b", outside, dt)}
     found = chattering(meta)
     assert found is not None and found["joints"] == ["a"] and found["impacts"] == CHATTER_IMPACTS
+    assert found["steps"] == CHATTER_STEPS - 1  # the steps the impacts span, as the warning says
     assert found["dt_suggested"] < dt
     assert chattering({**meta, "impact_log": _log("b", outside, dt)}) is None
 

@@ -16,6 +16,7 @@ without the losses (``--no-damping``) or with the suggested step.
 
 from __future__ import annotations
 
+import math
 from collections import defaultdict
 from typing import Any
 
@@ -25,6 +26,8 @@ from robodyn.sim.stiffness import below
 # consecutive steps: one impact every 5 steps, kept up, where a stopped joint (restitution 0) is held.
 CHATTER_IMPACTS = 10
 CHATTER_STEPS = 50
+# Impact times are located inside their steps: a span a hair over a whole number of steps is that number.
+SPAN_RTOL = 1e-9
 # The suggested step is below dt / STEP_FACTOR (and below the stiffness finding's stable step, if any).
 STEP_FACTOR = 10.0
 
@@ -33,7 +36,7 @@ def chattering(meta: dict[str, Any]) -> dict[str, Any] | None:
     """The worst chattering joint of a run (from its metadata's ``impact_log`` and ``dt``), or None.
 
     Returns ``{"joint", "impacts", "steps", "joints", "dt", "dt_suggested", "lossy"}``: the
-    joint with the most impacts within CHATTER_STEPS steps, that count, the window [steps], every
+    joint with the most impacts within CHATTER_STEPS steps, that count, the steps they span, every
     chattering joint (worst first), the run's dt [s], the suggested dt [s], and whether the run
     had joint losses (damping or friction; only then is the advice printed, as only then is it tried).
     """
@@ -45,19 +48,19 @@ def chattering(meta: dict[str, Any]) -> dict[str, Any] | None:
     for record in log:
         times[str(record["joint"])].append(float(record["time"]))
     window = CHATTER_STEPS * dt
-    worst: dict[str, int] = {}
+    worst: dict[str, tuple[int, int]] = {}  # joint: (impacts within the window, the steps they span)
     for joint, ts in times.items():
         ts.sort()
-        most, lo = 0, 0
+        most, lo = (0, 0), 0
         for hi, t in enumerate(ts):
             while t - ts[lo] >= window:
                 lo += 1
-            most = max(most, hi - lo + 1)
-        if most >= CHATTER_IMPACTS:
-            worst[joint] = most
+            most = max(most, (hi - lo + 1, -max(1, math.ceil((t - ts[lo]) / dt - SPAN_RTOL))))
+        if most[0] >= CHATTER_IMPACTS:
+            worst[joint] = (most[0], -most[1])
     if not worst:
         return None
-    ranked = sorted(worst, key=lambda j: -worst[j])
+    ranked = sorted(worst, key=lambda j: (-worst[j][0], worst[j][1]))
     suggested = dt / STEP_FACTOR
     stiff = meta.get("stiff_friction")
     if stiff:
@@ -65,8 +68,8 @@ def chattering(meta: dict[str, Any]) -> dict[str, Any] | None:
     lossy = any(float(x) > 0.0 for x in [*(meta.get("damping") or []), *(meta.get("friction") or [])])
     return {
         "joint": ranked[0],
-        "impacts": worst[ranked[0]],
-        "steps": CHATTER_STEPS,
+        "impacts": worst[ranked[0]][0],
+        "steps": worst[ranked[0]][1],
         "joints": ranked,
         "dt": dt,
         "dt_suggested": below(suggested),

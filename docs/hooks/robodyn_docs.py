@@ -872,6 +872,51 @@ def _world_urdfs(data: dict[str, Any]) -> str:
     return "\n".join(out) + "\n"
 
 
+def _handback_kind(sim: dict[str, Any]) -> str:
+    if sim.get("fallback"):
+        return "**fallback**"
+    if sim.get("stiff_handback"):
+        return "stiff losses (warned)"
+    return "diverged" if sim["exit"] == 3 else "structural"
+
+
+def _world_corpora(data: dict[str, Any]) -> str:
+    """Per corpus: files, tracebacks, hangs, silences, fallbacks, divergences; then every refusal with its reason."""
+    out = [
+        "| corpus | files | tracebacks | hangs | runs silent over 60 s (longest silence) | check FAIL | "
+        "fallbacks from the compiled loop | hand-backs for the stiff losses of a warning | simulate diverged | "
+        "refusals not one line |",
+        "|---|---:|---:|---:|---|---:|---:|---:|---:|---:|",
+    ]
+    for name, s in data["summary"].items():
+        if not s["files"]:
+            continue
+        out.append(
+            f"| {name} | {s['files']} | {s['tracebacks']} | {s['hangs']} | {s['silent_over_limit']} "
+            f"({s['longest_silence_s']:.0f} s) | {s['check_fail']} | {s['fallbacks']} | {s['stiff_handbacks']} | "
+            f"{s['diverged']} | "
+            f"{s['refusals_not_one_line']} |"
+        )
+    for name, how in data.get("absent", {}).items():
+        out.append(f"| {name} | not installed (`{how}`) | | | | | | | | |")
+    out += ["", "Every refusal and divergence, with its reason (the number of files that gave it):", ""]
+    out += ["| corpus | command: reason | files |", "|---|---|---:|"]
+    for name, s in data["summary"].items():
+        for reason, n in s["refusals"].items():
+            out.append(f"| {name} | {reason.replace('|', chr(92) + '|')} | {n} |")
+    out += ["", "Every run the Python loop took, with the reason the summary gave:", ""]
+    out += ["| file | command | exit | kind | why the Python loop |", "|---|---|---:|---|---|"]
+    for r in data["rows"]:
+        for command in ("simulate", "simulate --no-physics-check"):
+            sim = r.get(command, {})
+            if sim.get("why_python"):
+                out.append(
+                    f"| `{r['target']}` | {command} | {sim['exit']} | {_handback_kind(sim)} | "
+                    f"{sim['why_python'].replace('|', chr(92) + '|')} |"
+                )
+    return "\n".join(out) + "\n"
+
+
 _EXPLAIN_WORDS = {
     "named_right": "named right",
     "candidates": "candidates incl. the truth",
@@ -1019,6 +1064,7 @@ RENDERERS: dict[str, Callable[[dict[str, Any]], str]] = {
     "fuzz": _fuzz,
     "fuzz_interrupts": _fuzz_interrupts,
     "world_urdfs": _world_urdfs,
+    "world_urdfs_corpora": _world_corpora,
     "against": _against,
     "first_run": _first_run,
 }

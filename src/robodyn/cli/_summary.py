@@ -145,6 +145,8 @@ def _report(trajectory: Any, out: Path | None, csv: Path | None, *, as_json: boo
     s["event_steps"] = meta.get("event_steps")  # steps of the event stepper inside a compiled run; None: Python loop
     if meta.get("stiff_friction"):
         s["stiff_friction"] = meta["stiff_friction"]
+    if meta.get("chattering"):
+        s["chattering"] = meta["chattering"]
     if as_json:
         print_json(s)
         return
@@ -166,6 +168,10 @@ def _report(trajectory: Any, out: Path | None, csv: Path | None, *, as_json: boo
         from robodyn.sim.stiffness import warning_line
 
         print(warning_line(meta["stiff_friction"]))
+    if meta.get("chattering"):  # one line: the worst joint, and what to do where it was tried
+        from robodyn.sim.chatter import warning_line as chatter_line
+
+        print(chatter_line(meta["chattering"]))
     print(f"power: average {s['average_power']:.6g} W (W_input over {s['t_final'] - float(trajectory.t[0]):g} s)")
     for line in constraint_lines(trajectory, effort):
         print(line)

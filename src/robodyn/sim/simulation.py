@@ -39,6 +39,7 @@ from robodyn.fileio import is_number
 from robodyn.integrators import Integrator
 from robodyn.robot import as_vector
 from robodyn.sim import energy, whole_run
+from robodyn.sim.chatter import chattering
 from robodyn.sim.constraints import Constraints, Coupling, Loop, Spring
 from robodyn.sim.loops import close_initial_state
 from robodyn.sim.run import Progress, Run
@@ -178,6 +179,10 @@ def simulate(
             "got through only where its round-off is exactly 0"
         )
     meta = _meta(start.robot, system, method, run, dt, duration, check) | start.notes | loop
+    impacts = [vars(r) for r in getattr(run.stepper, "impacts", [])]  # the run's record adds them later
+    chatter = chattering(meta | {"impact_log": impacts})
+    if chatter is not None:
+        meta["chattering"] = chatter
     return _result(run, wall, meta)
 
 

@@ -33,6 +33,7 @@ import numpy as np
 
 from robodyn import integrators
 from robodyn.errors import InputError, UnknownNameError
+from robodyn.kinds import formulas
 from robodyn.kinds.edit import check_changes, write_params
 from robodyn.kinds.params import detect_kind
 from robodyn.model.load import PASSIVE_JOINT
@@ -297,7 +298,7 @@ def _check_params(spec: SweepSpec, robot: Any) -> str | None:
         return None
     kind = detect_kind(robot)
     if kind is None:
-        raise InputError(f"{spec.source}: [params] needs a model of a built-in kind (pendubot, cart_pole, geared_arm)")
+        raise InputError(f"{spec.source}: [params] needs a model of a built-in kind ({formulas.listed()})")
     for name, values in spec.params.items():
         for value in values:
             try:

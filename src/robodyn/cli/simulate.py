@@ -364,7 +364,7 @@ def _simulated(
     args: argparse.Namespace, robot: Any, q0: Any, v0: Any, method: Any, gains: Any, constraints: Any, built: list[Any]
 ) -> tuple[Any, BaseException | None]:
     """(trajectory, the DivergenceError or Ctrl-C that ended it early, or None); ``built`` gets the controller."""
-    from robodyn.control.user import looks_like_file
+    from robodyn.control.user_controller import looks_like_file
     from robodyn.errors import DivergenceError, SimulationInterrupted
     from robodyn.sim.simulation import simulate
 

@@ -12,7 +12,7 @@ Built in:
   ``k_energy``, ``k_d``, ``k_p``, ``k_v``, ``energy_offset``, ``swing_effort``.
 
 A name that ends in ``.py`` or holds a path separator is a user's controller file
-(:mod:`robodyn.control.user`). An unknown name, or an unknown gain, raises
+(:mod:`robodyn.control.user_controller`). An unknown name, or an unknown gain, raises
 :class:`UnknownNameError` with the close matches.
 """
 
@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 from robodyn.control import lqr, region, swing_up
 from robodyn.control.plant import plant
 from robodyn.control.switch import Switched
-from robodyn.control.user import load_user_controller, looks_like_file
+from robodyn.control.user_controller import load_user_controller, looks_like_file
 from robodyn.errors import InputError, UnknownNameError
 from robodyn.kinds import formulas
 from robodyn.registry import Registry

@@ -423,3 +423,11 @@ def test_symplectic_methods_preserve_the_symplectic_form(name: str) -> None:
 def test_kick_drift_euler_is_not_symplectic_when_mass_varies() -> None:
     # The Pendubot's M depends on q2: kick-drift in (q, v) breaks J^T Omega J = Omega.
     assert _symplectic_defect("semi_implicit_euler") > 100 * SYMPLECTIC_TOL
+
+
+def test_integrators_are_declared_by_keyword_only() -> None:
+    # Five positional booleans and numbers read as nothing: ExplicitEuler("euler", 1, False, False, False, ...)
+    with pytest.raises(TypeError):
+        ExplicitEuler("euler", 1, False, False, False, "explicit Euler")  # type: ignore[misc]
+    euler = integrators.get("euler")
+    assert (euler.order, euler.symplectic, euler.adaptive, euler.implicit) == (1, False, False, False)

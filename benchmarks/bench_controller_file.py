@@ -73,7 +73,7 @@ def per_run(robot: Any, path: Path) -> list[dict[str, float]]:
 
 def per_call(robot: Any, path: Path) -> dict[str, float]:
     """Cost of one call [us]: the function; checked without and with read-only copies; with the watchdog's deadline."""
-    from robodyn.control import user
+    from robodyn.control import user_controller as user
 
     wrapped = control.make(str(path), robot)
     q, v = np.array([0.3, 0.2]), np.array([0.0, 0.1])

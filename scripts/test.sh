@@ -6,8 +6,28 @@
 # temporary folder, outside the checkout), and pytest, whose tests/test_docs.py runs every command
 # and snippet of README.md and docs/; then the documentation tests once more on an emulated other
 # CPU (see below). Any finding fails the run.
+#
+# `bash scripts/test.sh --quick` is the subset to run before a commit: the static checks and the
+# house, kind, integrator and checker tests that compile nothing with numba, in the environment you
+# have (robodyn installed with its test extra, `ruff`, `mypy`, `lint-imports` on the PATH); at most
+# 5 minutes on 2 cores. The full run (no flag) is what CI runs. Arguments after --quick go to pytest.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+
+QUICK_TESTS=(
+  tests/test_package.py tests/test_house_functions.py tests/test_kind_object.py tests/test_formulas.py
+  tests/test_params.py tests/test_integrators.py tests/test_cli_parse.py tests/test_fileio.py
+)
+if [ "${1:-}" = "--quick" ]; then
+  shift
+  echo "quick: static checks, then ${#QUICK_TESTS[@]} test files (the full run: bash scripts/test.sh)"
+  ruff check src tests benchmarks examples docs/hooks
+  ruff format --check src tests benchmarks examples docs/hooks
+  mypy src/robodyn
+  lint-imports
+  python -m pytest -q -m "not slow" "${QUICK_TESTS[@]}" "$@"
+  exit 0
+fi
 
 if ! command -v chromium >/dev/null 2>&1; then
   if [ "$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then

@@ -49,10 +49,11 @@ PAGES = sorted(
 # Saved benchmark output shown by the site, not pages written by hand.
 PAGES = [p for p in PAGES if not p.relative_to(ROOT).as_posix().startswith(("docs/figures/", "docs/benchmarks/fuzz/"))]
 RUNNABLE = {"bash", "console", "python"}
-KNOWN = RUNNABLE | {"text", "toml", "json"}
+KNOWN = RUNNABLE | {"text", "toml", "json", "diff"}
 # The only blocks shown and not run, each with the reason its page gives.
 NOT_RUN = {
     ("README.md", "bash scripts/test.sh"),  # the test run itself
+    ("docs/contributing.md", "bash scripts/test.sh --quick\nbash scripts/test.sh"),  # the test runs themselves
     (  # needs the mujoco extra
         "docs/guides/bench.md",
         "python benchmarks/bench_mujoco.py --out bench-out/normal\n"

@@ -162,7 +162,9 @@ def test_bad_tableau_raises_value_error(a: tuple, b: tuple, c: tuple, match: str
 
 def test_tableau_declared_order_must_match_integrator() -> None:
     with pytest.raises(ValueError, match="declares order 3"):
-        ExplicitRungeKutta("x", 3, False, False, False, "", CLASSIC_RK4)
+        ExplicitRungeKutta(
+            name="x", order=3, symplectic=False, adaptive=False, implicit=False, description="", tableau=CLASSIC_RK4
+        )
 
 
 # ----------------------------------------------------------------------------- registry
@@ -201,9 +203,16 @@ def test_names_filter_by_declared_property() -> None:
 
 def test_an_integrator_cannot_contradict_its_class() -> None:
     with pytest.raises(ValueError, match="adaptive=True"):
-        ExplicitEuler("bad", 1, False, True, False, "a fixed-step method declared adaptive")
+        ExplicitEuler(
+            name="bad",
+            order=1,
+            symplectic=False,
+            adaptive=True,
+            implicit=False,
+            description="a fixed-step method declared adaptive",
+        )
     with pytest.raises(ValueError, match="order must be >= 1"):
-        ExplicitEuler("bad", 0, False, False, False, "")
+        ExplicitEuler(name="bad", order=0, symplectic=False, adaptive=False, implicit=False, description="")
 
 
 def test_unknown_integrator_lists_the_choices() -> None:
@@ -300,7 +309,15 @@ def test_scipy_implicit_methods_converge_with_tolerance(name: str) -> None:
 
 
 def test_classic_rk4_matches_generic_tableau_loop() -> None:
-    generic = ExplicitRungeKutta("rk4-generic", 4, False, False, False, "", CLASSIC_RK4)
+    generic = ExplicitRungeKutta(
+        name="rk4-generic",
+        order=4,
+        symplectic=False,
+        adaptive=False,
+        implicit=False,
+        description="",
+        tableau=CLASSIC_RK4,
+    )
     fast = integrators.get("rk4")
     a = solve(pendulum_problem(), [AMPLITUDE], [0.3], dt=0.01, n_steps=300, method=generic)
     b = solve(pendulum_problem(), [AMPLITUDE], [0.3], dt=0.01, n_steps=300, method=fast)
@@ -312,7 +329,15 @@ def test_classic_rk4_matches_generic_tableau_loop() -> None:
 def test_classic_rk4_general_branch_matches_generic_tableau_loop(kind: str) -> None:
     # Off the bare-loop branch (q on a manifold, or work carried in u) the hand-written
     # stages still are the tableau's, step by step.
-    generic = ExplicitRungeKutta("rk4-generic", 4, False, False, False, "", CLASSIC_RK4)
+    generic = ExplicitRungeKutta(
+        name="rk4-generic",
+        order=4,
+        symplectic=False,
+        adaptive=False,
+        implicit=False,
+        description="",
+        tableau=CLASSIC_RK4,
+    )
     fast = integrators.get("rk4")
     assert isinstance(fast, integrators.FixedStepIntegrator)
     problem, q, u = start(kind)
@@ -398,3 +423,11 @@ def test_symplectic_methods_preserve_the_symplectic_form(name: str) -> None:
 def test_kick_drift_euler_is_not_symplectic_when_mass_varies() -> None:
     # The Pendubot's M depends on q2: kick-drift in (q, v) breaks J^T Omega J = Omega.
     assert _symplectic_defect("semi_implicit_euler") > 100 * SYMPLECTIC_TOL
+
+
+def test_integrators_are_declared_by_keyword_only() -> None:
+    # Five positional booleans and numbers read as nothing: ExplicitEuler("euler", 1, False, False, False, ...)
+    with pytest.raises(TypeError):
+        ExplicitEuler("euler", 1, False, False, False, "explicit Euler")  # type: ignore[misc]
+    euler = integrators.get("euler")
+    assert (euler.order, euler.symplectic, euler.adaptive, euler.implicit) == (1, False, False, False)

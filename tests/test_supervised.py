@@ -74,7 +74,7 @@ LOOPS_INSIDE_A_TRY = (
 def test_an_endless_loop_in_tau_ends_at_the_call_limit(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, body: str
 ) -> None:
-    monkeypatch.setattr("robodyn.control.user.CALL_TIMEOUT", 0.5)  # the forked child inherits it
+    monkeypatch.setattr("robodyn.control.user_controller.CALL_TIMEOUT", 0.5)  # the forked child inherits it
     path = controller(tmp_path, f"def make(robot, **gains):\n    def tau(t, q, v):\n{body}    return tau\n")
     assert main(["simulate", "pendubot", "--controller", str(path), "--duration", "0.05"]) == 2
     assert capsys.readouterr().err.splitlines() == [

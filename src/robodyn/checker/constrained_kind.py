@@ -35,7 +35,7 @@ import numpy as np
 from robodyn.errors import FormulaError
 from robodyn.fileio import is_number
 from robodyn.kinds.formula import Array, Formula, Params
-from robodyn.userfile import at_line, exit_call
+from robodyn.user_import import at_line, exit_call
 
 KIND = "constrained"
 FUNCTIONS = ("parameters", "on_the_loop")

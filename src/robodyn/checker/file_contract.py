@@ -35,7 +35,7 @@ from robodyn.kinds.formula import Array, Formula
 from robodyn.kinds.formulas import KINDS, get
 from robodyn.kinds.geared_arm import from_motor_coordinates
 from robodyn.kinds.units import RENAMED, RENAMED_MEANING
-from robodyn.userfile import at_line, exit_call, import_user_file, real_path
+from robodyn.user_import import at_line, exit_call, import_user_file, real_path
 
 REQUIRED_FUNCTIONS = ("mass_matrix", "coriolis_matrix", "gravity")
 CONSTRAINED_FUNCTIONS = ("parameters", "on_the_loop")

@@ -48,7 +48,7 @@ from robodyn.checker.file_contract import load_in_process, renamed_notes
 from robodyn.checker.wire import encode, read_message
 from robodyn.errors import FormulaError, InputError
 from robodyn.kinds.formula import Array, Formula
-from robodyn.userfile import real_path, user_line
+from robodyn.user_import import real_path, user_line
 
 DEFAULT_TIMEOUT = 60.0
 """Seconds of the formula's own time per request (its import; then one check's whole batch).

@@ -97,39 +97,19 @@ def structure_rows(robot: Robot, samples: list[Any], rtol: float) -> list[CheckR
         zero = np.zeros(robot.nv)
         cols = np.column_stack([dynamics.rnea(model, data, s.q, zero, e) - G for e in np.eye(robot.nv)])
         columns.add(M, cols, sc.floor(sc.mass + sc.energy))
-        try:
-            a_crba = dynamics.crba_solve(model, data, s.q, s.v, s.tau)
-        except np.linalg.LinAlgError:  # M not positive definite: the rows solving through it fail, saying so
-            a_crba = np.full(robot.nv, np.nan)
-            forward.note = inverse.note = (
-                forward.note or f"M(q) is not positive definite at sample {len(forward.pairs)}"
-            )
-        try:
-            a_aba = dynamics.aba(model, data, s.q, s.v, s.tau)
-        except (RuntimeError, ValueError):
-            aba_ok, a_aba = False, a_crba
+        a_crba, a_aba, aba_here = _accelerations(robot, s, forward, inverse)
+        aba_ok = aba_ok and aba_here
         forward.add(a_aba, a_crba, sc.forward_floor(a_aba))
         # tau -> a -> tau: ABA solves with a matrix off by eps |M|, which comes back through RNEA as eps |M| |a|
         # (|a| is up to |M^-1| |tau - nle|: cond(M) times the torques' terms on an ill-conditioned M)
         a_size = float(np.abs(a_crba).max())
         inverse.add(s.tau, dynamics.rnea(model, data, s.q, s.v, a_crba), sc.floor(sc.mass * a_size + sc.torque_terms))
-        T = 0.5 * float(s.v @ M @ s.v)
-        t_floor = sc.floor(sc.mass * sc.speed**2)
-        try:
-            kinetic.add(T, dynamics.pinocchio_kinetic_energy(model, data, s.q, s.v), t_floor)
-        except RuntimeError:  # computeKineticEnergy refuses mimic joints
-            energy_refused = True
-            kinetic.add(T, T)
-    nle_row = nle.row(samples)
-    if mimic:  # C itself comes from RNEA here: the identity holds by construction
-        nle_row = replace(
-            nle_row, note="on mimic joints robodyn's C is built from RNEA, so this row holds by construction"
-        )
+        energy_refused = _add_kinetic(kinetic, robot, s, M, sc) or energy_refused
     rows = [
         spd.row(samples),
         skew.row(samples, zero_reference_scale=n_scale),
         grad.row(samples),
-        nle_row,
+        _nle_row(nle, samples, mimic=mimic),
         columns.row(samples),
         inverse.row(samples),
     ]
@@ -137,8 +117,40 @@ def structure_rows(robot: Robot, samples: list[Any], rtol: float) -> list[CheckR
     if not aba_ok:
         forward_row = replace(forward_row, counts=False, applicable=False, note="ABA refuses mimic joints")
     rows.append(forward_row)
+    rows.append(_kinetic_row(kinetic, samples, robot, refused=energy_refused))
+    rows.append(_coriolis_row(coriolis, samples, mimic=mimic))
+    rows[0] = replace(rows[0], note=f"min over samples of lambda_min / lambda_max = {min_eig_ratio:.3g}")
+    return rows
+
+
+def _accelerations(robot: Robot, s: Any, forward: Accumulator, inverse: Accumulator) -> tuple[Array, Array, bool]:
+    """(a by CRBA, a by ABA, whether ABA ran) at sample ``s``; a failed solve is noted on the rows it feeds."""
+    model, data = robot.model, robot.data
+    aba_ok = True
+    try:
+        a_crba = dynamics.crba_solve(model, data, s.q, s.v, s.tau)
+    except np.linalg.LinAlgError:  # M not positive definite: the rows solving through it fail, saying so
+        a_crba = np.full(robot.nv, np.nan)
+        forward.note = inverse.note = forward.note or f"M(q) is not positive definite at sample {len(forward.pairs)}"
+    try:
+        a_aba = dynamics.aba(model, data, s.q, s.v, s.tau)
+    except (RuntimeError, ValueError):
+        aba_ok, a_aba = False, a_crba
+    return a_crba, a_aba, aba_ok
+
+
+def _nle_row(nle: Accumulator, samples: list[Any], *, mimic: bool) -> CheckRow:
+    """C v + G = RNEA(q, v, 0), said to hold by construction on mimic joints."""
+    row = nle.row(samples)
+    if mimic:  # C itself comes from RNEA here: the identity holds by construction
+        row = replace(row, note="on mimic joints robodyn's C is built from RNEA, so this row holds by construction")
+    return row
+
+
+def _kinetic_row(kinetic: Accumulator, samples: list[Any], robot: Robot, *, refused: bool) -> CheckRow:
+    """1/2 v^T M v against computeKineticEnergy, with the note that says why they differ."""
     kinetic_row = kinetic.row(samples, scalar=True)
-    if energy_refused:
+    if refused:
         kinetic_row = replace(
             kinetic_row, counts=False, applicable=False, note="computeKineticEnergy refuses mimic joints"
         )
@@ -154,7 +166,11 @@ def structure_rows(robot: Robot, samples: list[Any], rtol: float) -> list[CheckR
             )
         else:
             kinetic_row = replace(kinetic_row, note="Pinocchio's kinetic-energy routine disagrees with 1/2 v^T M v")
-    rows.append(kinetic_row)
+    return kinetic_row
+
+
+def _coriolis_row(coriolis: Accumulator, samples: list[Any], *, mimic: bool) -> CheckRow:
+    """Pinocchio's computeCoriolisMatrix against the Christoffel C, with the note that says why they differ."""
     coriolis_row = coriolis.row(samples)
     if not coriolis_row.passed:
         coriolis_row = replace(
@@ -164,6 +180,17 @@ def structure_rows(robot: Robot, samples: list[Any], rtol: float) -> list[CheckR
             if mimic
             else "Pinocchio's computeCoriolisMatrix disagrees with the Christoffel C from RNEA",
         )
-    rows.append(coriolis_row)
-    rows[0] = replace(rows[0], note=f"min over samples of lambda_min / lambda_max = {min_eig_ratio:.3g}")
-    return rows
+    return coriolis_row
+
+
+def _add_kinetic(kinetic: Accumulator, robot: Robot, s: Any, M: Array, sc: Any) -> bool:
+    """Add 1/2 v^T M v against computeKineticEnergy at ``s``; True when Pinocchio refused (mimic joints)."""
+    T = 0.5 * float(s.v @ M @ s.v)
+    try:
+        kinetic.add(
+            T, dynamics.pinocchio_kinetic_energy(robot.model, robot.data, s.q, s.v), sc.floor(sc.mass * sc.speed**2)
+        )
+    except RuntimeError:  # computeKineticEnergy refuses mimic joints
+        kinetic.add(T, T)
+        return True
+    return False

@@ -24,7 +24,7 @@ import numpy as np
 from robodyn.errors import EXIT_MISMATCH, EXIT_OK, DivergenceError, InputError, SceneError
 from robodyn.kinds.deviation import worst_deviation
 from robodyn.scene import DEFAULT_CLOSED_FORM_RTOL, Scene
-from robodyn.userfile import at_line, import_user_file
+from robodyn.user_import import at_line, import_user_file
 from robodyn.wording import count
 
 FUNCTIONS = ("parameters", "closed_form", "simulated")

@@ -13,6 +13,8 @@ from typing import Any
 
 import numpy as np
 
+from robodyn.kinds import formulas
+
 
 def shown(text: str, limit: int = 40) -> str:
     """``text`` quoted for a message, cut to ``limit`` characters (a hostile value keeps the line short)."""
@@ -111,7 +113,7 @@ def add_model_arguments(parser: argparse.ArgumentParser, *, many: bool = False) 
         type=model_argument,
         metavar="URDF_OR_NAME",
         nargs="+" if many else None,
-        help="built-in model (geared_arm, cart_pole, pendubot), an example-robot-data robot (panda, talos, ...) "
+        help=f"built-in model ({formulas.listed()}), an example-robot-data robot (panda, talos, ...) "
         "or a path to a .urdf file",
     )
     parser.add_argument("--srdf", type=file_path, default=None, help="SRDF file (default: same stem as the URDF)")

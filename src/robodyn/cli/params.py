@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from robodyn.cli._common import add_model_arguments, file_path, load_robot, print_json
+from robodyn.kinds import formulas
 
 
 def assignments(text: str) -> list[tuple[str, float]]:
@@ -67,7 +68,7 @@ def add_parser(sub: Any) -> None:
         "modified model; --write also writes it, once it has been loaded back and checked.",
     )
     add_model_arguments(p)
-    p.add_argument("--kind", help="geared_arm, cart_pole or pendubot (default: detect)")
+    p.add_argument("--kind", help=f"{formulas.listed('or')} (default: detect)")
     p.add_argument(
         "--set",
         metavar="NAME=VALUE",
@@ -87,13 +88,13 @@ def add_parser(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Extract and print; with --set, modify (and with --write, write) first."""
     from robodyn.errors import AssumptionError
-    from robodyn.kinds.params import EXTRACTORS, detect_kind, extract
+    from robodyn.kinds.params import detect_kind, extract
 
     robot = load_robot(args)
     kind = args.kind or detect_kind(robot)
     if kind is None:
         raise AssumptionError(
-            f"{robot.name} meets the assumptions of none of the kinds {', '.join(EXTRACTORS.names())}; "
+            f"{robot.name} meets the assumptions of none of the kinds {formulas.listed()}; "
             "name one with --kind to see which assumption it breaks"
         )
     params = extract(robot, kind)
@@ -116,9 +117,7 @@ def run(args: argparse.Namespace) -> int:
                 written = write_params(robot, kind, changes, Path(folder) / f"{stem}.urdf", free_flyer=args.free_flyer)
         report["set"] = changes
         params = written.params
-    from robodyn.cli.check import PARAM_UNITS
-
     report["params"] = {name: decimal(value) for name, value in params.as_dict().items()}
-    report["units"] = {name: PARAM_UNITS.get(name, "") or "1" for name in params}
+    report["units"] = {name: formulas.kind(kind).units[name] for name in params}
     print_json(report)
     return 0

@@ -51,6 +51,7 @@ from robodyn.cli._summary import _report, note_clamped_q0
 from robodyn.cli.view import add_ground_argument
 from robodyn.errors import EXIT_DIVERGED, EXIT_NOT_BALANCED, EXIT_OK, InputError, UnknownNameError
 from robodyn.fileio import read_user_file
+from robodyn.kinds import formulas
 from robodyn.registry import BACKENDS
 
 EXIT_INTERRUPTED = 130
@@ -115,11 +116,22 @@ def add_parser(sub: Any) -> None:
         "Exit 0: done; 2: bad input; 3: diverged; 130: interrupted by Ctrl-C. A run that stops early writes "
         "the trajectory so far as X.partial.npz (X.partial.csv), never over the X.npz of an earlier run.",
     )
+    _add_model_arguments(p)
+    _add_step_arguments(p)
+    _add_input_arguments(p)
+    _add_solver_arguments(p)
+    _add_constraint_arguments(p)
+    _add_output_arguments(p)
+    p.set_defaults(handler=run)
+
+
+def _add_model_arguments(p: argparse.ArgumentParser) -> None:
+    """``simulate``'s arguments: the model and its initial state."""
     p.add_argument(
         "model",
         metavar="URDF_OR_NAME",
         nargs="?",
-        help="built-in model (geared_arm, cart_pole, pendubot), an example-robot-data robot (panda, ...) "
+        help=f"built-in model ({formulas.listed()}), an example-robot-data robot (panda, ...) "
         "or a path to a .urdf file",
     )
     p.add_argument("--srdf", type=file_path, default=None, help="SRDF file (default: same stem as the URDF)")
@@ -138,6 +150,10 @@ def add_parser(sub: Any) -> None:
         "have norm 1 within 1e-9, or give one angle per continuous joint",
     )
     p.add_argument("--v0", type=float_list, help="initial velocity c,d,... [rad/s | m/s] (default: zero)")
+
+
+def _add_step_arguments(p: argparse.ArgumentParser) -> None:
+    """``simulate``'s arguments: how long, in which steps, by which method."""
     p.add_argument("--duration", type=positive_float, default=2.0, help="simulated time [s] (default: %(default)g s)")
     p.add_argument(
         "--dt",
@@ -146,6 +162,10 @@ def add_parser(sub: Any) -> None:
         help="time step, or output interval of adaptive methods [s] (default: %(default)g s)",
     )
     p.add_argument("--integrator", default="rk4", help="integration method (default rk4); 'list' names them and exits")
+
+
+def _add_input_arguments(p: argparse.ArgumentParser) -> None:
+    """``simulate``'s arguments: what drives it: a constant torque or a controller."""
     p.add_argument(
         "--torque",
         type=float_list,
@@ -166,6 +186,10 @@ def add_parser(sub: Any) -> None:
         help='the controller\'s gains as a JSON object, e.g. \'{"Q": [10, 10, 1, 1], "R": 0.1}\', or a file '
         "holding one (default: the controller's own)",
     )
+
+
+def _add_solver_arguments(p: argparse.ArgumentParser) -> None:
+    """``simulate``'s arguments: the forward dynamics and the adaptive methods' tolerances."""
     p.add_argument(
         "--backend",
         choices=BACKENDS.names(),
@@ -186,6 +210,10 @@ def add_parser(sub: Any) -> None:
         help="absolute tolerance of the adaptive methods, in the units of each state entry [rad | m | rad/s | m/s | J] "
         "(default: %(default)g)",
     )
+
+
+def _add_constraint_arguments(p: argparse.ArgumentParser) -> None:
+    """``simulate``'s arguments: damping, stops, effort limits, constraints and the divergence bound."""
     p.add_argument("--no-damping", action="store_true", help="ignore the URDF's joint damping and friction")
     p.add_argument(
         "--no-limits", action="store_true", help="let the joints pass through the URDF's position limits (no stops)"
@@ -218,6 +246,10 @@ def add_parser(sub: Any) -> None:
         default=1.0,
         help="stop as diverged when |E - E0 - W| exceeds this times the energy scale (default 1)",
     )
+
+
+def _add_output_arguments(p: argparse.ArgumentParser) -> None:
+    """``simulate``'s arguments: what is written and shown."""
     p.add_argument(
         "--out",
         type=file_path,
@@ -230,7 +262,6 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.add_argument("--view", action="store_true", help="afterwards, play the motion in the browser (meshcat)")
     add_ground_argument(p)
-    p.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -243,6 +274,62 @@ def run(args: argparse.Namespace) -> int:
     if args.controller == "list":
         _control.print_controllers(as_json=args.json)
         return EXIT_OK
+    method, gains, out, csv, constraints = _checked_before_loading(args, integrators)
+    outputs = [("--out", out), ("--csv", csv)]
+    robot = load_robot(args, mimic=args.mimic)
+    refuse_clobbering(outputs, [("the model's URDF", robot.urdf_path), ("the model's SRDF", robot.srdf_path)])
+    refuse_uncoupled_sizes(robot, q0=args.q0, v0=args.v0, mimic=args.mimic)
+    q0 = args.q0 if args.q0 is not None else robot.neutral()
+    v0 = args.v0 if args.v0 is not None else np.zeros(robot.nv)
+    from robodyn.errors import SimulationInterrupted
+
+    built: list[Any] = []  # the controller, for its modes after the run (not filled by a forked child)
+    trajectory, failure = _simulated(args, robot, q0, v0, method, gains, constraints, built)
+    written: list[Path] = []
+    with held(abandoned=lambda: _abandoned(written)) as ctrl_c:  # the run is over: a Ctrl-C must not lose it
+        if args.controller is not None:  # the file says what closed the loop (and, when switched, in which mode)
+            record: dict[str, Any] = {"name": args.controller, "gains": gains}
+            if built and hasattr(built[0], "modes") and len(trajectory.t):  # switched: swing-up, then balance
+                record["modes"] = ["swing-up", "LQR balance"]
+                record["mode"] = [int(m) for m in built[0].modes(trajectory.q, trajectory.v)]
+            trajectory = dataclasses.replace(trajectory, meta={**trajectory.meta, "controller": record})
+        # Said after the run, not before it: a refused input stays one line on stderr.
+        warn_ignored_mimic(robot, mimic=args.mimic, command="simulate")
+        note_clamped_q0(trajectory, command="simulate")
+        kept: list[Path] = []
+        if failure is not None:  # what was computed goes beside, never over, an earlier complete run
+            kept = [p for p in (out, csv) if p is not None and p.exists()]
+            out, csv = (None if p is None else partial_path(p) for p in (out, csv))
+        _write(trajectory, out, csv, written)
+        _report(trajectory, out, csv, as_json=args.json, effort=robot.model.effortLimit)
+        verdict = _control.outcome(built[0] if built else None, trajectory) if failure is None else None
+        if verdict is not None and not args.json:
+            print(verdict.line())
+    if failure is not None:
+        print(f"robodyn simulate: {failure}{_partial_note(out, csv, kept)}", file=sys.stderr)
+        return EXIT_INTERRUPTED if isinstance(failure, SimulationInterrupted) else EXIT_DIVERGED
+    if ctrl_c:  # the whole run is written: say where, and stop there (no --view)
+        where = " and ".join(map(str, written))
+        said = f"its trajectory is written to {where}" if written else "no --out or --csv, nothing to write"
+        print(f"robodyn simulate: interrupted after the run had finished; {said}", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    if verdict is not None and not verdict.balanced:
+        print(f"robodyn simulate: the controller did not reach its goal: {verdict.reason}", file=sys.stderr)
+        return EXIT_NOT_BALANCED
+    if args.view:
+        from robodyn.cli.view import serve_and_play
+
+        return serve_and_play(robot, trajectory, speed=1.0, open_browser=False, zmq_url=None, ground=args.ground)
+    return EXIT_OK
+
+
+def _checked_before_loading(
+    args: argparse.Namespace, integrators: Any
+) -> tuple[Any, Any, Path | None, Path | None, Any]:
+    """(method, gains, out, csv, constraints): every check that needs no model, made before it loads.
+
+    Nothing is created: a run that fails leaves no empty file.
+    """
     if args.model is None:
         raise InputError("missing URDF_OR_NAME: a built-in model name or a path to a .urdf file")
     method = integrators.get(args.integrator)  # an unknown name fails before anything is loaded
@@ -251,7 +338,6 @@ def run(args: argparse.Namespace) -> int:
     if args.gains is not None and args.controller is None:
         raise InputError("--gains needs --controller NAME_OR_FILE.py (the gains are the controller's)")
     gains = _control.parse_gains(args.gains)
-    # Checked before any work and without creating anything: a run that fails leaves no empty file.
     out = writable_path(args.out, create_parents=False, suffix=".npz") if args.out is not None else None
     csv = writable_path(args.csv, create_parents=False, suffix=".csv") if args.csv is not None else None
     outputs = [("--out", out), ("--csv", csv)]
@@ -271,16 +357,16 @@ def run(args: argparse.Namespace) -> int:
 
         hint = "simulate less, or save it with --out and play it with robodyn view --speed"
         check_frame_count(args.duration, speed=1.0, fps=None, what="--view of --duration", hint=hint)
-    robot = load_robot(args, mimic=args.mimic)
-    refuse_clobbering(outputs, [("the model's URDF", robot.urdf_path), ("the model's SRDF", robot.srdf_path)])
-    refuse_uncoupled_sizes(robot, q0=args.q0, v0=args.v0, mimic=args.mimic)
-    q0 = args.q0 if args.q0 is not None else robot.neutral()
-    v0 = args.v0 if args.v0 is not None else np.zeros(robot.nv)
-    from robodyn.control.user import looks_like_file
+    return method, gains, out, csv, constraints
+
+
+def _simulated(
+    args: argparse.Namespace, robot: Any, q0: Any, v0: Any, method: Any, gains: Any, constraints: Any, built: list[Any]
+) -> tuple[Any, BaseException | None]:
+    """(trajectory, the DivergenceError or Ctrl-C that ended it early, or None); ``built`` gets the controller."""
+    from robodyn.control.user_controller import looks_like_file
     from robodyn.errors import DivergenceError, SimulationInterrupted
     from robodyn.sim.simulation import simulate
-
-    built: list[Any] = []  # the controller, for its modes after the run (not filled by a forked child)
 
     def job() -> Any:
         torque = args.torque if args.controller is None else _control.build(robot, args.controller, gains)
@@ -320,42 +406,7 @@ def run(args: argparse.Namespace) -> int:
         if args.constraints is None:
             raise
         raise InputError(f"--constraints {args.constraints}: {exc}") from None
-    written: list[Path] = []
-    with held(abandoned=lambda: _abandoned(written)) as ctrl_c:  # the run is over: a Ctrl-C must not lose it
-        if args.controller is not None:  # the file says what closed the loop (and, when switched, in which mode)
-            record: dict[str, Any] = {"name": args.controller, "gains": gains}
-            if built and hasattr(built[0], "modes") and len(trajectory.t):  # switched: swing-up, then balance
-                record["modes"] = ["swing-up", "LQR balance"]
-                record["mode"] = [int(m) for m in built[0].modes(trajectory.q, trajectory.v)]
-            trajectory = dataclasses.replace(trajectory, meta={**trajectory.meta, "controller": record})
-        # Said after the run, not before it: a refused input stays one line on stderr.
-        warn_ignored_mimic(robot, mimic=args.mimic, command="simulate")
-        note_clamped_q0(trajectory, command="simulate")
-        kept: list[Path] = []
-        if failure is not None:  # what was computed goes beside, never over, an earlier complete run
-            kept = [p for p in (out, csv) if p is not None and p.exists()]
-            out, csv = (None if p is None else partial_path(p) for p in (out, csv))
-        _write(trajectory, out, csv, written)
-        _report(trajectory, out, csv, as_json=args.json, effort=robot.model.effortLimit)
-        verdict = _control.outcome(built[0] if built else None, trajectory) if failure is None else None
-        if verdict is not None and not args.json:
-            print(verdict.line())
-    if failure is not None:
-        print(f"robodyn simulate: {failure}{_partial_note(out, csv, kept)}", file=sys.stderr)
-        return EXIT_INTERRUPTED if isinstance(failure, SimulationInterrupted) else EXIT_DIVERGED
-    if ctrl_c:  # the whole run is written: say where, and stop there (no --view)
-        where = " and ".join(map(str, written))
-        said = f"its trajectory is written to {where}" if written else "no --out or --csv, nothing to write"
-        print(f"robodyn simulate: interrupted after the run had finished; {said}", file=sys.stderr)
-        return EXIT_INTERRUPTED
-    if verdict is not None and not verdict.balanced:
-        print(f"robodyn simulate: the controller did not reach its goal: {verdict.reason}", file=sys.stderr)
-        return EXIT_NOT_BALANCED
-    if args.view:
-        from robodyn.cli.view import serve_and_play
-
-        return serve_and_play(robot, trajectory, speed=1.0, open_browser=False, zmq_url=None, ground=args.ground)
-    return EXIT_OK
+    return trajectory, failure
 
 
 def constraints_from_args(args: argparse.Namespace) -> Any:

@@ -12,7 +12,7 @@ Modules, one concept each: :mod:`~robodyn.control.plant` (equilibria, wrapped er
 :mod:`~robodyn.control.lqr`, :mod:`~robodyn.control.region` (the LQR's region of attraction),
 :mod:`~robodyn.control.pfl` (collocated partial feedback linearisation),
 :mod:`~robodyn.control.swing_up`, :mod:`~robodyn.control.switch`,
-:mod:`~robodyn.control.controllers` (the names), :mod:`~robodyn.control.user` (a user's file),
+:mod:`~robodyn.control.controllers` (the names), :mod:`~robodyn.control.user_controller` (a user's file),
 :mod:`~robodyn.control.rollout` (batches under control), :mod:`~robodyn.control.symbolic`
 (the sympy reference linearisation).
 """
@@ -22,7 +22,7 @@ from robodyn.control.lqr import LQR, design
 from robodyn.control.plant import Plant, plant
 from robodyn.control.region import Region, estimate
 from robodyn.control.switch import Switched
-from robodyn.control.user import load_user_controller
+from robodyn.control.user_controller import load_user_controller
 
 __all__ = [
     "CONTROLLERS",

@@ -12,7 +12,7 @@ Built in:
   ``k_energy``, ``k_d``, ``k_p``, ``k_v``, ``energy_offset``, ``swing_effort``.
 
 A name that ends in ``.py`` or holds a path separator is a user's controller file
-(:mod:`robodyn.control.user`). An unknown name, or an unknown gain, raises
+(:mod:`robodyn.control.user_controller`). An unknown name, or an unknown gain, raises
 :class:`UnknownNameError` with the close matches.
 """
 
@@ -27,10 +27,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodyn.control import lqr, region, swing_up
-from robodyn.control.plant import CONTROLLED_KINDS, plant
+from robodyn.control.plant import plant
 from robodyn.control.switch import Switched
-from robodyn.control.user import load_user_controller, looks_like_file
+from robodyn.control.user_controller import load_user_controller, looks_like_file
 from robodyn.errors import InputError, UnknownNameError
+from robodyn.kinds import formulas
 from robodyn.registry import Registry
 from robodyn.robot import Robot
 
@@ -116,10 +117,8 @@ def _make_lqr(robot: Robot, **gains: Any) -> lqr.LQR:
 
 def _make_swing_up(robot: Robot, **gains: Any) -> Switched:
     p = plant(robot)
-    if p.kind is None:
-        raise InputError(
-            f"controller 'swing_up' knows the {' and the '.join(CONTROLLED_KINDS)}; {robot.name} is neither"
-        )
+    if p.kind not in SWING_UP_GAINS:
+        raise InputError(f"controller 'swing_up' knows the {' and the '.join(SWING_UP_GAINS)}; {robot.name} is neither")
     _require_drive(robot, p.kind)
     own = SWING_UP_GAINS[p.kind]
     _check_gains(f"swing_up ({p.kind})", gains, LQR_GAINS[:3] + REGION_GAINS + own)
@@ -139,10 +138,6 @@ def _make_swing_up(robot: Robot, **gains: Any) -> Switched:
     return Switched(law, balance, estimated)
 
 
-# The joint each kind's swing-up law drives (by its place in the model); every other joint must be passive.
-DRIVEN = {"cart_pole": 0, "pendubot": 0}
-
-
 def _require_drive(robot: Robot, kind: str) -> None:
     """Refuse, in one line, a robot whose actuated joints are not the one the kind's law drives.
 
@@ -150,7 +145,9 @@ def _require_drive(robot: Robot, kind: str) -> None:
     system): a robot read with more actuators (a URDF without the SRDF that declares the passive
     joint) would give the law a torque per actuator that it has no rule for.
     """
-    driven = robot.joint_names[DRIVEN[kind]]
+    balance = formulas.kind(kind).balance
+    assert balance is not None  # a kind with a swing-up law has its Balance
+    driven = robot.joint_names[balance.driven]  # every other joint must be passive
     if driven in robot.passive_joints:
         raise InputError(f"swing_up drives {driven} of the {kind}, but {robot.name} declares it passive")
     extra = [j.name for j in robot.joints if j.actuated and j.name != driven]

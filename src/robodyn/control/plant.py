@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robodyn.errors import InputError
-from robodyn.kinds import params
+from robodyn.kinds import formulas, params
 from robodyn.robot import Robot
 
 Array = NDArray[np.float64]
@@ -31,11 +31,10 @@ Array = NDArray[np.float64]
 # room to brake from the speeds the swing-up reaches, before the simulator's rail stop.
 RAIL_MARGIN = 0.1
 
-# The built-in kinds a controller knows the upright and hanging states of.
-CONTROLLED_KINDS = ("cart_pole", "pendubot")
 
-_UPRIGHT = {"cart_pole": (0.0, 0.0), "pendubot": (np.pi / 2, 0.0)}
-_HANGING = {"cart_pole": (0.0, np.pi), "pendubot": (-np.pi / 2, 0.0)}
+def controlled_kinds() -> tuple[str, ...]:
+    """The built-in kinds a controller knows the upright and hanging states of (those with a ``Balance``)."""
+    return tuple(kind.name for kind in formulas.kinds() if kind.balance is not None)
 
 
 @dataclass(frozen=True, eq=False)
@@ -66,19 +65,20 @@ class Plant:
 
     def upright(self) -> Array:
         """The upright configuration (nq,) of a built-in kind; InputError for other robots."""
-        return self._seed_state(_UPRIGHT, "upright")
+        return self._seed_state("upright")
 
     def hanging(self) -> Array:
         """The hanging configuration (nq,) of a built-in kind (its stable rest); InputError for other robots."""
-        return self._seed_state(_HANGING, "hanging")
+        return self._seed_state("hanging")
 
-    def _seed_state(self, table: dict[str, tuple[float, float]], what: str) -> Array:
-        if self.kind is None:
+    def _seed_state(self, what: str) -> Array:
+        balance = None if self.kind is None else formulas.kind(self.kind).balance
+        if balance is None:
             raise InputError(
-                f"{self.robot.name} is none of {', '.join(CONTROLLED_KINDS)}: it has no known {what} state; "
+                f"{self.robot.name} is none of {', '.join(controlled_kinds())}: it has no known {what} state; "
                 "give the equilibrium q_eq"
             )
-        return np.array(table[self.kind], dtype=np.float64)
+        return np.array(balance.upright if what == "upright" else balance.hanging, dtype=np.float64)
 
     def error(self, q: ArrayLike, v: ArrayLike, q_eq: Array) -> Array:
         """The state error e = x - x_eq = [q - q_eq (revolute entries wrapped to [-pi, pi)), v].
@@ -110,7 +110,7 @@ def plant(robot: Robot) -> Plant:
     if not np.any(mask):
         raise InputError(f"{robot.name} has no actuated joint: there is nothing to control")
     kind = params.detect_kind(robot)
-    kind = kind if kind in CONTROLLED_KINDS else None
+    kind = kind if kind in controlled_kinds() else None
     angular = np.zeros(robot.nq, dtype=bool)
     rail: tuple[float, float] | None = None
     rail_index: int | None = None

@@ -64,7 +64,15 @@ class EmbeddedRungeKutta(AdaptiveIntegrator):
         """The same tableau's higher-order solution taken at a fixed step (to measure its order)."""
         t = self.tableau
         plain = ButcherTableau(name=t.name, a=t.a, b=t.b, c=t.c, order=t.order)
-        return ExplicitRungeKutta(f"{self.name}-fixed", t.order, False, False, False, self.description, plain)
+        return ExplicitRungeKutta(
+            name=f"{self.name}-fixed",
+            order=t.order,
+            symplectic=False,
+            adaptive=False,
+            implicit=False,
+            description=self.description,
+            tableau=plain,
+        )
 
 
 class _EmbeddedStepper(Stepper):

@@ -40,9 +40,9 @@ class Stepper(abc.ABC):
         """Move (q, u) from t to t + h [s]; return (q1, u1, rates at t or None)."""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Integrator(abc.ABC):
-    """How a step is taken. Subclasses declare what they are; instances are immutable.
+    """How a step is taken. Subclasses declare what they are, by keyword; instances are immutable.
 
     Raises:
         ValueError: ``adaptive`` disagrees with the class (a :class:`FixedStepIntegrator`

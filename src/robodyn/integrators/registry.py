@@ -18,56 +18,98 @@ from robodyn.integrators.tableau import CLASSIC_RK4, DORMAND_PRINCE_54, HEUN
 from robodyn.registry import Registry
 
 INTEGRATORS: Registry[Integrator] = Registry("integrator")
-INTEGRATORS.register(
-    "euler",
-    ExplicitEuler("euler", 1, False, False, False, "explicit Euler: q += h v, v += h a(q, v); energy grows"),
+
+
+def _register(integrator: Integrator) -> None:
+    INTEGRATORS.register(integrator.name, integrator)
+
+
+_register(
+    ExplicitEuler(
+        name="euler",
+        order=1,
+        symplectic=False,
+        adaptive=False,
+        implicit=False,
+        description="explicit Euler: q += h v, v += h a(q, v); energy grows",
+    )
 )
-INTEGRATORS.register(
-    "semi_implicit_euler",
+_register(
     SemiImplicitEuler(
-        "semi_implicit_euler",
-        1,
-        False,
-        False,
-        False,
-        "kick-drift Euler in (q, v): v += h a(q, v), then q += h v; symplectic only for constant M",
-    ),
+        name="semi_implicit_euler",
+        order=1,
+        symplectic=False,
+        adaptive=False,
+        implicit=False,
+        description="kick-drift Euler in (q, v): v += h a(q, v), then q += h v; symplectic only for constant M",
+    )
 )
-INTEGRATORS.register(
-    "symplectic_euler",
+_register(
     SymplecticEuler(
-        "symplectic_euler",
-        1,
-        True,
-        False,
-        True,
-        "symplectic Euler in (q, p = M v): p += h F(q, v*), q += h v*; fixed-point for v*",
-    ),
+        name="symplectic_euler",
+        order=1,
+        symplectic=True,
+        adaptive=False,
+        implicit=True,
+        description="symplectic Euler in (q, p = M v): p += h F(q, v*), q += h v*; fixed-point for v*",
+    )
 )
-INTEGRATORS.register("heun", ExplicitRungeKutta("heun", 2, False, False, False, "Heun's method (explicit RK2)", HEUN))
-INTEGRATORS.register("rk4", ClassicRK4("rk4", 4, False, False, False, "classic 4-stage Runge-Kutta", CLASSIC_RK4))
-INTEGRATORS.register(
-    "implicit_midpoint",
+_register(
+    ExplicitRungeKutta(
+        name="heun",
+        order=2,
+        symplectic=False,
+        adaptive=False,
+        implicit=False,
+        description="Heun's method (explicit RK2)",
+        tableau=HEUN,
+    )
+)
+_register(
+    ClassicRK4(
+        name="rk4",
+        order=4,
+        symplectic=False,
+        adaptive=False,
+        implicit=False,
+        description="classic 4-stage Runge-Kutta",
+        tableau=CLASSIC_RK4,
+    )
+)
+_register(
     ImplicitMidpoint(
-        "implicit_midpoint", 2, True, False, True, "implicit midpoint in (q, p = M v), Newton with ABA derivatives"
-    ),
+        name="implicit_midpoint",
+        order=2,
+        symplectic=True,
+        adaptive=False,
+        implicit=True,
+        description="implicit midpoint in (q, p = M v), Newton with ABA derivatives",
+    )
 )
-INTEGRATORS.register(
-    "dopri5",
+_register(
     EmbeddedRungeKutta(
-        "dopri5",
-        5,
-        False,
-        True,
-        False,
-        "Dormand-Prince 5(4), robodyn's own: stages on the manifold, work kept out of the error norm, "
+        name="dopri5",
+        order=5,
+        symplectic=False,
+        adaptive=True,
+        implicit=False,
+        description="Dormand-Prince 5(4), robodyn's own: stages on the manifold, work kept out of the error norm, "
         "lands on each sample; scipy_rk45 cross-checks it",
-        DORMAND_PRINCE_54,
-    ),
+        tableau=DORMAND_PRINCE_54,
+    )
 )
 for _method, (_order, _implicit, _text) in SCIPY_METHODS.items():
-    _name = f"scipy_{_method.lower()}"
-    INTEGRATORS.register(_name, ScipyIntegrator(_name, _order, False, True, _implicit, _text, _method))
+    _register(
+        ScipyIntegrator(
+            name=f"scipy_{_method.lower()}",
+            order=_order,
+            symplectic=False,
+            adaptive=True,
+            implicit=_implicit,
+            description=_text,
+            method=_method,
+        )
+    )
 
 
 def get(name: str) -> Integrator:

@@ -22,9 +22,24 @@ The four functions below are the only place this closed form is written: see
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
-from robodyn.kinds.formula import ClosedForm, Scalar
+from robodyn.kinds.bodies import (
+    EX,
+    EY,
+    EZ,
+    Body,
+    along,
+    axis_inertia,
+    require_axis,
+    require_gravity,
+    require_joints,
+    require_no_armature,
+)
+from robodyn.kinds.formula import Array, ClosedForm, Scalar
+from robodyn.kinds.kind import Balance, Kind
 
 PARAMS = ("m_cart", "m", "l", "I", "g")
 
@@ -53,5 +68,27 @@ def potential(p: Scalar, y: Scalar, th: Scalar) -> Scalar:
     return p[1] * p[4] * p[2] * np.cos(th)
 
 
+def read(bodies: Sequence[Body], gravity_vector: Array) -> dict[str, float]:
+    """The parameters of a model that is a cart-pole: rail along +x, pole axis 0 1 0, pole up at theta = 0."""
+    kind = "cart_pole"
+    require_joints(kind, bodies, ("P", "R"))
+    cart, pole = bodies
+    require_axis(kind, cart, EX, "linear")
+    require_axis(kind, pole, EY, "angular")
+    g = require_gravity(kind, gravity_vector)
+    require_no_armature(kind, bodies)
+    l = along(kind, f"the pole's centre of mass ({pole.name})", pole.com - pole.origin, EZ, EY)
+    return {"m_cart": cart.mass, "m": pole.mass, "l": l, "I": axis_inertia(pole, EY), "g": g}
+
+
 CLOSED_FORM = ClosedForm(PARAMS, 2, mass, coriolis, gravity, potential)
-FORMULA = CLOSED_FORM.formula("cart_pole", "robodyn.kinds.cart_pole")
+KIND = Kind(
+    "cart_pole",
+    CLOSED_FORM,
+    read,
+    {"m_cart": "kg", "m": "kg", "l": "m", "I": "kg m^2", "g": "m/s^2"},
+    code=1,
+    balance=Balance(upright=(0.0, 0.0), hanging=(0.0, np.pi), driven=0),
+    renamed={"M": ("m_cart", "the cart's mass")},
+)
+FORMULA = KIND.formula

@@ -42,7 +42,9 @@ from numpy.typing import NDArray
 from robodyn import dynamics
 from robodyn.errors import AssumptionError, InputError, ModelError, UnknownNameError
 from robodyn.fileio import is_number, write_text_atomically
-from robodyn.kinds.params import EX, EXTRACTORS, EY, EZ, Params, extract
+from robodyn.kinds import formulas
+from robodyn.kinds.bodies import EX, EY, EZ
+from robodyn.kinds.params import Params, extract
 from robodyn.kinds.units import RENAMED
 from robodyn.model.files import find_srdf
 from robodyn.model.load import load
@@ -79,7 +81,12 @@ def check_changes(kind: str, assignments: Iterable[tuple[str, float]]) -> dict[s
         UnknownNameError: a name that is not one of the kind's settable parameters.
         InputError: ``g``, a name given twice, a non-finite value or one of the wrong sign.
     """
-    EXTRACTORS.get(kind)
+    formulas.kind(kind)
+    if kind not in SETTABLE:
+        raise InputError(
+            f"--set edits the URDF of the {' and the '.join(SETTABLE)}; the {kind}'s file edits are not written, "
+            "so change its URDF by hand"
+        )
     changes: dict[str, float] = {}
     for name, value in assignments:
         if name == "g":

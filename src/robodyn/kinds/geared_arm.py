@@ -20,12 +20,25 @@ motor-coordinate derivation comes back through :func:`from_motor_coordinates`.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
 
+from robodyn.kinds.bodies import (
+    EZ,
+    GEOMETRY_TOL,
+    Body,
+    along,
+    axis_inertia,
+    fail,
+    fmt,
+    in_plane,
+    require_gravity,
+    require_joints,
+)
 from robodyn.kinds.formula import Array, ClosedForm, Params, Scalar
+from robodyn.kinds.kind import Kind
 
 PARAMS = ("J_m", "J_l", "n", "m", "l", "g")
 
@@ -50,8 +63,40 @@ def potential(p: Scalar, q: Scalar) -> Scalar:
     return p[3] * p[5] * p[4] * (1.0 - np.cos(q))
 
 
+def read(bodies: Sequence[Body], gravity_vector: Array) -> dict[str, float]:
+    """The parameters of a model that is a geared arm: hanging down at q = 0, a horizontal axis."""
+    kind = "geared_arm"
+    require_joints(kind, bodies, ("R",))
+    (arm,) = bodies
+    axis = arm.angular_axis
+    if abs(axis @ EZ) > GEOMETRY_TOL:
+        raise fail(kind, f"joint {arm.name} axis {fmt(axis)} must be horizontal (perpendicular to gravity)")
+    g = require_gravity(kind, gravity_vector)
+    l = along(kind, f"the link's centre of mass ({arm.name})", arm.com - arm.origin, -EZ, axis)
+    J_m, n = arm.rotor_inertia, arm.gear_ratio
+    if J_m == 0.0:
+        # Armature given without rotor parameters: read it as a rotor on a 1:1 drive.
+        J_m, n = arm.armature, 1.0
+    elif not np.isclose(arm.armature, J_m * n**2, rtol=1e-12, atol=0.0):
+        raise fail(
+            kind,
+            f"armature {arm.armature:.6g} kg m^2 of joint {arm.name} is not J_m n^2 = {J_m * n**2:.6g} "
+            "(load rotor parameters once, from the SRDF)",
+        )
+    J_l = axis_inertia(arm, axis) + arm.mass * float(np.sum(in_plane(arm.com - arm.origin, axis) ** 2))
+    return {"J_m": J_m, "J_l": J_l, "n": n, "m": arm.mass, "l": l, "g": g}
+
+
 CLOSED_FORM = ClosedForm(PARAMS, 1, mass, coriolis, gravity, potential)
-FORMULA = CLOSED_FORM.formula("geared_arm", "robodyn.kinds.geared_arm")
+KIND = Kind(
+    "geared_arm",
+    CLOSED_FORM,
+    read,
+    {"J_m": "kg m^2", "J_l": "kg m^2", "n": "1", "m": "kg", "l": "m", "g": "m/s^2"},
+    code=2,
+    renamed={"M": ("m", "the link's mass")},
+)
+FORMULA = KIND.formula
 
 
 # ------------------------------------------------------------------ motor coordinate

@@ -22,9 +22,24 @@ The four functions below are the only place this closed form is written: see
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
-from robodyn.kinds.formula import ClosedForm, Scalar
+from robodyn.kinds.bodies import (
+    EX,
+    EY,
+    Body,
+    along,
+    axis_inertia,
+    fail,
+    require_axis,
+    require_gravity,
+    require_joints,
+    require_no_armature,
+)
+from robodyn.kinds.formula import Array, ClosedForm, Scalar
+from robodyn.kinds.kind import Balance, Kind
 
 PARAMS = ("m1", "m2", "l1", "lc1", "lc2", "I1", "I2", "g")
 
@@ -56,5 +71,43 @@ def potential(p: Scalar, q1: Scalar, q2: Scalar) -> Scalar:
     return (m1 * lc1 + m2 * l1) * g * np.sin(q1) + m2 * lc2 * g * np.sin(q1 + q2)
 
 
+def read(bodies: Sequence[Body], gravity_vector: Array) -> dict[str, float]:
+    """The parameters of a model that is a Pendubot: planar in x-z, axes 0 -1 0, links along +x at q = 0."""
+    kind = "pendubot"
+    require_joints(kind, bodies, ("R", "R"))
+    axis = -EY
+    for body in bodies:
+        require_axis(kind, body, axis, "angular")
+    g = require_gravity(kind, gravity_vector)
+    require_no_armature(kind, bodies)
+    b1, b2 = bodies
+    l1 = along(kind, f"joint {b2.name} (link 1's end)", b2.origin - b1.origin, EX, axis)
+    lc1 = along(kind, f"the centre of mass of link 1 ({b1.name})", b1.com - b1.origin, EX, axis)
+    lc2 = along(kind, f"the centre of mass of link 2 ({b2.name})", b2.com - b2.origin, EX, axis)
+    if l1 <= 0:
+        raise fail(
+            kind, f"link 1 must point along +x at q = 0 (joint {b2.name} is at x = {l1:.6g} m from joint {b1.name})"
+        )
+    return {
+        "m1": b1.mass,
+        "m2": b2.mass,
+        "l1": l1,
+        "lc1": lc1,
+        "lc2": lc2,
+        "I1": axis_inertia(b1, axis),
+        "I2": axis_inertia(b2, axis),
+        "g": g,
+    }
+
+
 CLOSED_FORM = ClosedForm(PARAMS, 2, mass, coriolis, gravity, potential)
-FORMULA = CLOSED_FORM.formula("pendubot", "robodyn.kinds.pendubot")
+UNITS = {"m1": "kg", "m2": "kg", "l1": "m", "lc1": "m", "lc2": "m", "I1": "kg m^2", "I2": "kg m^2", "g": "m/s^2"}
+KIND = Kind(
+    "pendubot",
+    CLOSED_FORM,
+    read,
+    UNITS,
+    code=0,
+    balance=Balance(upright=(np.pi / 2, 0.0), hanging=(-np.pi / 2, 0.0), driven=0),
+)
+FORMULA = KIND.formula

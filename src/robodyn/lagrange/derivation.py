@@ -32,9 +32,10 @@ from typing import Any
 import numpy as np
 
 from robodyn.errors import InputError
-from robodyn.lagrange.coordinates import Coordinate, congruence, coordinates_of, whole_inverse
-from robodyn.lagrange.naming import Param, name_parameters, snap
-from robodyn.lagrange.trig import Trig, cross, dot, matmul, matvec, transpose
+from robodyn.lagrange.coordinates import Coordinate, congruence
+from robodyn.lagrange.kinematics import frames, local_motions, setup
+from robodyn.lagrange.naming import Param, snap
+from robodyn.lagrange.trig import Trig, cross, dot, matvec, transpose
 from robodyn.model.coordinate_map import CoordinateMap
 
 __all__ = ["DEFAULT_TIME_LIMIT", "MAX_JOINTS", "Coordinate", "Derivation", "derive"]
@@ -198,98 +199,21 @@ def _derive(
         if tick is not None:
             tick(what)
 
-    links = {link.joint: link for link in table.links}
-    cmap = coordinates_of(table, coordinates, MAX_JOINTS)
-    joints = cmap.joints
-    n = len(joints)
-    index = {name: j for j, name in enumerate(joints)}  # a joint's column of A (its row of q_urdf)
-    turns = {name: links[name].joint_type != "prismatic" for name in joints}
-    angular = cmap.check_units([not turns[j] for j in joints], "the coordinates")
-    angular = tuple(not x for x in angular)
-    back = whole_inverse(cmap, angular)  # q_urdf = back (q - b)
-    angle_of = tuple(sum(angular[:i]) if angular[i] else None for i in range(n))
-    variable_of = tuple(sum(not a for a in angular[:i]) if not angular[i] else None for i in range(n))
-    n_angles = sum(angular)
-    first_param = n - n_angles
-    params, per_link = name_parameters(table, list(joints), planar=_planar_links(table), unused=unused)
-    pvar = {p.name: Trig.variable(n_angles, first_param + k) for k, p in enumerate(params)}
-    zero = Trig(n_angles)
-
-    def const(x: float) -> Trig:
-        return Trig.constant(n_angles, x)
-
-    def vec(x: Sequence[float]) -> Vector:
-        return [const(snap(float(v))) for v in x]
-
-    def mat(A: Any) -> Matrix:
-        return [[const(snap(float(A[r][c]))) for c in range(3)] for r in range(3)]
-
-    eye = mat(np.eye(3))
-    # Each link's motion relative to its parent: rotation A_b and offset t_b (Trig), its axis, COM and inertia.
-    local: dict[str, tuple[Matrix, Vector]] = {}
-    for name in table.joints:
-        link, row = links[name], back[index[name]]
-        R0, origin, axis = mat(link.rotation), per_link[name].origin(pvar, zero), vec(link.axis)
-        phase = float(row @ cmap.b)  # q_urdf = row . q - phase
-        if turns[name]:
-            cos_x, sin_x = _angle_sum([(angle_of[k], int(m)) for k, m in enumerate(row) if m], n_angles)
-            co, so = snap(np.cos(phase)), snap(np.sin(phase))
-            cphi = cos_x.scale(co) + sin_x.scale(so)  # cos(x - phase)
-            sphi = sin_x.scale(co) - cos_x.scale(so)  # sin(x - phase)
-            local[name] = (matmul(R0, _rotation(axis, cphi, sphi, const)), origin)
-        else:
-            d = const(-phase)
-            for k, m in enumerate(row):
-                if m:
-                    d = d + Trig.variable(n_angles, variable_of[k]).scale(float(m))  # type: ignore[arg-type]
-            slide = matvec(R0, [a * d for a in axis])
-            local[name] = (R0, [o + s for o, s in zip(origin, slide, strict=True)])
+    su = setup(table, coordinates, unused, MAX_JOINTS, _planar_links)
+    links, cmap, joints, n, index, turns = su.links, su.cmap, su.joints, su.n, su.index, su.turns
+    back, angle_of, variable_of, n_angles, params, per_link, pvar, zero = (
+        su.back, su.angle_of, su.variable_of, su.n_angles, su.params, su.per_link, su.pvar, su.zero
+    )  # fmt: skip
+    vec = su.vec
+    local = local_motions(su)
     check("the joint transforms")
-    children: dict[str | None, list[str]] = {}
-    for name in table.joints:
-        children.setdefault(links[name].parent, []).append(name)
-
-    def subtree(root: str) -> list[str]:
-        out, stack = [], [root]
-        while stack:
-            b = stack.pop(0)
-            out.append(b)
-            stack.extend(children.get(b, []))
-        return out
-
-    # rel[k][b] = (rotation, origin) of link b's frame in link k's frame, b in k's subtree.
-    rel: dict[str, dict[str, tuple[Matrix, Vector]]] = {}
-    for k in table.joints:
-        frames = {k: (eye, [zero, zero, zero])}
-        for b in subtree(k)[1:]:
-            R, p = frames[links[b].parent]  # type: ignore[index]
-            A, t = local[b]
-            frames[b] = (matmul(R, A), [pi + ti for pi, ti in zip(p, matvec(R, t), strict=True)])
-        rel[k] = frames
-        check(f"the frames below {k}")
-    world: dict[str, tuple[Matrix, Vector]] = {}
-    for b in table.joints:
-        parent = links[b].parent
-        A, t = local[b]
-        if parent is None:
-            world[b] = (A, t)
-        else:
-            R, p = world[parent]
-            world[b] = (matmul(R, A), [pi + ti for pi, ti in zip(p, matvec(R, t), strict=True)])
+    rel, world, subtree = frames(su, local, check)
 
     # M_urdf first (the joints' own rates), then M = A^-T M_urdf A^-1 (d q_urdf / d q = A^-1).
     axes = {name: vec(links[name].axis) for name in table.joints}
     com = {name: per_link[name].com(pvar, zero) for name in table.joints}
     inertia = {name: per_link[name].inertia(pvar, zero) for name in table.joints}
     mass = {name: per_link[name].mass(pvar, zero) for name in table.joints}
-
-    def ancestors(b: str) -> list[str]:
-        out = []
-        cur: str | None = b
-        while cur is not None:
-            out.append(cur)
-            cur = links[cur].parent
-        return out
 
     M_urdf = [[zero for _ in range(n)] for _ in range(n)]
     for i_name in table.joints:
@@ -326,19 +250,15 @@ def _derive(
         V,
         tuple(tuple(r) for r in com_world),
         tuple(
-            tuple(tuple(w) for w in _body_rates(b, ancestors(b), back, joints, turns, rel, axes, zero)) for b in joints
+            tuple(tuple(w) for w in _body_rates(b, _ancestors(links, b), back, joints, turns, rel, axes, zero))
+            for b in joints
         ),
         tuple(tuple(tuple(row) for row in inertia[b]) for b in joints),
         (gdir[0], gdir[1], gdir[2]),
     )
     G = tuple(derivation.d(V, i) for i in range(n))
     check("G")
-    dM = [[[derivation.d(M[i][j], k) for k in range(n)] for j in range(n)] for i in range(n)]  # dM[i][j][k]
-    check("dM/dq")
-    gamma = tuple(
-        tuple(tuple((dM[i][j][k] + dM[i][k][j] - dM[j][k][i]).scale(0.5) for k in range(n)) for j in range(n))
-        for i in range(n)
-    )
+    gamma = _christoffel_symbols(derivation, M, n, check)
     check("the Christoffel symbols")
     object.__setattr__(derivation, "christoffel", gamma)
     object.__setattr__(derivation, "G", G)
@@ -346,17 +266,27 @@ def _derive(
     return derivation
 
 
-def _angle_sum(terms: Sequence[tuple[int | None, int]], n_angles: int) -> tuple[Trig, Trig]:
-    """The cos and sin of sum_k m_k q_{a_k} (whole m_k), by the angle-sum rule."""
-    c, s = Trig.constant(n_angles, 1.0), Trig(n_angles)
-    for angle, m in terms:
-        assert angle is not None  # a joint angle combines angles only (CoordinateMap.check_units)
-        ca, sa = Trig.cos(n_angles, angle), Trig.sin(n_angles, angle)
-        if m < 0:
-            sa, m = -sa, -m
-        for _ in range(m):
-            c, s = c * ca - s * sa, s * ca + c * sa
-    return c, s
+def _ancestors(links: Mapping[str, Any], b: str) -> list[str]:
+    """Link ``b`` and the links above it, up to the base."""
+    out = []
+    cur: str | None = b
+    while cur is not None:
+        out.append(cur)
+        cur = links[cur].parent
+    return out
+
+
+def _christoffel_symbols(
+    derivation: Derivation, M: Sequence[Sequence[Trig]], n: int, check: Callable[[str], None]
+) -> tuple[tuple[tuple[Trig, ...], ...], ...]:
+    """Gamma[i][j][k] = 1/2 (dM_ij/dq_k + dM_ik/dq_j - dM_jk/dq_i)."""
+    dM = [[[derivation.d(M[i][j], k) for k in range(n)] for j in range(n)] for i in range(n)]  # dM[i][j][k]
+    check("dM/dq")
+    gamma = tuple(
+        tuple(tuple((dM[i][j][k] + dM[i][k][j] - dM[j][k][i]).scale(0.5) for k in range(n)) for j in range(n))
+        for i in range(n)
+    )
+    return gamma
 
 
 def _planar_links(table: Any) -> dict[str, np.ndarray | None]:
@@ -386,25 +316,6 @@ def _planar_links(table: Any) -> dict[str, np.ndarray | None]:
         u = axes[0] / np.linalg.norm(axes[0])
         parallel = all(np.linalg.norm(np.cross(u, a)) < PARALLEL_TOL for a in axes)
         out[link.joint] = np.array([snap(x) for x in u]) if parallel else None
-    return out
-
-
-def _rotation(axis: Vector, c: Trig, s: Trig, const: Callable[[float], Trig]) -> Matrix:
-    """Rodrigues: ``c 1 + s [a]x + (1 - c) a a^T``."""
-    ax, ay, az = axis
-    skew = [[None, -az, ay], [az, None, -ax], [-ay, ax, None]]
-    one_minus_c = const(1.0) - c
-    out: Matrix = []
-    for r in range(3):
-        row = []
-        for col in range(3):
-            term = one_minus_c * axis[r] * axis[col]
-            if r == col:
-                term = term + c
-            else:
-                term = term + s * skew[r][col]  # type: ignore[operator]
-            row.append(term)
-        out.append(row)
     return out
 
 

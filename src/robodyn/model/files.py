@@ -39,8 +39,6 @@ from robodyn.model.prefixes import declare_unbound_prefixes
 from robodyn.model.urdf import parse_numbers
 from robodyn.robot import Robot, joint_coordinates
 
-BUILTIN_NAMES = ("cart_pole", "geared_arm", "pendubot")
-
 # Variants of the built-ins, for the fidelity study (models/variants/<name>.urdf).
 VARIANT_NAMES = ("cart_pole_point_bob", "geared_arm_rotor")
 
@@ -91,6 +89,20 @@ def example(relative: str | Path = "") -> Path:
         choices = ", ".join(sorted(p.name for p in root.iterdir() if not p.name.startswith((".", "_"))))
         raise InputError(f"example {str(relative)!r}: no such file; expected a path under one of {choices}")
     return path
+
+
+BUILTIN_NAMES = tuple(sorted(path.stem for path in models_dir().glob("*.urdf")))
+"""The built-in models: every URDF in ``models/`` (one per kind, :mod:`robodyn.kinds.formulas`)."""
+
+
+def opening_line(urdf: Path) -> str:
+    """The first line of a built-in URDF's opening comment, less its ``name:`` (its one-line description)."""
+    text = urdf.read_text(encoding="utf-8")
+    start = text.find("<!--")
+    if start < 0:
+        return "built-in model"
+    line = next((s.strip() for s in text[start + 4 :].splitlines() if s.strip()), "")
+    return line.removeprefix(f"{urdf.stem}:").strip().rstrip(".") or "built-in model"
 
 
 # Suffixes that make a bare name a file: robodyn's own, and the two formats it names to refuse them.

@@ -32,6 +32,7 @@ from robodyn.model.files import (
     looks_like_path,
     models_dir,
     not_urdf,
+    opening_line,
     robots_dir,
 )
 from robodyn.registry import Registry
@@ -223,10 +224,8 @@ def not_loadable() -> dict[str, str]:
     return dict(NOT_LOADABLE)
 
 
+# A built-in's description is its URDF's opening line (files.opening_line); the variants' are here.
 _DESCRIPTIONS = {
-    "geared_arm": "single link driven by a DC motor through an n:1 gear train (the textbook excerpt's Example 6.1.1)",
-    "cart_pole": "cart on a rail with a passive pole (the textbook excerpt's Example 2)",
-    "pendubot": "two-link planar arm, joint 1 actuated, joint 2 passive (Spong and Block)",
     "geared_arm_rotor": "geared_arm with the rotor as its own body, coupled to the link by a mimic joint",
     "cart_pole_point_bob": "cart_pole with the pole's mass as a point bob at its centre of mass",
 }
@@ -240,7 +239,8 @@ def _builtin_sources() -> Registry[ModelSource]:
             if not urdf.is_file():
                 continue
             srdf = folder / f"{name}.srdf"
-            registry.register(name, ModelSource(urdf, srdf if srdf.is_file() else None, _DESCRIPTIONS[name]))
+            description = _DESCRIPTIONS.get(name) or opening_line(urdf)
+            registry.register(name, ModelSource(urdf, srdf if srdf.is_file() else None, description))
     return registry
 
 

@@ -113,6 +113,29 @@ def read_scene(path: str | Path) -> Scene:
     path = Path(path)
     toml = toml_module("scene files")
     data = _parse(path, toml, _read_text(path))
+    _check_tables(path, data)
+    base = path.parent
+    model = _read_model(path, data)
+    initial = dict(data.get("initial", {}))
+    for key in ("q", "v"):
+        if key in initial:
+            _joint_values(path, "initial", key, initial[key])
+    control = _read_control(path, data)
+    simulate = _read_simulate(path, data)
+    check = _read_check(path, data, model, simulate)
+    bench = dict(data["bench"]) if "bench" in data else None
+    if bench is not None and "repeat" in bench:
+        _number(path, "bench", "repeat", bench["repeat"], integer=True, low=1, high=MAX_REPEAT)
+    view = _read_view(path, data, simulate)
+    output = None
+    if "output" in data and "dir" in data["output"]:
+        output = base / _string(path, "output", "dir", data["output"]["dir"])
+    constraints = _read_constraints(path, data)
+    return Scene(path, model, initial, control, simulate, check, bench, view, output, constraints)
+
+
+def _check_tables(path: Path, data: dict[str, Any]) -> None:
+    """Every table is a known one holding known keys ([springs] names its own)."""
     for table, body in data.items():
         if table not in TABLES:
             raise _fail(path, f"[{table}]", f"unknown table; expected one of: {', '.join(TABLES)}")
@@ -121,6 +144,10 @@ def read_scene(path: str | Path) -> Scene:
         for key in body:
             if key not in TABLES[table] and table != "springs":
                 raise _fail(path, f"[{table}] {key}", f"unknown key; expected one of: {', '.join(TABLES[table])}")
+
+
+def _read_model(path: Path, data: dict[str, Any]) -> dict[str, Any]:
+    """[model]: exactly one of name and urdf, files resolved against the scene's folder, the reduction's keys."""
     if "model" not in data:
         raise _fail(path, "[model]", 'missing: a scene needs a model (name = "panda" or urdf = "robot.urdf")')
     base = path.parent
@@ -155,10 +182,11 @@ def read_scene(path: str | Path) -> Scene:
         _joint_values(path, "model", "lock", lock)
     if "reference" in model:
         _string(path, "model", "reference", model["reference"])
-    initial = dict(data.get("initial", {}))
-    for key in ("q", "v"):
-        if key in initial:
-            _joint_values(path, "initial", key, initial[key])
+    return model
+
+
+def _read_control(path: Path, data: dict[str, Any]) -> dict[str, Any]:
+    """[control]: a known kind and the keys that kind takes."""
     control = dict(data.get("control", {}))
     if "kind" in control and control["kind"] not in CONTROL_KINDS:
         raise _fail(
@@ -184,7 +212,14 @@ def read_scene(path: str | Path) -> Scene:
     if "gravity_compensation" in control:
         _bool(path, "control", "gravity_compensation", control["gravity_compensation"])
     _read_controller(path, control, kind)
-    simulate = _read_simulate(path, data)
+    return control
+
+
+def _read_check(
+    path: Path, data: dict[str, Any], model: dict[str, Any], simulate: dict[str, Any] | None
+) -> dict[str, Any] | None:
+    """[check]: samples, seed, the formula and closed-form files (from the scene's folder), exactness."""
+    base = path.parent
     check = dict(data["check"]) if "check" in data else None
     if check is not None:
         if "samples" in check:
@@ -223,9 +258,12 @@ def read_scene(path: str | Path) -> Scene:
                 raise _fail(
                     path, "[check] exactness", "needs [simulate] (duration, dt, integrator) to compare trajectories"
                 )
-    bench = dict(data["bench"]) if "bench" in data else None
-    if bench is not None and "repeat" in bench:
-        _number(path, "bench", "repeat", bench["repeat"], integer=True, low=1, high=MAX_REPEAT)
+    return check
+
+
+def _read_view(path: Path, data: dict[str, Any], simulate: dict[str, Any] | None) -> dict[str, Any] | None:
+    """[view]: needs [simulate]; open, html (from the scene's folder) and port."""
+    base = path.parent
     view = dict(data["view"]) if "view" in data else None
     if view is not None:
         if simulate is None:
@@ -236,11 +274,7 @@ def read_scene(path: str | Path) -> Scene:
             view["html"] = base / _string(path, "view", "html", view["html"])
         if "port" in view:
             _number(path, "view", "port", view["port"], integer=True, low=1, high=MAX_PORT)
-    output = None
-    if "output" in data and "dir" in data["output"]:
-        output = base / _string(path, "output", "dir", data["output"]["dir"])
-    constraints = _read_constraints(path, data)
-    return Scene(path, model, initial, control, simulate, check, bench, view, output, constraints)
+    return view
 
 
 def _read_controller(path: Path, control: dict[str, Any], kind: str) -> None:

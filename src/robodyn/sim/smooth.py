@@ -34,7 +34,7 @@ def formula_of(robot: Robot) -> tuple[Any, Any]:
     kind = params.detect_kind(robot)
     if kind is None:
         raise InputError(
-            f"backend 'formula' needs one of the built-in kinds ({', '.join(formulas.KINDS.names())}); "
+            f"backend 'formula' needs one of the built-in kinds ({formulas.listed()}); "
             f"{robot.name} is none of them: use backend 'aba' or 'crba'"
         )
     return formulas.get(kind), params.extract(robot, kind)

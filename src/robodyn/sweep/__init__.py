@@ -30,9 +30,11 @@ from pathlib import Path
 from typing import Any, TextIO
 
 import numpy as np
+from numpy.typing import NDArray
 
 from robodyn import integrators
 from robodyn.errors import InputError, UnknownNameError
+from robodyn.kinds import formulas
 from robodyn.kinds.edit import check_changes, write_params
 from robodyn.kinds.params import detect_kind
 from robodyn.model.load import PASSIVE_JOINT
@@ -161,18 +163,33 @@ def prepare(
     if "time_to_balance" in spec.measures and upright_of(robot) is None:
         raise InputError(f"{spec.source}: time_to_balance needs a cart_pole or pendubot; {robot.name} has no upright")
     kind = _check_params(spec, scene.full() if scene is not None and spec.params else robot)
+    spec = with_digest(spec, _input_files(spec, model, model_name, np.concatenate([q_default, v_default])))
+    gains_json = json.dumps(gains, sort_keys=True)
+    _build_once(spec, model, gains_json)
+    models = _models(spec, model, robot, kind, out)
+    job = Job(spec.duration, spec.measures, gains_json, spec.seed, robot.joint_names, spec.device, spec.precision)
+    if spec.device == "cuda":
+        _check_cuda(spec, models, gains_json)
+    return Prepared(spec, make_plan(spec, robot.joint_names, models, defaults=(q_default, v_default)), job, out)
+
+
+def _input_files(spec: SweepSpec, model: Model, model_name: str, initial: NDArray[np.float64]) -> dict[str, bytes]:
+    """The bytes of every file the sweep reads (and its initial state), for the digest that keys its results."""
     files = measures.user_files(spec.measures)
     if isinstance(model, SceneSource):
         files["scene"] = model.key.encode()
     elif Path(model_name).is_file():
         files["model"] = Path(model_name).read_bytes()
-    for c in controllers:
+    for c in spec.controllers:
         if c not in (NO_CONTROLLER, SCENE_CONTROLLER) and Path(c).is_file():
             files[f"controller:{c}"] = Path(c).read_bytes()
-    files["initial"] = np.concatenate([q_default, v_default]).astype("<f8").tobytes()
-    spec = with_digest(spec, files)
-    gains_json = json.dumps(gains, sort_keys=True)
-    for c in controllers:  # build each once here: unknown names and gains are refused before any task
+    files["initial"] = initial.astype("<f8").tobytes()
+    return files
+
+
+def _build_once(spec: SweepSpec, model: Model, gains_json: str) -> None:
+    """Build each controller and load each user measure once: unknown names and gains are refused before any task."""
+    for c in spec.controllers:
         try:
             controller_of(model, c, gains_json)
         except (InputError, UnknownNameError) as exc:  # named with the file and key it comes from
@@ -182,11 +199,6 @@ def prepare(
     for m in spec.measures:
         if measures.is_user(m):
             measures.load_user_measure(m)
-    models = _models(spec, model, robot, kind, out)
-    job = Job(spec.duration, spec.measures, gains_json, spec.seed, robot.joint_names, spec.device, spec.precision)
-    if spec.device == "cuda":
-        _check_cuda(spec, models, gains_json)
-    return Prepared(spec, make_plan(spec, robot.joint_names, models, defaults=(q_default, v_default)), job, out)
 
 
 def run(
@@ -297,7 +309,7 @@ def _check_params(spec: SweepSpec, robot: Any) -> str | None:
         return None
     kind = detect_kind(robot)
     if kind is None:
-        raise InputError(f"{spec.source}: [params] needs a model of a built-in kind (pendubot, cart_pole, geared_arm)")
+        raise InputError(f"{spec.source}: [params] needs a model of a built-in kind ({formulas.listed()})")
     for name, values in spec.params.items():
         for value in values:
             try:

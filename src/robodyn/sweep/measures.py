@@ -34,7 +34,7 @@ from robodyn.control.outcome import BALANCE_TOL as BALANCE_TOL
 from robodyn.control.outcome import balanced_from, inside_upright
 from robodyn.errors import InputError
 from robodyn.sim.trajectory import Trajectory
-from robodyn.userfile import at_line, exit_call, import_user_file
+from robodyn.user_import import at_line, exit_call, import_user_file
 
 Array = NDArray[np.float64]
 

@@ -55,7 +55,7 @@ import numpy as np
 
 from robodyn.errors import InputError, UnknownNameError
 from robodyn.fileio import is_number, read_user_file
-from robodyn.userfile import real_path
+from robodyn.user_import import real_path
 
 TOP_KEYS = (
     "chunk",

@@ -205,26 +205,8 @@ def build(
     if trace_window is not None:
         check_rate("trace_window", trace_window)
     check_rate("fps", fps)
-    trajectories = _as_runs(trajectory)
-    run_labels = run_names(trajectories, names)
-    if trajectories:
-        check_runs(robot, trajectories, run_labels)
-        times, indices = common_frames(trajectories, speed=speed, fps=fps)
-        colors = [TRACE_COLOR] if len(trajectories) == 1 else list(RUN_COLORS)
-        shown = mark_identical(trajectories, run_labels)
-        runs = [Run(n, c, tr, ix) for n, c, tr, ix in zip(shown, colors, trajectories, indices, strict=False)]
-        configurations = [np.asarray(run.trajectory.q, dtype=np.float64)[run.index] for run in runs]
-    else:
-        runs = []
-        q0 = robot.neutral() if q is None else robot.q_(q)
-        times, configurations = np.zeros(1), [q0[None, :]]
-    ghost_objects: list[list[SceneObject]] = []
-    ghost_geoms: list[list[Any]] = []
-    skipped: list[str] = []
-    for r, configs in enumerate(configurations):
-        objects, geoms, skipped = geometry_objects(robot, geometry, configs, group="robot" if r == 0 else f"ghost{r}")
-        ghost_objects.append(objects)
-        ghost_geoms.append(geoms)
+    trajectories, runs, times, configurations = _runs(robot, trajectory, q, names, speed=speed, fps=fps)
+    ghost_objects, ghost_geoms, skipped = _geometry(robot, geometry, configurations)
     frames = [frame_positions(robot, configs) for configs in configurations]
     chosen = choose_trace_frame(frames[0], trace_frame) if trace and trajectories else None
     traces = [f[chosen] if chosen is not None else np.zeros((0, 3)) for f in frames]
@@ -236,31 +218,10 @@ def build(
         mode=camera,
     )
 
-    commands: list[Any] = [mc.commands.Delete(scene_path(mc, ROOT))]
-    tracks: dict[tuple[str, ...], Array] = {}
-    for r, (objects, geoms) in enumerate(zip(ghost_objects, ghost_geoms, strict=True)):
-        tint = (runs[r].color, GHOST_OPACITY) if len(runs) > 1 else None
-        for obj, geom in zip(objects, geoms, strict=True):
-            commands += object_commands(mc, obj, geom, tint=tint)
-            tracks[obj.path] = obj.placements
-    trace_times: list[Array] = []
-    if chosen is not None:
-        for r, run in enumerate(runs):
-            t = np.asarray(run.trajectory.t, dtype=np.float64)
-            trace_times.append((t[dense_rows(len(t))] - times[0]) / speed)
-            dense = dense_path(robot, run.trajectory, chosen)
-            group = "trace" if r == 0 else f"trace{r}"
-            commands += trace_commands(mc, dense, traces[r], framing.size, color=run.color, group=group)
-            tracks[MARKER_PATH if r == 0 else (*ROOT, group, "marker")] = translations(traces[r])
-    meta = runs[0].trajectory.meta if runs and isinstance(runs[0].trajectory.meta, dict) else {}
-    coils = spring_coils(robot, meta.get("springs"), configurations[0], framing.size) if runs else []
-    for coil in coils:
-        commands += coil_commands(mc, coil)
-        tracks[coil.path] = coil.placements
-    marks = (
-        point_labels(robot, labels, frames[0]),
-        angle_marks(robot, angles, configurations[0], framing.size),
-    )
+    commands, tracks = _object_commands(mc, runs, ghost_objects, ghost_geoms)
+    trace_times = _add_traces(mc, robot, runs, chosen, traces, framing, (times[0], speed), commands, tracks)
+    coils = _add_coils(mc, robot, runs, configurations[0], framing.size, commands, tracks)
+    marks = (point_labels(robot, labels, frames[0]), angle_marks(robot, angles, configurations[0], framing.size))
     slab = ground_slab(framing.centres, framing.half, framing.size) if ground else None
     if slab is not None:
         commands += ground_commands(mc, slab)
@@ -307,3 +268,92 @@ def _energy_rows(run: Run | None, name: str) -> Array:
         return np.zeros(0)
     values = np.asarray(getattr(run.trajectory, name), dtype=np.float64)
     return values[run.index] if values.shape == np.shape(run.trajectory.t) else np.zeros(0)
+
+
+def _runs(
+    robot: Robot, trajectory: Any, q: Any, names: Sequence[str] | None, *, speed: float, fps: float
+) -> tuple[list[Trajectory], list[Run], Array, list[Array]]:
+    """(the trajectories, their runs, the frames' simulation times, each run's configuration per frame)."""
+    trajectories = _as_runs(trajectory)
+    run_labels = run_names(trajectories, names)
+    if trajectories:
+        check_runs(robot, trajectories, run_labels)
+        times, indices = common_frames(trajectories, speed=speed, fps=fps)
+        colors = [TRACE_COLOR] if len(trajectories) == 1 else list(RUN_COLORS)
+        shown = mark_identical(trajectories, run_labels)
+        runs = [Run(n, c, tr, ix) for n, c, tr, ix in zip(shown, colors, trajectories, indices, strict=False)]
+        configurations = [np.asarray(run.trajectory.q, dtype=np.float64)[run.index] for run in runs]
+    else:
+        runs = []
+        q0 = robot.neutral() if q is None else robot.q_(q)
+        times, configurations = np.zeros(1), [q0[None, :]]
+    return trajectories, runs, times, configurations
+
+
+def _geometry(robot: Robot, geometry: Any, configurations: list[Array]) -> tuple[list[Any], list[Any], list[str]]:
+    """Each run's scene objects and geometries (the first the robot, the others ghosts), and the shapes skipped."""
+    ghost_objects: list[list[SceneObject]] = []
+    ghost_geoms: list[list[Any]] = []
+    skipped: list[str] = []
+    for r, configs in enumerate(configurations):
+        objects, geoms, skipped = geometry_objects(robot, geometry, configs, group="robot" if r == 0 else f"ghost{r}")
+        ghost_objects.append(objects)
+        ghost_geoms.append(geoms)
+    return ghost_objects, ghost_geoms, skipped
+
+
+def _add_traces(
+    mc: Any,
+    robot: Robot,
+    runs: list[Run],
+    chosen: str | None,
+    traces: list[Array],
+    framing: Any,
+    clock: tuple[float, float],
+    commands: list[Any],
+    tracks: dict[tuple[str, ...], Array],
+) -> list[Array]:
+    """Add each run's trace (its commands, its marker's track); return the traces' playback times."""
+    start, speed = clock
+    trace_times: list[Array] = []
+    if chosen is not None:
+        for r, run in enumerate(runs):
+            t = np.asarray(run.trajectory.t, dtype=np.float64)
+            trace_times.append((t[dense_rows(len(t))] - start) / speed)
+            dense = dense_path(robot, run.trajectory, chosen)
+            group = "trace" if r == 0 else f"trace{r}"
+            commands += trace_commands(mc, dense, traces[r], framing.size, color=run.color, group=group)
+            tracks[MARKER_PATH if r == 0 else (*ROOT, group, "marker")] = translations(traces[r])
+    return trace_times
+
+
+def _object_commands(
+    mc: Any, runs: list[Run], ghost_objects: list[list[Any]], ghost_geoms: list[list[Any]]
+) -> tuple[list[Any], dict[tuple[str, ...], Array]]:
+    """(the commands that clear the scene and set each run's objects, tinted when there are ghosts; their tracks)."""
+    commands: list[Any] = [mc.commands.Delete(scene_path(mc, ROOT))]
+    tracks: dict[tuple[str, ...], Array] = {}
+    for r, (objects, geoms) in enumerate(zip(ghost_objects, ghost_geoms, strict=True)):
+        tint = (runs[r].color, GHOST_OPACITY) if len(runs) > 1 else None
+        for obj, geom in zip(objects, geoms, strict=True):
+            commands += object_commands(mc, obj, geom, tint=tint)
+            tracks[obj.path] = obj.placements
+    return commands, tracks
+
+
+def _add_coils(
+    mc: Any,
+    robot: Robot,
+    runs: list[Run],
+    configurations: Array,
+    size: float,
+    commands: list[Any],
+    tracks: dict[tuple[str, ...], Array],
+) -> list[Any]:
+    """Add the first run's springs as coils (commands and tracks); return the coils."""
+    meta = runs[0].trajectory.meta if runs and isinstance(runs[0].trajectory.meta, dict) else {}
+    coils = spring_coils(robot, meta.get("springs"), configurations, size) if runs else []
+    for coil in coils:
+        commands += coil_commands(mc, coil)
+        tracks[coil.path] = coil.placements
+    return coils

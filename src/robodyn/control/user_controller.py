@@ -29,7 +29,7 @@ from robodyn.control import supervised
 from robodyn.control.supervised import CALL_TIMEOUT, LOAD_TIMEOUT, OutOfTime, time_limit
 from robodyn.errors import InputError
 from robodyn.robot import Robot
-from robodyn.userfile import exit_call, import_user_file, user_line
+from robodyn.user_import import exit_call, import_user_file, user_line
 
 Array = NDArray[np.float64]
 

@@ -19,8 +19,8 @@ from robodyn.sim.tree_kernels import crba
 from robodyn.sim.tree_layout import W_LAMBDA, W_LOCK
 from robodyn.sim.tree_steps import rates
 
-# run_events outcomes
-DONE, NOT_FINITE, CHATTER = 0, 1, 2
+# run_events outcomes (and run_steps': EVENTS, the step from that sample needs run_events)
+DONE, NOT_FINITE, CHATTER, EVENTS = 0, 1, 2, 3
 # counts: evaluations, impacts, releases, steps with an event, the sample the step under way started from
 EVALS, IMPACTS, RELEASES, EVENT_STEPS, AT = 0, 1, 2, 3, 4
 NCOUNTS = 5

@@ -79,8 +79,8 @@ __all__ = [
     "CHATTER",
     "DONE",
     "EVALS",
-    "EVENT_STEPS",
     "EVENTS",
+    "EVENT_STEPS",
     "IMPACTS",
     "NCOUNTS",
     "NOT_FINITE",
@@ -354,18 +354,20 @@ def run_events(md, par, st, held, side, counts, wlim, records, ts, hs, lo, hi, Q
     for k in range(lo, hi):
         t, h = ts[k], hs[k]
         counts[AT] = k
-        if held[0] == 0 and _clear(Q[k], st):  # the common case: the method's own step, clear at both ends
+        # a bool known only at run time: _events_in_step compiles once, not once per literal
+        clear = held[0] == 0 and _clear(Q[k], st)
+        if clear:  # the common case: the method's own step, clear at both ends
             kin, pot = _step(md, par, ws, counts, t, Q[k], U[k], h, Q[k + 1], U[k + 1], k0)
             status = DONE
             cache[0] = 0.0
             if _finite(Q[k + 1]) and _finite(U[k + 1]) and not _clear(Q[k + 1], st):
                 status, _, _ = _events_in_step(
-                    md, par, st, held, side, ws, counts, wlim, records, t, Q[k], U[k], h, True, Q[k + 1], U[k + 1], k0,
-                    kc, cache,
+                    md, par, st, held, side, ws, counts, wlim, records, t, Q[k], U[k], h, clear, Q[k + 1], U[k + 1],
+                    k0, kc, cache,
                 )  # fmt: skip
         else:
             status, kin, pot = _events_in_step(
-                md, par, st, held, side, ws, counts, wlim, records, t, Q[k], U[k], h, False, Q[k + 1], U[k + 1], k0,
+                md, par, st, held, side, ws, counts, wlim, records, t, Q[k], U[k], h, clear, Q[k + 1], U[k + 1], k0,
                 kc, cache,
             )  # fmt: skip
             if np.isnan(kin):

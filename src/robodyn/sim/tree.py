@@ -83,10 +83,11 @@ _TYPES: dict[str, tuple[int, tuple[float, float, float] | None]] = {
     "JointModelRevoluteUnboundedUnaligned": (CONTINUOUS, None),
     "JointModelFreeFlyer": (FREEFLYER, (0.0, 0.0, 0.0)),
 }
-# What a first compile of the tree kernels says it does (robodyn.sim.jit.announce): about 100 s of CPU, measured
-COMPILING = ("the tree-robot kernels", "one to two minutes")
-# ... and of the stop events, when a run first meets a joint stop (about 80 s of CPU, measured)
-COMPILING_EVENTS = ("the tree-robot kernels of joint stops", "about a minute")
+# What a first compile of the tree kernels says it does (robodyn.sim.jit.announce): ABA, RNEA, CRBA,
+# the energies and the loop of steps clear of the stops, about 30 s of CPU (benchmarks/bench_first_run.py)
+COMPILING = ("the tree-robot kernels", "about half a minute")
+# ... and the stop events, when a run first meets a joint stop: about 85 s of CPU more, measured
+COMPILING_EVENTS = ("the tree-robot kernels of joint stops", "a minute or two")
 
 
 @dataclass(frozen=True, eq=False)

@@ -293,9 +293,9 @@ def _block(w: Work) -> tuple[int, int]:
         status, lo = ev.run_steps(w.md, w.par, w.stops, w.counts, w.wlim, ts, hs, 0, hi - w.done, *records)
         if status != ev.EVENTS:
             return status, lo  # type: ignore[no-any-return]
-        compile_start = time.perf_counter()
-        tree.event_kernels()
-        w.start += time.perf_counter() - compile_start
+    compile_start = time.perf_counter()
+    tree.event_kernels()  # loaded, or compiled with its notice, the first time a run meets a stop
+    w.start += time.perf_counter() - compile_start
     return ev.run_events(  # type: ignore[no-any-return]
         w.md, w.par, w.stops, w.held, w.side, w.counts, w.wlim, w.records, ts, hs, lo, hi - w.done, *records
     )

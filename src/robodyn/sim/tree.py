@@ -86,7 +86,8 @@ _TYPES: dict[str, tuple[int, tuple[float, float, float] | None]] = {
 # What a first compile of the tree kernels says it does (robodyn.sim.jit.announce): ABA, RNEA, CRBA,
 # the energies and the loop of steps clear of the stops, about 30 s of CPU (benchmarks/bench_first_run.py)
 COMPILING = ("the tree-robot kernels", "about half a minute")
-# ... and the stop events, when a run first meets a joint stop: about 85 s of CPU more, measured
+# ... and the stop events, when a run first meets a joint stop: about 70 s of CPU more (the Panda's
+# first run, which starts held at a stop, 105 s, less the Pendubot's, 37 s; bench_first_run.py)
 COMPILING_EVENTS = ("the tree-robot kernels of joint stops", "a minute or two")
 
 

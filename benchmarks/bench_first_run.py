@@ -76,13 +76,17 @@ def main() -> int:
     result = {"duration_s": args.duration, "runs": rows}
     path = write_json(out, "first_run", result, facts)
     print(f"robodyn simulate MODEL --duration {args.duration:g}, load average before: {facts['load_before']}")
-    print(f"{'model':10} {'first wall':>11} {'first CPU':>10} {'cached wall':>12} {'cached CPU':>11} {'goal':>7}")
+    print(
+        f"{'model':10} {'first wall':>11} {'first CPU':>10} {'cached wall':>12} {'cached CPU':>11} {'goal':>7}"
+        "  load (1 min) during the first run"
+    )
     for model, row in rows.items():
         first, cached = row["first"], row["cached"]
         goal = f"{row['goal_s']:.0f} s" if row["goal_s"] else "-"
+        load = " -> ".join(f"{x[0]:.1f}" for x in (first["load_before"], first["load_after"]) if x)
         print(
             f"{model:10} {first['wall_s']:9.1f} s {first['cpu_s']:8.1f} s {cached['wall_s']:10.1f} s "
-            f"{cached['cpu_s']:9.1f} s {goal:>7}"
+            f"{cached['cpu_s']:9.1f} s {goal:>7}  {load}"
         )
     print(f"wrote {path}")
     failed = [m for m, row in rows.items() if row["first"]["exit_code"] or row["cached"]["exit_code"]]

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import robodyn
+from robodyn.cli import main
 from robodyn.errors import DivergenceError, SimulationInterrupted
 from robodyn.sim import tree, whole_run
 from robodyn.sim.system import robot_system
@@ -264,3 +265,29 @@ def test_a_joint_resting_on_a_stop_unpressed_stays_in_the_compiled_loop() -> Non
     assert np.max(np.abs(got.q - ref.q)) < TRAJECTORY_ATOL
     assert abs(got.work_limits[-1]) < 1e-15 and abs(ref.work_limits[-1]) < 1e-15
     assert got.max_ledger_residual < 1e-9
+
+
+def test_the_steps_clear_of_the_stops_hand_over_to_the_events_bit_for_bit(monkeypatch: pytest.MonkeyPatch) -> None:
+    # run_steps takes the steps clear of the stops, run_events the rest from the first that meets
+    # one: the same arithmetic and counts as run_events taking every step (identical -> exact)
+    robot = robodyn.load("cart_pole")  # rail +-2.4 m, struck near t = 0.1 s
+    kw = {"duration": 0.3, "dt": 1e-3}
+    got = robodyn.simulate(robot, [2.3, 0.0], [1.0, 0.0], **kw)  # type: ignore[arg-type]
+    ev = tree.step_kernels()
+    monkeypatch.setattr(ev, "run_steps", lambda *args: (ev.EVENTS, args[7]))  # hand every step over at once
+    ref = robodyn.simulate(robot, [2.3, 0.0], [1.0, 0.0], **kw)  # type: ignore[arg-type]
+    assert got.meta["compiled_loop"] == ref.meta["compiled_loop"] == "ran" and got.meta["impacts"] >= 1
+    for name in ("q", "v", "a", "kinetic", "potential", "work_input", "work_damping", "work_limits"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(ref, name), err_msg=name)
+    assert (got.evaluations, got.meta["event_steps"]) == (ref.evaluations, ref.meta["event_steps"])
+
+
+def test_a_run_that_meets_no_stop_never_compiles_the_stop_events(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    def refuse() -> None:
+        raise AssertionError("the stop events were loaded for a run that meets no stop")
+
+    monkeypatch.setattr(tree, "event_kernels", refuse)
+    assert main(["simulate", "pendubot", "--duration", "0.2"]) == 0  # the README's first run
+    assert "compiled loop" in capsys.readouterr().out

@@ -83,8 +83,12 @@ _TYPES: dict[str, tuple[int, tuple[float, float, float] | None]] = {
     "JointModelRevoluteUnboundedUnaligned": (CONTINUOUS, None),
     "JointModelFreeFlyer": (FREEFLYER, (0.0, 0.0, 0.0)),
 }
-# What a first compile of the tree kernels says it does (robodyn.sim.jit.announce): about 100 s of CPU, measured
-COMPILING = ("the tree-robot kernels", "one to two minutes")
+# What a first compile of the tree kernels says it does (robodyn.sim.jit.announce): ABA, RNEA, CRBA,
+# the energies and the loop of steps clear of the stops, about 30 s of CPU (benchmarks/bench_first_run.py)
+COMPILING = ("the tree-robot kernels", "about half a minute")
+# ... and the stop events, when a run first meets a joint stop: about 70 s of CPU more (the Panda's
+# first run, which starts held at a stop, 105 s, less the Pendubot's, 37 s; bench_first_run.py)
+COMPILING_EVENTS = ("the tree-robot kernels of joint stops", "a minute or two")
 
 
 @dataclass(frozen=True, eq=False)
@@ -239,6 +243,37 @@ def kernels() -> ModuleType:
     return k
 
 
+def _one_stop() -> tuple[Array, Array, Array]:
+    """(forces (4, 1), springs (4, 0), stops (6, 1)) of :func:`one_joint` with a stop at +-1 rad."""
+    forces, springs = np.zeros((4, 1)), np.zeros((4, 0))
+    forces[3, 0] = 1e-3
+    return forces, springs, np.array([[0.0], [0.0], [-1.0], [1.0], [1e-14], [0.0]])
+
+
+@lru_cache(maxsize=1)
+def step_kernels() -> ModuleType:
+    """:mod:`robodyn.sim.tree_events` with its loop of steps clear of the stops (``run_steps``) loaded or compiled.
+
+    Every whole run starts there; the stop events (:func:`event_kernels`) compile only when a
+    run meets a stop. A one-joint tree runs it once here, so that no timed run pays for loading it.
+    """
+    steps = kernels()
+    from robodyn.sim import tree_events as k
+
+    if not jit.is_cached(k.run_steps):
+        jit.announce(*COMPILING)
+    itree, ftree, grav = one_joint()
+    forces, springs, stops = _one_stop()
+    n = 3
+    ts, hs = 1e-3 * np.arange(n), np.full(n - 1, 1e-3)
+    Q, U, A, kin, pot = np.zeros((n, 1)), np.zeros((n, 3)), np.zeros((n, 1)), np.zeros(n), np.zeros(n)
+    md = (itree, ftree, grav, forces, springs, 1, np.zeros((6, 4)), -1)
+    counts = np.zeros(k.NCOUNTS, dtype=np.int64)
+    k.run_steps(md, np.zeros(k.PCOLS), stops, counts, np.zeros(1), ts, hs, 0, n - 1, Q, U, A, kin, pot, np.zeros(n))
+    del steps
+    return k
+
+
 @lru_cache(maxsize=1)
 def event_kernels() -> ModuleType:
     """The numba kernels of whole runs with stop events (:mod:`robodyn.sim.tree_events`), loaded or compiled.
@@ -249,12 +284,10 @@ def event_kernels() -> ModuleType:
     from robodyn.sim import tree_events as k
 
     if not jit.is_cached(k.run_events):
-        jit.announce(*COMPILING)
+        jit.announce(*COMPILING_EVENTS)
 
     itree, ftree, grav = one_joint()
-    forces, springs = np.zeros((4, 1)), np.zeros((4, 0))
-    forces[3, 0] = 1e-3
-    stops = np.array([[0.0], [0.0], [-1.0], [1.0], [1e-14], [0.0]])
+    forces, springs, stops = _one_stop()
     par = np.zeros(k.PCOLS)
     n = 3
     ts, hs = 1e-3 * np.arange(n), np.full(n - 1, 1e-3)

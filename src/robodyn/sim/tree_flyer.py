@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from robodyn.sim import jit
 from robodyn.sim.tree_body import body
 from robodyn.sim.tree_layout import (
@@ -53,7 +55,8 @@ def ff_kinematics(itree, ftree, grav, q, v, ws):  # type: ignore[no-untyped-def]
     for k in range(6):
         ws[0, W_S + k] = 0.0
         ws[0, W_C + k] = 0.0
-    l0, l1, l2, g0, g1, g2 = ff_motion(ws, 0, v[iv], v[iv + 1], v[iv + 2], v[iv + 3], v[iv + 4], v[iv + 5])
+    # row 0 as an int64, not a literal: ff_motion compiles once, for every row
+    l0, l1, l2, g0, g1, g2 = ff_motion(ws, np.int64(0), v[iv], v[iv + 1], v[iv + 2], v[iv + 3], v[iv + 4], v[iv + 5])
     ws[0, W_V], ws[0, W_V + 1], ws[0, W_V + 2] = l0, l1, l2
     ws[0, W_V + 3], ws[0, W_V + 4], ws[0, W_V + 5] = g0, g1, g2
     vhv, pot = body(

@@ -19,8 +19,8 @@ from robodyn.sim.tree_kernels import crba
 from robodyn.sim.tree_layout import W_LAMBDA, W_LOCK
 from robodyn.sim.tree_steps import rates
 
-# run_events outcomes
-DONE, NOT_FINITE, CHATTER = 0, 1, 2
+# run_events outcomes (and run_steps': EVENTS, the step from that sample needs run_events)
+DONE, NOT_FINITE, CHATTER, EVENTS = 0, 1, 2, 3
 # counts: evaluations, impacts, releases, steps with an event, the sample the step under way started from
 EVALS, IMPACTS, RELEASES, EVENT_STEPS, AT = 0, 1, 2, 3, 4
 NCOUNTS = 5
@@ -158,7 +158,9 @@ def _impact(md, par, st, held, side, ws, counts, wlim, records, t, q, u, h, hitt
         rows[i, 0], rows[i, 1], hit[i] = hitting[i, 0], hitting[i, 1], True
     for i in range(nheld):
         rows[nh + i, 0], rows[nh + i, 1] = held[1 + i], side[held[1 + i]]
-    vp, nc, dT = _solve(M, v, st, rows, nh + nheld, hit, e, False, par)
+    # np.int64 / np.bool_ around a literal (or a count that starts as one): numba's type inference would
+    # compile the callee once more for the literal's own type (measured: 7 s of the first compile)
+    vp, nc, dT = _solve(M, v, st, rows, nh + nheld, hit, e, np.bool_(False), par)
     # rows in contact after it: the first nc of rows; resting: hitting rows in contact whose rebound lands soon
     resting = np.zeros(m, dtype=np.int64)  # side of a resting row, by stop
     nrest = 0
@@ -183,7 +185,7 @@ def _impact(md, par, st, held, side, ws, counts, wlim, records, t, q, u, h, hitt
             if resting[hitting[i, 0]] == hitting[i, 1]:
                 rows[n2, 0], rows[n2, 1], hit[n2] = hitting[i, 0], hitting[i, 1], False
                 n2 += 1
-        vp, nc, dT = _solve(M, v, st, rows, n2, hit, e, False, par)
+        vp, nc, dT = _solve(M, v, st, rows, np.int64(n2), hit, e, np.bool_(False), par)
     # the record (EventStepper._record)
     wlim[0] += dT
     for i in range(nh):
@@ -212,7 +214,7 @@ def _impact(md, par, st, held, side, ws, counts, wlim, records, t, q, u, h, hitt
     u[:nv] = vp
     for j in range(nn):
         u[int(st[S_IV, new[j, 0]])] = 0.0
-    _set_held(ws, st, held, side, new, nn)
+    _set_held(ws, st, held, side, new, np.int64(nn))
 
 
 @njit
@@ -228,7 +230,8 @@ def _rest(md, par, st, held, side, ws, counts, wlim, q, u, k, s):  # type: ignor
         rows[i, 0], rows[i, 1] = held[1 + i], side[held[1 + i]]
     rows[nheld, 0], rows[nheld, 1] = k, s
     keep = rows.copy()
-    vp, _, dT = _solve(M, u[:nv].copy(), st, rows, nheld + 1, np.zeros(nheld + 1, dtype=np.bool_), 0.0, True, par)
+    none_hit = np.zeros(nheld + 1, dtype=np.bool_)  # every row is held or comes to rest: none rebounds
+    vp, _, dT = _solve(M, u[:nv].copy(), st, rows, nheld + 1, none_hit, 0.0, np.bool_(True), par)
     wlim[0] += dT
     u[:nv] = vp
     for i in range(nheld + 1):
@@ -283,7 +286,7 @@ def _settle(md, par, st, held, side, ws, counts, wlim, t, q, u, h):  # type: ign
                             best_k, best_s, best = k, s, push
         if best_k < 0:
             return
-        _rest(md, par, st, held, side, ws, counts, wlim, q, u, best_k, best_s)
+        _rest(md, par, st, held, side, ws, counts, wlim, q, u, np.int64(best_k), np.int64(best_s))
 
 
 @njit

@@ -7,8 +7,9 @@ order :func:`warm` takes them:
 * ``closed-forms``: the built-in kinds' closed-form runs (:mod:`robodyn.sim.fast`: sweeps, the
   Pendubot's controllers, the benchmarks' fast column);
 * ``tree``: ABA, RNEA, CRBA and the energies of any tree robot (:func:`robodyn.sim.tree.kernels`);
-* ``events``: the whole run with joint stops that ``robodyn simulate`` takes on any tree robot
-  (:func:`robodyn.sim.tree.event_kernels`);
+* ``events``: the whole run that ``robodyn simulate`` takes on any tree robot, its steps clear
+  of the stops (:func:`robodyn.sim.tree.step_kernels`) and its stop events
+  (:func:`robodyn.sim.tree.event_kernels`, otherwise compiled when a run first meets a stop);
 * ``batch``: many states at once (:func:`robodyn.sim.batch.rollout`), closed form and tree.
 """
 
@@ -38,6 +39,7 @@ def _tree() -> None:
 def _events() -> None:
     from robodyn.sim import tree
 
+    tree.step_kernels()
     tree.event_kernels()
 
 
@@ -70,7 +72,7 @@ class Group:
 GROUPS = (
     Group("closed-forms", "the built-in kinds' closed-form runs (sweeps, controllers)", _closed_forms),
     Group("tree", "ABA, RNEA, CRBA and the energies of any tree robot", _tree),
-    Group("events", "robodyn simulate's whole run with joint stops", _events),
+    Group("events", "robodyn simulate's whole run, joint stops included", _events),
     Group("batch", "many states at once (robodyn bench, robodyn.sim.batch)", _batch),
 )
 

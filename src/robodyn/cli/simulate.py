@@ -327,6 +327,7 @@ def run(args: argparse.Namespace) -> int:
             if built and hasattr(built[0], "modes") and len(trajectory.t):  # switched: swing-up, then balance
                 record["modes"] = ["swing-up", "LQR balance"]
                 record["mode"] = [int(m) for m in built[0].modes(trajectory.q, trajectory.v)]
+                record.update(built[0].regulated(trajectory.q, trajectory.v))  # the replay charts it
             trajectory = dataclasses.replace(trajectory, meta={**trajectory.meta, "controller": record})
         # Said after the run, not before it: a refused input stays one line on stderr.
         warn_ignored_mimic(robot, mimic=args.mimic, command="simulate")

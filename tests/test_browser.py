@@ -34,6 +34,8 @@ from robodyn import viewer
 from robodyn.cli import main
 from robodyn.sim.trajectory import Trajectory
 from robodyn.viewer import camera as _camera  # noqa: F401  (loads viewer.camera for box_corners)
+from robodyn.viewer.html_export import BACKGROUND_BOTTOM, BACKGROUND_TOP
+from robodyn.viewer.palette import BLACK, BLUE, SKY_BLUE, YELLOW
 
 from ._viewer_helpers import HEADLESS_FLAGS, SLIDER_URDF, DevTools, interrupt, travel_trajectory, view_process
 
@@ -241,8 +243,8 @@ def test_live_server_page_plays_the_animation(artifacts: Path, swing: Path, tmp_
     assert (changed & robot_colours).sum() > MIN_CHANGED_PIXELS, "the robot did not move between the two shots"
 
 
-ROBOT_COLORS = tuple(c for c in viewer.LINK_COLORS if c not in (0x16A085, 0x2E86C1, 0xF1C40F))
-"""Link colours whose hue neither the sky-blue background (teal, blue) nor the yellow trace has."""
+ROBOT_COLORS = tuple(c for c in viewer.LINK_COLORS if c not in (BLUE, SKY_BLUE, YELLOW, BLACK))
+"""Link colours whose hue neither the sky-blue background (blue, sky blue) nor the yellow trace has (black has none)."""
 
 
 def robot_mask(image: np.ndarray) -> np.ndarray:
@@ -477,7 +479,8 @@ def test_constraint_drift_is_charted_in_metres_on_a_log_axis(artifacts: Path, tm
 
 
 def test_the_trace_keeps_only_its_window_behind_the_cursor_and_fades(swing: Path, tmp_path: Path) -> None:
-    """At t = 2 s with a 0.5 s window, the line draws the points of 1.5 s to 2 s, white at 1.5 s, yellow at 2 s."""
+    """At t = 2 s with a 0.5 s window, the line draws the points of 1.5 s to 2 s: yellow at 2 s, and at 1.5 s the
+    background's colour where that point is on the screen (meshcat's vertical gradient), not white."""
     chromium = find_chromium()
     robot = robodyn.load("pendubot")
     motion = Trajectory.load(swing)
@@ -500,10 +503,16 @@ def test_the_trace_keeps_only_its_window_behind_the_cursor_and_fades(swing: Path
             f" return [a[3 * {first}], a[3 * {first} + 1], a[3 * {first} + 2],"
             f" a[3 * {end - 1}], a[3 * {end - 1} + 1], a[3 * {end - 1} + 2]]; }})()"
         )
+        oldest_xyz = browser.evaluate(
+            f"Array.from({line}.getAttribute('position').array.slice(3 * {first}, 3 * {first} + 3))"
+        )
+    frame = int(np.argmin(np.abs(playback.times - (now - window))))  # fit mode: every frame has the same shift
+    height_share = 1 - project(playback, np.array(oldest_xyz), frame)[1] / HEIGHT  # 0 at the bottom, 1 at the top
+    behind = np.array(BACKGROUND_BOTTOM) + height_share * (np.array(BACKGROUND_TOP) - np.array(BACKGROUND_BOTTOM))
     yellow = np.array([(viewer.TRACE_COLOR >> s) & 255 for s in (16, 8, 0)]) / 255.0
     oldest, newest = np.array(colors[:3]), np.array(colors[3:])  # type: ignore[index]
     np.testing.assert_allclose(newest, yellow, atol=FADE_COLOR_ATOL)
-    assert np.all(oldest > 1 - FADE_COLOR_ATOL)  # the window's start has faded to white
+    np.testing.assert_allclose(oldest, behind, atol=FADE_COLOR_ATOL)  # faded into the background behind it
 
 
 LABEL_PX = 2.0  # the page's pixel of a label (rounded) against this test's own projection of its point

@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodyn import dynamics
-from robodyn.viewer.palette import BLUE, ORANGE, REDDISH_PURPLE, VERMILLION
+from robodyn.viewer.palette import BLACK, ORANGE, REDDISH_PURPLE
 
 if TYPE_CHECKING:
     from robodyn.robot import Robot
@@ -43,8 +43,9 @@ ARC_POINTS = 20
 """Points of a torque's curved arrow."""
 IMPACT_FLASH_S = 0.3
 """How long an impact stays drawn on its joint [s of playback]: long enough to see at real time."""
-FORCE_COLOR = VERMILLION
-TORQUE_COLOR = BLUE
+FORCE_COLOR = BLACK
+"""Arrows in black with a white halo: they read on the sky and on every link colour."""
+TORQUE_COLOR = BLACK
 IMPACT_COLOR = ORANGE
 MODE_TEXT_COLOR = REDDISH_PURPLE
 

@@ -469,8 +469,9 @@
     forces.arrows.forEach(function (a) {
       drawnForces.arrows.push({
         mark: a,
-        line: svgChild("polyline", { fill: "none", stroke: a.color, "stroke-width": "4", "stroke-linecap": "round" }),
-        head: svgChild("polygon", { fill: a.color }),
+        halo: svgChild("polyline", { fill: "none", stroke: "#fff", "stroke-width": "7", "stroke-linecap": "round" }),
+        line: svgChild("polyline", { fill: "none", stroke: a.color, "stroke-width": "3.5", "stroke-linecap": "round" }),
+        head: svgChild("polygon", { fill: a.color, stroke: "#fff", "stroke-width": "1.5" }),
         text: svgChild("text", { style: textStyle + "fill: " + a.color, "dominant-baseline": "central" })
       });
     });
@@ -510,10 +511,11 @@
       var dx = tip[0] - before[0], dy = tip[1] - before[1], len = Math.sqrt(dx * dx + dy * dy);
       var spread = Math.abs(tip[0] - pts[0][0]) + Math.abs(tip[1] - pts[0][1]);
       var visible = len > 0 && (a.kind === "torque" || spread > 3);
-      [d.line, d.head, d.text].forEach(function (el) { show(el, visible); });
+      [d.halo, d.line, d.head, d.text].forEach(function (el) { show(el, visible); });
       if (!visible) { return; }
       dx /= len; dy /= len;
-      d.line.setAttribute("points", pts.map(function (p) { return p[0].toFixed(1) + "," + p[1].toFixed(1); }).join(" "));
+      var polyline = pts.map(function (p) { return p[0].toFixed(1) + "," + p[1].toFixed(1); }).join(" ");
+      d.halo.setAttribute("points", polyline); d.line.setAttribute("points", polyline);
       var h = 13, w = 7;
       d.head.setAttribute("points", [
         [tip[0] + dx * h, tip[1] + dy * h],

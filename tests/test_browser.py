@@ -30,6 +30,7 @@ import numpy as np
 import pytest
 
 import robodyn
+import robodyn.control
 from robodyn import viewer
 from robodyn.cli import main
 from robodyn.sim.trajectory import Trajectory
@@ -554,3 +555,58 @@ def test_labels_are_written_where_their_points_project(artifacts: Path, swing: P
         x0, y0 = (int(x) + 8, int(y) - 12) if text != "θ" else (int(x), int(y))  # where the page writes the letter
         box = ink[max(0, y0 - 12) : y0 + 12, max(0, x0 - 4) : x0 + 16]
         assert int(box.sum()) >= MIN_LABEL_INK, f"no letter {text} drawn near ({x0}, {y0}); see {artifacts}"
+
+
+ARROW_INK_PX = 12  # dark pixels of the arrow's head (a ~13 x 14 px black triangle) within SEARCH_RADIUS_PX + 4
+TARGET_DASH_SHARE = 0.3  # of the plot's width: the dashed target line (5 px on, 4 off) covers ~55 % of its row
+
+
+def test_the_carts_push_arrow_and_the_regulated_energys_target_are_drawn(artifacts: Path, tmp_path: Path) -> None:
+    """The cart-pole's swing-up: the push drawn as an arrow whose head is at the pixel the page states and
+    dark there; the swing-up's energy target (0 J) dashed across its chart in the regulated energy's colour."""
+    chromium = find_chromium()
+    robot = robodyn.load("cart_pole")
+    controller = robodyn.control.make("swing_up", robot)
+    run = robodyn.simulate(robot, [0.0, 3.14159], [0.0, 0.0], duration=1.0, dt=0.002, torque=controller)
+    run = dataclasses.replace(
+        run, meta={**run.meta, "controller": {"name": "swing_up", **controller.record(run.q, run.v)}}
+    )
+    playback = viewer.build(robot, run)
+    (arrow,) = playback.arrows
+    frame = int(np.argmax(np.abs(arrow.values)))  # the strongest push: the longest arrow
+    t = float(playback.times[frame])
+    page = tmp_path / "push.html"
+    page.write_text(viewer.to_html(playback), encoding="utf-8")
+    box = "document.querySelector('[data-chart=regulated]')"
+    with DevTools(chromium, width=WIDTH, height=HEIGHT, profile=tmp_path / "profile") as browser:
+        browser.open(f"{page.resolve().as_uri()}#t={t!r}")
+        browser.wait_for("document.body.getAttribute('data-arrows')")
+        heads = str(browser.evaluate("document.body.getAttribute('data-arrows')"))
+        mode = browser.evaluate("document.body.getAttribute('data-mode')")
+        limits = str(browser.evaluate(f"{box}.getAttribute('data-limits')"))
+        browser.evaluate(f"{box}.scrollIntoView()")
+        rect = browser.evaluate(
+            f"(function () {{ var r = {box}.querySelector('canvas').getBoundingClientRect();"
+            " return [r.left, r.top, r.width, r.height]; })()"
+        )
+        image = browser.screenshot(artifacts / "push_and_target.png")
+    joint, xy = heads.split(":")
+    head = np.array([float(c) for c in xy.split(",")])
+    assert joint == "slider" and mode == "mode: swing-up"
+    tip = project(playback, arrow.points[frame, -1], frame)
+    direction = np.sign(arrow.values[frame]) * np.array([1.0, 0.0])  # the rail is along x: right on the screen
+    assert np.dot(head - tip, direction) > 0  # the head points the way the cart is pushed
+    dark = image.max(axis=2) < 60  # the black head (white halo); the sky, the links and the rail are lighter
+    assert (
+        near(dark, head, SEARCH_RADIUS_PX + 4)
+        and dark[int(head[1]) - 8 : int(head[1]) + 9, int(head[0]) - 8 : int(head[0]) + 9].sum() >= ARROW_INK_PX
+    ), f"no arrow head at {head}; see {artifacts}"
+    label, value, row = limits.split(":")
+    assert (label, float(value)) == ("target 0 J", 0.0)
+    left, top, width, _ = (round(v) for v in rect)  # type: ignore[union-attr]
+    margins = viewer.PLOT_MARGINS_PX
+    y = top + int(row)
+    line = hue_mask(image, viewer.panel.REGULATED_COLOR)[
+        y - 1 : y + 2, left + margins["left"] : left + width - margins["right"]
+    ]
+    assert line.any(axis=0).mean() >= TARGET_DASH_SHARE, f"no dashed target at y = {y}; see {artifacts}"

@@ -88,7 +88,9 @@ def test_the_switched_controllers_record_is_charted_with_its_target_and_hand_ove
     record = controller.record(run.q, run.v)
     k = 17  # the hand-over sample this test writes into the record
     record["mode"] = [0] * k + [1] * (len(run.t) - k)
-    np.testing.assert_array_equal(record["energy"], [controller.swing_up.energy(q, v) for q, v in zip(run.q, run.v)])
+    np.testing.assert_array_equal(
+        record["energy"], [controller.swing_up.energy(q, v) for q, v in zip(run.q, run.v, strict=True)]
+    )
     assert record["energy_target"] == controller.swing_up.energy_up == 0.0
     playback = viewer.build(cart_pole, dataclasses.replace(run, meta={**run.meta, "controller": record}))
     charts = {c.key: c for c in playback.charts}
@@ -129,4 +131,6 @@ def test_the_fit_camera_frames_the_moving_cart_and_pole_not_the_rail(cart_pole: 
 def test_the_panels_colours_are_okabe_ito() -> None:
     okabe_ito = set(palette.OKABE_ITO.values())
     assert set(panel.ENERGY_COLORS.values()) <= okabe_ito and set(panel.WORK_COLORS.values()) <= okabe_ito
-    assert set(viewer.RUN_COLORS) <= okabe_ito and set(viewer.LINK_COLORS) <= okabe_ito and viewer.TRACE_COLOR in okabe_ito
+    assert (
+        set(viewer.RUN_COLORS) <= okabe_ito and set(viewer.LINK_COLORS) <= okabe_ito and viewer.TRACE_COLOR in okabe_ito
+    )

@@ -36,7 +36,7 @@ from robodyn.cli import main
 from robodyn.sim.trajectory import Trajectory
 from robodyn.viewer import camera as _camera  # noqa: F401  (loads viewer.camera for box_corners)
 from robodyn.viewer.html_export import BACKGROUND_BOTTOM, BACKGROUND_TOP
-from robodyn.viewer.palette import BLACK, BLUE, SKY_BLUE, YELLOW
+from robodyn.viewer.palette import BLACK, BLUE, ORANGE, SKY_BLUE, YELLOW
 
 from ._viewer_helpers import HEADLESS_FLAGS, SLIDER_URDF, DevTools, interrupt, travel_trajectory, view_process
 
@@ -244,8 +244,8 @@ def test_live_server_page_plays_the_animation(artifacts: Path, swing: Path, tmp_
     assert (changed & robot_colours).sum() > MIN_CHANGED_PIXELS, "the robot did not move between the two shots"
 
 
-ROBOT_COLORS = tuple(c for c in viewer.LINK_COLORS if c not in (BLUE, SKY_BLUE, YELLOW, BLACK))
-"""Link colours whose hue neither the sky-blue background (blue, sky blue) nor the yellow trace has (black has none)."""
+ROBOT_COLORS = tuple(c for c in viewer.LINK_COLORS if c not in (BLUE, SKY_BLUE, YELLOW, ORANGE, BLACK))
+"""Link colours far in hue from the sky-blue background (blue, sky blue) and the yellow trace (yellow, orange); black has none."""
 
 
 def robot_mask(image: np.ndarray) -> np.ndarray:

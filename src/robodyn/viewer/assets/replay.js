@@ -355,6 +355,7 @@
     if (info.traceWindow === null || info.traceWindow === undefined || !traces.length) { return; }
     var window_ = info.traceWindow, start = tau - window_, ranges = [];
     var THREE = MeshCat.THREE, camera = viewer.camera;
+    viewer.scene_tree.object.updateMatrixWorld(true);  // the drawing's shift may not have been rendered yet
     camera.updateMatrixWorld(true);
     traces.forEach(function (tr) {
       var first = firstAtOrAfter(tr.tau, start), end = firstAtOrAfter(tr.tau, tau + 1e-9);
@@ -362,7 +363,6 @@
       tr.line.geometry.setDrawRange(first, count);
       if (tr.colors) {
         var position = tr.line.geometry.getAttribute("position").array, point = new THREE.Vector3();
-        tr.line.updateMatrixWorld(true);
         for (var i = first; i < end; i++) {
           var f = Math.max(0, Math.min(1, (tr.tau[i] - start) / window_));  // 0 at the window's start, 1 now
           point.set(position[3 * i], position[3 * i + 1], position[3 * i + 2]).applyMatrix4(tr.line.matrixWorld).project(camera);
@@ -491,7 +491,7 @@
   function projector() {
     var THREE = MeshCat.THREE, camera = viewer.camera, node = viewer.scene_tree.find(info.root);
     var pane = document.getElementById("meshcat-pane").getBoundingClientRect();
-    node.object.updateMatrixWorld(true);
+    viewer.scene_tree.object.updateMatrixWorld(true);
     camera.updateMatrixWorld(true);
     return function (p) {
       var v = new THREE.Vector3(p[0], p[1], p[2]).applyMatrix4(node.object.matrixWorld).project(camera);
@@ -551,7 +551,7 @@
 
   // ------------------------------------------------------------------ the overlay, every frame
   var overlay = document.getElementById("robodyn-overlay");
-  var last = "", lastTau = null;
+  var last = "", lastTau = null, lastView = "";
   function update() {
     var tau = currentTau();
     var text = info.robot + "   t = " + (info.t0 + tau * info.speed).toFixed(3) + " s";
@@ -589,10 +589,13 @@
     }
     drawLabels(tau);  // every frame: the camera may have been orbited
     drawForces(tau);
-    if (tau !== lastTau) {
-      if (hasPanel) { drawCursors(tau); }
+    // the fade depends on where each point is on the screen: again when the camera moves or is resized
+    var view = viewer.camera.matrixWorld.elements.join(",") + viewer.camera.projectionMatrix.elements.join(",");
+    if (tau !== lastTau || view !== lastView) {
+      if (hasPanel && tau !== lastTau) { drawCursors(tau); }
       fadeTraces(tau);
       lastTau = tau;
+      lastView = view;
     }
     window.requestAnimationFrame(update);
   }

@@ -15,9 +15,9 @@ work="${1:-$(mktemp -d)}"
 mkdir -p "$work"
 cd "$work"
 
-shoot() {  # shoot PAGE.html TIME OUT.png: the page at simulation time TIME, 1400 x 900 pixels
+shoot() {  # shoot PAGE.html TIME OUT.png: the page at simulation time TIME, 1400 x 1100 pixels
   chromium --headless --no-sandbox --disable-gpu --enable-unsafe-swiftshader --use-angle=swiftshader \
-    --hide-scrollbars --window-size=1400,900 --virtual-time-budget=3000 \
+    --hide-scrollbars --window-size=1400,1100 --virtual-time-budget=3000 \
     --screenshot="$3" "file://$work/$1#t=$2" 2>/dev/null
   echo "wrote $3 ($1 at t = $2 s)"
 }
@@ -41,8 +41,8 @@ robodyn view pendubot t.npz --html t.html > /dev/null
 
 shoot linkage-spring.html 1.77 "$figures/replay_linkage_spring.png"
 shoot linkage-drift.html 1.5 "$figures/replay_linkage_drift.png"
-shoot swing.html 2 "$figures/replay_swing_up_cart_pole.png"
-shoot pendubot-swing.html 7.5 "$figures/replay_swing_up_pendubot.png"
+shoot swing.html 0.8 "$figures/replay_swing_up_cart_pole.png"
+shoot pendubot-swing.html 7.3 "$figures/replay_swing_up_pendubot.png"
 shoot panda.html 1.5 "$figures/replay_panda_stops.png"
 shoot compare.html 3 "$figures/replay_two_runs.png"
 shoot t.html 2.2 "$figures/replay_fit_pendubot.png"

@@ -190,11 +190,16 @@ def test_the_simulated_basin_balances_near_the_upright_and_not_from_hanging() ->
     assert near.balanced.all() and near.fraction == 1.0 and near.joint == "joint2"
     hanging = basin.simulate(robot, lqr=lqr, side=3, q_range=(2.9, 3.1), v_range=(-0.1, 0.1), duration=2.0)
     assert not hanging.balanced.any()
-    # the grid's one run at the upright, done by robodyn.simulate (per-sample RK4, the same law) ends balanced too
-    q0 = lqr.q_eq.copy()
-    q0[1] = near.q[0]
-    oracle = robodyn.simulate(robot, q0, [0.0, near.v[0]], duration=2.0, dt=near.dt, torque=lqr)
-    error = lqr.plant.error(oracle.q[-1], oracle.v[-1], lqr.q_eq)[: robot.nq]
-    assert bool(np.all(np.abs(error) < near.tolerance)) == bool(near.balanced[0, 0])
+    # each start of a wider grid, run alone by robodyn.simulate (per-sample RK4, the same law), is the oracle:
+    # the map must agree start by start (its orientation: row i at v[i], column k at q[k])
+    wide = basin.simulate(robot, lqr=lqr, side=3, q_range=(-0.6, 0.6), v_range=(-3.0, 3.0), duration=2.0)
+    assert 0 < wide.balanced.sum() < wide.balanced.size  # some caught, some not: the test can tell them apart
+    for i, v in enumerate(wide.v):
+        for k, q in enumerate(wide.q):
+            q0 = lqr.q_eq.copy()
+            q0[1] = q
+            alone = robodyn.simulate(robot, q0, [0.0, v], duration=2.0, dt=wide.dt, torque=lqr)
+            error = lqr.plant.error(alone.q[-1], alone.v[-1], lqr.q_eq)[: robot.nq]
+            assert bool(np.all(np.abs(error) < wide.tolerance)) == bool(wide.balanced[i, k]), (q, v)
     with pytest.raises(InputError, match="basin side"):
         basin.simulate(robot, side=1)

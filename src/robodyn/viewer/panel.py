@@ -45,8 +45,8 @@ Array = NDArray[np.float64]
 
 PANEL_WIDTH_PX = 420
 """Width of the chart panel at the right of the page [px]."""
-PLOT_MARGINS_PX = {"left": 70, "right": 14, "top": 8, "bottom": 30}
-"""Plotting area inside each chart's canvas [px]: room for the value ticks (left) and the time ticks (below)."""
+PLOT_MARGINS_PX = {"left": 70, "right": 14, "top": 8, "bottom": 18}
+"""Plotting area inside each chart's canvas [px]: room for the value ticks (left) and the time ticks, in s (below)."""
 CURSOR_COLOR = 0xFF00FF
 """The time cursor: magenta, a hue no curve and no link has."""
 ENERGY_COLORS = {"E": BLACK, "T": BLUE, "V": VERMILLION, "spring": BLUISH_GREEN}

@@ -118,7 +118,7 @@
       panel.appendChild(header);
     }
     var headerHeight = runs.length > 1 ? 24 : 0;
-    var each = Math.max(96, Math.floor((window.innerHeight - headerHeight) / panelInfo.charts.length));
+    var each = Math.max(120, Math.floor((window.innerHeight - headerHeight) / panelInfo.charts.length));
     panelInfo.charts.forEach(function (chart) {
       var box = document.createElement("div");
       box.className = "robodyn-chart";
@@ -150,7 +150,7 @@
       }
       box.appendChild(legend);
       panel.appendChild(box);
-      var height = Math.max(56, each - title.offsetHeight - legend.offsetHeight);
+      var height = Math.max(76, each - title.offsetHeight - legend.offsetHeight);
       var holder = document.createElement("div");
       holder.className = "robodyn-canvases";
       holder.style.height = height + "px";
@@ -280,8 +280,6 @@
       var tau = f * duration;
       ctx.fillText(fmt(info.t0 + tau * info.speed) + " s", xOfTau(entry, tau), b.bottom + 3);
     });
-    ctx.textAlign = "right";
-    ctx.fillText("t [s]", b.right, b.bottom + 15);
     // limits, dashed
     chart.limits.forEach(function (l) {
       ctx.strokeStyle = l.color; ctx.lineWidth = chart.key === "regulated" ? 2 : 1; ctx.setLineDash(panelInfo.limitDash);

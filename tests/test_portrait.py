@@ -192,7 +192,7 @@ def test_the_simulated_basin_balances_near_the_upright_and_not_from_hanging() ->
     assert not hanging.balanced.any()
     # each start of a wider grid, run alone by robodyn.simulate (per-sample RK4, the same law), is the oracle:
     # the map must agree start by start (its orientation: row i at v[i], column k at q[k])
-    wide = basin.simulate(robot, lqr=lqr, side=3, q_range=(-0.6, 0.6), v_range=(-3.0, 3.0), duration=2.0)
+    wide = basin.simulate(robot, lqr=lqr, side=3, q_range=(-0.6, 0.2), v_range=(-1.0, 2.0), duration=2.0)  # no symmetry
     assert 0 < wide.balanced.sum() < wide.balanced.size  # some caught, some not: the test can tell them apart
     for i, v in enumerate(wide.v):
         for k, q in enumerate(wide.q):

@@ -479,7 +479,7 @@
       drawnForces.impacts.push({
         mark: m, tau: at,
         ring: svgChild("circle", { r: "16", fill: "none", stroke: forces.impactColor, "stroke-width": "5" }),
-        text: svgChild("text", { style: textStyle + "fill: " + forces.impactColor, "dominant-baseline": "central" })
+        text: svgChild("text", { style: textStyle + "fill: #111", "dominant-baseline": "central" })  // the ring is orange
       });
     });
     if (forces.mode) {
@@ -534,7 +534,7 @@
       d.ring.setAttribute("cx", p[0]); d.ring.setAttribute("cy", p[1]);
       d.text.setAttribute("x", 12); d.text.setAttribute("y", pane.height - 20 - 20 * stacked);
       stacked += 1;
-      d.text.textContent = "stop hit (ring): " + d.mark.joint + ", W_limits " + fmt(d.mark.energy) + " J";
+      d.text.textContent = "stop hit (orange ring): " + d.mark.joint + ", W_limits " + fmt(d.mark.energy) + " J";
       flashing.push(d.mark.joint + ":" + Math.round(p[0]) + "," + Math.round(p[1]));
     });
     if (drawnForces.mode) {

@@ -7,15 +7,19 @@ This module computes what they plot, from each run's trajectory at its rendered 
 
 * energy: T, V and E = T + V [J]; with springs (the trajectory's ``meta["springs"]``), V is
   charted as its two parts, gravity's and the springs' ½ k (q - rest)^2;
-* the ledger: the cumulative works W_input, W_damping, W_limits and what is left over,
-  E - E(0) - W [J];
+* the ledger: the cumulative works W_input, W_damping, W_limits [J];
+* the ledger's residual E - E(0) - W [J] on a chart of its own (1e-11 J is no tick of an axis of
+  joules; the page writes a shared power of ten in the title);
+* the energy a switched controller's swing-up regulates (``meta["controller"]["energy"]``), with
+  its target dashed (``["energy_target"]``), titled with what that energy is;
 * power: tau . v, the rate of the input work [W] (the trajectory's ``power`` when it has one);
 * joint positions [rad, or m on a prismatic joint], with the model's position limits dashed and
   the impacts on the stops marked on the time axis (the samples where W_limits steps down);
 * joint torques [N m, or N on a prismatic joint], with the model's effort limits dashed; a model
   that mixes both has its unit in each legend entry, and none on the ticks;
 * the controller's mode, when a switched controller recorded it (``meta["controller"]["mode"]``:
-  0 swing-up, 1 balance), as a step curve under the other charts;
+  0 swing-up, 1 balance), as a step curve under the other charts, titled with the hand-over
+  (:func:`handover`: its time and the angles still left to the upright);
 * constraint drift [m], when the trajectory carries one sample by sample, on a log scale:
   a closed loop held by a solver drifts by 1e-12 m to 1e-9 m, decades a linear axis would
   flatten (a zero sits on the axis floor).

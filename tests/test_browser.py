@@ -30,10 +30,13 @@ import numpy as np
 import pytest
 
 import robodyn
+import robodyn.control
 from robodyn import viewer
 from robodyn.cli import main
 from robodyn.sim.trajectory import Trajectory
 from robodyn.viewer import camera as _camera  # noqa: F401  (loads viewer.camera for box_corners)
+from robodyn.viewer.html_export import BACKGROUND_BOTTOM, BACKGROUND_TOP
+from robodyn.viewer.palette import BLACK, BLUE, ORANGE, SKY_BLUE, YELLOW
 
 from ._viewer_helpers import HEADLESS_FLAGS, SLIDER_URDF, DevTools, interrupt, travel_trajectory, view_process
 
@@ -241,8 +244,8 @@ def test_live_server_page_plays_the_animation(artifacts: Path, swing: Path, tmp_
     assert (changed & robot_colours).sum() > MIN_CHANGED_PIXELS, "the robot did not move between the two shots"
 
 
-ROBOT_COLORS = tuple(c for c in viewer.LINK_COLORS if c not in (0x16A085, 0x2E86C1, 0xF1C40F))
-"""Link colours whose hue neither the sky-blue background (teal, blue) nor the yellow trace has."""
+ROBOT_COLORS = tuple(c for c in viewer.LINK_COLORS if c not in (BLUE, SKY_BLUE, YELLOW, ORANGE, BLACK))
+"""Link colours far in hue from the sky-blue background (blue, sky blue) and the yellow trace (yellow, orange); black has none."""
 
 
 def robot_mask(image: np.ndarray) -> np.ndarray:
@@ -477,7 +480,8 @@ def test_constraint_drift_is_charted_in_metres_on_a_log_axis(artifacts: Path, tm
 
 
 def test_the_trace_keeps_only_its_window_behind_the_cursor_and_fades(swing: Path, tmp_path: Path) -> None:
-    """At t = 2 s with a 0.5 s window, the line draws the points of 1.5 s to 2 s, white at 1.5 s, yellow at 2 s."""
+    """At t = 2 s with a 0.5 s window, the line draws the points of 1.5 s to 2 s: yellow at 2 s, and at 1.5 s the
+    background's colour where that point is on the screen (meshcat's vertical gradient), not white."""
     chromium = find_chromium()
     robot = robodyn.load("pendubot")
     motion = Trajectory.load(swing)
@@ -500,10 +504,16 @@ def test_the_trace_keeps_only_its_window_behind_the_cursor_and_fades(swing: Path
             f" return [a[3 * {first}], a[3 * {first} + 1], a[3 * {first} + 2],"
             f" a[3 * {end - 1}], a[3 * {end - 1} + 1], a[3 * {end - 1} + 2]]; }})()"
         )
+        oldest_xyz = browser.evaluate(
+            f"Array.from({line}.getAttribute('position').array.slice(3 * {first}, 3 * {first} + 3))"
+        )
+    frame = int(np.argmin(np.abs(playback.times - (now - window))))  # fit mode: every frame has the same shift
+    height_share = 1 - project(playback, np.array(oldest_xyz), frame)[1] / HEIGHT  # 0 at the bottom, 1 at the top
+    behind = np.array(BACKGROUND_BOTTOM) + height_share * (np.array(BACKGROUND_TOP) - np.array(BACKGROUND_BOTTOM))
     yellow = np.array([(viewer.TRACE_COLOR >> s) & 255 for s in (16, 8, 0)]) / 255.0
     oldest, newest = np.array(colors[:3]), np.array(colors[3:])  # type: ignore[index]
     np.testing.assert_allclose(newest, yellow, atol=FADE_COLOR_ATOL)
-    assert np.all(oldest > 1 - FADE_COLOR_ATOL)  # the window's start has faded to white
+    np.testing.assert_allclose(oldest, behind, atol=FADE_COLOR_ATOL)  # faded into the background behind it
 
 
 LABEL_PX = 2.0  # the page's pixel of a label (rounded) against this test's own projection of its point
@@ -545,3 +555,58 @@ def test_labels_are_written_where_their_points_project(artifacts: Path, swing: P
         x0, y0 = (int(x) + 8, int(y) - 12) if text != "θ" else (int(x), int(y))  # where the page writes the letter
         box = ink[max(0, y0 - 12) : y0 + 12, max(0, x0 - 4) : x0 + 16]
         assert int(box.sum()) >= MIN_LABEL_INK, f"no letter {text} drawn near ({x0}, {y0}); see {artifacts}"
+
+
+ARROW_INK_PX = 12  # dark pixels of the arrow's head (a ~13 x 14 px black triangle) within SEARCH_RADIUS_PX + 4
+TARGET_DASH_SHARE = 0.3  # of the plot's width: the dashed target line (5 px on, 4 off) covers ~55 % of its row
+
+
+def test_the_carts_push_arrow_and_the_regulated_energys_target_are_drawn(artifacts: Path, tmp_path: Path) -> None:
+    """The cart-pole's swing-up: the push drawn as an arrow whose head is at the pixel the page states and
+    dark there; the swing-up's energy target (0 J) dashed across its chart in the regulated energy's colour."""
+    chromium = find_chromium()
+    robot = robodyn.load("cart_pole")
+    controller = robodyn.control.make("swing_up", robot)
+    run = robodyn.simulate(robot, [0.0, 3.14159], [0.0, 0.0], duration=1.0, dt=0.002, torque=controller)
+    run = dataclasses.replace(
+        run, meta={**run.meta, "controller": {"name": "swing_up", **controller.record(run.q, run.v)}}
+    )
+    playback = viewer.build(robot, run)
+    (arrow,) = playback.arrows
+    frame = int(np.argmax(np.abs(arrow.values)))  # the strongest push: the longest arrow
+    t = float(playback.times[frame])
+    page = tmp_path / "push.html"
+    page.write_text(viewer.to_html(playback), encoding="utf-8")
+    box = "document.querySelector('[data-chart=regulated]')"
+    with DevTools(chromium, width=WIDTH, height=HEIGHT, profile=tmp_path / "profile") as browser:
+        browser.open(f"{page.resolve().as_uri()}#t={t!r}")
+        browser.wait_for("document.body.getAttribute('data-arrows')")
+        heads = str(browser.evaluate("document.body.getAttribute('data-arrows')"))
+        mode = browser.evaluate("document.body.getAttribute('data-mode')")
+        limits = str(browser.evaluate(f"{box}.getAttribute('data-limits')"))
+        browser.evaluate(f"{box}.scrollIntoView()")
+        rect = browser.evaluate(
+            f"(function () {{ var r = {box}.querySelector('canvas').getBoundingClientRect();"
+            " return [r.left, r.top, r.width, r.height]; })()"
+        )
+        image = browser.screenshot(artifacts / "push_and_target.png")
+    joint, xy = heads.split(":")
+    head = np.array([float(c) for c in xy.split(",")])
+    assert joint == "slider" and mode == "mode: swing-up"
+    tip = project(playback, arrow.points[frame, -1], frame)
+    direction = np.sign(arrow.values[frame]) * np.array([1.0, 0.0])  # the rail is along x: right on the screen
+    assert np.dot(head - tip, direction) > 0  # the head points the way the cart is pushed
+    dark = image.max(axis=2) < 60  # the black head (white halo); the sky, the links and the rail are lighter
+    assert (
+        near(dark, head, SEARCH_RADIUS_PX + 4)
+        and dark[int(head[1]) - 8 : int(head[1]) + 9, int(head[0]) - 8 : int(head[0]) + 9].sum() >= ARROW_INK_PX
+    ), f"no arrow head at {head}; see {artifacts}"
+    label, value, row = limits.split(":")
+    assert (label, float(value)) == ("target 0 J", 0.0)
+    left, top, width, _ = (round(v) for v in rect)  # type: ignore[union-attr]
+    margins = viewer.PLOT_MARGINS_PX
+    y = top + int(row)
+    line = hue_mask(image, viewer.panel.REGULATED_COLOR)[
+        y - 1 : y + 2, left + margins["left"] : left + width - margins["right"]
+    ]
+    assert line.any(axis=0).mean() >= TARGET_DASH_SHARE, f"no dashed target at y = {y}; see {artifacts}"

@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 
 import numpy as np
 import pytest
 
 import robodyn
+import robodyn.control
 from robodyn.cli import main
+from robodyn.control import basin
 from robodyn.errors import InputError, UnknownNameError
 from robodyn.studies import portrait
 
@@ -129,3 +132,74 @@ def test_the_lqr_portrait_is_centred_on_its_equilibrium_and_its_csv_rows_are_the
         q[0] = q1
         expected = 0.5 * robot.M(q)[0, 0] * v1**2 + robot.potential_energy(q)
         assert energy == pytest.approx(expected, rel=0, abs=CSV_ENERGY_TOL)
+
+
+# The flow's a = -(dE/dq) / M_jj comes from central differences on the grid: step h = 2.5 pi / 120 ~ 0.065 rad,
+# relative error ~ h^2 / 6 ~ 7e-4 of the pendulum's V''' / V'; 3e-3 keeps a factor 4 and a sign error is 200 % off.
+FLOW_RTOL = 3e-3
+
+
+def test_the_flow_at_rest_is_gravitys_acceleration_of_the_held_system(arm) -> None:
+    p = portrait.compute(arm, resolution=121)
+    rest = int(np.argmin(np.abs(p.v)))
+    assert p.v[rest] == pytest.approx(0.0, abs=1e-12)  # an odd grid puts a row at v = 0
+    inner = slice(5, -5)  # np.gradient is one-sided at the edges
+    expected = np.array([-arm.G([q])[0] / arm.M([q])[0, 0] for q in p.q[inner]])
+    big = np.abs(expected) > 0.1 * np.abs(expected).max()  # away from the equilibria, where both go through 0
+    np.testing.assert_allclose(p.acceleration[rest, inner][big], expected[big], rtol=FLOW_RTOL)
+
+
+def test_a_run_over_several_turns_is_wrapped_into_the_frame_and_broken_where_it_wraps(arm) -> None:
+    t = np.linspace(0.0, 1.0, 400)
+    q = (6.5 * np.pi * t)[:, None]  # three and a quarter turns: through pi, 3 pi and 5 pi
+    v = np.full_like(q, 6.5 * np.pi)
+    p = portrait.compute(arm, resolution=21, trajectories=[("spin", q, v)])
+    ((_, shown_q, shown_v),) = p.trajectories
+    drawn = np.isfinite(shown_q)
+    assert np.all((shown_q[drawn] >= p.q[0]) & (shown_q[drawn] <= p.q[-1]))  # nothing leaves the frame
+    assert np.sum(~drawn) == 3 and np.array_equal(drawn, np.isfinite(shown_v))  # one break per wrap, in q and v
+    np.testing.assert_allclose(np.cos(shown_q[drawn]), np.cos(q[:, 0]), atol=1e-12)  # whole turns only
+
+
+def test_the_command_says_the_held_pose_names_runs_and_prints_round_off_zero_as_0(tmp_path, capsys) -> None:
+    """issue 37: "unstable at 4.441e-16 rad" printed Brent's round-off as a value, and runs were named by file."""
+    robot = robodyn.load("pendubot")
+    lqr = robodyn.control.make("lqr", robot)
+    run = robodyn.simulate(robot, [1.6, 0.05], [0.0, 0.0], duration=0.2, dt=0.01, torque=lqr)
+    saved = dataclasses.replace(run, meta={**run.meta, "controller": {"name": "lqr"}}).save(tmp_path / "b.npz")
+    out = tmp_path / "portrait"
+    assert (
+        main(["portrait", "pendubot", "--lqr", "--trajectory", str(saved), "--resolution", "21", "--out", str(out)])
+        == 0
+    )
+    printed = capsys.readouterr().out.splitlines()
+    assert (
+        printed[0]
+        == "pendubot: phase portrait of joint2; equilibria: stable at -3.142 rad, unstable at 0 rad, stable at 3.142 rad"
+    )
+    assert printed[1] == "other joints held at joint1 = 1.571 rad"
+    record = json.loads((out / "portrait.json").read_text())
+    assert record["held"] == "joint1 = 1.571 rad" and record["trajectories"] == ["lqr from q(0) = (1.6, 0.05)"]
+    assert abs(record["equilibria"][1]["q"]) < 1e-9  # the JSON keeps the computed value; only the print rounds
+
+
+def test_the_simulated_basin_balances_near_the_upright_and_not_from_hanging() -> None:
+    robot = robodyn.load("pendubot")
+    lqr = robodyn.control.design(robot)
+    near = basin.simulate(robot, lqr=lqr, side=3, q_range=(-0.05, 0.05), v_range=(-0.1, 0.1), duration=2.0)
+    assert near.balanced.all() and near.fraction == 1.0 and near.joint == "joint2"
+    hanging = basin.simulate(robot, lqr=lqr, side=3, q_range=(2.9, 3.1), v_range=(-0.1, 0.1), duration=2.0)
+    assert not hanging.balanced.any()
+    # each start of a wider grid, run alone by robodyn.simulate (per-sample RK4, the same law), is the oracle:
+    # the map must agree start by start (its orientation: row i at v[i], column k at q[k])
+    wide = basin.simulate(robot, lqr=lqr, side=3, q_range=(-0.6, 0.2), v_range=(-1.0, 2.0), duration=2.0)  # no symmetry
+    assert 0 < wide.balanced.sum() < wide.balanced.size  # some caught, some not: the test can tell them apart
+    for i, v in enumerate(wide.v):
+        for k, q in enumerate(wide.q):
+            q0 = lqr.q_eq.copy()
+            q0[1] = q
+            alone = robodyn.simulate(robot, q0, [0.0, v], duration=2.0, dt=wide.dt, torque=lqr)
+            error = lqr.plant.error(alone.q[-1], alone.v[-1], lqr.q_eq)[: robot.nq]
+            assert bool(np.all(np.abs(error) < wide.tolerance)) == bool(wide.balanced[i, k]), (q, v)
+    with pytest.raises(InputError, match="basin side"):
+        basin.simulate(robot, side=1)

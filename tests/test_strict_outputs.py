@@ -111,7 +111,13 @@ def test_an_overflowing_power_has_no_curve(tmp_path: Path) -> None:
     huge = Trajectory(**{**{k: getattr(run, k) for k in Trajectory._ARRAYS}, "tau": np.full_like(run.tau, 1e308)})
     with np.errstate(over="ignore", invalid="ignore"):  # the trajectory's own power overflows: that is the case
         playback = viewer.build(robot, huge)
-    assert {chart.key for chart in playback.charts} == {"energy", "ledger", "position", "torque"}  # no power: overflows
+    assert {chart.key for chart in playback.charts} == {
+        "energy",
+        "ledger",
+        "residual",
+        "position",
+        "torque",
+    }  # no power: overflows
     strict(json.dumps(panel_info(playback.charts, playback.runs)))
 
 

@@ -142,10 +142,12 @@ def test_the_panel_charts_energy_ledger_power_and_torques_with_units(
 ) -> None:
     playback = viewer.build(pendubot, motion)
     charts = {chart.key: chart for chart in playback.charts}
-    assert list(charts) == ["energy", "ledger", "power", "position", "torque"]  # no drift: the trajectory has none
+    # no drift: the trajectory has none; the ledger's residual on its own chart (its size is no tick of a J axis)
+    assert list(charts) == ["energy", "ledger", "residual", "power", "position", "torque"]
     assert {key: chart.unit for key, chart in charts.items()} == {
         "energy": "J",
         "ledger": "J",
+        "residual": "J",
         "power": "W",
         "position": "rad",
         "torque": "N m",
@@ -154,8 +156,8 @@ def test_the_panel_charts_energy_ledger_power_and_torques_with_units(
     energy = {s.label: s.values for s in charts["energy"].series}
     np.testing.assert_array_equal(energy["E = T + V"], motion.energy[index])
     np.testing.assert_array_equal(energy["T kinetic"], motion.kinetic[index])
-    ledger = {s.label: s.values for s in charts["ledger"].series}
-    np.testing.assert_allclose(ledger["E - E(0) - W"], motion.ledger_residual[index], atol=LEDGER_ATOL)
+    residual = {s.label: s.values for s in charts["residual"].series}
+    np.testing.assert_allclose(residual["E - E(0) - W"], motion.ledger_residual[index], atol=LEDGER_ATOL)
     power = charts["power"].series[0].values
     np.testing.assert_allclose(power, np.einsum("ni,ni->n", motion.tau, motion.v)[index], atol=0.0)
     limits = sorted(value for _, value, _ in charts["torque"].limits)
@@ -176,7 +178,8 @@ def test_a_constraint_drift_is_charted_when_the_trajectory_has_one(pendubot: rob
     info = json.loads(re.search(r'id="robodyn-info">(.*?)</script>', viewer.to_html(playback), re.S).group(1))
     scales = {c["key"]: c["scale"] for c in info["panel"]["charts"]}
     assert scales == {
-        "energy": "linear", "ledger": "linear", "power": "linear", "position": "linear", "torque": "linear", "drift": "log"
+        "energy": "linear", "ledger": "linear", "residual": "linear", "power": "linear", "position": "linear",
+        "torque": "linear", "drift": "log",
     }  # fmt: skip
     still = viewer.build(pendubot, dataclasses.replace(motion, constraint_drift=np.zeros(len(motion.t))))
     assert {c.key: c.scale for c in still.charts}["drift"] == "linear"  # no decade to show: zeros on a plain axis

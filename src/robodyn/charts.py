@@ -20,6 +20,7 @@ from robodyn.errors import MissingDependencyError
 from robodyn.fileio import write_atomically
 
 if TYPE_CHECKING:
+    from robodyn.control.basin import Basin
     from robodyn.studies.bench import BenchResult, EnergySeries
     from robodyn.studies.portrait import Portrait
 
@@ -274,44 +275,90 @@ def speed_bars(
     return _save(fig, stem)
 
 
-def portrait(p: Portrait, stem: Path, *, title: str = "", levels: int = 24) -> tuple[Path, Path]:
-    """A phase portrait (:mod:`robodyn.studies.portrait`): energy contours, equilibria, separatrix, runs, region.
+PORTRAIT_COLORS = {
+    "runs": ("#D55E00", "#0072B2", "#E69F00", "#CC79A7", "#009E73", "#56B4E9"),
+    "region": "#CC79A7",
+    "basin": "#009E73",
+}
+"""Okabe–Ito colours of a portrait's runs, region and basin (the contours are viridis, also colour-blind safe)."""
 
-    Stable equilibria are filled circles, unstable ones open; the separatrix is the thick black
-    level set; each trajectory is a line from a square (its start); the LQR region is a dashed ellipse.
+
+def portrait(
+    p: Portrait, stem: Path, *, title: str = "", levels: int = 24, basin: Basin | None = None
+) -> tuple[Path, Path]:
+    """A phase portrait (:mod:`robodyn.studies.portrait`): energy contours, flow, equilibria, separatrix, runs, region.
+
+    The one-joint flow is drawn as grey streamlines with arrows; stable equilibria are filled
+    circles, unstable ones open; the separatrix is the thick black level set; each trajectory is
+    a line from a square (its start), named by its label; the LQR region is a dashed ellipse and
+    a simulated ``basin`` (:func:`robodyn.control.basin.simulate`) its balanced starts as dots.
+    Colours are Okabe–Ito (colour-blind safe); the axes and the energy are labelled in mathtext.
     """
     plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(8, 6))
-    filled = ax.contourf(p.q, p.v, p.energy, levels=levels, cmap="viridis", alpha=0.55)
+    symbol = r"\theta" if p.angular else "x"
+    fig, ax = plt.subplots(figsize=(8.5, 6))
+    filled = ax.contourf(p.q, p.v, p.energy, levels=levels, cmap="viridis", alpha=0.5)
     ax.contour(p.q, p.v, p.energy, levels=levels, colors="0.35", linewidths=0.4)
-    fig.colorbar(filled, ax=ax, label="E = 1/2 M_jj v^2 + V [J]")
+    fig.colorbar(filled, ax=ax, label=rf"$E = \frac{{1}}{{2}} M_{{jj}}\,\dot{{{symbol}}}^2 + V$ [J]")
+    if p.acceleration is not None:  # the flow (q', v') = (v, a): streamlines along the contours, arrows on them
+        ax.streamplot(
+            p.q,
+            p.v,
+            np.broadcast_to(p.v[:, None], p.energy.shape),
+            p.acceleration,
+            color="0.25",
+            linewidth=0.6,
+            density=1.1,
+            arrowsize=0.9,
+            broken_streamlines=True,
+        )
     if p.separatrix_energy is not None:
         ax.contour(p.q, p.v, p.energy, levels=[p.separatrix_energy], colors="black", linewidths=2.0)
         ax.plot([], [], color="black", lw=2.0, label=f"separatrix, E = {p.separatrix_energy:.4g} J")
-    for kind, marker in ((True, "o"), (False, "o")):
+    if basin is not None:
+        bq, bv = np.meshgrid(basin.q, basin.v)
+        ax.plot(
+            bq[basin.balanced],
+            bv[basin.balanced],
+            ".",
+            color=PORTRAIT_COLORS["basin"],
+            markersize=4,
+            label=f"LQR balances from here (simulated, {basin.duration:g} s)",
+        )
+    for kind in (True, False):
         points = [e for e in p.equilibria if e.stable is kind]
         if points:
             ax.plot(
                 [e.q for e in points],
                 [0.0] * len(points),
-                marker,
+                "o",
                 markersize=9,
                 markerfacecolor="white" if not kind else "black",
                 markeredgecolor="black",
                 linestyle="none",
                 label="stable equilibrium" if kind else "unstable equilibrium",
             )
-    for label, q, v in p.trajectories:
-        (line,) = ax.plot(q, v, lw=1.2, label=label)
-        ax.plot(q[:1], v[:1], "s", color=line.get_color(), markersize=6)
+    for r, (label, q, v) in enumerate(p.trajectories):
+        color = PORTRAIT_COLORS["runs"][r % len(PORTRAIT_COLORS["runs"])]
+        ax.plot(q, v, lw=1.4, color=color, label=label)
+        ax.plot(q[:1], v[:1], "s", color=color, markersize=6)
     if p.region is not None:
         eq, ev = p.region.outline()
-        ax.plot(eq, ev, "--", color="#d62728", lw=1.8, label=f"LQR region slice, e^T P e < {p.region.rho:.3g}")
+        ax.plot(
+            eq,
+            ev,
+            "--",
+            color=PORTRAIT_COLORS["region"],
+            lw=1.8,
+            label=rf"LQR region slice, $e^\top P e < {p.region.rho:.3g}$",
+        )
     ax.set_xlim(p.q[0], p.q[-1])
     ax.set_ylim(p.v[0], p.v[-1])
-    ax.set_xlabel(f"{p.joint} [{p.q_unit}]")
-    ax.set_ylabel(f"{p.joint} velocity [{p.v_unit}]")
-    ax.set_title(title or f"{p.model}: phase portrait of {p.joint} (other joints held)")
+    unit_q, unit_v = p.q_unit, p.v_unit
+    ax.set_xlabel(rf"${symbol}$ ({p.joint}) [{unit_q}]")
+    ax.set_ylabel(rf"$\dot{{{symbol}}}$ ({p.joint}) [{unit_v}]")
+    held = f"\nother joints held at {p.held}" if p.held else ""
+    ax.set_title(title or f"{p.model}: phase portrait of {p.joint}{held}")
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8, loc="upper right")
+    ax.legend(fontsize=8, loc="upper right", framealpha=0.9)
     return _save(fig, stem)

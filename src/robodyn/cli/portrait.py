@@ -17,6 +17,7 @@ import numpy as np
 
 from robodyn.cli._common import add_model_arguments, file_path, float_list, load_robot
 from robodyn.cli._output import check_output_folder
+from robodyn.errors import InputError
 
 
 def add_parser(sub: Any) -> None:
@@ -48,6 +49,13 @@ def add_parser(sub: Any) -> None:
         help="a trajectory saved by 'robodyn simulate --out' to draw (repeatable)",
     )
     p.add_argument("--lqr", action="store_true", help="draw the LQR's estimated region of attraction (built-in kinds)")
+    p.add_argument(
+        "--basin",
+        type=int,
+        metavar="SIDE",
+        help="with --lqr: also simulate the LQR from SIDE x SIDE starts in the plane (2 to 201; on the CPU, "
+        "about 20 ms a start at 3 s each) and dot those it balances",
+    )
     p.add_argument("--resolution", type=int, default=121, help="grid points per axis, 11 to 2001 (default: 121)")
     p.add_argument("--out", type=file_path, required=True, metavar="DIR", help="folder for the chart and its numbers")
     p.set_defaults(handler=run)
@@ -62,11 +70,13 @@ def run(args: argparse.Namespace) -> int:
 
     check_output_folder(args.out)
     robot = load_robot(args)
-    runs = []
+    if args.basin is not None and not args.lqr:
+        raise InputError("--basin SIDE simulates the LQR's basin: give --lqr with it")
+    runs: list[tuple[str, Any, Any]] = []
     for path in args.trajectory:
         traj = Trajectory.load(path)
-        runs.append((Path(path).name, traj.q, traj.v))
-    region = None
+        runs.append((_run_name(traj, Path(path), [label for label, _, _ in runs]), traj.q, traj.v))
+    region, lqr = None, None
     reference = args.at
     if args.lqr:
         import robodyn.control as control
@@ -80,7 +90,12 @@ def run(args: argparse.Namespace) -> int:
     )
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    png, svg = charts.portrait(p, out / "portrait")
+    simulated = None
+    if args.basin is not None:
+        from robodyn.control import basin
+
+        simulated = basin.simulate(robot, lqr=lqr, joint=p.joint, side=args.basin, reference=p.reference)
+    png, svg = charts.portrait(p, out / "portrait", basin=simulated)
     grid = io.StringIO()
     qq, vv = np.meshgrid(p.q, p.v)
     np.savetxt(
@@ -93,12 +108,39 @@ def run(args: argparse.Namespace) -> int:
     )
     csv = write_text_atomically(out / "portrait.csv", grid.getvalue())
     record = write_text_atomically(out / "portrait.json", json.dumps(p.as_record(), indent=2) + "\n")
-    kinds = ", ".join(f"{'stable' if e.stable else 'unstable'} at {e.q:.4g} {p.q_unit}" for e in p.equilibria)
+    kinds = ", ".join(f"{'stable' if e.stable else 'unstable'} at {_value(e.q)} {p.q_unit}" for e in p.equilibria)
     print(f"{robot.name}: phase portrait of {p.joint}; equilibria: {kinds or 'none'}")
+    if p.held:
+        print(f"other joints held at {p.held}")
     if p.separatrix_energy is not None:
         print(f"separatrix energy {p.separatrix_energy:.6g} J")
     if p.region is not None:
         print(f"LQR region slice: e^T P e < {p.region.rho:.4g}")
+    if simulated is not None:
+        print(simulated.describe())
     for path in (png, svg, csv, record):
         print(f"wrote {path}")
     return 0
+
+
+ZERO_TOLERANCE = 1e-9
+"""An equilibrium this close to 0 [rad | m] prints as 0: Brent's root of G_j lands within round-off
+(4.4e-16 rad) of an exact zero, and "unstable at 4.441e-16 rad" would show the round-off as a value."""
+
+
+def _value(x: float) -> str:
+    """``x`` to 4 significant digits, 0 within ZERO_TOLERANCE."""
+    return "0" if abs(x) < ZERO_TOLERANCE else f"{x:.4g}"
+
+
+def _run_name(trajectory: Any, path: Path, taken: list[str]) -> str:
+    """A trajectory's name on the chart: its controller and start, "lqr from q(0) = (1.6, 0.05)".
+
+    The file's name is added when two runs would read the same.
+    """
+    meta = trajectory.meta if isinstance(trajectory.meta, dict) else {}
+    controller = meta.get("controller")
+    law = str(controller.get("name")) if isinstance(controller, dict) and controller.get("name") else "free motion"
+    start = ", ".join(f"{x:.3g}" for x in np.asarray(trajectory.q[0], dtype=np.float64))
+    name = f"{law} from q(0) = ({start})"
+    return f"{name} [{path.name}]" if name in taken else name

@@ -289,9 +289,8 @@ def run(args: argparse.Namespace) -> int:
     with held(abandoned=lambda: _abandoned(written)) as ctrl_c:  # the run is over: a Ctrl-C must not lose it
         if args.controller is not None:  # the file says what closed the loop (and, when switched, in which mode)
             record: dict[str, Any] = {"name": args.controller, "gains": gains}
-            if built and hasattr(built[0], "modes") and len(trajectory.t):  # switched: swing-up, then balance
-                record["modes"] = ["swing-up", "LQR balance"]
-                record["mode"] = [int(m) for m in built[0].modes(trajectory.q, trajectory.v)]
+            if built and hasattr(built[0], "record") and len(trajectory.t):  # switched: modes, regulated energy
+                record.update(built[0].record(trajectory.q, trajectory.v))
             trajectory = dataclasses.replace(trajectory, meta={**trajectory.meta, "controller": record})
         # Said after the run, not before it: a refused input stays one line on stderr.
         warn_ignored_mimic(robot, mimic=args.mimic, command="simulate")

@@ -114,6 +114,9 @@ def add_parser(sub: Any) -> None:
     p.add_argument(
         "--port", type=port_number, default=None, help="web port of the server robodyn starts, 1-65535 (default: free)"
     )
+    p.add_argument(
+        "--axes", action="store_true", help="show meshcat's world axes (hidden by default: they run through the robot)"
+    )
     p.set_defaults(handler=run)
 
 
@@ -219,6 +222,7 @@ def run(args: argparse.Namespace) -> int:
         names=_stems(files) if len(files) > 1 else None,
         loop=args.loop,
         ground=args.ground,
+        axes=args.axes,
         trace_window=None if args.full_trace else args.trace_window,
         labels=dict(args.label),
         angles=dict(args.angle),

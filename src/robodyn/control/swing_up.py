@@ -41,6 +41,7 @@ a run balanced, and why not, is :mod:`robodyn.control.outcome`'s to say.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -76,6 +77,7 @@ class CartPoleEnergy:
     g: float
     m_total: float
     energy_up: float = 0.0
+    energy_name: ClassVar[str] = "the pole's ½ J θ̇² + m g l (cos θ − 1), zero upright at rest"
 
     def energy(self, q: Array, v: Array) -> float:
         """The pole's energy 1/2 J theta'^2 + m g l (cos theta - 1) [J], 0 upright at rest."""
@@ -112,6 +114,7 @@ class PendubotEnergy:
     energy_up: float
     swing_effort: float
     hold_torque: float
+    energy_name: ClassVar[str] = "the total T + V, V zero at the shoulder's height"
 
     def energy(self, q: Array, v: Array) -> float:
         """Total mechanical energy 1/2 v^T M v + V [J] (armature included)."""

@@ -11,7 +11,12 @@ equilibria are the zeros of G_j (refined by Brent's method from a scan), stable 
 (a minimum of V). The separatrix is the level set through the highest unstable equilibrium: for a
 pendulum, the homoclinic orbit that divides swinging from turning over.
 
-A trajectory (of the full robot) is drawn by its j-th coordinate and velocity; an LQR's estimated
+The flow of the one-joint system, drawn as streamlines, is (q_j', v_j') = (v_j, a) with
+a = -(dE/dq_j) / M_jj (energy is conserved along it, so it runs along the contours), dE/dq_j
+by central differences on the grid.
+
+A trajectory (of the full robot) is drawn by its j-th coordinate and velocity (a revolute
+coordinate wrapped into the plotted turn, the line broken where it wraps); an LQR's estimated
 region {e : e^T P e < rho} is drawn as its slice by the plane (the other error components zero):
 an ellipse about the equilibrium. Only the numbers are computed here; ``robodyn.charts.portrait``
 draws them and ``robodyn portrait`` writes the chart with its CSV and JSON.
@@ -78,6 +83,13 @@ class Portrait:
     separatrix_energy: float | None
     trajectories: tuple[tuple[str, Array, Array], ...]
     region: Ellipse | None
+    acceleration: Array | None = None
+    held: str = ""
+
+    @property
+    def angular(self) -> bool:
+        """True for a revolute joint (q in rad)."""
+        return self.q_unit == "rad"
 
     def as_record(self) -> dict[str, object]:
         """A JSON-ready summary (the grid itself goes to the CSV)."""
@@ -90,6 +102,7 @@ class Portrait:
             "v_range": [float(self.v[0]), float(self.v[-1])],
             "equilibria": [{"q": e.q, "energy_J": e.energy, "stable": e.stable} for e in self.equilibria],
             "separatrix_energy_J": self.separatrix_energy,
+            "held": self.held,
             "trajectories": [label for label, _, _ in self.trajectories],
             "region": None
             if self.region is None
@@ -145,6 +158,11 @@ def compute(
     lo, hi = q_range if q_range is not None else _default_q_range(robot, name, ref[iq], prismatic)
     if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
         raise InputError(f"portrait range of {name} must be two finite numbers, low < high, got {lo}, {hi}")
+    if not prismatic:  # each run's angle wrapped into the plotted turn, broken where it wraps
+        runs = tuple((label, *_wrapped(q, v, lo, hi)) for label, q, v in runs)
+    elif q_range is None and runs:  # a prismatic plane reaches as far as the runs go
+        lo = min(lo, *(float(np.nanmin(q)) for _, q, _ in runs))
+        hi = max(hi, *(float(np.nanmax(q)) for _, q, _ in runs))
     equilibria = _equilibria(robot, state, iv, lo, hi)
     unstable = [e.energy for e in equilibria if not e.stable]
     separatrix = max(unstable) if unstable else None
@@ -159,6 +177,7 @@ def compute(
         raise InputError(f"portrait speed range must be two finite numbers, low < high, got {vlo}, {vhi}")
     vs = np.linspace(vlo, vhi, resolution)
     energy = 0.5 * inertia[None, :] * vs[:, None] ** 2 + potential[None, :]
+    acceleration = -np.gradient(energy, xs, axis=1) / inertia[None, :]  # v' = -(dE/dq_j) / M_jj
 
     ellipse = None
     if region is not None:
@@ -180,7 +199,29 @@ def compute(
         separatrix_energy=separatrix,
         trajectories=runs,
         region=ellipse,
+        acceleration=acceleration,
+        held=_held(robot, ref, iq),
     )
+
+
+def _held(robot: Robot, reference: Array, iq: int) -> str:
+    """The other coordinates' values, "joint1 = 1.571 rad" (or "" for a one-joint model)."""
+    parts = []
+    for name in robot.joint_names:
+        info = robot.joint(name)
+        if info.nq != 1 or info.idx_q == iq:
+            continue
+        unit = "m" if info.kind.startswith("JointModelP") else "rad"
+        parts.append(f"{name} = {reference[info.idx_q]:.4g} {unit}")
+    return ", ".join(parts)
+
+
+def _wrapped(q: Array, v: Array, lo: float, hi: float) -> tuple[Array, Array]:
+    """Angles moved by whole turns into [c - pi, c + pi) about the window's centre c; a NaN pair where they wrap."""
+    centre = 0.5 * (lo + hi)
+    wrapped = (q - centre + np.pi) % (2 * np.pi) - np.pi + centre
+    jumps = np.flatnonzero(np.abs(np.diff(wrapped)) > np.pi) + 1
+    return np.insert(wrapped, jumps, np.nan), np.insert(np.asarray(v, dtype=np.float64), jumps, np.nan)
 
 
 def _joint(robot: Robot, joint: str | None) -> str:
@@ -233,7 +274,7 @@ def _default_v_range(
     elif np.ptp(potential) > 0:
         top = float(np.sqrt(2 * np.ptp(potential) / inertia.min()))
     for _, _, v in runs:
-        top = max(top, float(np.abs(v).max()))
+        top = max(top, float(np.nanmax(np.abs(v))))
     top = SPEED_MARGIN * top if top > 0 else 1.0
     return -top, top
 

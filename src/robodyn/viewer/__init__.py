@@ -26,7 +26,9 @@ The modules, in the order data flows through them:
 * ``geometry``: the robot's shapes and their placements; ``trace``: the path of one frame;
 * ``runs``: several runs checked, named, coloured and put on one time grid;
 * ``springs``: a coil at each sprung revolute joint of a run with springs;
-* ``ground``: the optional ground slab at the base's plane (``build(..., ground=True)``);
+* ``palette``: the Okabe–Ito colours every curve, link, run and arrow takes;
+* ``ground``: the optional ground slab at the base's plane (``build(..., ground=True)``) and what goes below it;
+* ``forces``: force and torque arrows where they act, stop hits, the controller's mode in 3D;
 * ``camera``: the framed box, the centring shift (animated in follow mode) and the camera;
 * ``panel``: the chart panel's curves and units (drawn by ``assets/replay.js``);
 * ``animation``: the one meshcat Animation; ``playback``: :func:`build` and :class:`Playback`;

@@ -5,7 +5,8 @@ robodyn shifts everything it draws (and meshcat's grid and axes) so that the fra
 centred there, and backs the camera off until that box spans :data:`FRAME_FRACTION` of the
 3D pane. Three modes, chosen with ``camera=`` (``robodyn view --camera``):
 
-* ``fit``: the bounding box of the robot's own shapes over the whole motion (not its trace);
+* ``fit``: the bounding box of the robot's moving shapes over the whole motion (not its trace,
+  nor the static scenery such as a cart's long rail: the robot fills the view);
 * ``follow``: a box the size of the largest the robot occupies at any one frame, centred on
   the robot at every frame: the shift is animated with the robot, so the robot stays in view
   while the ground (meshcat's grid, shifted by the remainder of its cell) and the trace
@@ -37,7 +38,7 @@ CAMERA_FOV_DEG = 75.0
 CAMERA_DIRECTION = np.array([0.15, -1.0, 0.3]) / np.linalg.norm([0.15, -1.0, 0.3])
 PANE_ASPECT = 1.0
 """Width / height of the 3D pane the framing is computed for (the page keeps the pane at least this wide)."""
-FRAME_FRACTION = 0.6
+FRAME_FRACTION = 0.7
 """The framed box, projected, spans this fraction of the pane's height or width (the larger of the two)."""
 FOLLOW_RATIO = 5.0
 """Default mode: follow when the robot's travel exceeds this many times its own size."""
@@ -101,7 +102,8 @@ def frame_motion(objects: list[SceneObject], trace: Array, k: int, *, mode: str 
     Raises:
         UnknownNameError: a ``mode`` other than fit, follow, fixed or None.
     """
-    low, high = robot_boxes(objects, k)
+    moving = [obj for obj in objects if len(obj.placements) > 1 and np.ptp(obj.placements, axis=0).max() > 0]
+    low, high = robot_boxes(moving or objects, k)
     if mode is None:
         mode = default_mode(low, high)
     if mode not in CAMERA_MODES:
@@ -154,8 +156,12 @@ def camera_distance(half: Array) -> float:
     return 0.5 * (near + far)
 
 
-def view_commands(mc: Any, framing: Framing) -> list[Any]:
-    """The commands that shift the drawing (and meshcat's grid and axes) at the first frame and place the camera."""
+def view_commands(mc: Any, framing: Framing, *, axes: bool = False) -> list[Any]:
+    """The commands that shift the drawing (and meshcat's grid and axes) at the first frame and place the camera.
+
+    meshcat's world axes are hidden unless ``axes``: at the origin they run through the robot
+    (through the linkage's angle label, up a Pendubot's link like a target line).
+    """
     shift = np.eye(4)
     shift[:3, 3] = framing.offsets[0]
     x, y, z = framing.camera
@@ -163,6 +169,7 @@ def view_commands(mc: Any, framing: Framing) -> list[Any]:
         mc.commands.SetTransform(shift, scene_path(mc, ROOT)),
         mc.commands.SetTransform(grid_shifts(framing.offsets[:1])[0], mc.path.Path(GRID_PATH)),
         mc.commands.SetTransform(shift, mc.path.Path(AXES_PATH)),
+        mc.commands.SetProperty("visible", bool(axes), mc.path.Path(AXES_PATH)),
         # The camera lives in meshcat's y-up frame: world (x, y, z) is (x, z, -y) there.
         mc.commands.SetProperty("position", [float(x), float(z), float(-y)], _camera_path(mc)),
     ]

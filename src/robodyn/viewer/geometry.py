@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from robodyn import dynamics
 from robodyn.viewer.backend import ROOT, scene_path
+from robodyn.viewer.palette import BLACK, BLUE, BLUISH_GREEN, ORANGE, REDDISH_PURPLE, SKY_BLUE, VERMILLION, YELLOW
 from robodyn.viewer.transforms import rotation_x
 
 if TYPE_CHECKING:
@@ -28,7 +29,8 @@ Array = NDArray[np.float64]
 
 # Colours: the static base in grey, then one colour per moving joint (URDF colours win).
 BASE_COLOR = 0x5D6D7E
-LINK_COLORS = (0xE67E22, 0x27AE60, 0xC0392B, 0x8E44AD, 0xF1C40F, 0x16A085, 0xD35400, 0x2E86C1)
+LINK_COLORS = (VERMILLION, BLUISH_GREEN, REDDISH_PURPLE, ORANGE, BLUE, SKY_BLUE, YELLOW, BLACK)
+"""Okabe–Ito (viewer.palette), the first three far in hue from the sky-blue background and the yellow trace."""
 _PINOCCHIO_DEFAULT_RGBA = (0.9, 0.9, 0.9, 1.0)
 
 _MESH_FORMATS = {".stl": "stl", ".dae": "dae", ".obj": "obj", ".glb": "glb", ".gltf": "glb"}

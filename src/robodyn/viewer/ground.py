@@ -56,3 +56,28 @@ def ground_commands(mc: Any, ground: Ground) -> list[Any]:
         mc.commands.SetObject(mc.geometry.Box([float(s) for s in ground.sides]), material, path),
         mc.commands.SetTransform(translation(ground.centre), path),
     ]
+
+
+BELOW_GROUND_TOLERANCE_M = 1e-3
+"""A frame this far below the plane goes through it (less is the base's own frames sitting on it)."""
+
+
+def below_ground(frames: dict[str, Array], *, height: float = 0.0) -> tuple[str, ...]:
+    """One sentence naming the frame that goes deepest below the plane (z = ``height``), or none.
+
+    ``frames`` maps each frame's name to its world positions (k, 3) [m]. The plane only shows
+    where a floor would be: the model has none, and the sentence says so.
+    """
+
+    # the deepest frame; of frames as deep (a joint's frame and its body's), a body's name before a joint's
+    def depth_then_kind(item: tuple[str, Array]) -> tuple[float, bool]:
+        return round(float(item[1][:, 2].min()), 6), "joint" in item[0]
+
+    deepest = min(frames.items(), key=depth_then_kind, default=None)
+    if deepest is None:
+        return ()
+    name, xyz = deepest
+    depth = height - float(xyz[:, 2].min())
+    if depth <= BELOW_GROUND_TOLERANCE_M:
+        return ()
+    return (f"{name} goes {depth:.2f} m below the ground plane: the model has no floor (nothing collides with it)",)

@@ -22,12 +22,17 @@ import numpy as np
 
 from robodyn.errors import InputError, MissingDependencyError
 from robodyn.viewer.backend import INSTALL_HINT, ROOT, import_meshcat
+from robodyn.viewer.forces import forces_info
 from robodyn.viewer.labels import labels_info
 from robodyn.viewer.packing import packed_commands
 from robodyn.viewer.panel import panel_info
 
 if TYPE_CHECKING:
     from robodyn.viewer.playback import Playback
+
+BACKGROUND_TOP = (135 / 255, 206 / 255, 250 / 255)
+BACKGROUND_BOTTOM = (25 / 255, 25 / 255, 112 / 255)
+"""meshcat's default background, a vertical gradient (light sky blue above, midnight blue below)."""
 
 
 def meshcat_javascript() -> str:
@@ -98,6 +103,11 @@ def to_html(playback: Playback, *, title: str | None = None) -> str:
         # Texts on frames and joint angles as arcs (world [m], one entry per rendered frame), drawn over the 3D pane.
         "root": list(ROOT),
         "labels": labels_info(playback.labels, playback.angles),
+        # Forces and torques where they act, stop impacts flashed on their joints, the controller's mode.
+        "forces": forces_info(list(playback.arrows), list(playback.impacts), playback.mode),
+        "notes": list(playback.notes),
+        # meshcat's background gradient (top, bottom; sRGB 0..1): the trace fades into it.
+        "background": [list(BACKGROUND_TOP), list(BACKGROUND_BOTTOM)],
     }
     try:  # JavaScript's JSON.parse refuses NaN and Infinity: such a page would show nothing at all
         info_json = json.dumps(info, allow_nan=False)

@@ -7,15 +7,19 @@ This module computes what they plot, from each run's trajectory at its rendered 
 
 * energy: T, V and E = T + V [J]; with springs (the trajectory's ``meta["springs"]``), V is
   charted as its two parts, gravity's and the springs' ½ k (q - rest)^2;
-* the ledger: the cumulative works W_input, W_damping, W_limits and what is left over,
-  E - E(0) - W [J];
+* the ledger: the cumulative works W_input, W_damping, W_limits [J];
+* the ledger's residual E - E(0) - W [J] on a chart of its own (1e-11 J is no tick of an axis of
+  joules; the page writes a shared power of ten in the title);
+* the energy a switched controller's swing-up regulates (``meta["controller"]["energy"]``), with
+  its target dashed (``["energy_target"]``), titled with what that energy is;
 * power: tau . v, the rate of the input work [W] (the trajectory's ``power`` when it has one);
 * joint positions [rad, or m on a prismatic joint], with the model's position limits dashed and
   the impacts on the stops marked on the time axis (the samples where W_limits steps down);
 * joint torques [N m, or N on a prismatic joint], with the model's effort limits dashed; a model
   that mixes both has its unit in each legend entry, and none on the ticks;
 * the controller's mode, when a switched controller recorded it (``meta["controller"]["mode"]``:
-  0 swing-up, 1 balance), as a step curve under the other charts;
+  0 swing-up, 1 balance), as a step curve under the other charts, titled with the hand-over
+  (:func:`handover`: its time and the angles still left to the upright);
 * constraint drift [m], when the trajectory carries one sample by sample, on a log scale:
   a closed loop held by a solver drifts by 1e-12 m to 1e-9 m, decades a linear axis would
   flatten (a zero sits on the axis floor).
@@ -35,6 +39,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodyn.viewer.geometry import LINK_COLORS
+from robodyn.viewer.palette import BLACK, BLUE, BLUISH_GREEN, ORANGE, REDDISH_PURPLE, VERMILLION
 
 if TYPE_CHECKING:
     from robodyn.robot import Robot
@@ -44,17 +49,19 @@ Array = NDArray[np.float64]
 
 PANEL_WIDTH_PX = 420
 """Width of the chart panel at the right of the page [px]."""
-PLOT_MARGINS_PX = {"left": 70, "right": 14, "top": 8, "bottom": 30}
-"""Plotting area inside each chart's canvas [px]: room for the value ticks (left) and the time ticks (below)."""
+PLOT_MARGINS_PX = {"left": 70, "right": 14, "top": 8, "bottom": 18}
+"""Plotting area inside each chart's canvas [px]: room for the value ticks (left) and the time ticks, in s (below)."""
 CURSOR_COLOR = 0xFF00FF
 """The time cursor: magenta, a hue no curve and no link has."""
-ENERGY_COLORS = {"E": 0x212121, "T": 0x1E88E5, "V": 0xD81B60, "spring": 0x00897B}
-"""E near black, so that it never hides a potential drawn in a neighbouring hue; the spring's potential teal."""
+ENERGY_COLORS = {"E": BLACK, "T": BLUE, "V": VERMILLION, "spring": BLUISH_GREEN}
+"""Okabe–Ito (viewer.palette): E black, so that it never hides a potential; the spring's potential bluish green."""
 SPRING = ENERGY_COLORS["spring"]
-MODE_COLOR = 0x6A1B9A
-WORK_COLORS = {"input": 0x2E7D32, "damping": 0x6D4C41, "limits": 0x455A64, "residual": 0x9E9E9E}
-POWER_COLOR = 0xEF6C00
-DRIFT_COLOR = 0x5E35B1
+MODE_COLOR = REDDISH_PURPLE
+REGULATED_COLOR = REDDISH_PURPLE
+"""The swing-up law's own energy and (dashed) its target."""
+WORK_COLORS = {"input": BLUISH_GREEN, "damping": ORANGE, "limits": BLUE, "residual": BLACK}
+POWER_COLOR = ORANGE
+DRIFT_COLOR = BLUE
 LIMIT_DASH = (5, 4)
 """Dash pattern of the limit lines [px]."""
 LIMIT_COLOR = 0x757575
@@ -136,8 +143,9 @@ def _run_quantities(robot: Robot, run: Run) -> dict[str, list[tuple[str, Array, 
                 total = total + values
                 if key != "limits" or np.any(values != 0):
                     works.append((label, values[index], WORK_COLORS[key]))
-        works.append(("E - E(0) - W", (energy_all - energy_all[0] - total)[index], WORK_COLORS["residual"]))
         out["ledger"] = works
+        residual = (energy_all - energy_all[0] - total)[index]  # its own chart: 1e-11 J is no tick of a J axis
+        out["residual"] = [("E - E(0) - W", residual, WORK_COLORS["residual"])]
     power = _power(trajectory, n)
     if power is not None:
         out["power"] = [("tau . v", power[index], POWER_COLOR)]
@@ -161,6 +169,9 @@ def _run_quantities(robot: Robot, run: Run) -> dict[str, list[tuple[str, Array, 
                 for j in range(robot.nv)
                 if np.any(spring_torque[:, j] != 0)
             ]
+    regulated = _regulated(trajectory, n)
+    if regulated is not None:
+        out["regulated"] = [("the swing-up law's E", regulated[0][index], REGULATED_COLOR)]
     mode = _modes(trajectory, n)
     if mode is not None:
         out["mode"] = [("mode: 0 swing-up, 1 LQR balance", mode[index], MODE_COLOR)]
@@ -201,6 +212,43 @@ def _modes(trajectory: Any, n: int) -> Array | None:
         return None
     values = np.asarray(mode, dtype=np.float64)
     return values if np.all(np.isin(values, (0.0, 1.0))) else None
+
+
+def _controller(trajectory: Any) -> dict[str, Any]:
+    controller = (getattr(trajectory, "meta", None) or {}).get("controller")
+    return controller if isinstance(controller, dict) else {}
+
+
+def _regulated(trajectory: Any, n: int) -> tuple[Array, float, str] | None:
+    """The swing-up law's own energy per sample (n,) [J], its target [J] and its name, from the record."""
+    controller = _controller(trajectory)
+    energy, target = _rows(controller.get("energy"), n, np.arange(n)), controller.get("energy_target")
+    if energy is None or not isinstance(target, (int, float)) or not np.isfinite(target):
+        return None
+    return energy, float(target), str(controller.get("energy_name", "the swing-up law's energy"))
+
+
+def handover(robot: Robot, trajectory: Any) -> str:
+    """Where the switched controller hands over to the LQR: "LQR from t = 2.588 s, hinge 57.8° from upright".
+
+    The angles are the revolute coordinates' distances from the LQR's upright (the record's
+    ``upright``), wrapped to [-180°, 180°), at the first sample in balance mode; "" when the
+    run records no hand-over.
+    """
+    controller = _controller(trajectory)
+    mode, upright, angular = controller.get("mode"), controller.get("upright"), controller.get("angular")
+    n = len(trajectory.t)
+    if not isinstance(mode, list) or len(mode) != n or 1 not in mode:
+        return ""
+    k = mode.index(1)
+    text = f"LQR from t = {float(trajectory.t[k]):.3f} s"
+    q = np.asarray(trajectory.q, dtype=np.float64)
+    if isinstance(upright, list) and isinstance(angular, list) and len(upright) == len(angular) == q.shape[1]:
+        names = _dof_names(robot) if robot.nq == robot.nv else [str(j) for j in range(q.shape[1])]
+        error = np.degrees((q[k] - np.asarray(upright, dtype=np.float64) + np.pi) % (2 * np.pi) - np.pi)
+        parts = [f"{names[j]} {abs(error[j]):.1f}° from upright" for j in range(q.shape[1]) if angular[j]]
+        text += ", " + ", ".join(parts) if parts else ""
+    return text
 
 
 def _power(trajectory: Any, n: int) -> Array | None:
@@ -280,6 +328,8 @@ def panel_charts(robot: Robot, runs: Sequence[Run]) -> list[Chart]:
     titles = {
         "energy": ("Energy", "J"),
         "ledger": ("Energy ledger: works", "J"),
+        "residual": ("Ledger residual E - E(0) - W (round-off and the method's error)", "J"),
+        "regulated": ("Energy the swing-up regulates", "J"),
         "power": ("Power", "W"),
         "position": ("Joint positions", _unit(robot, "position")),
         "torque": ("Joint torques", _unit(robot, "torque")),
@@ -323,6 +373,14 @@ def panel_charts(robot: Robot, runs: Sequence[Run]) -> list[Chart]:
                             ("effort limit", float(value), LIMIT_COLOR),
                             ("effort limit", -float(value), LIMIT_COLOR),
                         ]
+        if key == "regulated":
+            found = _regulated(runs[0].trajectory, len(runs[0].trajectory.t))
+            if found is not None:
+                limits.append((f"target {found[1]:.4g} J", found[1], REGULATED_COLOR))
+                title = f"Energy the swing-up regulates: {found[2]}"
+        if key == "mode":
+            said = handover(robot, runs[0].trajectory)
+            title = f"Controller mode: {said}" if said else title
         scale = "log" if key in LOG_SCALE and any(np.any(s.values > 0) for s in series) else "linear"
         markers = _impact_frames(runs) if key == "position" else ()
         tick_unit = bool(unit) and " or " not in unit

@@ -19,8 +19,9 @@ from numpy.typing import NDArray
 from robodyn.viewer.animation import bake_animation
 from robodyn.viewer.backend import ROOT, import_meshcat, scene_path
 from robodyn.viewer.camera import Framing, follow_tracks, frame_motion, view_commands
+from robodyn.viewer.forces import Arrow, Impact, joint_arrows, mode_marks, stop_impacts
 from robodyn.viewer.geometry import SceneObject, geometry_objects, object_commands
-from robodyn.viewer.ground import Ground, ground_commands, ground_slab
+from robodyn.viewer.ground import Ground, below_ground, ground_commands, ground_slab
 from robodyn.viewer.labels import AngleMark, PointLabel, angle_marks, point_labels
 from robodyn.viewer.panel import Chart, panel_charts
 from robodyn.viewer.runs import GHOST_OPACITY, RUN_COLORS, Run, check_runs, common_frames, mark_identical, run_names
@@ -79,6 +80,11 @@ class Playback:
         springs: the first run's sprung revolute joints, each drawn as a coil riding on its frame.
         labels: texts written beside frames of the first run (e.g. a textbook figure's A, B, C).
         angles: joint angles of the first run drawn as arcs from their zero direction, with their texts.
+        arrows: the first run's applied forces and torques, drawn where they act (viewer.forces).
+        impacts: the first run's hits on its stops, flashed on the joint that hit.
+        mode: the controller's mode per rendered frame and where the page writes it (None without a record).
+        notes: sentences the page adds to its overlay (what passes through the ground plane).
+        axes: meshcat's world axes are shown (off by default: they run through the robot).
     """
 
     robot_name: str
@@ -109,6 +115,11 @@ class Playback:
     springs: tuple[Coil, ...] = ()
     labels: tuple[PointLabel, ...] = ()
     angles: tuple[AngleMark, ...] = ()
+    arrows: tuple[Arrow, ...] = ()
+    impacts: tuple[Impact, ...] = ()
+    mode: dict[str, Any] | None = None
+    notes: tuple[str, ...] = ()
+    axes: bool = False
 
     @property
     def offset(self) -> Array:
@@ -162,6 +173,7 @@ def build(
     trace_window: float | None = DEFAULT_TRACE_WINDOW_S,
     labels: Mapping[str, str] | None = None,
     angles: Mapping[str, str] | None = None,
+    axes: bool = False,
 ) -> Playback:
     """Bake ``robot`` and, if given, its motion into a :class:`Playback` (no server, no browser).
 
@@ -192,6 +204,7 @@ def build(
         angles: text -> revolute joint: the page draws the joint's angle as an arc from the
             direction its child points at zero angle (a dashed ray) to where it points now,
             with the text beside it, e.g. ``{"θ": "joint_a"}``; shown by the ``--html`` page.
+        axes: show meshcat's world axes (hidden by default: they run through the robot).
 
     Raises:
         InputError: a trajectory that does not fit the model, runs of different models, more
@@ -225,11 +238,15 @@ def build(
     slab = ground_slab(framing.centres, framing.half, framing.size) if ground else None
     if slab is not None:
         commands += ground_commands(mc, slab)
-    commands += view_commands(mc, framing)
+    commands += view_commands(mc, framing, axes=axes)
     tracks.update(follow_tracks(framing))
     animation = bake_animation(mc, tracks, playback_times, fps=fps) if trajectories else None
     first = runs[0] if runs else None
     chart_list = panel_charts(robot, runs) if charts and runs else []
+    arrows = joint_arrows(robot, runs[0], configurations[0], framing.size) if runs else []
+    impacts = stop_impacts(robot, runs[0], configurations[0]) if runs else []
+    mode = mode_marks(runs[0], framing.centres, framing.half) if runs else None
+    notes = below_ground(frames[0]) if slab is not None and runs else ()
     return Playback(
         robot_name=robot.name,
         objects=tuple(ghost_objects[0]),
@@ -259,6 +276,11 @@ def build(
         springs=tuple(coils),
         labels=tuple(marks[0]),
         angles=tuple(marks[1]),
+        arrows=tuple(arrows),
+        impacts=tuple(impacts),
+        mode=mode,
+        notes=tuple(notes),
+        axes=axes,
     )
 
 

@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodyn.errors import InputError
+from robodyn.viewer.palette import BLACK, BLUE, BLUISH_GREEN, ORANGE, REDDISH_PURPLE, SKY_BLUE, VERMILLION, YELLOW
 from robodyn.viewer.sampling import check_trajectory, render_samples
 
 if TYPE_CHECKING:
@@ -28,10 +29,11 @@ Array = NDArray[np.float64]
 
 MAX_RUNS = 8
 """Runs in one replay at most: each is a whole robot drawn again, and eight colours stay apart."""
-RUN_COLORS = (0xE53935, 0x43A047, 0xFB8C00, 0x3949AB, 0x00897B, 0x1E88E5, 0xAFB42B, 0x8D6E63)
-"""One colour per run (red, green, orange, indigo, teal, blue, olive, brown).
+RUN_COLORS = (VERMILLION, BLUISH_GREEN, ORANGE, REDDISH_PURPLE, BLUE, SKY_BLUE, YELLOW, BLACK)
+"""One colour per run, Okabe–Ito (viewer.palette): vermillion, bluish green, orange, reddish purple, blue, ...
 
-The first three are far in hue from the sky-blue background; none is the chart cursor's magenta.
+The first four are far in hue from the sky-blue background and tell apart for colour-blind
+viewers (vermillion against bluish green, not red against green); none is the cursor's magenta.
 """
 GHOST_OPACITY = 0.55
 """Opacity of each run's robot when several are overlaid: both stay visible where they cross."""

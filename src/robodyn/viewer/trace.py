@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 from robodyn import dynamics
 from robodyn.errors import UnknownNameError
 from robodyn.viewer.backend import ROOT, scene_path
+from robodyn.viewer.palette import YELLOW
 from robodyn.viewer.transforms import translations
 
 if TYPE_CHECKING:
@@ -29,7 +30,8 @@ if TYPE_CHECKING:
 
 Array = NDArray[np.float64]
 
-TRACE_COLOR = 0xFFE135
+TRACE_COLOR = YELLOW
+"""Okabe–Ito yellow: bright on the sky-blue background, far in hue from the first links' colours."""
 MARKER_PATH = (*ROOT, "trace", "marker")
 """Scene path of the marker that rides on the traced frame (animated)."""
 

@@ -90,9 +90,24 @@
     key.appendChild(svgKey(color, dash));
     key.appendChild(document.createTextNode(text));
     parent.appendChild(key);
+    return key;
+  }
+
+  // A legend entry of a curve is a switch: a click hides or shows that curve (every run's), and the
+  // value axis fits what is left (a Panda's nine torques, a spring's couple beside small torques).
+  function selectable(key, entry, label) {
+    key.classList.add("robodyn-toggle");
+    key.title = "click to hide or show " + label;
+    key.addEventListener("click", function () {
+      var hidden = !key.classList.contains("robodyn-off");
+      key.classList.toggle("robodyn-off", hidden);
+      entry.chart.series.forEach(function (s) { if (s.label === label) { s.hidden = hidden; } });
+      drawChart(entry);
+    });
   }
 
   var charts = [];
+  var impactColor = (info.forces && info.forces.impactColor) || "#e69f00";
   function buildPanel() {
     var panel = document.getElementById("robodyn-panel");
     var runs = panelInfo.runs;
@@ -103,7 +118,7 @@
       panel.appendChild(header);
     }
     var headerHeight = runs.length > 1 ? 24 : 0;
-    var each = Math.max(130, Math.floor((window.innerHeight - headerHeight) / panelInfo.charts.length));
+    var each = Math.max(120, Math.floor((window.innerHeight - headerHeight) / panelInfo.charts.length));
     panelInfo.charts.forEach(function (chart) {
       var box = document.createElement("div");
       box.className = "robodyn-chart";
@@ -114,18 +129,18 @@
       box.appendChild(title);
       var legend = document.createElement("div");
       legend.className = "robodyn-legend";
-      if ((chart.markers || []).length) { addKey(legend, "#c62828", [], "impact (tick on the time axis)"); }
-      var seen = {};
+      if ((chart.markers || []).length) { addKey(legend, impactColor, [], "impact on a stop (tick on the time axis)"); }
+      var seen = {}, toggles = [];
       chart.series.forEach(function (s) {
         if (runs.length > 1) {
           if (seen[s.label]) { return; }
           seen[s.label] = true;
-          addKey(legend, "#555", s.dash, s.label);
+          toggles.push([addKey(legend, "#555", s.dash, s.label), s.label]);
         } else {
-          addKey(legend, s.color, s.dash, s.label);
+          toggles.push([addKey(legend, s.color, s.dash, s.label), s.label]);
         }
       });
-      if (runs.length > 1) {  // several runs: the grey dashed limits get one legend entry each kind
+      if (runs.length > 1 || chart.key === "regulated") {  // the grey dashed limits (several runs), the target
         var limitSeen = {};
         chart.limits.forEach(function (l) {
           if (!l.label || limitSeen[l.label]) { return; }
@@ -135,7 +150,7 @@
       }
       box.appendChild(legend);
       panel.appendChild(box);
-      var height = Math.max(80, each - title.offsetHeight - legend.offsetHeight);
+      var height = Math.max(76, each - title.offsetHeight - legend.offsetHeight);
       var holder = document.createElement("div");
       holder.className = "robodyn-canvases";
       holder.style.height = height + "px";
@@ -147,7 +162,8 @@
         holder.appendChild(c);
       });
       box.appendChild(holder);
-      var entry = { chart: chart, box: box, plot: plot, cursor: cursor, width: plot.width, height: height };
+      var entry = { chart: chart, box: box, plot: plot, cursor: cursor, width: plot.width, height: height, title: title, titleText: title.textContent };
+      if (toggles.length > 1) { toggles.forEach(function (t) { selectable(t[0], entry, t[1]); }); }
       drawChart(entry);
       cursor.addEventListener("click", function (event) {
         var rect = cursor.getBoundingClientRect();
@@ -202,6 +218,7 @@
   function linearAxis(chart, maxTicks) {
     var lo = Infinity, hi = -Infinity;
     chart.series.forEach(function (s) {
+      if (s.hidden) { return; }
       s.values.forEach(function (v) { lo = Math.min(lo, v); hi = Math.max(hi, v); });
     });
     chart.limits.forEach(function (l) { lo = Math.min(lo, l.value); hi = Math.max(hi, l.value); });
@@ -209,14 +226,24 @@
     var pad = 0.05 * (hi - lo);
     lo -= pad; hi += pad;
     function frac(v) { return (v - lo) / (hi - lo); }
-    var step = niceStep(hi - lo, maxTicks), values = [];
-    for (var k = Math.ceil(lo / step); k * step <= hi + 1e-9 * step; k++) { values.push(k * step); }
+    var step, values, wanted = maxTicks;
+    do {  // at least two ticks, so that the scale can be read (one "0" alone says nothing of the size)
+      step = niceStep(hi - lo, wanted); values = [];
+      for (var k = Math.ceil(lo / step); k * step <= hi + 1e-9 * step; k++) { values.push(k * step); }
+      wanted += 1;
+    } while (values.length < 2 && wanted < 12);
+    // Ticks far from 1 (a ledger's residual of 1e-11 J, a drift of 1e5) share one power of ten,
+    // written once beside the title ("x 1e-11"): the ticks read as short numbers, never "0 J" alone.
+    var biggest = Math.max(Math.abs(lo), Math.abs(hi)), exponent = 0;
+    if (biggest > 0 && (biggest < 1e-2 || biggest >= 1e4)) { exponent = Math.floor(Math.log10(step)); }
+    var scaleBy = Math.pow(10, exponent);
     return {
       scale: "linear",
+      exponent: exponent,
       frac: frac,
       ticks: values.map(function (v) {
         var r = Math.abs(v) < 1e-9 * step ? 0 : v;
-        return { value: r, label: fmt(parseFloat(r.toPrecision(6))) };
+        return { value: r, label: fmt(parseFloat((r / scaleBy).toPrecision(6))) };
       })
     };
   }
@@ -237,11 +264,14 @@
     ctx.textAlign = "right"; ctx.textBaseline = "middle";
     var labels = [];
     axis.ticks.forEach(function (tick) {
-      var text = chart.tickUnit === false ? tick.label : tick.label + " " + chart.unit;
+      var text = (chart.tickUnit === false || axis.exponent) ? tick.label : tick.label + " " + chart.unit;
       labels.push(text);
       ctx.fillText(text, b.left - 4, y(tick.value));
       ctx.strokeStyle = "#e3e3e3"; ctx.beginPath(); ctx.moveTo(b.left + 1, y(tick.value)); ctx.lineTo(b.right, y(tick.value)); ctx.stroke();
     });
+    // the shared power of ten goes in the title: "[J], ticks x 1e-11 J"
+    entry.title.textContent = entry.titleText + (axis.exponent ? ", ticks \u00d7 1e" + axis.exponent + (chart.unit ? " " + chart.unit : "") : "");
+    entry.box.setAttribute("data-exponent", String(axis.exponent || 0));
     entry.box.setAttribute("data-scale", axis.scale);
     entry.box.setAttribute("data-ticks", labels.join("|"));
     // time ticks, in simulation time
@@ -250,11 +280,9 @@
       var tau = f * duration;
       ctx.fillText(fmt(info.t0 + tau * info.speed) + " s", xOfTau(entry, tau), b.bottom + 3);
     });
-    ctx.textAlign = "right";
-    ctx.fillText("t [s]", b.right, b.bottom + 15);
     // limits, dashed
     chart.limits.forEach(function (l) {
-      ctx.strokeStyle = l.color; ctx.lineWidth = 1; ctx.setLineDash(panelInfo.limitDash);
+      ctx.strokeStyle = l.color; ctx.lineWidth = chart.key === "regulated" ? 2 : 1; ctx.setLineDash(panelInfo.limitDash);
       ctx.beginPath(); ctx.moveTo(b.left, y(l.value)); ctx.lineTo(b.right, y(l.value)); ctx.stroke();
     });
     // events (impacts on the stops): short red ticks on the time axis
@@ -262,12 +290,14 @@
       var k = Math.floor(frame), s = frame - k;
       var tau = k + 1 < info.tau.length ? (1 - s) * info.tau[k] + s * info.tau[k + 1] : info.tau[info.tau.length - 1];
       var x = xOfTau(entry, tau);
-      ctx.strokeStyle = "#c62828"; ctx.lineWidth = 2; ctx.setLineDash([]);
+      ctx.strokeStyle = impactColor; ctx.lineWidth = 2; ctx.setLineDash([]);
       ctx.beginPath(); ctx.moveTo(x, b.bottom); ctx.lineTo(x, b.bottom - 8); ctx.stroke();
     });
     entry.box.setAttribute("data-markers", String((chart.markers || []).length));
+    entry.box.setAttribute("data-limits", chart.limits.map(function (l) { return l.label + ":" + l.value + ":" + Math.round(y(l.value)); }).join("|"));
     // curves
     chart.series.forEach(function (s) {
+      if (s.hidden) { return; }
       ctx.strokeStyle = s.color; ctx.lineWidth = 1.6; ctx.setLineDash(s.dash);
       ctx.beginPath();
       s.values.forEach(function (v, k) {
@@ -312,17 +342,30 @@
     while (lo < hi) { var mid = (lo + hi) >> 1; if (times[mid] < t) { lo = mid + 1; } else { hi = mid; } }
     return lo;
   }
+  // meshcat's background is a vertical gradient: a point of the trace fades to the background's
+  // colour at its own height on the screen, so that old trace sinks into the sky behind it.
+  var background = info.background || [[1, 1, 1], [1, 1, 1]];
+  function backgroundAt(ndcY) {
+    var s = Math.max(0, Math.min(1, (ndcY + 1) / 2));  // 0 at the bottom of the pane, 1 at the top
+    return [0, 1, 2].map(function (c) { return background[1][c] + s * (background[0][c] - background[1][c]); });
+  }
   function fadeTraces(tau) {
     if (info.traceWindow === null || info.traceWindow === undefined || !traces.length) { return; }
     var window_ = info.traceWindow, start = tau - window_, ranges = [];
+    var THREE = MeshCat.THREE, camera = viewer.camera;
+    viewer.scene_tree.object.updateMatrixWorld(true);  // the drawing's shift may not have been rendered yet
+    camera.updateMatrixWorld(true);
     traces.forEach(function (tr) {
       var first = firstAtOrAfter(tr.tau, start), end = firstAtOrAfter(tr.tau, tau + 1e-9);
       var count = Math.max(0, end - first);
       tr.line.geometry.setDrawRange(first, count);
       if (tr.colors) {
+        var position = tr.line.geometry.getAttribute("position").array, point = new THREE.Vector3();
         for (var i = first; i < end; i++) {
           var f = Math.max(0, Math.min(1, (tr.tau[i] - start) / window_));  // 0 at the window's start, 1 now
-          for (var c = 0; c < 3; c++) { tr.colors.array[3 * i + c] = 1 - f * (1 - tr.base[3 * i + c]); }
+          point.set(position[3 * i], position[3 * i + 1], position[3 * i + 2]).applyMatrix4(tr.line.matrixWorld).project(camera);
+          var back = backgroundAt(point.y);
+          for (var c = 0; c < 3; c++) { tr.colors.array[3 * i + c] = back[c] + f * (tr.base[3 * i + c] - back[c]); }
         }
         tr.colors.needsUpdate = true;
       }
@@ -410,9 +453,103 @@
     document.body.setAttribute("data-labels", listed.join("|"));
   }
 
+  // ------------------------------------------------------------------ forces, impacts, mode, in 3D
+  // Each applied force or torque as an arrow where it acts (a straight one along a prismatic
+  // joint, a curved one about a revolute joint; its value written at its head), each hit on a
+  // stop flashed on its joint for forces.flash seconds, and the controller's mode written above
+  // the robot. data-arrows on the body lists "joint:x,y" of each drawn arrow's head, data-impacts
+  // the joints flashing now, data-mode the mode's text (for tests).
+  var forces = info.forces || { arrows: [], impacts: [], mode: null };
+  var hasForces = forces.arrows.length + forces.impacts.length > 0 || !!forces.mode;
+  var textStyle = "font: bold 15px sans-serif; stroke: #fff; stroke-width: 3px; paint-order: stroke;";
+  var drawnForces = { arrows: [], impacts: [], mode: null };
+  if (hasForces) {
+    forces.arrows.forEach(function (a) {
+      drawnForces.arrows.push({
+        mark: a,
+        halo: svgChild("polyline", { fill: "none", stroke: "#fff", "stroke-width": "7", "stroke-linecap": "round" }),
+        line: svgChild("polyline", { fill: "none", stroke: a.color, "stroke-width": "3.5", "stroke-linecap": "round" }),
+        head: svgChild("polygon", { fill: a.color, stroke: "#fff", "stroke-width": "1.5" }),
+        text: svgChild("text", { style: textStyle + "fill: " + a.color, "dominant-baseline": "central" })
+      });
+    });
+    forces.impacts.forEach(function (m) {
+      var k = Math.floor(m.frame), s = m.frame - k;
+      var at = k + 1 < info.tau.length ? (1 - s) * info.tau[k] + s * info.tau[k + 1] : info.tau[info.tau.length - 1];
+      drawnForces.impacts.push({
+        mark: m, tau: at,
+        ring: svgChild("circle", { r: "16", fill: "none", stroke: forces.impactColor, "stroke-width": "5" }),
+        text: svgChild("text", { style: textStyle + "fill: #111", "dominant-baseline": "central" })  // the ring is orange
+      });
+    });
+    if (forces.mode) {
+      drawnForces.mode = svgChild("text", { style: textStyle + "font-size: 17px; fill: " + forces.mode.color, "text-anchor": "middle" });
+    }
+  }
+  function projector() {
+    var THREE = MeshCat.THREE, camera = viewer.camera, node = viewer.scene_tree.find(info.root);
+    var pane = document.getElementById("meshcat-pane").getBoundingClientRect();
+    viewer.scene_tree.object.updateMatrixWorld(true);
+    camera.updateMatrixWorld(true);
+    return function (p) {
+      var v = new THREE.Vector3(p[0], p[1], p[2]).applyMatrix4(node.object.matrixWorld).project(camera);
+      return [(v.x + 1) / 2 * pane.width, (1 - v.y) / 2 * pane.height];
+    };
+  }
+  function show(el, on) { el.setAttribute("visibility", on ? "visible" : "hidden"); }
+  function drawForces(tau) {
+    if (!hasForces) { return; }
+    var screen = projector(), heads = [], flashing = [];
+    drawnForces.arrows.forEach(function (d) {
+      var a = d.mark, value = energyAt(tau, a.values);
+      var pts = a.points[0].map(function (_, n) {
+        return screen(pointAt({ length: a.points.length, at: function (k) { return a.points[k][n]; } }, tau));
+      });
+      var tip = pts[pts.length - 1], before = pts[pts.length - 2];
+      var dx = tip[0] - before[0], dy = tip[1] - before[1], len = Math.sqrt(dx * dx + dy * dy);
+      var spread = Math.abs(tip[0] - pts[0][0]) + Math.abs(tip[1] - pts[0][1]);
+      var visible = len > 0 && (a.kind === "torque" || spread > 3);
+      [d.halo, d.line, d.head, d.text].forEach(function (el) { show(el, visible); });
+      if (!visible) { return; }
+      dx /= len; dy /= len;
+      var polyline = pts.map(function (p) { return p[0].toFixed(1) + "," + p[1].toFixed(1); }).join(" ");
+      d.halo.setAttribute("points", polyline); d.line.setAttribute("points", polyline);
+      var h = 13, w = 7;
+      d.head.setAttribute("points", [
+        [tip[0] + dx * h, tip[1] + dy * h],
+        [tip[0] - dy * w, tip[1] + dx * w],
+        [tip[0] + dy * w, tip[1] - dx * w]
+      ].map(function (p) { return p[0].toFixed(1) + "," + p[1].toFixed(1); }).join(" "));
+      d.text.setAttribute("x", tip[0] + dx * 18 + 4); d.text.setAttribute("y", tip[1] + dy * 18);
+      d.text.textContent = a.symbol + " = " + value.toPrecision(3) + " " + a.unit;
+      heads.push(a.joint + ":" + Math.round(tip[0] + dx * h) + "," + Math.round(tip[1] + dy * h));
+    });
+    var stacked = 0;  // the texts of simultaneous hits are stacked in the pane's lower left, never on each other
+    var pane = document.getElementById("meshcat-pane").getBoundingClientRect();
+    drawnForces.impacts.forEach(function (d) {
+      var on = tau >= d.tau && tau - d.tau < forces.flash;
+      show(d.ring, on); show(d.text, on);
+      if (!on) { return; }
+      var p = screen(d.mark.xyz);
+      d.ring.setAttribute("cx", p[0]); d.ring.setAttribute("cy", p[1]);
+      d.text.setAttribute("x", 12); d.text.setAttribute("y", pane.height - 20 - 20 * stacked);
+      stacked += 1;
+      d.text.textContent = "stop hit (orange ring): " + d.mark.joint + ", W_limits " + fmt(d.mark.energy) + " J";
+      flashing.push(d.mark.joint + ":" + Math.round(p[0]) + "," + Math.round(p[1]));
+    });
+    if (drawnForces.mode) {
+      var k = frameAt(tau), at = screen(pointAt(forces.mode.xyz, tau));
+      drawnForces.mode.setAttribute("x", at[0]); drawnForces.mode.setAttribute("y", at[1]);
+      drawnForces.mode.textContent = "mode: " + forces.mode.names[forces.mode.values[k]];
+      document.body.setAttribute("data-mode", drawnForces.mode.textContent);
+    }
+    document.body.setAttribute("data-arrows", heads.join("|"));
+    document.body.setAttribute("data-impacts", flashing.join("|"));
+  }
+
   // ------------------------------------------------------------------ the overlay, every frame
   var overlay = document.getElementById("robodyn-overlay");
-  var last = "", lastTau = null;
+  var last = "", lastTau = null, lastView = "";
   function update() {
     var tau = currentTau();
     var text = info.robot + "   t = " + (info.t0 + tau * info.speed).toFixed(3) + " s";
@@ -426,6 +563,7 @@
     if (info.speed !== 1) {
       text += "   (x" + info.speed + ")";
     }
+    (info.notes || []).forEach(function (note) { text += "\n" + note; });
     if (info.animated) {
       text += "\nOpen Controls > Animations: play, pause, time slider";
       if (hasPanel) { text += "\nClick a chart to seek; camera: " + info.camera; }
@@ -448,10 +586,14 @@
       last = whole;
     }
     drawLabels(tau);  // every frame: the camera may have been orbited
-    if (tau !== lastTau) {
-      if (hasPanel) { drawCursors(tau); }
+    drawForces(tau);
+    // the fade depends on where each point is on the screen: again when the camera moves or is resized
+    var view = viewer.camera.matrixWorld.elements.join(",") + viewer.camera.projectionMatrix.elements.join(",");
+    if (tau !== lastTau || view !== lastView) {
+      if (hasPanel && tau !== lastTau) { drawCursors(tau); }
       fadeTraces(tau);
       lastTau = tau;
+      lastView = view;
     }
     window.requestAnimationFrame(update);
   }

@@ -1,18 +1,25 @@
 """``robodyn check --against``: every URDF of example-robot-data and pybullet_data against each engine installed.
 
     python benchmarks/against.py [--sets erd,pybullet] [--engines mujoco,pybullet,drake] [--limit N]
-                                 [--samples 5] [--out bench-out]
+                                 [--samples 5] [--timeout 300] [--out bench-out]
 
 For each file robodyn loads (fixed base, revolute, continuous and prismatic joints only), each installed
 engine reads it with its defaults and trusting the file (``robodyn.against``). The table counts, per engine
 and reading: the files compared, those that agree at rtol 1e-9, those that differ (by cause), those the engine
 refuses, and any difference no cause explains; with robodyn's time (its load and the comparison, engines
-included). It writes ``against.json`` to ``--out``; the benchmarks page renders its table.
+included). Each file is compared in a forked child of this process, killed after ``--timeout`` seconds (a row
+marked ``timed out``), so one engine that hangs on a file does not end the survey. It writes ``against.json`` to
+``--out``; the benchmarks page renders its table.
 """
 
 from __future__ import annotations
 
 import importlib.util
+import json
+import os
+import signal
+import sys
+import tempfile
 import time
 import warnings
 from pathlib import Path
@@ -81,6 +88,33 @@ def survey_file(path: Path, engines: tuple[str, ...], samples: int) -> dict[str,
     return row
 
 
+def survey_in_child(path: Path, engines: tuple[str, ...], samples: int, timeout: float) -> dict[str, Any]:
+    """:func:`survey_file` in a forked child killed after ``timeout`` seconds (its row then says so)."""
+    with tempfile.TemporaryFile() as result:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        start = time.perf_counter()
+        pid = os.fork()
+        if pid == 0:  # the child: its row as JSON into the shared file
+            try:
+                result.write(json.dumps(survey_file(path, engines, samples)).encode())
+                result.flush()
+            finally:
+                os._exit(0)
+        while not os.waitpid(pid, os.WNOHANG)[0]:
+            if time.perf_counter() - start > timeout:
+                os.kill(pid, signal.SIGKILL)
+                os.waitpid(pid, 0)
+                return {"file": label_of(path), "crashed": f"timed out after {timeout:g} s"}
+            time.sleep(0.05)
+        result.seek(0)
+        text = result.read().decode()
+    if not text:
+        return {"file": label_of(path), "crashed": "the child died before writing its row"}
+    row: dict[str, Any] = json.loads(text)
+    return row
+
+
 def main() -> None:
     """Run the survey and write ``against.json`` (the benchmarks page renders its table)."""
     parser = argument_parser(__doc__ or "")
@@ -88,17 +122,23 @@ def main() -> None:
     parser.add_argument("--engines", default="mujoco,pybullet,drake", help="engines, those installed only")
     parser.add_argument("--limit", type=int, default=0, help="at most this many files per set (0: all)")
     parser.add_argument("--samples", type=int, default=5, help="seeded states per comparison (default 5)")
+    parser.add_argument("--timeout", type=float, default=300.0, help="seconds per file before it is killed")
     args = parser.parse_args()
     out = output_folder(args.out, overwrite_committed=args.overwrite_committed)
     engines = tuple(e for e in args.engines.split(",") if importlib.util.find_spec(_MODULES[e]) is not None)
     facts = run_facts()
+    import robodyn  # imported once, before the children fork, with each engine's module
+
+    for engine in engines:
+        importlib.import_module(_MODULES[engine])
+    del robodyn
     files: list[Path] = []
     for name in args.sets.split(","):
         found = erd_files() if name == "erd" else pybullet_files(random_only=False)
         files += found[: args.limit] if args.limit else found
     rows = []
     for path in files:
-        rows.append(survey_file(path, engines, args.samples))
+        rows.append(survey_in_child(path, engines, args.samples, args.timeout))
         shown = (
             rows[-1].get("skipped")
             or rows[-1].get("crashed")

@@ -202,6 +202,17 @@ def test_cli_json_and_rows(capsys: pytest.CaptureFixture[str]) -> None:
     assert {row["cause"] for row in report.rows()} >= {"inertia taken from the collision shape"}
 
 
+def test_to_dataframe_holds_the_rows(folder: Path) -> None:
+    pd = pytest.importorskip("pandas", reason="to_dataframe needs pandas (in the test extra)")
+    report = _report(folder, "collision", ("pybullet",))
+    frame = report.to_dataframe()
+    assert isinstance(frame, pd.DataFrame) and len(frame) == len(report.rows())
+    assert list(frame.columns) == ["engine", "reading", "status", "where", "cause", "option", "M", "Cv", "G"]
+    shape = frame[frame["cause"] == "inertia taken from the collision shape"]
+    assert list(shape["where"]) == ["link1 (joint1)", "link2 (joint2)"] and (shape["M"] > RTOL).all()
+    assert frame.loc[frame["reading"] == "trusted", "status"].tolist() == ["agree"]
+
+
 def test_an_engine_not_installed(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
     import importlib.util
 

@@ -44,6 +44,9 @@ CAUSES = (
     "rotational inertia read differently",
     "axis read differently",
     "limits read differently",
+    "effort limit read differently",
+    "velocity limit read differently",
+    "friction read differently",
     "damping read differently",
     "armature",
 )

@@ -71,6 +71,10 @@ CASES = {
         'type="revolute"><parent link="link1"', 'type="continuous"><parent link="link1"'
     ),
     # a revolute <limit> without lower and upper: URDF's defaults are 0 and 0
+    # a passive joint's effort limit 0 (MuJoCo: no limit) and dry friction (Drake: none)
+    "effort_friction": arm(
+        inertial(0.5), joint2='<limit lower="-2" upper="2" effort="0" velocity="3"/><dynamics friction="0.4"/>'
+    ),
     "limit_defaults": arm(inertial(0.5), joint2='<limit effort="5" velocity="5"/>'),
     # a prismatic joint
     "prismatic": arm(inertial(0.5)).replace(

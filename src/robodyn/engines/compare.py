@@ -25,6 +25,7 @@ from robodyn.robot import Robot
 
 _MODULES = {"mujoco": "mujoco", "pybullet": "pybullet", "drake": "pydrake"}
 QUANTITIES = ("M", "Cv", "G")
+NO_LIMIT = 1e300  # [N m | rad/s] a bound at least this large is Pinocchio's mark of no limit (float max)
 
 
 def against(
@@ -232,14 +233,30 @@ def robodyn_bodies(robot: Robot) -> dict[str, BodyInertia]:
 
 
 def robodyn_joint(robot: Robot, name: str) -> JointReading:
-    """The joint's axis in its link's frame, limits (nan on a continuous joint), damping and armature."""
+    """The joint's axis in its link's frame, limits (nan on a continuous joint), damping, armature, effort and
+    velocity limits (nan where none) and friction."""
     model = robot.model
     joint = robot.joint(name)
     axis = _axis(robot, name)
     lower, upper = np.nan, np.nan
     if joint.nq == 1:
         lower, upper = float(model.lowerPositionLimit[joint.idx_q]), float(model.upperPositionLimit[joint.idx_q])
-    return JointReading(axis, lower, upper, float(model.damping[joint.idx_v]), float(model.armature[joint.idx_v]))
+    i = joint.idx_v
+    return JointReading(
+        axis,
+        lower,
+        upper,
+        float(model.damping[i]),
+        float(model.armature[i]),
+        effort=_limit(model.effortLimit[i]),
+        velocity=_limit(model.velocityLimit[i]),
+        friction=float(model.friction[i]),
+    )
+
+
+def _limit(value: float) -> float:
+    """A limit Pinocchio holds, nan where it holds none (an infinite or float-max bound)."""
+    return float(value) if np.isfinite(value) and abs(value) < NO_LIMIT else np.nan
 
 
 def _axis(robot: Robot, name: str) -> Array:

@@ -139,16 +139,18 @@ def main() -> None:
     for name in args.sets.split(","):
         found = erd_files() if name == "erd" else pybullet_files(random_only=False)
         files += found[: args.limit] if args.limit else found
-    rows = []
+    rows: list[dict[str, Any]] = []
     for path in files:
         rows.append(survey_in_child(path, engines, args.samples, args.timeout))
+        partial = {"engines": list(engines), "samples": args.samples, "files": len(files), "rows": rows}
+        write_json(out, "against", partial, dict(facts))  # after each file: a stopped survey keeps its rows
         shown = (
             rows[-1].get("skipped")
             or rows[-1].get("crashed")
             or ", ".join(f"{r['engine']}/{r['reading']} {r['status']}" for r in rows[-1]["readings"])
         )
         print(f"{rows[-1]['file']}: {shown}", flush=True)
-    write_json(out, "against", {"engines": list(engines), "samples": args.samples, "rows": rows}, facts)
+    write_json(out, "against", {"engines": list(engines), "samples": args.samples, "files": len(files), "rows": rows}, facts)
     print(f"wrote {out / 'against.json'}: the benchmarks page renders its table (docs/hooks/robodyn_docs.py)")
 
 

@@ -150,7 +150,9 @@ def main() -> None:
             or ", ".join(f"{r['engine']}/{r['reading']} {r['status']}" for r in rows[-1]["readings"])
         )
         print(f"{rows[-1]['file']}: {shown}", flush=True)
-    write_json(out, "against", {"engines": list(engines), "samples": args.samples, "files": len(files), "rows": rows}, facts)
+    write_json(
+        out, "against", {"engines": list(engines), "samples": args.samples, "files": len(files), "rows": rows}, facts
+    )
     print(f"wrote {out / 'against.json'}: the benchmarks page renders its table (docs/hooks/robodyn_docs.py)")
 
 

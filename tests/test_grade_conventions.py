@@ -25,7 +25,7 @@ G0 = "(m1 * lc1 + m2 * l1) * g * np.sin(q[0])"
 M12 = "m12 = m2 * (lc2**2 + l1 * lc2 * c2) + I2"
 TEXTBOOK = 'COORDINATES = {"shoulder": (1.0, math.pi / 2), "elbow": (-1.0, 0.0)}  # q_formula = sign * q_urdf + offset'
 FUNCTIONS = ("mass_matrix", "coriolis_matrix", "gravity", "potential_energy")
-URDF = '''
+URDF = """
 COORDINATES = {"shoulder": (1.0, 0.0), "elbow": (1.0, 0.0)}  # the URDF's own angles
 D = np.diag([1.0, -1.0])  # the textbook's angles are D q + SHIFT
 SHIFT = np.array([math.pi / 2, 0.0])
@@ -45,7 +45,7 @@ def gravity(q, p):
 
 def potential_energy(q, p):
     return textbook_potential_energy(D @ q + SHIFT, p)
-'''
+"""
 
 
 def _replaced(text: str, old: str, new: str) -> str:

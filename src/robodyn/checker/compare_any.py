@@ -188,9 +188,7 @@ def explain_in_joints(
             return np.swapaxes(A, 0, 1) @ x @ A
         return x @ A  # G, C v: A^T x, over any leading axes
 
-    moved = [
-        SimpleNamespace(q=A_inv @ (np.asarray(s.q) - ref.offsets), v=A_inv @ np.asarray(s.v)) for s in states
-    ]
+    moved = [SimpleNamespace(q=A_inv @ (np.asarray(s.q) - ref.offsets), v=A_inv @ np.asarray(s.v)) for s in states]
     remeasured: dict[str, Accumulator] = {}
     new_rows = list(rows)
     for key, acc in kept.items():

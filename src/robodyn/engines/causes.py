@@ -95,8 +95,10 @@ def _inertia_cause(
 
 
 def joint_causes(engine: str, kind: str, mine: JointReading, theirs: JointReading) -> list[tuple[str, str | None]]:
-    """Each way one joint (``kind``: revolute, prismatic, continuous) differs: axis, limits, damping, effort and
-    velocity limits, friction, armature."""
+    """Each way one joint (``kind``: revolute, prismatic, continuous) differs.
+
+    Its axis, position limits, damping, effort and velocity limits, friction and armature.
+    """
     unit = "m" if kind == "prismatic" else "rad"
     found: list[tuple[str, str | None]] = []
     if float(np.abs(theirs.axis / np.linalg.norm(theirs.axis) - mine.axis).max()) > 1e-9:

@@ -233,8 +233,11 @@ def robodyn_bodies(robot: Robot) -> dict[str, BodyInertia]:
 
 
 def robodyn_joint(robot: Robot, name: str) -> JointReading:
-    """The joint's axis in its link's frame, limits (nan on a continuous joint), damping, armature, effort and
-    velocity limits (nan where none) and friction."""
+    """The joint as Pinocchio holds it.
+
+    Its axis in its link's frame, limits (nan on a continuous joint), damping, armature, effort and velocity
+    limits (nan where none) and friction.
+    """
     model = robot.model
     joint = robot.joint(name)
     axis = _axis(robot, name)

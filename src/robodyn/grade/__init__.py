@@ -15,5 +15,9 @@ from robodyn.grade.notebook import NotebookResult, notebook_check
 __all__ = [
     "Assignment",
     "NotebookResult",
-    "QuantityScore", "SubmissionResult", "grade_file", "load_assignment", "notebook_check",
+    "QuantityScore",
+    "SubmissionResult",
+    "grade_file",
+    "load_assignment",
+    "notebook_check",
 ]

@@ -70,7 +70,12 @@ class SubmissionResult:
         """The inverse of :meth:`as_dict`."""
         quantities = tuple(QuantityScore(**{**q, "wrong": tuple(q["wrong"])}) for q in d["quantities"])
         return cls(
-            **{**d, "quantities": quantities, "terms": tuple(d["terms"]), "model_terms": tuple(d.get("model_terms", ()))}
+            **{
+                **d,
+                "quantities": quantities,
+                "terms": tuple(d["terms"]),
+                "model_terms": tuple(d.get("model_terms", ())),
+            }
         )
 
 

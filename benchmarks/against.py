@@ -1,15 +1,15 @@
 """``robodyn check --against``: every URDF of example-robot-data and pybullet_data against each engine installed.
 
     python benchmarks/against.py [--sets erd,pybullet] [--engines mujoco,pybullet,drake] [--limit N]
-                                 [--samples 5] [--timeout 300] [--out bench-out]
+                                 [--samples 5] [--timeout 300] [--jobs 1] [--out bench-out]
 
 For each file robodyn loads (fixed base, revolute, continuous and prismatic joints only), each installed
 engine reads it with its defaults and trusting the file (``robodyn.against``). The table counts, per engine
 and reading: the files compared, those that agree at rtol 1e-9, those that differ (by cause), those the engine
 refuses, and any difference no cause explains; with robodyn's time (its load and the comparison, engines
-included). Each file is compared in a forked child of this process, killed after ``--timeout`` seconds (a row
-marked ``timed out``), so one engine that hangs on a file does not end the survey. It writes ``against.json`` to
-``--out``; the benchmarks page renders its table.
+included). Each file is compared in a forked child of this process (``--jobs`` of them at once), killed after
+``--timeout`` seconds (a row marked ``timed out``), so one engine that hangs on a file does not end the survey.
+It writes ``against.json`` to ``--out`` after each file; the benchmarks page renders its table.
 """
 
 from __future__ import annotations
@@ -91,31 +91,52 @@ def survey_file(path: Path, engines: tuple[str, ...], samples: int) -> dict[str,
     return row
 
 
-def survey_in_child(path: Path, engines: tuple[str, ...], samples: int, timeout: float) -> dict[str, Any]:
-    """:func:`survey_file` in a forked child killed after ``timeout`` seconds (its row then says so)."""
-    with tempfile.TemporaryFile() as result:
+class Child:
+    """One file compared in a forked child of this process; its row comes back through a temporary file."""
+
+    def __init__(self, path: Path, engines: tuple[str, ...], samples: int) -> None:
+        self.path, self.start = path, time.perf_counter()
+        self.result = tempfile.TemporaryFile()
         sys.stdout.flush()
         sys.stderr.flush()
-        start = time.perf_counter()
-        pid = os.fork()
-        if pid == 0:  # the child: its row as JSON into the shared file
+        self.pid = os.fork()
+        if self.pid == 0:  # the child: its row as JSON into the shared file
             try:
-                result.write(json.dumps(survey_file(path, engines, samples)).encode())
-                result.flush()
+                self.result.write(json.dumps(survey_file(path, engines, samples)).encode())
+                self.result.flush()
             finally:
                 os._exit(0)
-        while not os.waitpid(pid, os.WNOHANG)[0]:
-            if time.perf_counter() - start > timeout:
-                os.kill(pid, signal.SIGKILL)
-                os.waitpid(pid, 0)
-                return {"file": label_of(path), "crashed": f"timed out after {timeout:g} s"}
-            time.sleep(0.05)
-        result.seek(0)
-        text = result.read().decode()
-    if not text:
-        return {"file": label_of(path), "crashed": "the child died before writing its row"}
-    row: dict[str, Any] = json.loads(text)
-    return row
+
+    def row(self, timeout: float) -> dict[str, Any] | None:
+        """The child's row once it ended (or was killed past ``timeout`` seconds), None while it runs."""
+        if not os.waitpid(self.pid, os.WNOHANG)[0]:
+            if time.perf_counter() - self.start <= timeout:
+                return None
+            os.kill(self.pid, signal.SIGKILL)
+            os.waitpid(self.pid, 0)
+            self.result.close()
+            return {"file": label_of(self.path), "crashed": f"timed out after {timeout:g} s"}
+        self.result.seek(0)
+        text = self.result.read().decode()
+        self.result.close()
+        if not text:
+            return {"file": label_of(self.path), "crashed": "the child died before writing its row"}
+        row: dict[str, Any] = json.loads(text)
+        return row
+
+
+def survey(files: list[Path], engines: tuple[str, ...], samples: int, timeout: float, jobs: int) -> Any:
+    """Each file's row, ``jobs`` files at once, yielded as each ends (the rows are put back in file order later)."""
+    waiting, running = list(files), []
+    while waiting or running:
+        while waiting and len(running) < jobs:
+            running.append(Child(waiting.pop(0), engines, samples))
+        for child in list(running):
+            row = child.row(timeout)
+            if row is not None:
+                running.remove(child)
+                yield row
+        time.sleep(0.05)
 
 
 def main() -> None:
@@ -126,6 +147,7 @@ def main() -> None:
     parser.add_argument("--limit", type=int, default=0, help="at most this many files per set (0: all)")
     parser.add_argument("--samples", type=int, default=5, help="seeded states per comparison (default 5)")
     parser.add_argument("--timeout", type=float, default=300.0, help="seconds per file before it is killed")
+    parser.add_argument("--jobs", type=int, default=1, help="files compared at once, each in a child (default 1)")
     args = parser.parse_args()
     out = output_folder(args.out, overwrite_committed=args.overwrite_committed)
     engines = tuple(e for e in args.engines.split(",") if importlib.util.find_spec(_MODULES[e]) is not None)
@@ -140,16 +162,18 @@ def main() -> None:
         found = erd_files() if name == "erd" else pybullet_files(random_only=False)
         files += found[: args.limit] if args.limit else found
     rows: list[dict[str, Any]] = []
-    for path in files:
-        rows.append(survey_in_child(path, engines, args.samples, args.timeout))
+    order = {label_of(path): k for k, path in enumerate(files)}
+    for row in survey(files, engines, args.samples, args.timeout, args.jobs):
+        rows.append(row)
+        rows.sort(key=lambda r: order[r["file"]])
         partial = {"engines": list(engines), "samples": args.samples, "files": len(files), "rows": rows}
         write_json(out, "against", partial, dict(facts))  # after each file: a stopped survey keeps its rows
         shown = (
-            rows[-1].get("skipped")
-            or rows[-1].get("crashed")
-            or ", ".join(f"{r['engine']}/{r['reading']} {r['status']}" for r in rows[-1]["readings"])
+            row.get("skipped")
+            or row.get("crashed")
+            or ", ".join(f"{r['engine']}/{r['reading']} {r['status']}" for r in row["readings"])
         )
-        print(f"{rows[-1]['file']}: {shown}", flush=True)
+        print(f"{row['file']}: {shown}", flush=True)
     write_json(
         out, "against", {"engines": list(engines), "samples": args.samples, "files": len(files), "rows": rows}, facts
     )

@@ -2,6 +2,7 @@
 
     python benchmarks/against.py [--sets erd,pybullet] [--engines mujoco,pybullet,drake] [--limit N]
                                  [--samples 5] [--timeout 300] [--jobs 1] [--out bench-out]
+    python benchmarks/against.py --merge ERD.json PYBULLET.json --out DIR
 
 For each file robodyn loads (fixed base, revolute, continuous and prismatic joints only), each installed
 engine reads it with its defaults and trusting the file (``robodyn.against``). The table counts, per engine
@@ -139,6 +140,30 @@ def survey(files: list[Path], engines: tuple[str, ...], samples: int, timeout: f
         time.sleep(0.05)
 
 
+def merge(parts: list[Path]) -> dict[str, Any]:
+    """Surveys run side by side (e.g. one of both sets, one of ``--sets pybullet``) as one table of both sets.
+
+    A file in several parts keeps its row of the first; the table's ``files`` are those of both sets.
+    """
+    loaded = [json.loads(part.read_text(encoding="utf-8")) for part in parts]
+    rows: dict[str, dict[str, Any]] = {}
+    for part in loaded:
+        for row in part["rows"]:
+            rows.setdefault(row["file"], row)
+    everything = [label_of(path) for path in erd_files() + pybullet_files(random_only=False)]
+    run = dict(loaded[0]["run"])
+    run["command"] = " + ".join(part["run"]["command"] for part in loaded)
+    run["wall_time_s"] = max(part["run"]["wall_time_s"] for part in loaded)
+    run["load_after"] = loaded[-1]["run"]["load_after"]
+    return {
+        "run": run,
+        "engines": loaded[0]["engines"],
+        "samples": loaded[0]["samples"],
+        "files": len(everything),
+        "rows": [rows[name] for name in everything if name in rows],
+    }
+
+
 def main() -> None:
     """Run the survey and write ``against.json`` (the benchmarks page renders its table)."""
     parser = argument_parser(__doc__ or "")
@@ -148,8 +173,13 @@ def main() -> None:
     parser.add_argument("--samples", type=int, default=5, help="seeded states per comparison (default 5)")
     parser.add_argument("--timeout", type=float, default=300.0, help="seconds per file before it is killed")
     parser.add_argument("--jobs", type=int, default=1, help="files compared at once, each in a child (default 1)")
+    parser.add_argument("--merge", type=Path, nargs="+", help="write these saved surveys as one against.json, and stop")
     args = parser.parse_args()
     out = output_folder(args.out, overwrite_committed=args.overwrite_committed)
+    if args.merge:
+        write_json(out, "against", merge(args.merge))
+        print(f"wrote {out / 'against.json'}: {len(args.merge)} surveys as one table")
+        return
     engines = tuple(e for e in args.engines.split(",") if importlib.util.find_spec(_MODULES[e]) is not None)
     facts = run_facts()
     import robodyn  # imported once, before the children fork, with each engine's module

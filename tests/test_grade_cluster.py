@@ -14,9 +14,10 @@ from pathlib import Path
 import pytest
 
 from robodyn.cli import main
+from robodyn.errors import RobodynError
 from robodyn.grade import load_assignment
 from robodyn.grade.grading import SubmissionResult
-from robodyn.grade.outputs import TASK_PREFIX, find_submissions, grade_class
+from robodyn.grade.outputs import TASK_PREFIX, Submission, find_submissions, grade_class
 
 distributed = pytest.importorskip("distributed", reason="--scheduler needs Dask (the sweep extra)")
 
@@ -74,6 +75,14 @@ def test_interrupted_on_the_cluster_then_resumed_through_it(
         on_cluster = json.loads((out / "results" / f"{s.student}.json").read_text())
         here = json.loads((local / "results" / f"{s.student}.json").read_text())
         assert (on_cluster["score"], on_cluster["feedback"]) == (here["score"], here["feedback"]), s.student
+
+
+def test_a_file_the_workers_cannot_read_is_one_line(cluster: object, tmp_path: Path) -> None:
+    assignment = load_assignment(EXAMPLE / "assignment.toml")
+    ghost = Submission("ghost", tmp_path / "ghost.py", "ghost.py")  # not on the workers' disk (nor on this one)
+    address = cluster.scheduler_address  # type: ignore[attr-defined]
+    with pytest.raises(RobodynError, match=r"^ghost.py: a worker of the cluster cannot read .*ghost.py: the workers"):
+        grade_class(assignment, [ghost], tmp_path / "out", scheduler=address)
 
 
 def test_scheduler_refusals_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -52,7 +52,8 @@ def add_parser(sub: Any) -> None:
         "--scheduler",
         metavar="ADDRESS",
         help="grade on a running Dask cluster, one task a submission, as robodyn sweep does (e.g. "
-        "tcp://127.0.0.1:8786; its workers need robodyn and the same paths); instead of --jobs",
+        "tcp://127.0.0.1:8786; its workers need robodyn and the same paths); instead of --jobs; a class, or "
+        "--check-solution's mutants",
     )
     p.add_argument(
         "--gradescope",
@@ -86,6 +87,12 @@ def run(args: argparse.Namespace) -> int:
     from robodyn.grade.assignment import load_assignment
 
     assignment = load_assignment(args.assignment)
+    if args.scheduler is not None:
+        from robodyn.sweep.engine import check_cluster
+
+        if args.jobs is not None:
+            raise InputError("--jobs and --scheduler: give one (the cluster's workers grade at once)")
+        check_cluster(scheduler=args.scheduler, workers=None)  # a malformed address before any grading
     if args.check_solution is not None:
         return _check_solution(assignment, args)
     if args.submissions is None:
@@ -113,12 +120,6 @@ def _grade_class(assignment: Any, args: argparse.Namespace) -> int:
     if not submissions:
         raise InputError(f"{args.submissions}: no submissions (expected .py files, or one folder a student)")
     out: Path = args.out
-    if args.scheduler is not None:
-        from robodyn.sweep.engine import check_cluster
-
-        if args.jobs is not None:
-            raise InputError("--jobs and --scheduler: give one (the cluster's workers grade at once)")
-        check_cluster(scheduler=args.scheduler, workers=None)  # a malformed address before any grading
     results = grade_class(
         assignment, submissions, out, jobs=args.jobs or 1, scheduler=args.scheduler, on_result=_print_result
     )
@@ -157,7 +158,7 @@ def _check_solution(assignment: Any, args: argparse.Namespace) -> int:
         planted = write_mutants(solution, Path(tmp) / "mutants", limit=args.mutants)
         subs = [Submission("solution", solution, solution.name)]
         subs += [Submission(p.parent.name, p, f"{p.parent.name}: {what}") for p, what in planted]
-        results = grade_class(assignment, subs, Path(tmp) / "out", jobs=args.jobs or 1)
+        results = grade_class(assignment, subs, Path(tmp) / "out", jobs=args.jobs or 1, scheduler=args.scheduler)
     top = assignment.max_score
     ok = results[0].score == top
     print(f"solution {solution}: {results[0].score:g} / {top:g}" + ("" if ok else f"  {results[0].feedback!r}"))

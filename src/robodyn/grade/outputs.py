@@ -186,9 +186,10 @@ def _on_cluster(
             client.submit(_grade_one, str(assignment.path), s, key=f"{TASK_PREFIX}-{tag}-{i}", pure=False)
             for i, s in enumerate(todo)
         ]
+        by_key = {future.key: s for future, s in zip(futures, todo, strict=True)}
         try:
             for future in dd.as_completed(futures):
-                done(future.result())
+                done(_from_worker(future, by_key[future.key]))
                 future.release()
         except (OSError, TimeoutError, dd.client.FutureCancelledError, dd.CancelledError) as exc:
             raise UnavailableError(
@@ -199,6 +200,29 @@ def _on_cluster(
             for future in futures:
                 with contextlib.suppress(Exception):  # a client whose scheduler is gone cannot cancel
                     future.cancel()
+
+
+def _from_worker(future: Any, submission: Submission) -> dict[str, Any]:
+    """A task's result; what its worker raised becomes one line naming the submission (the results so far kept)."""
+    from robodyn.errors import RobodynError
+
+    try:
+        result: dict[str, Any] = future.result()
+    except RobodynError:
+        raise
+    except FileNotFoundError as exc:
+        raise RobodynError(
+            f"{submission.source}: a worker of the cluster cannot read {exc.filename}: the workers need the "
+            "assignment and the submissions at the same paths (a shared folder); the results graded so far are saved"
+        ) from None
+    except (OSError, TimeoutError):
+        raise  # the scheduler or its connection went away: grade_class says so
+    except Exception as exc:  # a worker that died (KilledWorker), or its memory's end: one line, named
+        raise RobodynError(
+            f"{submission.source}: its worker failed ({type(exc).__name__}: {' '.join(str(exc).split())[:200]}); "
+            "the results graded so far are saved, and the same command resumes"
+        ) from None
+    return result
 
 
 def write_gradebook(path: Path, results: Iterable[SubmissionResult], assignment: Assignment) -> None:

@@ -25,6 +25,10 @@ from robodyn.robot import Robot
 
 _MODULES = {"mujoco": "mujoco", "pybullet": "pybullet", "drake": "pydrake"}
 QUANTITIES = ("M", "Cv", "G")
+# A C v or G below this fraction of M v^2 is zero up to round-off: round-off is ~1e-16 of the terms (~M v^2), so
+# measured against ZERO_FLOOR M v^2 it stays ~1e-10 relative, under the default rtol 1e-9, while a real C v or G
+# (above it) is measured against itself.
+ZERO_FLOOR = 1e-6
 NO_LIMIT = 1e300  # [N m | rad/s] a bound at least this large is Pinocchio's mark of no limit (float max)
 
 
@@ -160,7 +164,7 @@ def _compare(
         for k, x in zip(QUANTITIES, (M[np.ix_(order, order)], Cv[order], G[order]), strict=True):
             values[k].append(x)
     engine_values = {k: np.array(x) for k, x in values.items()}
-    scale = {k: float(np.abs(mine[k]).max()) or 1.0 for k in QUANTITIES}
+    scale = _scales(mine, states)
     differences = _relative(engine_values, mine, scale)
     found, patched = _causes(robot, theirs, states, mine, scale, rtol)
     residual = _relative(engine_values, patched, scale)
@@ -176,6 +180,24 @@ def _compare(
         None,
         time.perf_counter() - start,
     )
+
+
+def _scales(mine: dict[str, Array], states: list[tuple[Array, Array]]) -> dict[str, float]:
+    """What each quantity's differences are relative to: its largest entry over the states.
+
+    For C v and G, at least ZERO_FLOOR times M v^2 (the torque the states' speeds make). A C v or G that is zero
+    at every state (wheels spinning about their centres of mass; gravity along every axis) is then measured
+    against the robot's torques, not against its own round-off, which any engine's sums in another order would
+    differ from by 100 %.
+    """
+    m = float(np.abs(mine["M"]).max()) or 1.0
+    speed = max((float(np.abs(v).max()) for _, v in states), default=1.0) or 1.0
+    floor = ZERO_FLOOR * m * speed**2
+    return {
+        "M": m,
+        "Cv": max(float(np.abs(mine["Cv"]).max()), floor),
+        "G": max(float(np.abs(mine["G"]).max()), floor),
+    }
 
 
 def _causes(

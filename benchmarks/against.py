@@ -1,18 +1,26 @@
 """``robodyn check --against``: every URDF of example-robot-data and pybullet_data against each engine installed.
 
     python benchmarks/against.py [--sets erd,pybullet] [--engines mujoco,pybullet,drake] [--limit N]
-                                 [--samples 5] [--out bench-out]
+                                 [--samples 5] [--timeout 300] [--jobs 1] [--out bench-out]
+    python benchmarks/against.py --merge ERD.json PYBULLET.json --out DIR
 
 For each file robodyn loads (fixed base, revolute, continuous and prismatic joints only), each installed
 engine reads it with its defaults and trusting the file (``robodyn.against``). The table counts, per engine
 and reading: the files compared, those that agree at rtol 1e-9, those that differ (by cause), those the engine
 refuses, and any difference no cause explains; with robodyn's time (its load and the comparison, engines
-included). It writes ``against.json`` to ``--out``; the benchmarks page renders its table.
+included). Each file is compared in a forked child of this process (``--jobs`` of them at once), killed after
+``--timeout`` seconds (a row marked ``timed out``), so one engine that hangs on a file does not end the survey.
+It writes ``against.json`` to ``--out`` after each file; the benchmarks page renders its table.
 """
 
 from __future__ import annotations
 
 import importlib.util
+import json
+import os
+import signal
+import sys
+import tempfile
 import time
 import warnings
 from pathlib import Path
@@ -37,6 +45,9 @@ CAUSES = (
     "rotational inertia read differently",
     "axis read differently",
     "limits read differently",
+    "effort limit read differently",
+    "velocity limit read differently",
+    "friction read differently",
     "damping read differently",
     "armature",
 )
@@ -81,6 +92,78 @@ def survey_file(path: Path, engines: tuple[str, ...], samples: int) -> dict[str,
     return row
 
 
+class Child:
+    """One file compared in a forked child of this process; its row comes back through a temporary file."""
+
+    def __init__(self, path: Path, engines: tuple[str, ...], samples: int) -> None:
+        self.path, self.start = path, time.perf_counter()
+        self.result = tempfile.TemporaryFile()
+        sys.stdout.flush()
+        sys.stderr.flush()
+        self.pid = os.fork()
+        if self.pid == 0:  # the child: its row as JSON into the shared file
+            try:
+                self.result.write(json.dumps(survey_file(path, engines, samples)).encode())
+                self.result.flush()
+            finally:
+                os._exit(0)
+
+    def row(self, timeout: float) -> dict[str, Any] | None:
+        """The child's row once it ended (or was killed past ``timeout`` seconds), None while it runs."""
+        if not os.waitpid(self.pid, os.WNOHANG)[0]:
+            if time.perf_counter() - self.start <= timeout:
+                return None
+            os.kill(self.pid, signal.SIGKILL)
+            os.waitpid(self.pid, 0)
+            self.result.close()
+            return {"file": label_of(self.path), "crashed": f"timed out after {timeout:g} s"}
+        self.result.seek(0)
+        text = self.result.read().decode()
+        self.result.close()
+        if not text:
+            return {"file": label_of(self.path), "crashed": "the child died before writing its row"}
+        row: dict[str, Any] = json.loads(text)
+        return row
+
+
+def survey(files: list[Path], engines: tuple[str, ...], samples: int, timeout: float, jobs: int) -> Any:
+    """Each file's row, ``jobs`` files at once, yielded as each ends (the rows are put back in file order later)."""
+    waiting, running = list(files), []
+    while waiting or running:
+        while waiting and len(running) < jobs:
+            running.append(Child(waiting.pop(0), engines, samples))
+        for child in list(running):
+            row = child.row(timeout)
+            if row is not None:
+                running.remove(child)
+                yield row
+        time.sleep(0.05)
+
+
+def merge(parts: list[Path]) -> dict[str, Any]:
+    """Surveys run side by side (e.g. one of both sets, one of ``--sets pybullet``) as one table of both sets.
+
+    A file in several parts keeps its row of the first; the table's ``files`` are those of both sets.
+    """
+    loaded = [json.loads(part.read_text(encoding="utf-8")) for part in parts]
+    rows: dict[str, dict[str, Any]] = {}
+    for part in loaded:
+        for row in part["rows"]:
+            rows.setdefault(row["file"], row)
+    everything = [label_of(path) for path in erd_files() + pybullet_files(random_only=False)]
+    run = dict(loaded[0]["run"])
+    run["command"] = " + ".join(part["run"]["command"] for part in loaded)
+    run["wall_time_s"] = max(part["run"]["wall_time_s"] for part in loaded)
+    run["load_after"] = loaded[-1]["run"]["load_after"]
+    return {
+        "run": run,
+        "engines": loaded[0]["engines"],
+        "samples": loaded[0]["samples"],
+        "files": len(everything),
+        "rows": [rows[name] for name in everything if name in rows],
+    }
+
+
 def main() -> None:
     """Run the survey and write ``against.json`` (the benchmarks page renders its table)."""
     parser = argument_parser(__doc__ or "")
@@ -88,24 +171,42 @@ def main() -> None:
     parser.add_argument("--engines", default="mujoco,pybullet,drake", help="engines, those installed only")
     parser.add_argument("--limit", type=int, default=0, help="at most this many files per set (0: all)")
     parser.add_argument("--samples", type=int, default=5, help="seeded states per comparison (default 5)")
+    parser.add_argument("--timeout", type=float, default=300.0, help="seconds per file before it is killed")
+    parser.add_argument("--jobs", type=int, default=1, help="files compared at once, each in a child (default 1)")
+    parser.add_argument("--merge", type=Path, nargs="+", help="write these saved surveys as one against.json, and stop")
     args = parser.parse_args()
     out = output_folder(args.out, overwrite_committed=args.overwrite_committed)
+    if args.merge:
+        write_json(out, "against", merge(args.merge))
+        print(f"wrote {out / 'against.json'}: {len(args.merge)} surveys as one table")
+        return
     engines = tuple(e for e in args.engines.split(",") if importlib.util.find_spec(_MODULES[e]) is not None)
     facts = run_facts()
+    import robodyn  # imported once, before the children fork, with each engine's module
+
+    for engine in engines:
+        importlib.import_module(_MODULES[engine])
+    del robodyn
     files: list[Path] = []
     for name in args.sets.split(","):
         found = erd_files() if name == "erd" else pybullet_files(random_only=False)
         files += found[: args.limit] if args.limit else found
-    rows = []
-    for path in files:
-        rows.append(survey_file(path, engines, args.samples))
+    rows: list[dict[str, Any]] = []
+    order = {label_of(path): k for k, path in enumerate(files)}
+    for row in survey(files, engines, args.samples, args.timeout, args.jobs):
+        rows.append(row)
+        rows.sort(key=lambda r: order[r["file"]])
+        partial = {"engines": list(engines), "samples": args.samples, "files": len(files), "rows": rows}
+        write_json(out, "against", partial, dict(facts))  # after each file: a stopped survey keeps its rows
         shown = (
-            rows[-1].get("skipped")
-            or rows[-1].get("crashed")
-            or ", ".join(f"{r['engine']}/{r['reading']} {r['status']}" for r in rows[-1]["readings"])
+            row.get("skipped")
+            or row.get("crashed")
+            or ", ".join(f"{r['engine']}/{r['reading']} {r['status']}" for r in row["readings"])
         )
-        print(f"{rows[-1]['file']}: {shown}", flush=True)
-    write_json(out, "against", {"engines": list(engines), "samples": args.samples, "rows": rows}, facts)
+        print(f"{row['file']}: {shown}", flush=True)
+    write_json(
+        out, "against", {"engines": list(engines), "samples": args.samples, "files": len(files), "rows": rows}, facts
+    )
     print(f"wrote {out / 'against.json'}: the benchmarks page renders its table (docs/hooks/robodyn_docs.py)")
 
 

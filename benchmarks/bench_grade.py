@@ -6,7 +6,8 @@ The class is spread over three robots (a double pendulum in two coordinate conve
 a matrix COORDINATES; the Pendubot with a Christoffel C and with C v; a three-link arm in absolute
 angles), each with right answers, single and double planted slips and hostile files (a loop, an exit,
 a file write, a socket, a NaN). It prints the wall time, the rate and the submissions whose score was
-not the planted one (there must be none), and saves ``bench_grade.json`` in ``--out``.
+not the planted one (there must be none), the CPU time of every process it started (the wall time on a shared
+machine measures its load too), and saves ``bench_grade.json`` in ``--out``.
 """
 
 from __future__ import annotations
@@ -79,7 +80,7 @@ def main() -> int:
     out = output_folder(args.out, overwrite_committed=args.overwrite_committed)
     facts = run_facts()
     robots = _variants()
-    wrong, graded, start = [], 0, time.perf_counter()
+    wrong, graded, start, cpu_start = [], 0, time.perf_counter(), _cpu_seconds()
     with tempfile.TemporaryDirectory(prefix="bench-grade-") as tmp:
         for k, (robot, (toml, variants)) in enumerate(robots.items()):
             folder = Path(tmp) / robot
@@ -97,13 +98,27 @@ def main() -> int:
             results = grade_class(assignment, subs, folder / "out", jobs=args.jobs)
             graded += len(results)
             wrong += [(r.student, r.score, expected[r.student]) for r in results if r.score != expected[r.student]]
-    wall = time.perf_counter() - start
+    wall, cpu = time.perf_counter() - start, _cpu_seconds() - cpu_start
     print(f"graded {graded} submissions over {len(robots)} robots in {wall:.1f} s with {args.jobs} processes "
           f"({wall / max(graded, 1):.2f} s a submission); scores not as planted: {len(wrong)} {wrong[:5]}")  # fmt: skip
+    print(f"CPU time of this process and every process it started: {cpu:.1f} s ({cpu / args.jobs:.1f} s on "
+          f"{args.jobs} otherwise idle cores)")  # fmt: skip
     result = {"students": graded, "jobs": args.jobs, "wall_s": wall, "per_submission_s": wall / max(graded, 1),
-              "not_as_planted": wrong}  # fmt: skip
+              "cpu_s": cpu, "not_as_planted": wrong}  # fmt: skip
     write_json(out, "bench_grade", result, facts)
     return 1 if wrong else 0
+
+
+def _cpu_seconds() -> float:
+    """User + system CPU time [s] of this process and of every process it started and waited for.
+
+    The grading workers, and the formula processes each of them starts, all count: on a machine shared with other
+    work the wall time measures the load as much as robodyn, and this does not.
+    """
+    import resource
+
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
 
 
 if __name__ == "__main__":

@@ -71,6 +71,23 @@ CASES = {
         'type="revolute"><parent link="link1"', 'type="continuous"><parent link="link1"'
     ),
     # a revolute <limit> without lower and upper: URDF's defaults are 0 and 0
+    # a passive joint's effort limit 0 (MuJoCo: no limit) and dry friction (Drake: none)
+    "effort_friction": arm(
+        inertial(0.5), joint2='<limit lower="-2" upper="2" effort="0" velocity="3"/><dynamics friction="0.4"/>'
+    ),
+    # a ball spinning about its centre on a tilted axle: C v and G are zero at every state in exact arithmetic,
+    # round-off in the engines' tilted frames
+    "wheel": """<?xml version="1.0"?>
+<robot name="wheel">
+  <link name="base">"""
+    + inertial(2.0)
+    + """</link>
+  <link name="wheel"><inertial><origin xyz="0 0 0"/><mass value="0.5"/>
+    <inertia ixx="0.002" iyy="0.002" izz="0.002" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="axle" type="continuous"><parent link="base"/><child link="wheel"/>
+    <origin xyz="0.1 0 0" rpy="0.3 0.2 0.1"/><axis xyz="0 0.6 0.8"/></joint>
+</robot>
+""",
     "limit_defaults": arm(inertial(0.5), joint2='<limit effort="5" velocity="5"/>'),
     # a prismatic joint
     "prismatic": arm(inertial(0.5)).replace(

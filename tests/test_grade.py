@@ -140,7 +140,7 @@ def test_gradebook_and_class_report_count_each_mistake(graded: tuple[Path, Path,
     assert set(rows) == set(CLASS) and rows["c_sign"]["C"] == "1" and rows["dropped_m12"]["M"] == "2"
     summary = json.loads((out / "class.json").read_text())
     assert summary["entries"]["M[0,1]"] == 1 and summary["entries"]["C[0,1]"] == 1
-    assert summary["terms"]["M[0,1]: formula - Pinocchio = -m2*l1*lc2*cos(q2)"] == 1
+    assert summary["terms"]["M[0,1]: formula - Pinocchio = m2*l1*lc2*cos(elbow)"] == 1  # the model's coordinates
     assert len(summary["errors"]) == len(HOSTILE) and summary["full_marks"] == 2
     assert (out / "scores.png").stat().st_size > 0 and "1 student: M[0,1]" in (out / "report.md").read_text()
 

@@ -825,10 +825,13 @@ def _against(data: dict[str, Any]) -> str:
     crashed = [row for row in rows if "crashed" in row]
     seconds = [row["seconds"] for row in rows if "seconds" in row]
     total = f"{sum(seconds):.1f} s in all, {max(seconds):.2f} s at most" if seconds else "none compared"
+    meant = int(data.get("files", len(rows)))
+    stopped = f" (the survey was stopped after {len(rows)} of its {meant} files)" if len(rows) < meant else ""
     lines.append("")
     lines.append(
-        f"{len(rows)} files; {len(crashed)} crashed the comparison; {len(skipped)} not compared (robodyn refuses "
-        f"them, or a joint that is not 1-DoF, or none moves); robodyn's time, engines included: {total}."
+        f"{len(rows)} files{stopped}; {len(crashed)} crashed the comparison or ran past the survey's timeout; "
+        f"{len(skipped)} not compared (robodyn refuses them, or a joint that is not 1-DoF, or none moves); "
+        f"robodyn's time, engines included: {total}."
     )
     return "\n".join(lines) + "\n"
 

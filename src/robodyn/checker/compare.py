@@ -426,8 +426,10 @@ def check(
     hints = convention_hints(rows, kept, *explained, kind, names) if explained is not None else ()
     explanation: tuple[str, ...] = ()
     terms: tuple[Explained, ...] = ()
+    joint_terms: tuple[Explained, ...] = ()
     if explain and explained is not None:
         explanation, terms = compare_any.explain_rows(rows, kept, *explained, used, sets=found.sets, names=names)
+        joint_terms = compare_any.explain_in_joints(rows, kept, *explained, used, sets=found.sets)
     elif explain and kind == CONSTRAINED:
         explanation = ("explain: not available for a KIND = 'constrained' formula (its rows are on the loop)",)
     if kind != CONSTRAINED and (tuple(loops) or springs):
@@ -448,5 +450,6 @@ def check(
         explanation=explanation,
         renamed=renamed,
         explain_terms=tuple(t.as_dict() for t in terms),
+        joint_terms=tuple(t.as_dict() for t in joint_terms),
         hints=hints,
     )

@@ -13,14 +13,15 @@ the formula's coordinates exactly (:class:`robodyn.checker.reference.Reference`)
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
 
 from robodyn import dynamics
 from robodyn.checker.constrained_kind import checked_parameters
-from robodyn.checker.explain import Explained, Sets, explain, failing_keys
+from robodyn.checker.explain import QUANTITIES, Explained, Sets, explain, failing_keys
 from robodyn.checker.explain_sets import Follower, by_table, by_values, parameter_sets
 from robodyn.checker.reference import Reference
 from robodyn.checker.rows import Accumulator, CheckRow
@@ -153,3 +154,55 @@ def explain_rows(
     prismatic = list(ref.prismatic)
     g = float(np.linalg.norm(dynamics.gravity_vector(ref.robot.model)))
     return explain(rows, kept, states, used, prismatic=prismatic, g=g, sets=sets, names=names or None)
+
+
+def explain_in_joints(
+    rows: Sequence[CheckRow],
+    kept: Mapping[str, Accumulator],
+    states: Sequence[Any],
+    ref: Reference,
+    used: Mapping[str, float],
+    *,
+    sets: Sets | None = None,
+) -> tuple[Explained, ...]:
+    """``--explain``'s terms in the model's own coordinates, whatever coordinates the formula chose.
+
+    With the formula's q = A q_joints + b: q_joints = A^-1 (q - b), in the model's joint order and named by
+    the joints (``cos(elbow)``), M and C become A^T X A, G and C v A^T x, V stays. One slip then reads the same
+    in every file, whichever convention (a sign, an offset, absolute angles) or ``NAMES`` it was written in:
+    ``robodyn grade``'s class report counts it once. The rows are remeasured in those coordinates, so an entry
+    is one of the model's.
+    """
+    order = np.argsort(ref.columns)
+    A = ref.A[:, order]  # q_formula = A q_sorted + b, q_sorted the joints in the model's order
+    A_inv = np.linalg.inv(A)
+    by_index = {j.idx_v: j.name for j in ref.robot.joints}
+    names = [by_index[ref.columns[i]] for i in order]
+    prismatic = [bool(np.any(np.array(ref.prismatic)[np.abs(A[:, j]) > 0])) for j in range(A.shape[1])]
+
+    def to_joints(key: str, x: Any) -> Any:
+        x = np.asarray(x, dtype=np.float64)
+        if key == "V":
+            return x
+        if key == "M" or (key == "C" and x.shape[-2:] == A.shape):
+            return np.swapaxes(A, 0, 1) @ x @ A
+        return x @ A  # G, C v: A^T x, over any leading axes
+
+    moved = [SimpleNamespace(q=A_inv @ (np.asarray(s.q) - ref.offsets), v=A_inv @ np.asarray(s.v)) for s in states]
+    remeasured: dict[str, Accumulator] = {}
+    new_rows = list(rows)
+    for key, acc in kept.items():
+        if key not in QUANTITIES or not acc.pairs:
+            continue
+        acc2 = Accumulator(acc.quantity, acc.group, acc.unit, acc.tolerance, counts=acc.counts)
+        for ref_value, value in acc.pairs:
+            acc2.add(to_joints(key, ref_value), to_joints(key, value), acc.floor)
+        remeasured[key] = acc2
+        for i, row in enumerate(new_rows):
+            if row.quantity == QUANTITIES[key] and not row.passed:
+                new_rows[i] = acc2.row(moved, scalar=key == "V")
+    if sets is not None:
+        sets = replace(sets, differences={k: to_joints(k, d) for k, d in sets.differences.items()})
+    g = float(np.linalg.norm(dynamics.gravity_vector(ref.robot.model)))
+    _, terms = explain(new_rows, remeasured, moved, used, prismatic=prismatic, g=g, sets=sets, names=names)
+    return terms

@@ -144,6 +144,9 @@ class CheckReport:
     # --explain, for machines: per mismatching entry {quantity, entry, label, status, terms, reason}
     # (robodyn.checker.explain.Explained.as_dict)
     explain_terms: tuple[dict[str, Any], ...] = ()
+    # --explain: the same terms in the model's own coordinates, named by its joints, in its joint order, whatever
+    # coordinates the formula chose (compare_any.explain_in_joints): one slip reads the same in every convention
+    joint_terms: tuple[dict[str, Any], ...] = ()
     hints: tuple[str, ...] = ()  # ``hint: ...`` lines: a convention under which the mismatch vanishes (kinds.hints)
 
     @property
@@ -189,6 +192,7 @@ class CheckReport:
         out = {f.name: getattr(self, f.name) for f in fields(self)}
         out.update(notes=list(self.notes), rows=[r.as_dict() for r in self.rows], explanation=list(self.explanation))
         out.update(renamed=list(self.renamed), explain_terms=list(self.explain_terms), hints=list(self.hints))
+        out.update(joint_terms=list(self.joint_terms))
         return {**out, "passed": self.passed, "verdict": self.verdict}
 
 

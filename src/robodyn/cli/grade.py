@@ -29,7 +29,8 @@ def add_parser(sub: Any) -> None:
         description="Grade derivations of M, C, G, V by their agreement with Pinocchio, entry by entry, as the "
         "assignment (TOML) says; each submission runs in robodyn's formula sandbox with the assignment's time and "
         "memory limits. Exit 0 when graded; 1 when --check-solution finds the solution short of full marks or a "
-        "mutant not caught; 2 on bad input.",
+        "mutant not caught; 2 on bad input; 4 --scheduler without Dask; 5 no scheduler at --scheduler, or it went "
+        "away (the results graded so far are kept: the same command resumes).",
     )
     p.add_argument("assignment", type=file_path, metavar="ASSIGNMENT", help="the assignment file (.toml)")
     p.add_argument(
@@ -44,8 +45,15 @@ def add_parser(sub: Any) -> None:
     p.add_argument(
         "--jobs",
         type=number_in(low=1, high=MAX_JOBS, low_open=False, integer=True),
-        default=1,
+        default=None,
         help="submissions graded at once, each in a process of its own (default 1)",
+    )
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="grade on a running Dask cluster, one task a submission, as robodyn sweep does (e.g. "
+        "tcp://127.0.0.1:8786; its workers need robodyn and the same paths); instead of --jobs; a class, or "
+        "--check-solution's mutants",
     )
     p.add_argument(
         "--gradescope",
@@ -79,6 +87,12 @@ def run(args: argparse.Namespace) -> int:
     from robodyn.grade.assignment import load_assignment
 
     assignment = load_assignment(args.assignment)
+    if args.scheduler is not None:
+        from robodyn.sweep.engine import check_cluster
+
+        if args.jobs is not None:
+            raise InputError("--jobs and --scheduler: give one (the cluster's workers grade at once)")
+        check_cluster(scheduler=args.scheduler, workers=None)  # a malformed address before any grading
     if args.check_solution is not None:
         return _check_solution(assignment, args)
     if args.submissions is None:
@@ -106,7 +120,9 @@ def _grade_class(assignment: Any, args: argparse.Namespace) -> int:
     if not submissions:
         raise InputError(f"{args.submissions}: no submissions (expected .py files, or one folder a student)")
     out: Path = args.out
-    results = grade_class(assignment, submissions, out, jobs=args.jobs, on_result=_print_result)
+    results = grade_class(
+        assignment, submissions, out, jobs=args.jobs or 1, scheduler=args.scheduler, on_result=_print_result
+    )
     write_gradebook(out / "gradebook.csv", results, assignment)
     summary = write_report(out, results, assignment)
     d = summary.as_dict()
@@ -142,7 +158,7 @@ def _check_solution(assignment: Any, args: argparse.Namespace) -> int:
         planted = write_mutants(solution, Path(tmp) / "mutants", limit=args.mutants)
         subs = [Submission("solution", solution, solution.name)]
         subs += [Submission(p.parent.name, p, f"{p.parent.name}: {what}") for p, what in planted]
-        results = grade_class(assignment, subs, Path(tmp) / "out", jobs=args.jobs)
+        results = grade_class(assignment, subs, Path(tmp) / "out", jobs=args.jobs or 1, scheduler=args.scheduler)
     top = assignment.max_score
     ok = results[0].score == top
     print(f"solution {solution}: {results[0].score:g} / {top:g}" + ("" if ok else f"  {results[0].feedback!r}"))

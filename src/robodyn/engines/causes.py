@@ -95,7 +95,10 @@ def _inertia_cause(
 
 
 def joint_causes(engine: str, kind: str, mine: JointReading, theirs: JointReading) -> list[tuple[str, str | None]]:
-    """Each way one joint (``kind``: revolute, prismatic, continuous) differs: axis, limits, damping, armature."""
+    """Each way one joint (``kind``: revolute, prismatic, continuous) differs.
+
+    Its axis, position limits, damping, effort and velocity limits, friction and armature.
+    """
     unit = "m" if kind == "prismatic" else "rad"
     found: list[tuple[str, str | None]] = []
     if float(np.abs(theirs.axis / np.linalg.norm(theirs.axis) - mine.axis).max()) > 1e-9:
@@ -116,6 +119,7 @@ def joint_causes(engine: str, kind: str, mine: JointReading, theirs: JointReadin
                 None,
             )
         )
+    found += _limit_causes(engine, kind, mine, theirs)
     if not _same(mine.armature, theirs.armature):
         option = {
             "mujoco": "giving MuJoCo the armature (<joint armature=...> in MJCF)",
@@ -129,6 +133,38 @@ def joint_causes(engine: str, kind: str, mine: JointReading, theirs: JointReadin
             )
         )
     return found
+
+
+def _limit_causes(engine: str, kind: str, mine: JointReading, theirs: JointReading) -> list[tuple[str, str | None]]:
+    """Effort and velocity limits (where the engine holds such a limit at all) and friction."""
+    force, speed = ("N", "m/s") if kind == "prismatic" else ("N m", "rad/s")
+    found: list[tuple[str, str | None]] = []
+    for what, unit, a, b in (
+        ("effort limit", force, mine.effort, theirs.effort),
+        ("velocity limit", speed, mine.velocity, theirs.velocity),
+    ):
+        if b is not None and not _same(np.nan if a is None else a, b):
+            found.append(
+                (
+                    f"{what} read differently: robodyn {_bound(a, unit)}, {engine} {_bound(b, unit)} "
+                    "(no effect on M, C v, G; caps the motion in simulation)",
+                    None,
+                )
+            )
+    if not _same(mine.friction, theirs.friction):
+        why = " (Drake's MultibodyPlant has no joint friction: its parser drops it)" if engine == "drake" else ""
+        found.append(
+            (
+                f"friction read differently: robodyn {mine.friction:.6g}, {engine} {theirs.friction:.6g} {force}{why} "
+                "(no effect on M, C v, G; acts in simulation)",
+                None,
+            )
+        )
+    return found
+
+
+def _bound(value: float | None, unit: str) -> str:
+    return "none" if value is None or np.isnan(value) else f"{value:.6g} {unit}"
 
 
 def _same(a: float, b: float) -> bool:

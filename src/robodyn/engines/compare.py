@@ -25,6 +25,11 @@ from robodyn.robot import Robot
 
 _MODULES = {"mujoco": "mujoco", "pybullet": "pybullet", "drake": "pydrake"}
 QUANTITIES = ("M", "Cv", "G")
+# A C v or G below this fraction of the robot's torque scale (M v^2, m g l) is zero up to round-off: round-off is
+# ~1e-16 of the terms it is summed from (~that scale), so measured against ZERO_FLOOR times it, it stays ~1e-10
+# relative, under the default rtol 1e-9, while a real C v or G (above it) is measured against itself.
+ZERO_FLOOR = 1e-6
+NO_LIMIT = 1e300  # [N m | rad/s] a bound at least this large is Pinocchio's mark of no limit (float max)
 
 
 def against(
@@ -159,7 +164,7 @@ def _compare(
         for k, x in zip(QUANTITIES, (M[np.ix_(order, order)], Cv[order], G[order]), strict=True):
             values[k].append(x)
     engine_values = {k: np.array(x) for k, x in values.items()}
-    scale = {k: float(np.abs(mine[k]).max()) or 1.0 for k in QUANTITIES}
+    scale = _scales(robot, mine, states)
     differences = _relative(engine_values, mine, scale)
     found, patched = _causes(robot, theirs, states, mine, scale, rtol)
     residual = _relative(engine_values, patched, scale)
@@ -175,6 +180,32 @@ def _compare(
         None,
         time.perf_counter() - start,
     )
+
+
+def _scales(robot: Robot, mine: dict[str, Array], states: list[tuple[Array, Array]]) -> dict[str, float]:
+    """What each quantity's differences are relative to: its largest entry over the states.
+
+    For C v and G, at least ZERO_FLOOR times the robot's torque scale: the larger of M v^2 (what the states'
+    speeds make) and m g l (its moving mass m, gravity g and its longest lever l, a joint's offset or a centre of
+    mass's). A C v or G that is zero, or nearly, at every state (wheels spinning about their centres of mass;
+    gravity along every axis) is then measured against the torques its sums are made of, not against its own
+    round-off, which any engine's sums in another order differ from by 100 %.
+    """
+    model = robot.model
+    m = float(np.abs(mine["M"]).max()) or 1.0
+    speed = max((float(np.abs(v).max()) for _, v in states), default=1.0) or 1.0
+    moving = range(1, model.njoints)
+    mass = sum(float(model.inertias[j].mass) for j in moving)
+    levers = [np.linalg.norm(model.inertias[j].lever) for j in moving]
+    levers += [np.linalg.norm(model.jointPlacements[j].translation) for j in moving]
+    lever = float(max(levers, default=0.0))
+    gravity = float(np.linalg.norm(model.gravity.linear))
+    floor = ZERO_FLOOR * max(m * speed**2, mass * gravity * lever)
+    return {
+        "M": m,
+        "Cv": max(float(np.abs(mine["Cv"]).max()), floor) or 1.0,
+        "G": max(float(np.abs(mine["G"]).max()), floor) or 1.0,
+    }
 
 
 def _causes(
@@ -232,14 +263,33 @@ def robodyn_bodies(robot: Robot) -> dict[str, BodyInertia]:
 
 
 def robodyn_joint(robot: Robot, name: str) -> JointReading:
-    """The joint's axis in its link's frame, limits (nan on a continuous joint), damping and armature."""
+    """The joint as Pinocchio holds it.
+
+    Its axis in its link's frame, limits (nan on a continuous joint), damping, armature, effort and velocity
+    limits (nan where none) and friction.
+    """
     model = robot.model
     joint = robot.joint(name)
     axis = _axis(robot, name)
     lower, upper = np.nan, np.nan
     if joint.nq == 1:
         lower, upper = float(model.lowerPositionLimit[joint.idx_q]), float(model.upperPositionLimit[joint.idx_q])
-    return JointReading(axis, lower, upper, float(model.damping[joint.idx_v]), float(model.armature[joint.idx_v]))
+    i = joint.idx_v
+    return JointReading(
+        axis,
+        lower,
+        upper,
+        float(model.damping[i]),
+        float(model.armature[i]),
+        effort=_limit(model.effortLimit[i]),
+        velocity=_limit(model.velocityLimit[i]),
+        friction=float(model.friction[i]),
+    )
+
+
+def _limit(value: float) -> float:
+    """A limit Pinocchio holds, nan where it holds none (an infinite or float-max bound)."""
+    return float(value) if np.isfinite(value) and abs(value) < NO_LIMIT else np.nan
 
 
 def _axis(robot: Robot, name: str) -> Array:

@@ -106,17 +106,23 @@ def _body(plant: Any, b: int) -> Any:
 def _joint(plant: Any, joint: Any) -> JointReading:
     axis = joint.revolute_axis() if joint.type_name() == "revolute" else joint.translation_axis()
     lower, upper = float(joint.position_lower_limits()[0]), float(joint.position_upper_limits()[0])
-    armature = 0.0
+    armature, effort = 0.0, None  # no actuator (no <transmission>): Drake holds no effort limit
     for i in plant.GetJointActuatorIndices():
         actuator = plant.get_joint_actuator(i)
         if actuator.joint().name() == joint.name():
             armature = float(actuator.default_reflected_inertia())
+            limit = float(actuator.effort_limit())
+            effort = limit if np.isfinite(limit) else np.nan
+    speed = float(joint.velocity_upper_limits()[0])
     return JointReading(
         np.array(axis, dtype=float),
         lower if np.isfinite(lower) else np.nan,
         upper if np.isfinite(upper) else np.nan,
         float(joint.default_damping()),
         armature,
+        effort=effort,
+        velocity=speed if np.isfinite(speed) else np.nan,
+        friction=0.0,  # MultibodyPlant has no joint friction (its parser warns and drops <dynamics friction>)
     )
 
 

@@ -98,8 +98,16 @@ def _joint(model: Any, j: int) -> JointReading:
     limited = bool(model.jnt_limited[j])
     lower, upper = (float(x) for x in model.jnt_range[j]) if limited else (np.nan, np.nan)
     dof = int(model.jnt_dofadr[j])
+    effort = float(model.jnt_actfrcrange[j][1]) if bool(model.jnt_actfrclimited[j]) else np.nan
     return JointReading(
-        model.jnt_axis[j].copy(), lower, upper, float(model.dof_damping[dof]), float(model.dof_armature[dof])
+        model.jnt_axis[j].copy(),
+        lower,
+        upper,
+        float(model.dof_damping[dof]),
+        float(model.dof_armature[dof]),
+        effort=effort,  # <limit effort> becomes the joint's actuatorfrcrange
+        velocity=None,  # MuJoCo holds no velocity limit
+        friction=float(model.dof_frictionloss[dof]),
     )
 
 

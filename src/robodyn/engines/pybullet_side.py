@@ -102,9 +102,21 @@ def _joint(p: Any, client: int, body: int, info: Any) -> JointReading:
     """The joint's axis in its link's frame (PyBullet gives it in the link's inertial frame), limits, damping."""
     inertial = _matrix(p, p.getDynamicsInfo(body, info[0], physicsClientId=client)[4])
     lower, upper = float(info[8]), float(info[9])
+    effort, velocity = float(info[10]), float(info[11])  # jointMaxForce, jointMaxVelocity
     if lower > upper:  # PyBullet's mark of a joint without limits (a continuous joint)
         lower, upper = np.nan, np.nan
-    return JointReading(inertial @ np.array(info[13], dtype=float), lower, upper, float(info[6]), 0.0)
+        if effort == velocity == 0.0:  # and no <limit> at all: 0 stands for none
+            effort, velocity = np.nan, np.nan
+    return JointReading(
+        inertial @ np.array(info[13], dtype=float),
+        lower,
+        upper,
+        float(info[6]),
+        0.0,
+        effort=effort,
+        velocity=velocity,
+        friction=float(info[7]),
+    )
 
 
 def _evaluator(p: Any, client: int, body: int, moving: list[int], count: int) -> Any:

@@ -43,13 +43,22 @@ class BodyInertia:
 
 @dataclass(frozen=True)
 class JointReading:
-    """One moving joint as the engine holds it; ``lower``/``upper`` are nan where it has no limit."""
+    """One moving joint as the engine holds it; ``lower``/``upper`` are nan where it has no limit.
+
+    ``effort`` [N m | N] and ``velocity`` [rad/s | m/s] limits: nan where the joint has none, None where the
+    engine holds no such limit at all (MuJoCo has no velocity limit; Drake an effort limit only on an actuator,
+    which a URDF ``<transmission>`` makes). ``friction`` [N m | N]: the joint's dry friction (URDF
+    ``<dynamics friction>``; MuJoCo's ``frictionloss``).
+    """
 
     axis: Array
     lower: float
     upper: float
     damping: float
     armature: float
+    effort: float | None = None
+    velocity: float | None = None
+    friction: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)

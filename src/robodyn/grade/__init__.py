@@ -10,6 +10,14 @@ from __future__ import annotations
 
 from robodyn.grade.assignment import Assignment, load_assignment
 from robodyn.grade.grading import QuantityScore, SubmissionResult, grade_file
-from robodyn.grade.notebook import notebook_check
+from robodyn.grade.notebook import NotebookResult, notebook_check
 
-__all__ = ["Assignment", "QuantityScore", "SubmissionResult", "grade_file", "load_assignment", "notebook_check"]
+__all__ = [
+    "Assignment",
+    "NotebookResult",
+    "QuantityScore",
+    "SubmissionResult",
+    "grade_file",
+    "load_assignment",
+    "notebook_check",
+]

@@ -55,6 +55,9 @@ class SubmissionResult:
     error: str = ""  # the one-line reason a submission could not be run
     verdict: str = ""  # the check's verdict ("PASS", "EQUATIONS AGREE", "FAIL") or "ERROR"
     terms: tuple[str, ...] = ()  # named mistakes, "M[0,1]: formula - Pinocchio = -m2*l1*lc2*cos(q2)"
+    # the same in the model's joint coordinates, "M[0,1]: formula - Pinocchio = -m2*l1*lc2*cos(elbow)": the class
+    # report counts these, so one slip written in two coordinate conventions is one mistake
+    model_terms: tuple[str, ...] = ()
     wall_time_s: float = 0.0
     extra: dict[str, Any] = field(default_factory=dict)
 
@@ -66,7 +69,14 @@ class SubmissionResult:
     def from_dict(cls, d: Mapping[str, Any]) -> SubmissionResult:
         """The inverse of :meth:`as_dict`."""
         quantities = tuple(QuantityScore(**{**q, "wrong": tuple(q["wrong"])}) for q in d["quantities"])
-        return cls(**{**d, "quantities": quantities, "terms": tuple(d["terms"])})
+        return cls(
+            **{
+                **d,
+                "quantities": quantities,
+                "terms": tuple(d["terms"]),
+                "model_terms": tuple(d.get("model_terms", ())),
+            }
+        )
 
 
 def digest(assignment: Assignment, submission: Path) -> str:
@@ -161,10 +171,13 @@ def _missing(name: str, rows: Mapping[str, Any]) -> str:
     return f"{name} was not checked"
 
 
-def named_terms(report: Any) -> tuple[str, ...]:
-    """The mistakes ``--explain`` named, one line each: ``M[0,1]: formula - Pinocchio = -m2*l1*lc2*cos(q2)``."""
+def named_terms(explained: Any) -> tuple[str, ...]:
+    """The mistakes ``--explain`` named, one line each: ``M[0,1]: formula - Pinocchio = -m2*l1*lc2*cos(q2)``.
+
+    ``explained``: a report's ``explain_terms`` (the student's coordinates) or ``joint_terms`` (the model's).
+    """
     out = []
-    for t in report.explain_terms:
+    for t in explained:
         if t.get("status") != "named" or not t.get("terms"):
             continue
         ordered = sorted(t["terms"], key=lambda x: x["basis"])  # one mistake reads the same in every file
@@ -242,7 +255,8 @@ def grade_file(
         quantities=quantities,
         feedback=feedback_text(assignment, score, quantities, report),
         verdict=report.verdict,
-        terms=named_terms(report),
+        terms=named_terms(report.explain_terms),
+        model_terms=named_terms(report.joint_terms),
         wall_time_s=time.perf_counter() - start,
     )
 

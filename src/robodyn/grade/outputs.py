@@ -7,10 +7,12 @@ the class report. One submission's Gradescope ``results.json`` is :func:`gradesc
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import json
 import os
 import re
+import uuid
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
@@ -21,6 +23,7 @@ from robodyn.grade.assignment import Assignment, load_assignment
 from robodyn.grade.grading import SubmissionResult, digest, error_result, grade_file
 
 SKIPPED = ("__pycache__", ".ipynb_checkpoints")
+TASK_PREFIX = "robodyn_grade"  # each submission's task on a Dask cluster is named robodyn_grade-...
 VISIBILITY = ("hidden", "after_due_date", "after_published", "visible")  # Gradescope's visibility values
 
 
@@ -123,12 +126,21 @@ def grade_class(
     out: Path,
     *,
     jobs: int = 1,
+    scheduler: str | None = None,
     on_result: Callable[[SubmissionResult, bool], None] | None = None,
 ) -> list[SubmissionResult]:
     """Grade every submission not already graded in ``out`` (same content hash), in ``jobs`` processes.
 
-    ``on_result(result, resumed)`` is called as each one is done, in completion order. Results are
-    returned in the order of ``submissions``.
+    With ``scheduler`` (a Dask scheduler's address, ``tcp://host:8786``) each submission is one task of that
+    cluster instead, through ``robodyn sweep``'s own client (:func:`robodyn.sweep.engine.client_for`); its
+    workers need robodyn and read the assignment and the submissions at the same paths (a shared folder).
+    Each result is saved as it arrives, so an interrupted run, or one whose scheduler went away, keeps what
+    it finished and the same call resumes from it. ``on_result(result, resumed)`` is called as each one is
+    done, in completion order. Results are returned in the order of ``submissions``.
+
+    Raises:
+        UnavailableError: no scheduler at ``scheduler``, or it went away (the results saved are kept).
+        MissingDependencyError: ``scheduler`` given without Dask installed.
     """
     results: dict[str, SubmissionResult] = {}
     todo = []
@@ -148,7 +160,9 @@ def grade_class(
         if on_result:
             on_result(result, False)
 
-    if jobs <= 1 or len(todo) <= 1:
+    if scheduler is not None and todo:
+        _on_cluster(scheduler, assignment, todo, done)
+    elif jobs <= 1 or len(todo) <= 1:
         for s in todo:
             done(_grade_one(str(assignment.path), s))
     else:
@@ -156,6 +170,59 @@ def grade_class(
             for d in pool.map(_grade_one, [str(assignment.path)] * len(todo), todo):
                 done(d)
     return [results[s.student] for s in submissions]
+
+
+def _on_cluster(
+    scheduler: str, assignment: Assignment, todo: Sequence[Submission], done: Callable[[dict[str, Any]], None]
+) -> None:
+    """Each submission a task of the Dask cluster at ``scheduler``; each result handed to ``done`` as it arrives."""
+    from robodyn.errors import UnavailableError
+    from robodyn.sweep.engine import client_for, distributed, quiet_dask
+
+    dd = distributed()
+    with quiet_dask(), client_for(scheduler=scheduler, workers=None) as client:
+        tag = uuid.uuid4().hex  # a key of its own per run: a cancelled earlier task cannot answer for this one
+        futures = [
+            client.submit(_grade_one, str(assignment.path), s, key=f"{TASK_PREFIX}-{tag}-{i}", pure=False)
+            for i, s in enumerate(todo)
+        ]
+        by_key = {future.key: s for future, s in zip(futures, todo, strict=True)}
+        try:
+            for future in dd.as_completed(futures):
+                done(_from_worker(future, by_key[future.key]))
+                future.release()
+        except (OSError, TimeoutError, dd.client.FutureCancelledError, dd.CancelledError) as exc:
+            raise UnavailableError(
+                f"the Dask scheduler went away mid-grading ({type(exc).__name__}); the results graded so far are "
+                "saved: run the same command again to resume from them"
+            ) from None
+        finally:
+            for future in futures:
+                with contextlib.suppress(Exception):  # a client whose scheduler is gone cannot cancel
+                    future.cancel()
+
+
+def _from_worker(future: Any, submission: Submission) -> dict[str, Any]:
+    """A task's result; what its worker raised becomes one line naming the submission (the results so far kept)."""
+    from robodyn.errors import RobodynError
+
+    try:
+        result: dict[str, Any] = future.result()
+    except RobodynError:
+        raise
+    except FileNotFoundError as exc:
+        raise RobodynError(
+            f"{submission.source}: a worker of the cluster cannot read {exc.filename}: the workers need the "
+            "assignment and the submissions at the same paths (a shared folder); the results graded so far are saved"
+        ) from None
+    except (OSError, TimeoutError):
+        raise  # the scheduler or its connection went away: grade_class says so
+    except Exception as exc:  # a worker that died (KilledWorker), or its memory's end: one line, named
+        raise RobodynError(
+            f"{submission.source}: its worker failed ({type(exc).__name__}: {' '.join(str(exc).split())[:200]}); "
+            "the results graded so far are saved, and the same command resumes"
+        ) from None
+    return result
 
 
 def write_gradebook(path: Path, results: Iterable[SubmissionResult], assignment: Assignment) -> None:

@@ -28,7 +28,7 @@ class ClassSummary:
     scores: tuple[float, ...]
     max_score: float
     entries: tuple[tuple[str, int], ...]  # ("M[0,1]", students), most frequent first
-    terms: tuple[tuple[str, int], ...]  # ("M[0,1]: formula - Pinocchio = ...", students)
+    terms: tuple[tuple[str, int], ...]  # ("M[0,1]: formula - Pinocchio = ...", students), in the model's coordinates
     errors: tuple[tuple[str, str], ...]  # (student, one-line reason) of submissions that could not run
 
     def as_dict(self) -> dict[str, Any]:
@@ -52,12 +52,16 @@ class ClassSummary:
 
 
 def summarize(results: Sequence[SubmissionResult], assignment: Assignment) -> ClassSummary:
-    """Count each wrong entry and each named term once per student who made it."""
+    """Count each wrong entry and each named term once per student who made it.
+
+    Terms are counted as the model's joint coordinates name them (:attr:`SubmissionResult.model_terms`): the
+    same slip written in two conventions (a sign, an offset, absolute angles) is one mistake of the report.
+    """
     entries: Counter[str] = Counter()
     terms: Counter[str] = Counter()
     for r in results:
         entries.update({w for q in r.quantities for w in q.wrong})
-        terms.update(set(r.terms))
+        terms.update(set(r.model_terms))
     return ClassSummary(
         scores=tuple(r.score for r in results),
         max_score=assignment.max_score,
@@ -113,7 +117,7 @@ def write_report(out: Path, results: Sequence[SubmissionResult], assignment: Ass
         "",
         *(f"- {_students(n)}: {k}" for k, n in summary.entries),
         "",
-        "## Named terms (formula - Pinocchio, in each student's own names)",
+        "## Named terms (formula - Pinocchio in the model's joint coordinates, named by its joints)",
         "",
         *(f"- {_students(n)}: {k}" for k, n in summary.terms),
         "",

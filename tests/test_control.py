@@ -169,8 +169,10 @@ def test_cart_rail_guard_brakes_before_the_end():
 
 def test_swing_up_gains_are_checked():
     robot = robodyn.load("pendubot")
-    with pytest.raises(InputError, match="k_d = 0.01 must exceed"):
-        control.make("swing_up", robot, k_d=0.01)
+    with pytest.raises(InputError, match="swing_up gain k_d must be a positive number, got -1.0"):
+        control.make("swing_up", robot, k_d=-1.0)
+    with pytest.raises(InputError, match="swing_up gain kick must be a number >= 0"):
+        control.make("swing_up", robot, kick=float("nan"))
     with pytest.raises(
         UnknownNameError, match=r"unknown gain of controller 'swing_up \(pendubot\)' 'kp'; did you mean 'k_p'"
     ):

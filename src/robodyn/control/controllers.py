@@ -9,7 +9,7 @@ Built in:
   ``Q``, ``R``, ``K`` of the LQR, ``rho`` (the region's level; default estimated), ``samples`` and
   ``seed`` of that estimate, and the swing-up law's own: for the cart-pole ``k_energy``,
   ``accel_max``, ``k_position``, ``k_velocity``, ``kick``, ``energy_offset``; for the Pendubot
-  ``k_energy``, ``k_d``, ``k_p``, ``k_v``, ``energy_offset``, ``swing_effort``.
+  ``k_energy``, ``accel_max``, ``k_p``, ``k_d``, ``kick``, ``energy_offset``, ``swing_effort``.
 
 A name that ends in ``.py`` or holds a path separator is a user's controller file
 (:mod:`robodyn.control.user`). An unknown name, or an unknown gain, raises
@@ -52,7 +52,7 @@ LQR_GAINS = ("K", "Q", "R", "q_eq", "u_eq")
 REGION_GAINS = ("rho", "samples", "seed")
 SWING_UP_GAINS = {
     "cart_pole": ("accel_max", "energy_offset", "k_energy", "k_position", "k_velocity", "kick"),
-    "pendubot": ("energy_offset", "k_d", "k_energy", "k_p", "k_v", "swing_effort"),
+    "pendubot": ("accel_max", "energy_offset", "k_d", "k_energy", "k_p", "kick", "swing_effort"),
 }
 
 

@@ -135,7 +135,7 @@ def test_the_built_in_models_keep_their_tuned_gains() -> None:
 
 def test_link_1_up_link_2_hanging_at_rest_is_left_and_the_pendubot_balances(spong: robodyn.Robot) -> None:
     """The equilibrium that held Fantoni-Lozano-Spong's closed loop (link 1 upright, link 2 hanging below
-    it, at rest, where link 2's rate is 0 and the pump's product with it vanishes): the kick leaves it."""
+    it, at rest): the pump on link 2 leaves it, and the Pendubot balances."""
     controller = control.make("swing_up", spong)
     up_down = controller.lqr.plant.upright() + np.array([0.0, np.pi])
     trajectory = robodyn.simulate(spong, up_down, [0.0, 0.0], duration=UP_DOWN_S, dt=1e-3, torque=controller)

@@ -33,7 +33,7 @@ drives E2 to its upright value while the PD keeps link 1 up: link 2 then swings 
 region. Fantoni, Lozano and Spong's law (IEEE TAC 45(4), 2000), which pumps the total energy, was
 robodyn's first: its closed loop has a second equilibrium, link 1 upright with link 2 hanging,
 which it leaves only slowly (growth rates of 0.01 to 0.05 per second on drawn Pendubots), and 10
-to 14 % of the benchmark's drawn Pendubots balanced; this one leaves it through the kick at once.
+to 14 % of the benchmark's drawn Pendubots balanced; this one's pump leaves it at once.
 Assumes: lossless joints, the torque on the shoulder is the only input, the state is measured.
 
 Every number comes from the model: E_up from its potential at the upright, Mbar and hbar from its
@@ -335,7 +335,7 @@ NEED_CART_POLE = 0.2
 PD_RATIO = 0.6
 PUMP_RATIO = 0.5
 PUMP_GAIN = 10.0
-# The kick, as Astrom-Furuta's: a small bias that moves the shoulder when link 2 hangs at rest.
+# The kick, as Astrom-Furuta's: a small bias that starts the pump where link 2 is at rest (phi' = 0).
 KICK_RATIO = 0.05
 
 

@@ -152,7 +152,8 @@ def _require_drive(robot: Robot, kind: str) -> None:
     """
     driven = robot.joint_names[DRIVEN[kind]]
     if driven in robot.passive_joints:
-        raise InputError(f"swing_up drives {driven} of the {kind}, but {robot.name} declares it passive")
+        acrobot = " (an Acrobot, its elbow driven: robodyn has no swing-up for it)" if kind == "pendubot" else ""
+        raise InputError(f"swing_up drives {driven} of the {kind}, but {robot.name} declares it passive{acrobot}")
     extra = [j.name for j in robot.joints if j.actuated and j.name != driven]
     if extra:
         raise InputError(

@@ -337,8 +337,8 @@ def run(args: argparse.Namespace) -> int:
             out, csv = (None if p is None else partial_path(p) for p in (out, csv))
         _write(trajectory, out, csv, written)
         verdict = _control.outcome(built[0] if built else None, trajectory) if failure is None else None
-        record = None if verdict is None else verdict.as_record()
-        _report(trajectory, out, csv, as_json=args.json, effort=robot.model.effortLimit, outcome=record)
+        judged = None if verdict is None else verdict.as_record()
+        _report(trajectory, out, csv, as_json=args.json, effort=robot.model.effortLimit, outcome=judged)
         if verdict is not None and not args.json:
             print(verdict.line())
     if failure is not None:

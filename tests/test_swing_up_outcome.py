@@ -28,7 +28,7 @@ SPONG = Path(__file__).parent / "fixtures" / "spong_pendubot.urdf"
 HANGING = "--q0=-1.5707963268,0"
 SPONG_BALANCE_S = 4.524  # [s] measured time to balance from hanging (dt = 1e-3, RK4); 6 s leaves room
 DURATION_S = 6.0 + outcome.HOLD
-WEAK_EFFORT = 0.3  # [N m] below the 0.7 x 2.664 N m = 1.865 N m the swing is said to need
+WEAK_EFFORT = 0.3  # [N m] below the 0.75 x 2.664 N m = 1.998 N m the swing is said to need
 STATES = 400  # seeded random states for the hand-over's rule
 UP_DOWN_S = 5.0  # [s] from link 1 up, link 2 hanging: balanced from 3.183 s measured (dt = 1e-3, RK4)
 
@@ -68,7 +68,7 @@ def test_too_weak_a_motor_exits_6_with_the_reason(tmp_path: Path, capsys: pytest
     assert "outcome: did not balance" in captured.out
     lines = captured.err.strip().splitlines()
     assert len(lines) == 1
-    assert "the effort limit 0.3 N m is below the 1.865 N m the swing needs" in lines[0]
+    assert "the effort limit 0.3 N m is below the 1.998 N m the swing needs" in lines[0]
 
 
 def test_simulate_json_carries_the_outcome(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -82,7 +82,7 @@ def test_simulate_json_carries_the_outcome(tmp_path: Path, capsys: pytest.Captur
     assert code == EXIT_NOT_BALANCED
     assert record["balanced"] is False and record["time_to_balance_s"] is None
     assert record["effort"] == WEAK_EFFORT
-    assert "the effort limit 0.3 N m is below the 1.865 N m the swing needs" in record["reason"]
+    assert "the effort limit 0.3 N m is below the 1.998 N m the swing needs" in record["reason"]
 
 
 def test_the_hand_over_happens_only_inside_the_region(spong: robodyn.Robot) -> None:

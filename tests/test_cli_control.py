@@ -18,7 +18,7 @@ import pytest
 import robodyn
 from robodyn import control
 from robodyn.cli import main
-from robodyn.errors import EXIT_BAD_INPUT, SceneError
+from robodyn.errors import EXIT_BAD_INPUT, EXIT_NOT_BALANCED, SceneError
 from robodyn.scene import read_scene
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -223,10 +223,33 @@ def test_scene_file_controller_is_read_beside_the_scene(tmp_path: Path) -> None:
 
 def test_the_swing_up_example_scene_balances(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["run", str(EXAMPLES / "cart_pole_swing_up.toml"), "--out", str(tmp_path)]) == 0
-    assert "control: swing_up" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "control: swing_up" in out
+    assert "  outcome: balanced from t = " in out  # the one decision, as simulate prints it
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["simulate"]["outcome"]["balanced"] is True
     traj = robodyn.Trajectory.load(tmp_path / "cart_pole_swing_up.npz")
     assert np.max(np.abs(wrapped(traj.q[:, 1]))) > 3.0  # from hanging
     assert np.max(np.abs(wrapped(traj.q[traj.t >= traj.t[-1] - 1.0, 1]))) < UPRIGHT_TOL
+
+
+def test_a_swing_up_scene_that_does_not_balance_exits_6(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """As simulate: the outcome line, the reason on one stderr line, the verdict in summary.json, exit 6."""
+    weak = Path(__file__).parent / "fixtures" / "spong_pendubot_weak.urdf"
+    scene = tmp_path / "weak.toml"
+    scene.write_text(
+        f'[model]\nurdf = "{weak.as_posix()}"\npassive = ["joint2"]\n\n'
+        "[initial]\nq = { joint1 = -1.5707963268, joint2 = 0.0 }\n\n"
+        '[control]\nkind = "swing_up"\n\n[simulate]\nduration = 1.5\ndt = 1e-3\nintegrator = "rk4"\n',
+        encoding="utf-8",
+    )
+    assert main(["run", str(scene), "--out", str(tmp_path / "out")]) == EXIT_NOT_BALANCED
+    captured = capsys.readouterr()
+    assert "  outcome: did not balance" in captured.out
+    err = captured.err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("robodyn run: the controller did not reach its goal: the effort limit")
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["simulate"]["outcome"]["balanced"] is False
 
 
 CLOSES_STDOUT = (

@@ -129,7 +129,16 @@ def energy_line(s: dict[str, Any]) -> str:
     )
 
 
-def _report(trajectory: Any, out: Path | None, csv: Path | None, *, as_json: bool, effort: Any = None) -> None:
+def _report(
+    trajectory: Any,
+    out: Path | None,
+    csv: Path | None,
+    *,
+    as_json: bool,
+    effort: Any = None,
+    outcome: dict[str, Any] | None = None,
+) -> None:
+    """The run's summary, as text or JSON; ``outcome`` (a swing-up's verdict as a record) joins the JSON."""
     s = trajectory.summary()
     if out is not None:
         s["out"] = str(out)
@@ -147,6 +156,8 @@ def _report(trajectory: Any, out: Path | None, csv: Path | None, *, as_json: boo
         s["stiff_friction"] = meta["stiff_friction"]
     if meta.get("chattering"):
         s["chattering"] = meta["chattering"]
+    if outcome is not None:
+        s["outcome"] = outcome
     if as_json:
         print_json(s)
         return

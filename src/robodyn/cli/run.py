@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -118,6 +119,7 @@ def _run_scene(args: argparse.Namespace, scene: Any) -> int:
         except (DivergenceError, SimulationInterrupted):
             _write_summary(out, summary)  # the divergence is in it, next to the partial trajectory
             raise
+        status = max(status, _judge(torque, trajectory, summary))
     if closed_form is not None:
         from robodyn.cli._closed_form import compare
 
@@ -386,6 +388,22 @@ CONSTRAINT_FIGURES = (
     "limit_violation",
     "loop_drift",
 )
+
+
+def _judge(torque: Any, trajectory: Any, summary: dict[str, Any]) -> int:
+    """A swing-up scene's outcome (:mod:`robodyn.control.outcome`, as simulate's): printed, in the summary, its exit."""
+    from robodyn.cli import _control
+    from robodyn.errors import EXIT_NOT_BALANCED
+
+    verdict = _control.outcome(torque, trajectory)
+    if verdict is None:
+        return EXIT_OK
+    summary["simulate"]["outcome"] = verdict.as_record()
+    print(f"  {verdict.line()}")
+    if verdict.balanced:
+        return EXIT_OK
+    print(f"robodyn run: the controller did not reach its goal: {verdict.reason}", file=sys.stderr)
+    return EXIT_NOT_BALANCED
 
 
 def _constraint_key(exc: Any) -> tuple[str, str]:

@@ -300,8 +300,9 @@ def run(args: argparse.Namespace) -> int:
             kept = [p for p in (out, csv) if p is not None and p.exists()]
             out, csv = (None if p is None else partial_path(p) for p in (out, csv))
         _write(trajectory, out, csv, written)
-        _report(trajectory, out, csv, as_json=args.json, effort=robot.model.effortLimit)
         verdict = _control.outcome(built[0] if built else None, trajectory) if failure is None else None
+        judged = None if verdict is None else verdict.as_record()
+        _report(trajectory, out, csv, as_json=args.json, effort=robot.model.effortLimit, outcome=judged)
         if verdict is not None and not args.json:
             print(verdict.line())
     if failure is not None:

@@ -55,7 +55,8 @@ def law_of(controller: Any, fast: FastDynamics | None) -> tuple[str, Array] | No
     if isinstance(law, PendubotEnergy):
         if int(law.pfl.act[0]) != int(c[tl.ACT]):
             return None
-        gains = [law.k_energy, law.k_d, law.k_p, law.k_v, law.energy_up, fast.potential_offset, law.swing_effort]
+        gains = [law.k_energy, law.accel_max, law.k_p, law.k_d, law.kick, law.weight, law.inertia, law.energy_up]
+        gains += [law.swing_effort]
         c[tl.GAINS : tl.GAINS + len(gains)] = gains
     elif isinstance(law, CartPoleEnergy):
         if int(law.pfl.act[0]) != int(c[tl.ACT]):

@@ -9,7 +9,7 @@ Built in:
   ``Q``, ``R``, ``K`` of the LQR, ``rho`` (the region's level; default estimated), ``samples`` and
   ``seed`` of that estimate, and the swing-up law's own: for the cart-pole ``k_energy``,
   ``accel_max``, ``k_position``, ``k_velocity``, ``kick``, ``energy_offset``; for the Pendubot
-  ``k_energy``, ``k_d``, ``k_p``, ``k_v``, ``energy_offset``, ``swing_effort``.
+  ``k_energy``, ``accel_max``, ``k_p``, ``k_d``, ``kick``, ``energy_offset``, ``swing_effort``.
 
 A name that ends in ``.py`` or holds a path separator is a user's controller file
 (:mod:`robodyn.control.user_controller`). An unknown name, or an unknown gain, raises
@@ -53,7 +53,7 @@ LQR_GAINS = ("K", "Q", "R", "q_eq", "u_eq")
 REGION_GAINS = ("rho", "samples", "seed")
 SWING_UP_GAINS = {
     "cart_pole": ("accel_max", "energy_offset", "k_energy", "k_position", "k_velocity", "kick"),
-    "pendubot": ("energy_offset", "k_d", "k_energy", "k_p", "k_v", "swing_effort"),
+    "pendubot": ("accel_max", "energy_offset", "k_d", "k_energy", "k_p", "kick", "swing_effort"),
 }
 
 
@@ -149,7 +149,8 @@ def _require_drive(robot: Robot, kind: str) -> None:
     assert balance is not None  # a kind with a swing-up law has its Balance
     driven = robot.joint_names[balance.driven]  # every other joint must be passive
     if driven in robot.passive_joints:
-        raise InputError(f"swing_up drives {driven} of the {kind}, but {robot.name} declares it passive")
+        acrobot = " (an Acrobot, its elbow driven: robodyn has no swing-up for it)" if kind == "pendubot" else ""
+        raise InputError(f"swing_up drives {driven} of the {kind}, but {robot.name} declares it passive{acrobot}")
     extra = [j.name for j in robot.joints if j.actuated and j.name != driven]
     if extra:
         raise InputError(

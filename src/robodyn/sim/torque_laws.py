@@ -12,8 +12,8 @@ the CPU's batch policy runs (:mod:`robodyn.sweep.policy`), in the same order.
 The laws (the controllers of :mod:`robodyn.control`, which build ``c`` from their own numbers):
 
 * ``"lqr"``: u = sat(u_eq - K e), e = [q - q_eq (revolute entries wrapped to [-pi, pi)), v];
-* ``"pendubot_energy"``: the LQR where e^T P e < rho, else the Fantoni-Lozano-Spong energy
-  swing-up through collocated PFL (:class:`robodyn.control.swing_up.PendubotEnergy`);
+* ``"pendubot_energy"``: the LQR where e^T P e < rho, else the energy pump on link 2 with a PD on
+  link 1, through collocated PFL (:class:`robodyn.control.swing_up.PendubotEnergy`);
 * ``"cart_pole_energy"``: the LQR where e^T P e < rho, else the Astrom-Furuta cart acceleration with
   its rail guard, through collocated PFL (:class:`robodyn.control.swing_up.CartPoleEnergy`).
 
@@ -50,7 +50,10 @@ GAINS = 28  # the energy law's numbers, GAIN_NAMES[law] in order
 SIZE = GAINS + 13
 GAIN_NAMES = {
     "lqr": (),
-    "pendubot_energy": ("k_energy", "k_d", "k_p", "k_v", "energy_up", "potential_offset", "swing_effort"),
+    "pendubot_energy": (
+        *("k_energy", "accel_max", "k_p", "k_d", "kick"),
+        *("weight", "inertia", "energy_up", "swing_effort"),
+    ),
     "cart_pole_energy": (
         *("k_energy", "accel_max", "k_position", "k_velocity", "kick", "m", "l", "J", "g", "energy_up"),
         *("rail", "rail_lo", "rail_hi"),
@@ -88,10 +91,10 @@ def law(kind: str, name: str, jit: Any = None) -> Callable[..., Any]:
     form = closed_form(kind)
     if jit is None:
         pick, smaller, larger, wrap = np.where, np.minimum, np.maximum, _wrap
-        mass, coriolis, gravity, potential = form.mass, form.coriolis, form.gravity, form.potential
+        mass, coriolis, gravity = form.mass, form.coriolis, form.gravity
     else:
         pick, smaller, larger, wrap = (jit(f) for f in (_pick, _smaller, _larger, _wrap))
-        mass, coriolis, gravity, potential = (jit(f) for f in (form.mass, form.coriolis, form.gravity, form.potential))
+        mass, coriolis, gravity = (jit(f) for f in (form.mass, form.coriolis, form.gravity))
     use = jit if jit is not None else (lambda f: f)
 
     @use
@@ -137,13 +140,17 @@ def law(kind: str, name: str, jit: Any = None) -> Callable[..., Any]:
     @use
     def pendubot_energy(c, p, b, q0, q1, v0, v1):  # type: ignore[no-untyped-def]
         """The shoulder torque of :class:`~robodyn.control.swing_up.PendubotEnergy`, clipped to its swing effort."""
-        k_energy, k_d, k_p, k_v = c[GAINS], c[GAINS + 1], c[GAINS + 2], c[GAINS + 3]
-        mbar, hbar, m11, m12, m22 = reduced(c, p, b, q0, q1, v0, v1)
-        kinetic = 0.5 * (m11 * v0 * v0 + 2.0 * m12 * v0 * v1 + m22 * v1 * v1)
-        e = kinetic + (potential(p, q0, q1) + c[GAINS + 5]) - c[GAINS + 4]
-        numerator = k_v * v0 + k_p * wrap(q0 - math.pi / 2) + k_energy * e * hbar
-        w = -numerator / (k_energy * e * mbar + k_d)
-        return smaller(larger(mbar * w + hbar, -c[GAINS + 6]), c[GAINS + 6])
+        k_energy, accel_max, k_p, k_d, kick = c[GAINS], c[GAINS + 1], c[GAINS + 2], c[GAINS + 3], c[GAINS + 4]
+        weight, inertia, energy_up, cap = c[GAINS + 5], c[GAINS + 6], c[GAINS + 7], c[GAINS + 8]
+        e1 = wrap(q0 - c[Q_EQ])
+        psi = q0 + q1 - c[Q_EQ] - c[Q_EQ + 1]
+        rate = v0 + v1
+        energy = 0.5 * inertia * rate * rate + weight * (np.cos(psi) - 1.0)
+        sigma = rate * np.cos(psi) * np.cos(e1) + kick
+        pump = smaller(larger(k_energy * (energy - energy_up) * sigma, -1.0), 1.0)
+        w = accel_max * pump - k_p * e1 - k_d * v0
+        mbar, hbar, _m11, _m12, _m22 = reduced(c, p, b, q0, q1, v0, v1)
+        return smaller(larger(mbar * w + hbar, -cap), cap)
 
     @use
     def cart_pole_energy(c, p, b, q0, q1, v0, v1):  # type: ignore[no-untyped-def]

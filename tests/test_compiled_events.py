@@ -1,4 +1,4 @@
-"""Stop events inside the compiled loop (sim/tree_events.py) against the Python event stepper (sim/events.py).
+"""Stop events inside the compiled loop (engine/tree/events.py) against the Python event stepper (sim/events.py).
 
 The compiled loop takes every step of a run on a compiled tree, the steps with an impact, a
 hold or a release included, with the event stepper's arithmetic; ``backend="aba"`` runs the

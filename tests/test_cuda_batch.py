@@ -20,8 +20,9 @@ import pytest
 
 import robodyn
 from robodyn.cli import main
+from robodyn.engine.cuda import batch as cuda_batch
 from robodyn.errors import InputError, UnavailableError
-from robodyn.sim import batch, cuda_batch
+from robodyn.sim import batch
 
 SRC = Path(__file__).resolve().parents[1] / "src"
 # The CUDA kernel does the CPU kernel's arithmetic term for term; in the simulator both are numba-free
@@ -149,7 +150,7 @@ def test_cuda_coordinate_range_is_the_trajectory_range():
         import json
         import numpy as np
         import robodyn
-        from robodyn.sim import cuda_batch
+        from robodyn.engine.cuda import batch as cuda_batch
         from robodyn.sim.fast import FastDynamics
 
         robot = robodyn.load("cart_pole")
@@ -203,7 +204,7 @@ def test_cuda_sweep_equals_cpu_sweep_with_stops():
 
 
 def test_cuda_module_imports_no_pinocchio():
-    code = "import sys, robodyn.sim.cuda_batch; print('pinocchio' in sys.modules, 'numba' in sys.modules)"
+    code = "import sys, robodyn.engine.cuda.batch; print('pinocchio' in sys.modules, 'numba' in sys.modules)"
     run = subprocess.run(
         [sys.executable, "-c", code], env={**os.environ, "PYTHONPATH": str(SRC)}, capture_output=True, text=True
     )
@@ -285,7 +286,10 @@ try:
 except (ImportError, AttributeError):
     print("SKIP")
     raise SystemExit(0)
-from robodyn.sim import cuda_batch, cuda_closed, cuda_sweep, cuda_tree
+from robodyn.engine.cuda import batch as cuda_batch
+from robodyn.engine.cuda import closed_loop as cuda_closed
+from robodyn.engine.cuda import sweep as cuda_sweep
+from robodyn.engine.cuda import tree as cuda_tree
 # no GPU: a compute capability for the device functions, and numba.cuda without is_available()
 dispatcher.get_current_device = lambda: pytypes.SimpleNamespace(compute_capability=(8, 0))
 cuda_batch.cuda_module = lambda: cuda
@@ -435,9 +439,9 @@ def test_device_functions_type_check_in_numbas_cpu_compiler():
     """
     import numba
 
+    from robodyn.engine.cuda import batch as cuda_batch
     from robodyn.integrators import twins
     from robodyn.integrators.stability import lyapunov
-    from robodyn.sim import cuda_batch
     from robodyn.sim.fast import FastDynamics
 
     fast = FastDynamics.from_robot(robodyn.load("pendubot"))

@@ -118,8 +118,8 @@ def rollout(
     ``threads`` defaults to :func:`default_threads`. Only fixed-step explicit integrators
     (rk4, heun, euler) apply; the robot must be torque-free here, lossless and have nq == nv.
     ``device="cuda"`` runs on an NVIDIA GPU, one thread a state, float64: a built-in kind's closed
-    form with rk4 (:mod:`robodyn.sim.cuda_batch`), any other robot the compiled tree path takes
-    with rk4, heun or euler (:mod:`robodyn.sim.cuda_tree`, the CPU batch's kernels compiled for CUDA).
+    form with rk4 (:mod:`robodyn.engine.cuda.batch`), any other robot the compiled tree path takes
+    with rk4, heun or euler (:mod:`robodyn.engine.cuda.tree`, the CPU batch's kernels compiled for CUDA).
     ``dtype=np.float32`` (or ``"float32"``) runs a built-in kind's closed-form kernel in single
     precision, compiled from the same source, and returns float32 states
     (``benchmarks/bench_gpu.py`` states its error against float64); the tree kernels and the CPU
@@ -215,12 +215,12 @@ def _cuda_rollout(
     """The batch on the GPU: a built-in kind's closed form with rk4 (checked against ABA first), else the tree path.
 
     Any other robot the compiled tree path takes (checked against Pinocchio first) runs on
-    :mod:`robodyn.sim.cuda_tree`, with the method the CPU batch would use (rk4, heun or euler),
+    :mod:`robodyn.engine.cuda.tree`, with the method the CPU batch would use (rk4, heun or euler),
     in float64 only.
     """
     fast = _closed_form(robot, integrator)
     if fast is not None:
-        from robodyn.sim import cuda_batch
+        from robodyn.engine.cuda import batch as cuda_batch
 
         q, v, _, _, wall = cuda_batch.rollout(
             fast.kind, fast.param_vector, fast.damping, Q, V, dt=dt, steps=steps, precision=precision
@@ -231,7 +231,7 @@ def _cuda_rollout(
             f"{robot.name}: dtype {precision} runs a built-in kind's closed form with rk4 only "
             f"({', '.join(KINDS)}); the compiled tree kernels on device cuda are float64"
         )
-    from robodyn.sim import cuda_tree
+    from robodyn.engine.cuda import tree as cuda_tree
 
     try:
         tree.compiled_of(robot)  # checked against Pinocchio once (robot_rollout takes it from the cache)

@@ -27,13 +27,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from robodyn.engine import jit
 from robodyn.errors import AssumptionError, InputError, MissingDependencyError, UnknownNameError
 from robodyn.integrators import step_count
 from robodyn.kinds import cart_pole, geared_arm, pendubot
 from robodyn.kinds import params as params_module
 from robodyn.kinds.formula import solve_2x2
 from robodyn.kinds.formulas import closed_form
-from robodyn.sim import jit
 from robodyn.sim.trajectory import Trajectory
 
 if TYPE_CHECKING:
@@ -45,7 +45,7 @@ Array = NDArray[np.float64]
 CODES: dict[str, int] = {"pendubot": 0, "cart_pole": 1, "geared_arm": 2}
 KINDS: dict[str, tuple[int, tuple[str, ...]]] = {kind: (code, closed_form(kind).params) for kind, code in CODES.items()}
 METHODS = ("rk4", "semi_implicit_euler")
-# What a first compile of these kernels says it does (robodyn.sim.jit.announce)
+# What a first compile of these kernels says it does (robodyn.engine.jit.announce)
 COMPILING = ("the closed-form kernels of the built-in kinds", "about half a minute")
 
 # Closed form against Pinocchio's ABA, relative to the largest acceleration: both are exact

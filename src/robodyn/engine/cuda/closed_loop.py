@@ -1,13 +1,13 @@
 """Runs under a torque law on an NVIDIA GPU: the LQR and the swing-up to LQR of the built-in two-joint kinds.
 
 One GPU thread steps one run by classic RK4 with the torque of the law
-(:func:`robodyn.sim.torque_laws.forces`, the controller packed into a parameter vector) at every
+(:func:`robodyn.engine.torque_laws.forces`, the controller packed into a parameter vector) at every
 stage, integrates the work of the torques and the joint damping with the RK4 weights, stops a
 run once |E - E0 - W| passes its bound or its state stops being finite, and counts the last step
 outside the upright band (the time to balance). Only the final states, each coordinate's range,
 the time to balance and a divergence flag come back. The kind's closed form is compiled from its
-own functions (:func:`robodyn.kinds.formulas.closed_form`), as in :mod:`robodyn.sim.cuda_batch`,
-whose :func:`~robodyn.sim.cuda_batch.cuda_module` finds the GPU (or numba's CUDA simulator).
+own functions (:func:`robodyn.kinds.formulas.closed_form`), as in :mod:`robodyn.engine.cuda.batch`,
+whose :func:`~robodyn.engine.cuda.batch.cuda_module` finds the GPU (or numba's CUDA simulator).
 """
 
 from __future__ import annotations
@@ -20,11 +20,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from robodyn.engine.cuda import batch as cuda_batch
+from robodyn.engine.torque_laws import forces
 from robodyn.errors import InputError
 from robodyn.kinds.formula import solve_2x2
 from robodyn.kinds.formulas import closed_form
-from robodyn.sim import cuda_batch
-from robodyn.sim.torque_laws import forces
 
 Array = NDArray[np.float64]
 
@@ -36,7 +36,7 @@ def _closed(jit: Any, kind: str, law: str) -> Any:
     """``closed(p, b, c, up, ang, tol, q0, q1, v0, v1, bound, offset, dt, n)``: n RK4 steps under a torque law.
 
     The arithmetic of the sweep's CPU closed loop (``_closed_loop`` in :mod:`robodyn.sweep.chunk`),
-    one state: the law :func:`robodyn.sim.torque_laws.forces` (parameter vector ``c``) gives the
+    one state: the law :func:`robodyn.engine.torque_laws.forces` (parameter vector ``c``) gives the
     torque at every RK4 stage; the work W of the torques and the damping is integrated with the
     RK4 weights; a run is diverged once |E - E0 - W| passes ``bound`` [J] or its state stops being
     finite (the step stops there: the caller recomputes such runs); ``last`` is the last step
@@ -185,7 +185,7 @@ def closed_loop(
     steps: int,
     cpu: bool = False,
 ) -> tuple[Array, Array, Array, Array, Array, NDArray[np.bool_], float]:
-    """RK4 under the torque law ``law`` (:mod:`robodyn.sim.torque_laws`, parameters ``c``) on the GPU, a run a thread.
+    """RK4 under the torque law ``law`` (:mod:`robodyn.engine.torque_laws`, parameters ``c``) on the GPU.
 
     ``Q``, ``V`` (n, 2) the starts; ``p`` the kind's parameters, ``b`` (2,) its damping; ``upright``
     (2,) and ``angular`` (2,) flags the balance test (every flagged coordinate within ``tol`` [rad]);

@@ -6,14 +6,14 @@ in float64, from the arrays :mod:`robodyn.sim.tree` extracts from Pinocchio (``i
 ``grav``): fixed-base trees and a free-flyer root alike (q (n, nq), v (n, nv)).
 
 No formula is written here. :func:`device_functions` rebuilds each kernel of
-:mod:`robodyn.sim.tree_body`, :mod:`~robodyn.sim.tree_flyer`, :mod:`~robodyn.sim.tree_kernels`
+:mod:`robodyn.engine.tree.body`, :mod:`~robodyn.engine.tree.flyer`, :mod:`~robodyn.engine.tree.algorithms`
 (``offset``, ``parent_acceleration``, ``pass_to_parent``, ``kinematics``, ``aba_passes``, ``aba``,
-``integrate``) and :mod:`~robodyn.sim.tree_steps` (``rates``, ``stages``, ``step``) from its Python
+``integrate``) and :mod:`~robodyn.engine.tree.steps` (``rates``, ``stages``, ``step``) from its Python
 source (``py_func``) with the names it calls bound to
 their device versions, and compiles it with ``cuda.jit(device=True)``. The one kernel with no GPU form,
 ``tree_steps._callable_torque`` (a user's torque callable, in numba's object mode), becomes
 :func:`_no_torque`, which the batch never reaches (its callable key is -1, as on the CPU). The kernel
-below is the per-state loop of :func:`robodyn.sim.tree_steps.batch_rollout`, so the GPU does the CPU
+below is the per-state loop of :func:`robodyn.engine.tree.steps.batch_rollout`, so the GPU does the CPU
 batch path's arithmetic term for term: equal to round-off (to the bit in numba's CUDA simulator).
 Each thread also keeps each coordinate's smallest and largest value on the way (a sweep hands the
 runs that passed a URDF position limit to :func:`robodyn.simulate`).
@@ -42,9 +42,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from robodyn.engine.cuda import batch as cuda_batch
+from robodyn.engine.tree.layout import WCOLS
 from robodyn.errors import InputError
-from robodyn.sim import cuda_batch
-from robodyn.sim.tree_layout import WCOLS
 
 if TYPE_CHECKING:
     from robodyn.robot import Robot
@@ -101,7 +101,10 @@ def device_functions(jit: Callable[[Any], Any]) -> dict[str, Any]:
     ``jit`` is ``cuda.jit(device=True)``; the identity gives the plain Python functions (the tests
     check that none of them still calls a CPU kernel).
     """
-    from robodyn.sim import tree_body, tree_flyer, tree_kernels, tree_steps
+    from robodyn.engine.tree import algorithms as tree_kernels
+    from robodyn.engine.tree import body as tree_body
+    from robodyn.engine.tree import flyer as tree_flyer
+    from robodyn.engine.tree import steps as tree_steps
 
     modules = {"tree_body": tree_body, "tree_flyer": tree_flyer, "tree_kernels": tree_kernels, "tree_steps": tree_steps}
     made: dict[str, Any] = {"_callable_torque": jit(_no_torque)}

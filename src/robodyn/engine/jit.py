@@ -1,8 +1,8 @@
 """How robodyn's numba kernels are compiled and cached: one decorator, one cache key, one notice.
 
 numba's ``cache=True`` keys a function's machine code on its own source file and bytecode only.
-The kernels call each other across files (``tree_steps`` calls ``tree_kernels``, which inlines
-``tree_body``; ``fast`` compiles the closed forms of ``kinds``), so after an edit of a callee, or
+The kernels call each other across files (``tree.steps`` calls ``tree.algorithms``, which inlines
+``tree.body``; ``fast`` compiles the closed forms of ``kinds``), so after an edit of a callee, or
 an upgrade of robodyn, the callers' cached code would still run the old callee. Every kernel is
 therefore declared with :func:`njit`, whose cache lives in a folder of its own for each
 :func:`cache_key` (robodyn's version and a hash of every file in :data:`KERNEL_SOURCES`):
@@ -30,17 +30,17 @@ from typing import Any
 from robodyn.errors import CompileNotice
 
 # Every file whose code or constants a kernel compiles in: the kernels' own modules, the
-# constants they read (tree_layout), and the closed forms that fast.py compiles (kinds).
+# constants they read (tree/layout.py), and the closed forms that fast.py compiles (kinds).
 # tests/test_jit.py checks that each file declaring a kernel with njit is listed.
 KERNEL_SOURCES = (
     "sim/fast.py",
-    "sim/tree_body.py",
-    "sim/tree_events.py",
-    "sim/tree_flyer.py",
-    "sim/tree_impacts.py",
-    "sim/tree_kernels.py",
-    "sim/tree_layout.py",
-    "sim/tree_steps.py",
+    "engine/tree/body.py",
+    "engine/tree/events.py",
+    "engine/tree/flyer.py",
+    "engine/tree/impacts.py",
+    "engine/tree/algorithms.py",
+    "engine/tree/layout.py",
+    "engine/tree/steps.py",
     "kinds/cart_pole.py",
     "kinds/formula.py",
     "kinds/geared_arm.py",

@@ -82,7 +82,7 @@ def test_every_file_that_declares_or_feeds_a_kernel_is_hashed() -> None:
                         PACKAGE.parent / (node.module.replace(".", "/") + ".py") in hashed
                         or node.module == "robodyn.engine.jit"
                     ), node.module
-    for kind in ("pendubot", "cart_pole", "geared_arm", "formula"):  # the closed forms fast.py compiles
+    for kind in ("pendubot", "cart_pole", "geared_arm", "formula"):  # the closed forms engine/closed_form.py compiles
         assert PACKAGE / "kinds" / f"{kind}.py" in hashed
 
 
@@ -111,7 +111,7 @@ def test_a_changed_callee_reaches_its_callers_cached_code(tmp_path: Path) -> Non
 
 @pytest.mark.timeout(900)
 def test_a_first_compile_says_so_on_stderr_and_a_cached_run_does_not(tmp_path: Path) -> None:
-    # fast.py's kernels are closures: numba would key them on their pickled cells, drawn anew per process
+    # closed_form.py's kernels are closures: numba would key them on their pickled cells, drawn anew per process
     code = "from robodyn.sim import fast; print(sum(fast.warm_up()['run'].stats.cache_hits.values()))"
     first = _run(code, SRC, tmp_path / "cache")
     assert first.returncode == 0 and first.stdout == "0\n", first.stderr
@@ -149,7 +149,7 @@ def test_warmup_fills_the_cache_and_says_how_long(tmp_path: Path) -> None:
     assert re.fullmatch(r"warmup: 1 group compiled or loaded in \d+\.\d s", out[1]), out
     assert "note:" not in done.stderr  # its own lines say it
     # the closed-form run kernel is in the cache of this key: a later run loads it
-    assert list((tmp_path / "cache").rglob(f"{jit.PREFIX}*/fast._kernels.locals.run-*.nbi")), done.stdout
+    assert list((tmp_path / "cache").rglob(f"{jit.PREFIX}*/closed_form.kernels.locals.run-*.nbi")), done.stdout
 
 
 def test_warmup_refuses_an_unknown_group_in_one_line(capsys: pytest.CaptureFixture[str]) -> None:

@@ -31,6 +31,7 @@ from robodyn.control.compiled import law_of
 from robodyn.engine.cuda import closed_loop as cuda_closed
 from robodyn.errors import InputError
 from robodyn.integrators import step_count
+from robodyn.sim import batch
 from robodyn.sim.energy import reference_energy
 from robodyn.sim.fast import FastDynamics
 from robodyn.sim.simulation import DEFAULT_MAX_ENERGY_GROWTH
@@ -66,10 +67,8 @@ def refusal(
             return "precision float32 runs without a controller only; the closed loop on the GPU is float64"
         return _loop_refusal(controller, ch.fast_of(model), integrator, measures)
     if ch.fast_of(model) is None or integrator != "rk4":  # the compiled tree algorithms (robodyn.engine.cuda.tree)
-        from robodyn.engine.cuda import tree as cuda_tree
-
         other = [m for m in measures if m not in ms.BATCH_MEASURES]
-        why = cuda_tree.refusal(robot, integrator)
+        why = batch.cuda_tree_refusal(robot, integrator)
         if not why and precision == "float32":
             why = "precision float32 runs a built-in kind's closed form with rk4 only; the tree kernels are float64"
         if not why and other:
@@ -87,12 +86,10 @@ def refusal(
 
 def _tree_rows(chunk: Chunk, job: ch.Job) -> list[dict[str, Any]]:
     """A torque-free chunk on the GPU by the compiled tree kernels; runs past a limit or the bound: ``simulate``."""
-    from robodyn.engine.cuda import tree as cuda_tree
-
     s = chunk.setting
     robot = ch.robot_of(chunk.model)
     steps = step_count(job.duration, s.dt)
-    q, v, q_min, q_max, wall = cuda_tree.robot_rollout(
+    q, v, q_min, q_max, wall = batch.cuda_tree_rollout(
         robot, chunk.q0, chunk.v0, dt=s.dt, steps=steps, integrator=s.integrator
     )
     rows = ch.rows_of(chunk, job, q, v, None, wall)

@@ -1,6 +1,6 @@
 """Runs under a torque law on an NVIDIA GPU: the LQR and the swing-up to LQR of the built-in two-joint kinds.
 
-One GPU thread steps one run by classic RK4 with the torque of the law
+One GPU thread steps one run by classic RK4 (the one step of :mod:`robodyn.engine.rk4`) with the torque of the law
 (:func:`robodyn.engine.torque_laws.forces`, the controller packed into a parameter vector) at every
 stage, integrates the work of the torques and the joint damping with the RK4 weights, stops a
 run once |E - E0 - W| passes its bound or its state stops being finite, and counts the last step
@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodyn.engine.cuda import batch as cuda_batch
+from robodyn.engine.rk4 import rk4_step
 from robodyn.engine.torque_laws import forces
 from robodyn.errors import InputError
 from robodyn.kinds.formula import solve_2x2
@@ -52,8 +53,9 @@ def _closed(jit: Any, kind: str, law: str) -> Any:
     torque = forces(kind, law, jit)
 
     @jit
-    def rates(p, b, c, q0, q1, v0, v1):  # type: ignore[no-untyped-def]
-        """(a0, a1, power of the torques and damping [W])."""
+    def rates(ctx, q0, q1, v0, v1):  # type: ignore[no-untyped-def]
+        """(a0, a1, power of the torques and damping [W]); ctx = (p, b, c)."""
+        p, b, c = ctx
         t0, t1 = torque(c, p, b, q0, q1, v0, v1)
         m11, m12, m22 = mass(p, q0, q1)
         c11, c12, c21, c22 = coriolis(p, q0, q1, v0, v1)
@@ -62,6 +64,8 @@ def _closed(jit: Any, kind: str, law: str) -> Any:
         r1 = t1 - b[1] * v1 - (c21 * v0 + c22 * v1) - g1
         a0, a1 = solve(m11, m12, m22, r0, r1)
         return a0, a1, (t0 - b[0] * v0) * v0 + (t1 - b[1] * v1) * v1
+
+    rk4 = rk4_step(jit, rates)
 
     @jit
     def energy(p, q0, q1, v0, v1, offset):  # type: ignore[no-untyped-def]
@@ -88,21 +92,9 @@ def _closed(jit: Any, kind: str, law: str) -> Any:
                 last = step
             if step == n:
                 break
-            a0, a1, p1 = rates(p, b, c, q0, q1, v0, v1)
-            b0, b1, p2 = rates(p, b, c, q0 + 0.5 * h * v0, q1 + 0.5 * h * v1, v0 + 0.5 * h * a0, v1 + 0.5 * h * a1)
-            w0 = v0 + 0.5 * h * a0
-            w1 = v1 + 0.5 * h * a1
-            c0, c1, p3 = rates(p, b, c, q0 + 0.5 * h * w0, q1 + 0.5 * h * w1, v0 + 0.5 * h * b0, v1 + 0.5 * h * b1)
-            x0 = v0 + 0.5 * h * b0
-            x1 = v1 + 0.5 * h * b1
-            d0, d1, p4 = rates(p, b, c, q0 + h * x0, q1 + h * x1, v0 + h * c0, v1 + h * c1)
-            y0 = v0 + h * c0
-            y1 = v1 + h * c1
-            q0 = q0 + h / 6.0 * (v0 + 2.0 * w0 + 2.0 * x0 + y0)
-            q1 = q1 + h / 6.0 * (v1 + 2.0 * w1 + 2.0 * x1 + y1)
-            v0 = v0 + h / 6.0 * (a0 + 2.0 * b0 + 2.0 * c0 + d0)
-            v1 = v1 + h / 6.0 * (a1 + 2.0 * b1 + 2.0 * c1 + d1)
-            work = work + h / 6.0 * (p1 + 2.0 * p2 + 2.0 * p3 + p4)
+            a0, a1, p1 = rates((p, b, c), q0, q1, v0, v1)
+            q0, q1, v0, v1, dw = rk4((p, b, c), q0, q1, v0, v1, a0, a1, p1, h)
+            work = work + dw
             if not abs(energy(p, q0, q1, v0, v1, offset) - e0 - work) <= bound:  # NaN (a blown-up state) counts
                 diverged = True
                 break

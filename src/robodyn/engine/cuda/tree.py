@@ -3,7 +3,8 @@
 One GPU thread advances one state of the batch through every step of a fixed-step explicit method
 (rk4, heun, euler: the codes and tableaux of :func:`robodyn.sim.whole_run.method_code`), torque-free,
 in float64, from the arrays :mod:`robodyn.sim.tree` extracts from Pinocchio (``itree``, ``ftree``,
-``grav``): fixed-base trees and a free-flyer root alike (q (n, nq), v (n, nv)).
+``grav``): fixed-base trees and a free-flyer root alike (q (n, nq), v (n, nv)). A robot is handed
+here by :func:`robodyn.sim.batch.cuda_tree_rollout`.
 
 No formula is written here. :func:`device_functions` rebuilds each kernel of
 :mod:`robodyn.engine.tree.body`, :mod:`~robodyn.engine.tree.flyer`, :mod:`~robodyn.engine.tree.algorithms`
@@ -37,17 +38,13 @@ import time
 import types
 from collections.abc import Callable
 from functools import cache
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from robodyn.engine.cuda import batch as cuda_batch
 from robodyn.engine.tree.layout import WCOLS
-from robodyn.errors import InputError
-
-if TYPE_CHECKING:
-    from robodyn.robot import Robot
 
 Array = NDArray[np.float64]
 
@@ -113,41 +110,6 @@ def device_functions(jit: Callable[[Any], Any]) -> dict[str, Any]:
         for name in names:
             made[name] = jit(rebuilt(getattr(module, name), made))
     return made
-
-
-def refusal(robot: Robot, integrator: str) -> str:
-    """Why this path cannot run ``robot`` torque-free with ``integrator`` as the CPU batch would ("" when it can)."""
-    from robodyn.sim import tree
-
-    if integrator not in METHODS:
-        return f"integrator {', '.join(METHODS)} only, got {integrator!r}"
-    why = tree.unsupported(robot)
-    if why is not None:
-        return f"the built-in kinds and the robots the compiled tree path takes only; {robot.name}: {why}"
-    if not robot.nq_equals_nv:
-        return f"robots with nq == nv only; {robot.name} has nq={robot.nq}, nv={robot.nv}"
-    if np.any(robot.damping) or np.any(robot.friction):
-        return "lossless runs only; the model has joint damping or friction"
-    return ""
-
-
-def robot_rollout(
-    robot: Robot, Q: Array, V: Array, *, dt: float, steps: int, integrator: str
-) -> tuple[Array, Array, Array, Array, float]:
-    """:func:`rollout` of ``robot``'s tree arrays (checked against Pinocchio) with the CPU batch path's ``integrator``.
-
-    Raises:
-        AssumptionError: the compiled tree path cannot take the robot (:func:`robodyn.sim.tree.compiled_of`).
-    """
-    from robodyn import integrators
-    from robodyn.sim import tree
-    from robodyn.sim.whole_run import method_code
-
-    t = tree.compiled_of(robot).tree
-    code = method_code(integrators.get(integrator))
-    if code is None or integrator not in METHODS:
-        raise InputError(f"integrator {integrator!r}: device cuda takes {', '.join(METHODS)} on this path")
-    return rollout(t.itree, t.ftree, t.grav, Q, V, dt=dt, steps=steps, method=code[0], tab=code[1])
 
 
 def _cuda() -> Any:

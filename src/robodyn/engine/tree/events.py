@@ -1,4 +1,4 @@
-"""numba kernels of the stop events: the arithmetic of :class:`robodyn.sim.events.EventStepper`, compiled.
+"""numba kernels that find the stop events inside a step: :class:`robodyn.sim.events.EventStepper`, compiled.
 
 Imported only by :mod:`robodyn.sim.tree` (numba is heavy). :func:`run_events` steps one state
 through a block of steps of a run, taking every stop event inside its step as the event

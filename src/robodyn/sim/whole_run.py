@@ -54,7 +54,7 @@ from robodyn.sim.events import (
     RELEASE_TOL,
     ImpactRecord,
 )
-from robodyn.sim.limits import PULL_RTOL
+from robodyn.sim.limits import IMPACT_RCOND, PULL_RTOL
 from robodyn.sim.run import Run, step_sizes
 from robodyn.sim.system import V_FRICTION, RobotSystem
 
@@ -185,7 +185,7 @@ def _event_arrays(system: RobotSystem, tr: tree.TreeModel) -> tuple[Array, Array
         MAX_EVENTS_PER_STEP,
         st.restitution,
         0.0,  # the method's stages per step: set by _setup
-        1e-13,  # lstsq's rcond in limits.impact
+        IMPACT_RCOND,
     ]
     return np.ascontiguousarray(stops), par
 

@@ -1,4 +1,4 @@
-"""bench_gpu.py's Panda: the tree algorithms on the GPU (robodyn.sim.cuda_tree) against the CPU batch kernel and MJX.
+"""bench_gpu.py's Panda: the tree algorithms on the GPU (robodyn.engine.cuda.tree) against the CPU batch kernel and MJX.
 
 ``prepare(folder)`` (where robodyn is installed) writes ``DIR/panda.npz``: the Panda of
 example-robot-data with its fingers fixed (locked at 0 m), lossless, as the tree arrays the
@@ -82,7 +82,7 @@ def starts(n: int, nv: int) -> tuple[np.ndarray, np.ndarray]:
 
 def run(folder: Path, *, sizes: tuple[int, ...], steps: int, mjx: bool) -> dict[str, Any]:
     """The Panda's rows for gpu.json: GPU and CPU state-steps/s by batch size, agreement, MJX."""
-    from robodyn.sim import cuda_tree
+    from robodyn.engine.cuda import tree as cuda_tree
 
     model = np.load(folder / "panda.npz")
     itree, ftree, grav = model["itree"], model["ftree"], model["grav"]
@@ -134,7 +134,7 @@ def _cpu(itree: np.ndarray, ftree: np.ndarray, grav: np.ndarray, Q: np.ndarray, 
     """tree_steps.batch_rollout (the CPU batch path's kernel) on all cores: best wall time [s] of REPEATS, (q, v)."""
     import numba
 
-    from robodyn.sim import tree_steps
+    from robodyn.engine.tree import steps as tree_steps
 
     n, nv = Q.shape
     forces, springs, tab = np.zeros((4, nv)), np.zeros((4, 0)), np.zeros((6, 4))
@@ -157,7 +157,7 @@ def _mjx(model: Any, n: int, steps: int) -> dict[str, Any]:
     """MJX (float32) from the float64 GPU kernel's starts, the tree's armatures in (benchmarks/_gpu_mjx.py)."""
     import _gpu_mjx  # beside this file, on sys.path when bench_gpu.py runs
 
-    from robodyn.sim import cuda_tree
+    from robodyn.engine.cuda import tree as cuda_tree
 
     Q, V = starts(n, int(model["nv"]))
 

@@ -32,7 +32,7 @@ def measure(runs: int, steps: int) -> dict[str, Any]:
     import pyarrow.parquet  # noqa: F401 - imported outside the timing, as a worker has it loaded
 
     import robodyn.sweep as sweep
-    from robodyn.sim import cuda_sweep
+    from robodyn.engine.cuda import sweep as cuda_sweep
     from robodyn.sweep.store import Store
 
     side = math.isqrt(runs)

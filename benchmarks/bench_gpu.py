@@ -9,7 +9,7 @@ Two steps, because the GPU machine has no Pinocchio (its wheels are too big to c
 against Pinocchio's ABA by ``FastDynamics.from_robot``), its damping and degrees of freedom, and
 the URDF text MuJoCo reads (geometry stripped, as ``bench_mujoco.py``) with its joint names.
 
-``--run DIR`` imports NumPy, numba and ``robodyn.sim.cuda_batch`` (with ``robodyn.kinds``'s closed
+``--run DIR`` imports NumPy, numba and ``robodyn.engine.cuda.batch`` (with ``robodyn.kinds``'s closed
 forms; no Pinocchio: the run checks that ``pinocchio`` is not in ``sys.modules``). For the Pendubot
 and the cart-pole it runs batches of 2^14 to 2^20 seeded states (``--states N`` for one size),
 ``--steps`` (1,000) torque-free RK4 steps of 1 ms each, on the GPU (float64, one thread a state,
@@ -20,17 +20,17 @@ not ``--no-mjx``) it also runs MJX (float32, ``MJX_STATES`` states) from the sam
 reports its speed and its difference from the float64 kernel. Each batch also runs the float32 kernel
 (the same source, its literals float32) and reports its speed and its error against float64. A
 Pendubot chaos map follows, end to end as a ``device = "cuda"`` sweep computes one chunk from arrays
-alone (``robodyn.sim.cuda_sweep``, the model's ``DeviceModel`` saved by ``--prepare``): the largest
+alone (``robodyn.engine.cuda.sweep``, the model's ``DeviceModel`` saved by ``--prepare``): the largest
 batch's runs over ``--chaos-seconds`` (20 s), timed part by part (starts and twin streams, the
 kernel that steps each run and its Benettin twin in one GPU thread, the twin's direction drawn
 there, and computes the measures, the columns, the Parquet file where pyarrow imports), against
 the same device functions on the CPU's cores for 1,024 of them.
 The Panda (fingers fixed, stops off; ``DIR/panda.npz``, the tree's arrays) follows through
-``robodyn.sim.cuda_tree`` (the compiled tree algorithms, one thread a state) for the same batch sizes
+``robodyn.engine.cuda.tree`` (the compiled tree algorithms, one thread a state) for the same batch sizes
 and ``min(--steps, 200)`` steps, beside the CPU batch kernel on all cores and MJX float32 for one
 size (``benchmarks/_gpu_panda.py``). A swing-up basin map of each built-in kind follows: the
 largest batch's starts under the swing-up to LQR (the controller's numbers saved by ``--prepare``,
-the law of ``robodyn.sim.torque_laws``) for ``--basin-seconds`` (10 s), the time to balance counted
+the law of ``robodyn.engine.torque_laws``) for ``--basin-seconds`` (10 s), the time to balance counted
 on the GPU, against the same device function on the CPU's cores for 1,024 of them. Everything goes into
 ``DIR/gpu.json`` with the GPU's name, written after every section. The sections run in the order of
 the issue's goals (the Pendubot against MJX, the chaos map, the Panda, then the cart-pole and the
@@ -134,8 +134,8 @@ def run(
     basin_seconds: float,
     budget: float = BUDGET_S,
 ) -> int:
+    from robodyn.engine.cuda import batch as cuda_batch
     from robodyn.errors import RobodynError
-    from robodyn.sim import cuda_batch
 
     models = np.load(folder / "models.npz")
     try:
@@ -171,7 +171,7 @@ def run(
         kinds[kind]["mjx"] = _mjx(kind, models, p, b, min(MJX_STATES, max(sizes)), steps)
 
     def panda() -> None:
-        if (folder / "panda.npz").is_file():  # the Panda: robodyn.sim.cuda_tree (benchmarks/_gpu_panda.py)
+        if (folder / "panda.npz").is_file():  # the Panda: robodyn.engine.cuda.tree (benchmarks/_gpu_panda.py)
             results["panda"] = _gpu_panda.run(folder, sizes=sizes, steps=steps, mjx=mjx)
         else:
             print(f"panda: {folder / 'panda.npz'} is missing (written by --prepare): left out")
@@ -225,7 +225,7 @@ def _save(path: Path, results: dict[str, Any]) -> None:
 
 def _batches(kind: str, models: Any, sizes: tuple[int, ...], steps: int) -> list[dict[str, Any]]:
     """The torque-free batches of one kind: GPU float64 and float32, and the CPU's cores up to CPU_MAX_STATES."""
-    from robodyn.sim import cuda_batch
+    from robodyn.engine.cuda import batch as cuda_batch
 
     p, b = models[f"{kind}.params"], models[f"{kind}.damping"]
     nv = b.size
@@ -255,7 +255,7 @@ def _batches(kind: str, models: Any, sizes: tuple[int, ...], steps: int) -> list
 
 def _float32(kind: str, p: np.ndarray, b: np.ndarray, Q: np.ndarray, V: np.ndarray, steps: int, ref: Any) -> dict:
     """The float32 kernel (the same source, literals float32) from the same starts: speed and error against float64."""
-    from robodyn.sim import cuda_batch
+    from robodyn.engine.cuda import batch as cuda_batch
 
     wall, out = float("inf"), None
     for _ in range(REPEATS):
@@ -282,7 +282,8 @@ def _chaos_map(folder: Path, models: Any, kind: str, n: int, seconds: float) -> 
     the Parquet file (where pyarrow imports). The same device functions on the CPU's cores for
     ``CHAOS_CPU_STATES`` of the runs give the agreement.
     """
-    from robodyn.sim import cuda_batch, cuda_sweep
+    from robodyn.engine.cuda import batch as cuda_batch
+    from robodyn.engine.cuda import sweep as cuda_sweep
 
     model = cuda_sweep.DeviceModel.from_arrays(models, f"{kind}.device")
     joints = [str(j) for j in models[f"{kind}.joints"]]
@@ -403,8 +404,8 @@ def _prepare_basin(robot: Any, kind: str, fast: Any) -> dict[str, Any]:
 
 def _basin(kind: str, models: Any, n: int, seconds: float) -> dict[str, Any]:
     """The swing-up basin map of n runs on the GPU (time to balance on the device) against the CPU's cores."""
+    from robodyn.engine.cuda import closed_loop as cuda_closed
     from robodyn.kinds.formulas import closed_form
-    from robodyn.sim import cuda_closed
 
     p, b = models[f"{kind}.params"], np.zeros(2)
     b[: models[f"{kind}.damping"].size] = models[f"{kind}.damping"]
@@ -472,7 +473,7 @@ def _best(rollout: Any, kind: str, p: np.ndarray, b: np.ndarray, Q: np.ndarray, 
 
 def _mjx(kind: str, models: Any, p: np.ndarray, b: np.ndarray, n: int, steps: int) -> dict[str, Any]:
     """MJX (float32) from the same starts as the kind's float64 kernel (benchmarks/_gpu_mjx.py)."""
-    from robodyn.sim import cuda_batch
+    from robodyn.engine.cuda import batch as cuda_batch
 
     Q, V = starts(kind, n, b.size)
 

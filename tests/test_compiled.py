@@ -1,4 +1,4 @@
-"""The compiled tree path (sim/tree.py, sim/tree_kernels.py, sim/whole_run.py) against Pinocchio and the ABA run."""
+"""The compiled tree path (sim/tree.py, engine/tree/algorithms.py, sim/whole_run.py) against Pinocchio and the ABA run."""
 
 from __future__ import annotations
 

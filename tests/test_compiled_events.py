@@ -1,4 +1,4 @@
-"""Stop events inside the compiled loop (sim/tree_events.py) against the Python event stepper (sim/events.py).
+"""Stop events inside the compiled loop (engine/tree/events.py) against the Python event stepper (sim/events.py).
 
 The compiled loop takes every step of a run on a compiled tree, the steps with an impact, a
 hold or a release included, with the event stepper's arithmetic; ``backend="aba"`` runs the
@@ -112,3 +112,41 @@ def test_a_joint_chattering_on_its_stop_is_handed_back_with_the_event_steppers_r
     meta = got.value.trajectory.meta
     assert meta["loop"] == "python" and meta["compiled_loop"].startswith(f"not used: more than {MAX_EVENTS_PER_STEP}")
     assert meta["compiled_loop"].endswith("(chattering) at step 1 (t = 0.0005 s)")
+
+
+# The plain numbers the stop kernels may write: halves (a bisection, ½ v M v), doubles and units.
+KERNEL_LITERALS = {0.0, 0.5, 1.0, 2.0}
+
+
+def test_the_stop_kernels_hold_no_constant_of_their_own_they_take_the_python_steppers() -> None:
+    """One specification: every tolerance of the compiled stops is sim/events.py's or sim/limits.py's, passed in."""
+    import ast
+
+    from robodyn.engine.tree import impacts as k
+    from robodyn.sim import events, limits, tree, whole_run
+    from robodyn.sim.constraints import Constraints
+    from robodyn.sim.system import robot_system
+
+    engine = Path(__file__).resolve().parents[1] / "src" / "robodyn" / "engine" / "tree"
+    for name in ("events.py", "impacts.py"):
+        module = ast.parse((engine / name).read_text())
+        floats = {n.value for n in ast.walk(module) if isinstance(n, ast.Constant) and isinstance(n.value, float)}
+        assert floats <= KERNEL_LITERALS, (
+            f"engine/tree/{name} writes {sorted(floats - KERNEL_LITERALS)}: pass it in par"
+        )
+    robot = robodyn.load("cart_pole")
+    system = robot_system(robot, constraints=Constraints(restitution=0.5))
+    _, par = whole_run._event_arrays(system, tree.extract(robot))
+    expected = {
+        k.P_LOCATE_RTOL: events.LOCATE_RTOL,
+        k.P_LOCATE_FTOL: events.LOCATE_FTOL,
+        k.P_NOISE_RTOL: events.FORCE_NOISE_RTOL,
+        k.P_RELEASE_TOL: events.RELEASE_TOL,
+        k.P_PULL_RTOL: limits.PULL_RTOL,
+        k.P_ITERATIONS: events.LOCATE_ITERATIONS,
+        k.P_MAX_EVENTS: events.MAX_EVENTS_PER_STEP,
+        k.P_RESTITUTION: 0.5,
+        k.P_RCOND: limits.IMPACT_RCOND,
+    }
+    assert len(par) == k.PCOLS
+    assert {slot: par[slot] for slot in expected} == expected

@@ -1,4 +1,4 @@
-"""The compiled tree kernels (sim/tree.py, sim/tree_kernels.py) on a free-flyer root, against Pinocchio."""
+"""The compiled tree kernels (sim/tree.py, engine/tree/algorithms.py) on a free-flyer root, against Pinocchio."""
 
 from __future__ import annotations
 
@@ -9,8 +9,9 @@ import pinocchio as pin
 import pytest
 
 import robodyn
+from robodyn.engine.tree import layout as tree_layout
 from robodyn.errors import AssumptionError
-from robodyn.sim import tree, tree_layout
+from robodyn.sim import tree
 
 # Compiled ABA / RNEA / CRBA / energies against Pinocchio, relative to the largest entry: two float64
 # implementations of the same recursions (world frame at the free flyer vs local frames).

@@ -1,7 +1,7 @@
 """Joint stops in the compiled loop: held joints locked in the compiled ABA, events taken inside the loop.
 
 The compiled loop steps with the held joints locked, and takes the step with an impact, a
-hold or a release with the event stepper's arithmetic, compiled (sim/tree_events.py,
+hold or a release with the event stepper's arithmetic, compiled (engine/tree/events.py,
 sim/whole_run.py). These tests
 check the locked ABA and its stop force against the Python pipeline's hold solve, and whole
 runs with impacts, holds and releases against the Python pipeline (``backend="aba"``).

@@ -20,8 +20,9 @@ import pytest
 
 import robodyn
 from robodyn.cli import main
+from robodyn.engine.cuda import batch as cuda_batch
 from robodyn.errors import InputError, UnavailableError
-from robodyn.sim import batch, cuda_batch
+from robodyn.sim import batch
 
 SRC = Path(__file__).resolve().parents[1] / "src"
 # The CUDA kernel does the CPU kernel's arithmetic term for term; in the simulator both are numba-free
@@ -116,6 +117,41 @@ def test_cuda_rollout_equals_cpu_rollout_for_every_built_in_kind():
         assert got["dq"] <= CUDA_VS_CPU_ATOL and got["dv"] <= CUDA_VS_CPU_ATOL, (kind, got)
 
 
+# The GPU kernel (closed form, engine/rk4.py's step) against simulate's Python RK4 on Pinocchio's ABA:
+# two exact formulas for the same accelerations in float64, 50 steps from states inside the limits.
+CUDA_VS_ABA_RTOL = 1e-10
+
+
+def test_cuda_rollout_follows_simulate_on_aba_for_every_built_in_kind():
+    """An oracle that shares no code with the GPU path: a wrong RK4 step fails here though GPU and CPU agree."""
+    out = _simulated(
+        """
+        import json
+        import numpy as np
+        import robodyn
+        from robodyn.sim import batch
+
+        out = {}
+        for kind in ("pendubot", "cart_pole", "geared_arm"):
+            robot = robodyn.load(kind)
+            rng = np.random.default_rng(7)
+            Q = rng.uniform(-0.3, 0.3, (3, robot.nv))
+            V = rng.uniform(-0.5, 0.5, (3, robot.nv))
+            gpu = batch.rollout(robot, Q, V, duration=0.05, dt=1e-3, device="cuda")
+            worst = 0.0
+            for q0, v0, q, v in zip(Q, V, gpu.q, gpu.v):
+                ref = robodyn.simulate(robot, q0, v0, duration=0.05, dt=1e-3, integrator="rk4", backend="aba")
+                scale = max(1.0, float(np.max(np.abs(ref.v[-1]))))
+                worst = max(worst, float(np.max(np.abs(q - ref.q[-1])) / scale), float(np.max(np.abs(v - ref.v[-1])) / scale))
+            out[kind] = {"worst": worst, "moved": float(np.max(np.abs(gpu.v - V)))}
+        print(json.dumps(out))
+        """
+    )
+    for kind, got in out.items():
+        assert got["moved"] > 1e-3, kind
+        assert got["worst"] <= CUDA_VS_ABA_RTOL, (kind, got)
+
+
 def test_a_batch_one_block_and_a_bit_long_steps_every_state():
     """130 states need 2 blocks of 128 threads: a grid rounded down to 1 would leave the last 2 unstepped."""
     n = cuda_batch.THREADS_PER_BLOCK + 2
@@ -149,7 +185,7 @@ def test_cuda_coordinate_range_is_the_trajectory_range():
         import json
         import numpy as np
         import robodyn
-        from robodyn.sim import cuda_batch
+        from robodyn.engine.cuda import batch as cuda_batch
         from robodyn.sim.fast import FastDynamics
 
         robot = robodyn.load("cart_pole")
@@ -203,7 +239,7 @@ def test_cuda_sweep_equals_cpu_sweep_with_stops():
 
 
 def test_cuda_module_imports_no_pinocchio():
-    code = "import sys, robodyn.sim.cuda_batch; print('pinocchio' in sys.modules, 'numba' in sys.modules)"
+    code = "import sys, robodyn.engine.cuda.batch; print('pinocchio' in sys.modules, 'numba' in sys.modules)"
     run = subprocess.run(
         [sys.executable, "-c", code], env={**os.environ, "PYTHONPATH": str(SRC)}, capture_output=True, text=True
     )
@@ -285,7 +321,10 @@ try:
 except (ImportError, AttributeError):
     print("SKIP")
     raise SystemExit(0)
-from robodyn.sim import cuda_batch, cuda_closed, cuda_sweep, cuda_tree
+from robodyn.engine.cuda import batch as cuda_batch
+from robodyn.engine.cuda import closed_loop as cuda_closed
+from robodyn.engine.cuda import sweep as cuda_sweep
+from robodyn.engine.cuda import tree as cuda_tree
 # no GPU: a compute capability for the device functions, and numba.cuda without is_available()
 dispatcher.get_current_device = lambda: pytypes.SimpleNamespace(compute_capability=(8, 0))
 cuda_batch.cuda_module = lambda: cuda
@@ -435,9 +474,9 @@ def test_device_functions_type_check_in_numbas_cpu_compiler():
     """
     import numba
 
+    from robodyn.engine.cuda import batch as cuda_batch
     from robodyn.integrators import twins
     from robodyn.integrators.stability import lyapunov
-    from robodyn.sim import cuda_batch
     from robodyn.sim.fast import FastDynamics
 
     fast = FastDynamics.from_robot(robodyn.load("pendubot"))

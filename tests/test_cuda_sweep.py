@@ -15,8 +15,10 @@ import pytest
 
 import robodyn
 from robodyn.cli import main
+from robodyn.engine.cuda import batch as cuda_batch
+from robodyn.engine.cuda import sweep as cuda_sweep
 from robodyn.errors import InputError
-from robodyn.sim import batch, cuda_batch, cuda_sweep
+from robodyn.sim import batch
 from robodyn.sim.energy import reference_energy
 from robodyn.sim.fast import FastDynamics
 from robodyn.sim.simulation import DEFAULT_MAX_ENERGY_GROWTH
@@ -128,7 +130,8 @@ def test_float32_cuda_rollout_in_the_simulator_is_numpys_float32():
         import json
         import numpy as np
         import robodyn
-        from robodyn.sim import batch, cuda_batch
+        from robodyn.sim import batch
+        from robodyn.engine.cuda import batch as cuda_batch
         from robodyn.sim.fast import FastDynamics
 
         robot = robodyn.load("pendubot")
@@ -240,7 +243,7 @@ def test_a_gpu_worker_runs_a_chunk_from_arrays_without_pinocchio(tmp_path):
     out = _simulated(
         f"""
         import json, pickle, sys
-        from robodyn.sim import cuda_sweep
+        from robodyn.engine.cuda import sweep as cuda_sweep
 
         task = pickle.loads(open({str(tmp_path / "task.pkl")!r}, "rb").read())
         measured = cuda_sweep.run_task(task)

@@ -1,4 +1,4 @@
-"""device="cuda" for any robot the compiled tree path takes (sim/cuda_tree.py), run here in numba's CUDA simulator.
+"""device="cuda" for any robot the compiled tree path takes (engine/cuda/tree.py), run here in numba's CUDA simulator.
 
 The CUDA kernel is the CPU batch path's kernels (tree_kernels, tree_flyer, tree_body, tree_steps)
 rebuilt over their device versions; in the simulator both are float64 operations in the same order,
@@ -18,8 +18,9 @@ import numpy as np
 import pytest
 
 import robodyn
+from robodyn.engine.cuda import tree as cuda_tree
 from robodyn.errors import AssumptionError, InputError
-from robodyn.sim import batch, cuda_tree, tree
+from robodyn.sim import batch, tree
 from tests.test_cuda_batch import CUDA_VS_CPU_ATOL, SRC, _simulated
 
 # The simulator runs every kernel as Python, a thread a state: a few states and steps keep each test
@@ -94,7 +95,8 @@ def test_a_free_flyer_on_cuda_equals_the_cpu_kernel_and_its_range_is_the_steps_r
         import json
         import numpy as np
         import robodyn
-        from robodyn.sim import cuda_tree, tree
+        from robodyn.sim import tree
+        from robodyn.engine.cuda import tree as cuda_tree
 
         robot = robodyn.load("panda", free_flyer=True)
         t = tree.compiled_of(robot).tree
@@ -137,7 +139,8 @@ def test_a_batch_split_into_launches_equals_one_launch_and_the_cpu_batch_path():
         import json
         import numpy as np
         import robodyn
-        from robodyn.sim import cuda_tree, tree
+        from robodyn.sim import tree
+        from robodyn.engine.cuda import tree as cuda_tree
 
         robot = robodyn.load("double_pendulum")
         t = tree.compiled_of(robot).tree

@@ -1,4 +1,4 @@
-"""How the kernels are compiled and cached (sim/jit.py), and ``robodyn warmup`` (sim/warmup.py, cli/warmup.py).
+"""How the kernels are compiled and cached (engine/jit.py), and ``robodyn warmup`` (sim/warmup.py, cli/warmup.py).
 
 The subprocess tests run a copy of the package (or the package itself) with an empty
 ``NUMBA_CACHE_DIR`` of their own, so that what they see does not depend on an earlier compile.
@@ -18,18 +18,19 @@ from pathlib import Path
 import pytest
 
 from robodyn.cli import _numeric_warnings, main
+from robodyn.engine import jit
 from robodyn.errors import CompileNotice
-from robodyn.sim import jit
 
 SRC = Path(__file__).resolve().parents[1] / "src"
 PACKAGE = SRC / "robodyn"
-# A one-joint tree's energies from the compiled kinematics, which inlines tree_body.body (another
+# A one-joint tree's energies from the compiled kinematics, which inlines tree.body.body (another
 # file). Mass 2 kg at 0.5 m above the joint under g = 9.81 m/s^2: the potential is 9.81 J.
 KINEMATICS = """
 import numpy as np
-from robodyn.sim import jit, tree
-from robodyn.sim import tree_kernels as k
-from robodyn.sim.tree_layout import F_LEVER, F_MASS, WCOLS
+from robodyn.sim import tree
+from robodyn.engine import jit
+from robodyn.engine.tree import algorithms as k
+from robodyn.engine.tree.layout import F_LEVER, F_MASS, WCOLS
 itree, ftree, grav = tree.one_joint()
 ftree[0, F_MASS] = 2.0
 ftree[0, F_LEVER + 2] = 0.5
@@ -76,9 +77,12 @@ def test_every_file_that_declares_or_feeds_a_kernel_is_hashed() -> None:
             assert path in hashed, f"{path} declares kernels but is not in jit.KERNEL_SOURCES"
             # the robodyn modules it imports from the kernels' folders hold callees or constants
             for node in ast.walk(ast.parse(text)):
-                if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("robodyn.sim.tree_"):
-                    assert PACKAGE / "sim" / f"{node.module.rsplit('.', 1)[1]}.py" in hashed, node.module
-    for kind in ("pendubot", "cart_pole", "geared_arm", "formula"):  # the closed forms fast.py compiles
+                if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("robodyn.engine."):
+                    assert (
+                        PACKAGE.parent / (node.module.replace(".", "/") + ".py") in hashed
+                        or node.module == "robodyn.engine.jit"
+                    ), node.module
+    for kind in ("pendubot", "cart_pole", "geared_arm", "formula"):  # the closed forms engine/closed_form.py compiles
         assert PACKAGE / "kinds" / f"{kind}.py" in hashed
 
 
@@ -91,7 +95,7 @@ def test_a_changed_callee_reaches_its_callers_cached_code(tmp_path: Path) -> Non
     assert (cached, float(pot)) == ("False", POTENTIAL)
     again = _run(KINEMATICS, src, cache)
     assert again.stdout.split() == [key, "True", pot]  # the same sources: loaded from the cache
-    body = src / "robodyn" / "sim" / "tree_body.py"  # the callee, inlined into tree_kernels.kinematics
+    body = src / "robodyn" / "engine" / "tree" / "body.py"  # the callee, inlined into algorithms.kinematics
     text = body.read_text()
     assert text.count("m = ftree[i, F_MASS]") == 1
     body.write_text(text.replace("m = ftree[i, F_MASS]", "m = 2.0 * ftree[i, F_MASS]"))
@@ -107,7 +111,7 @@ def test_a_changed_callee_reaches_its_callers_cached_code(tmp_path: Path) -> Non
 
 @pytest.mark.timeout(900)
 def test_a_first_compile_says_so_on_stderr_and_a_cached_run_does_not(tmp_path: Path) -> None:
-    # fast.py's kernels are closures: numba would key them on their pickled cells, drawn anew per process
+    # closed_form.py's kernels are closures: numba would key them on their pickled cells, drawn anew per process
     code = "from robodyn.sim import fast; print(sum(fast.warm_up()['run'].stats.cache_hits.values()))"
     first = _run(code, SRC, tmp_path / "cache")
     assert first.returncode == 0 and first.stdout == "0\n", first.stderr
@@ -145,7 +149,7 @@ def test_warmup_fills_the_cache_and_says_how_long(tmp_path: Path) -> None:
     assert re.fullmatch(r"warmup: 1 group compiled or loaded in \d+\.\d s", out[1]), out
     assert "note:" not in done.stderr  # its own lines say it
     # the closed-form run kernel is in the cache of this key: a later run loads it
-    assert list((tmp_path / "cache").rglob(f"{jit.PREFIX}*/fast._kernels.locals.run-*.nbi")), done.stdout
+    assert list((tmp_path / "cache").rglob(f"{jit.PREFIX}*/closed_form.kernels.locals.run-*.nbi")), done.stdout
 
 
 def test_warmup_refuses_an_unknown_group_in_one_line(capsys: pytest.CaptureFixture[str]) -> None:

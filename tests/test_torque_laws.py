@@ -1,4 +1,4 @@
-"""The torque laws written once (robodyn.sim.torque_laws): the NumPy batch, numba's scalars and the controllers agree.
+"""The torque laws written once (robodyn.engine.torque_laws): the NumPy batch, numba's scalars and the controllers agree.
 
 No GPU and no simulator here: numba's CPU compiler compiles the body the GPU's ``cuda.jit(device=True)``
 compiles, and the closed loop's device function runs on the CPU's cores against the sweep's CPU path.
@@ -16,9 +16,9 @@ import robodyn
 import robodyn.control
 import robodyn.sweep as sweep
 from robodyn.control.compiled import law_of
+from robodyn.engine import torque_laws as tl
+from robodyn.engine.cuda import closed_loop as cuda_closed
 from robodyn.errors import InputError
-from robodyn.sim import cuda_closed
-from robodyn.sim import torque_laws as tl
 from robodyn.sim.fast import FastDynamics
 from robodyn.sweep import chunk as chunk_module
 from robodyn.sweep import measures as ms

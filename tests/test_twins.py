@@ -41,7 +41,7 @@ def test_numba_cpu_offsets_equal_python_directions():
     """The kernels' offset function, compiled by numba.njit, gives twins.direction's numbers (nv 2 and 1)."""
     import numba
 
-    from robodyn.sim import cuda_batch
+    from robodyn.engine.cuda import batch as cuda_batch
 
     offset = cuda_batch._twin_offset(numba.njit)
     for stream in STREAMS:
@@ -58,7 +58,7 @@ def test_cuda_simulator_offsets_equal_python_directions():
         f"""
         import json
         import numpy as np
-        from robodyn.sim import cuda_batch
+        from robodyn.engine.cuda import batch as cuda_batch
         from robodyn.integrators import twins
 
         cuda = cuda_batch.cuda_module()

@@ -145,7 +145,7 @@ def _numeric_warnings(command: str) -> Iterator[Counter[str]]:
     progress bar); :func:`main` folds their count into one note. robodyn's own
     :class:`~robodyn.errors.ModelWarning` is one line ``robodyn COMMAND: warning: ...`` (each
     message once), a :class:`~robodyn.errors.CompileNotice` one line ``robodyn COMMAND: note: ...``
-    (said once per process by :mod:`robodyn.sim.jit`; ``PYTHONWARNINGS=ignore`` silences it, as the
+    (said once per process by :mod:`robodyn.engine.jit`; ``PYTHONWARNINGS=ignore`` silences it, as the
     test suite does). Other warnings pass through.
     """
     counts: Counter[str] = Counter()

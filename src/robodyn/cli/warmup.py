@@ -1,7 +1,7 @@
 """``robodyn warmup``: compile every numba kernel ahead, for a classroom or a CI image.
 
 The first run on a machine compiles the kernels it needs (a minute or two) and caches them
-(:mod:`robodyn.sim.jit`); ``robodyn warmup`` does it for all of them at once, group by group,
+(:mod:`robodyn.engine.jit`); ``robodyn warmup`` does it for all of them at once, group by group,
 printing each group's time and the total. ``--only`` takes some groups. Exit codes: 0 done;
 2 an unknown group.
 """

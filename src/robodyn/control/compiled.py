@@ -2,7 +2,7 @@
 
 :func:`law_of` packs an :class:`~robodyn.control.LQR`, or a :class:`~robodyn.control.Switched` over
 the Pendubot's or the cart-pole's energy swing-up, into the float64 parameter vector of a law of
-:mod:`robodyn.sim.torque_laws` (the one body NumPy, numba and CUDA evaluate).
+:mod:`robodyn.engine.torque_laws` (the one body NumPy, numba and CUDA evaluate).
 """
 
 from __future__ import annotations
@@ -15,14 +15,14 @@ from numpy.typing import NDArray
 from robodyn.control.lqr import LQR
 from robodyn.control.swing_up import CartPoleEnergy, PendubotEnergy
 from robodyn.control.switch import Switched
-from robodyn.sim import torque_laws as tl
+from robodyn.engine import torque_laws as tl
 from robodyn.sim.fast import FastDynamics
 
 Array = NDArray[np.float64]
 
 
 def law_of(controller: Any, fast: FastDynamics | None) -> tuple[str, Array] | None:
-    """(law name, parameter vector c) of :mod:`robodyn.sim.torque_laws` for ``controller``, or None.
+    """(law name, parameter vector c) of :mod:`robodyn.engine.torque_laws` for ``controller``, or None.
 
     None unless the robot is a two-degree-of-freedom built-in kind (cart-pole, Pendubot) with one
     actuated joint and the controller an :class:`~robodyn.control.LQR` or a :class:`~robodyn.control.Switched`

@@ -8,9 +8,9 @@ the accelerations of the whole batch come from one call per RK4 stage:
   checked against Pinocchio's ABA when built), joint damping included;
 * ``"aba"``: Pinocchio's ABA state by state (any robot with nq == nv), the slow, obviously
   correct oracle;
-* ``"cuda"``: an NVIDIA GPU, one thread a state (:func:`robodyn.sim.cuda_closed.closed_loop`), for
+* ``"cuda"``: an NVIDIA GPU, one thread a state (:func:`robodyn.engine.cuda.closed_loop.closed_loop`), for
   the controllers of ``robodyn.control.make("lqr" | "swing_up", robot)`` on the cart-pole and the
-  Pendubot: their laws are written once (:mod:`robodyn.sim.torque_laws`) and compiled by numba for
+  Pendubot: their laws are written once (:mod:`robodyn.engine.torque_laws`) and compiled by numba for
   the GPU, the same arithmetic as ``"fast"`` with the sweep's batch form of the controller
   (:func:`robodyn.sweep.policy.batch_policy`). Needs the ``cuda`` extra and a GPU (numba's CUDA
   simulator, ``NUMBA_ENABLE_CUDASIM=1``, runs it on the CPU, slowly).
@@ -133,7 +133,7 @@ def _accelerations(robot: Robot, backend: str) -> Callable[[Array, Array, Array]
 def _cuda(robot: Robot, policy: object, Q: Array, V: Array, dt: float, steps: int) -> Rollout:
     """:func:`closed_loop` on the GPU: the controller's law (its parameter vector) in one thread a state."""
     from robodyn.control.compiled import law_of
-    from robodyn.sim import cuda_closed
+    from robodyn.engine.cuda import closed_loop as cuda_closed
 
     controller = getattr(policy, "__self__", policy)  # lqr.batch -> the LQR
     kind = params.detect_kind(robot)
@@ -207,13 +207,13 @@ def closed_loop_family(
 
     ``c`` (SIZE, m) stacks the controllers' parameter vectors (:func:`robodyn.control.compiled.law_of`),
     ``p`` (n_params, m) the kinds' closed-form parameters, ``b`` (2, m) the damping; the law
-    (:func:`robodyn.sim.torque_laws.law`, the body the GPU compiles) and the closed form act
+    (:func:`robodyn.engine.torque_laws.law`, the body the GPU compiles) and the closed form act
     element-wise, so one NumPy pass steps the whole family. The balance measure is
     :func:`robodyn.control.outcome.inside_upright` sample by sample, as the sweep's ``time_to_balance``.
     """
     from robodyn.control import outcome
+    from robodyn.engine import torque_laws as tl
     from robodyn.kinds.formulas import closed_form
-    from robodyn.sim import torque_laws as tl
 
     form = closed_form(kind)
     torque = tl.law(kind, law)
@@ -270,7 +270,7 @@ def closed_loop_family(
 
 def _inside_region(c: Array, Q: Array, V: Array) -> NDArray[np.bool_]:
     """Whether each state lies in its controller's region e^T P e < rho (the switch's own test)."""
-    from robodyn.sim import torque_laws as tl
+    from robodyn.engine import torque_laws as tl
 
     e = np.stack([Q[0] - c[tl.Q_EQ], Q[1] - c[tl.Q_EQ + 1], V[0], V[1]])
     for i in range(2):

@@ -15,7 +15,7 @@ scaled to length ``d0`` by dividing by the root of the components' squares summe
 The functions below are written once, as scalar functions of ``np.uint64`` integers (whose
 arithmetic wraps modulo 2^64 in NumPy, in numba and in CUDA alike), so that
 :func:`robodyn.integrators.stability.lyapunov` calls them as Python, and
-:mod:`robodyn.sim.cuda_batch` compiles them with ``numba.njit`` and ``cuda.jit(device=True)``:
+:mod:`robodyn.engine.cuda.batch` compiles them with ``numba.njit`` and ``cuda.jit(device=True)``:
 a run's twin starts at the same offset on every path. Python evaluates them under
 ``np.errstate(over="ignore")`` (:func:`direction`): the wraparound is the point, not an error.
 """

@@ -9,7 +9,7 @@
 * what a run is warned of before it starts: ``stiffness`` (Coulomb friction too stiff for the
   method's step);
 * many states at once (``batch``), the compiled closed forms (``fast``) and the compiled path for
-  any tree (``tree``, ``tree_kernels``, ``tree_steps``, ``tree_events``, ``tree_impacts``, ``whole_run``).
-* how the compiled kernels are declared and cached (``jit``: one key of robodyn's version and the
-  kernels' sources) and compiled ahead (``warmup``, ``robodyn warmup``).
+  any tree (``tree`` and ``whole_run``, handing the run to :mod:`robodyn.engine.tree`).
+* the compiled kernels compiled ahead (``warmup``, ``robodyn warmup``; declared and cached by
+  :mod:`robodyn.engine.jit`).
 """

@@ -118,8 +118,8 @@ def rollout(
     ``threads`` defaults to :func:`default_threads`. Only fixed-step explicit integrators
     (rk4, heun, euler) apply; the robot must be torque-free here, lossless and have nq == nv.
     ``device="cuda"`` runs on an NVIDIA GPU, one thread a state, float64: a built-in kind's closed
-    form with rk4 (:mod:`robodyn.sim.cuda_batch`), any other robot the compiled tree path takes
-    with rk4, heun or euler (:mod:`robodyn.sim.cuda_tree`, the CPU batch's kernels compiled for CUDA).
+    form with rk4 (:mod:`robodyn.engine.cuda.batch`), any other robot the compiled tree path takes
+    with rk4, heun or euler (:mod:`robodyn.engine.cuda.tree`, the CPU batch's kernels compiled for CUDA).
     ``dtype=np.float32`` (or ``"float32"``) runs a built-in kind's closed-form kernel in single
     precision, compiled from the same source, and returns float32 states
     (``benchmarks/bench_gpu.py`` states its error against float64); the tree kernels and the CPU
@@ -215,12 +215,12 @@ def _cuda_rollout(
     """The batch on the GPU: a built-in kind's closed form with rk4 (checked against ABA first), else the tree path.
 
     Any other robot the compiled tree path takes (checked against Pinocchio first) runs on
-    :mod:`robodyn.sim.cuda_tree`, with the method the CPU batch would use (rk4, heun or euler),
+    :mod:`robodyn.engine.cuda.tree`, with the method the CPU batch would use (rk4, heun or euler),
     in float64 only.
     """
     fast = _closed_form(robot, integrator)
     if fast is not None:
-        from robodyn.sim import cuda_batch
+        from robodyn.engine.cuda import batch as cuda_batch
 
         q, v, _, _, wall = cuda_batch.rollout(
             fast.kind, fast.param_vector, fast.damping, Q, V, dt=dt, steps=steps, precision=precision
@@ -231,15 +231,50 @@ def _cuda_rollout(
             f"{robot.name}: dtype {precision} runs a built-in kind's closed form with rk4 only "
             f"({', '.join(KINDS)}); the compiled tree kernels on device cuda are float64"
         )
-    from robodyn.sim import cuda_tree
-
     try:
-        tree.compiled_of(robot)  # checked against Pinocchio once (robot_rollout takes it from the cache)
+        tree.compiled_of(robot)  # checked against Pinocchio once (cuda_tree_rollout takes it from the cache)
     except RobodynError as exc:
         raise InputError(
             f"{robot.name}: device cuda takes the built-in kinds ({', '.join(KINDS)}) and the robots "
             f"the compiled tree path takes; this one is neither: {exc}"
         ) from None
-    q, v, _, _, wall = cuda_tree.robot_rollout(robot, Q, V, dt=dt, steps=steps, integrator=integrator)
+    q, v, _, _, wall = cuda_tree_rollout(robot, Q, V, dt=dt, steps=steps, integrator=integrator)
     stages = {"rk4": 4, "heun": 2, "euler": 1}[integrator]
     return BatchResult(q, v, dt, steps, integrator, Q.shape[0], wall, stages * steps, "tree", "cuda")
+
+
+def cuda_tree_refusal(robot: Robot, integrator: str) -> str:
+    """Why the GPU's tree kernels cannot run ``robot`` torque-free with ``integrator`` ("" when they can)."""
+    from robodyn.engine.cuda.tree import METHODS
+
+    if integrator not in METHODS:
+        return f"integrator {', '.join(METHODS)} only, got {integrator!r}"
+    why = tree.unsupported(robot)
+    if why is not None:
+        return f"the built-in kinds and the robots the compiled tree path takes only; {robot.name}: {why}"
+    if not robot.nq_equals_nv:
+        return f"robots with nq == nv only; {robot.name} has nq={robot.nq}, nv={robot.nv}"
+    if np.any(robot.damping) or np.any(robot.friction):
+        return "lossless runs only; the model has joint damping or friction"
+    return ""
+
+
+def cuda_tree_rollout(
+    robot: Robot, Q: Array, V: Array, *, dt: float, steps: int, integrator: str
+) -> tuple[Array, Array, Array, Array, float]:
+    """The GPU's tree kernels (:func:`robodyn.engine.cuda.tree.rollout`) on ``robot``'s checked arrays.
+
+    ``integrator`` is the CPU batch path's (rk4, heun, euler). Returns (q, v, q_min, q_max) and the
+    kernel's wall time [s].
+
+    Raises:
+        AssumptionError: the compiled tree path cannot take the robot (:func:`robodyn.sim.tree.compiled_of`).
+    """
+    from robodyn.engine.cuda.tree import METHODS, rollout
+    from robodyn.sim.whole_run import method_code
+
+    t = tree.compiled_of(robot).tree
+    code = method_code(integrators.get(integrator))
+    if code is None or integrator not in METHODS:
+        raise InputError(f"integrator {integrator!r}: device cuda takes {', '.join(METHODS)} on this path")
+    return rollout(t.itree, t.ftree, t.grav, Q, V, dt=dt, steps=steps, method=code[0], tab=code[1])

@@ -1,11 +1,8 @@
-"""A compiled fast path for the built-in kinds: closed-form forward dynamics and the step loop in numba.
+"""The built-in kinds' fast path: a robot of a built-in kind handed to the compiled closed-form kernels.
 
-For a Pendubot, a cart-pole or a geared arm, the forward dynamics a = M^-1 (tau - C v - G - B v)
-have a closed form (M is 2 x 2 or 1 x 1), so a whole fixed-step run compiles to one machine-code
-loop with no allocation and no Python call per step. The closed forms are not written here: numba
-compiles each kind's own scalar functions (``mass``, ``coriolis``, ``gravity``, ``potential`` of
-:mod:`robodyn.kinds.pendubot`, :mod:`~robodyn.kinds.cart_pole`, :mod:`~robodyn.kinds.geared_arm`),
-the same functions that serve ``robodyn check`` and the ``formula`` backend.
+For a Pendubot, a cart-pole or a geared arm, :class:`FastDynamics` reads the kind's parameters
+from the robot and runs :mod:`robodyn.engine.closed_form` (the kind's own closed form and the one
+RK4 step, compiled by numba) on its arrays, returning a :class:`~robodyn.sim.trajectory.Trajectory`.
 
 It is a second path, not a second truth: :meth:`FastDynamics.from_robot` checks its accelerations
 against Pinocchio's ABA on seeded random states before handing it out, and ``tests/test_fast.py``
@@ -21,32 +18,23 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from functools import lru_cache
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robodyn.errors import AssumptionError, InputError, MissingDependencyError, UnknownNameError
+from robodyn.engine.closed_form import KINDS, METHODS, kernels
+from robodyn.errors import AssumptionError, InputError, UnknownNameError
 from robodyn.integrators import step_count
-from robodyn.kinds import cart_pole, geared_arm, pendubot
 from robodyn.kinds import params as params_module
-from robodyn.kinds.formula import solve_2x2
-from robodyn.kinds.formulas import closed_form
-from robodyn.sim import jit
 from robodyn.sim.trajectory import Trajectory
 
 if TYPE_CHECKING:
     from robodyn.robot import Robot
 
-Array = NDArray[np.float64]
+__all__ = ["KINDS", "METHODS", "FastDynamics", "batch_rk4", "warm_up"]
 
-# Kind -> the integer code that selects it inside the compiled kernels.
-CODES: dict[str, int] = {"pendubot": 0, "cart_pole": 1, "geared_arm": 2}
-KINDS: dict[str, tuple[int, tuple[str, ...]]] = {kind: (code, closed_form(kind).params) for kind, code in CODES.items()}
-METHODS = ("rk4", "semi_implicit_euler")
-# What a first compile of these kernels says it does (robodyn.sim.jit.announce)
-COMPILING = ("the closed-form kernels of the built-in kinds", "about half a minute")
+Array = NDArray[np.float64]
 
 # Closed form against Pinocchio's ABA, relative to the largest acceleration: both are exact
 # formulas evaluated in float64, so they differ by a few hundred ulps at most.
@@ -54,154 +42,10 @@ VERIFY_RTOL = 1e-9
 VERIFY_STATES = 16
 
 
-@lru_cache(maxsize=1)
-def _kernels() -> dict[str, Any]:
-    """Compile (or load from numba's cache) the kernels; imported lazily."""
-    try:
-        import numba
-    except ImportError:  # pragma: no cover - numba is a declared dependency
-        raise MissingDependencyError("the fast path needs numba: pip install numba") from None
-    njit = jit.njit(fastmath=False, nogil=True)
-
-    pm, pc, pg, pp = (njit(f) for f in (pendubot.mass, pendubot.coriolis, pendubot.gravity, pendubot.potential))
-    cm, cc, cg, cp = (njit(f) for f in (cart_pole.mass, cart_pole.coriolis, cart_pole.gravity, cart_pole.potential))
-    gm, gc, gg, gp = (njit(f) for f in (geared_arm.mass, geared_arm.coriolis, geared_arm.gravity, geared_arm.potential))
-    solve = njit(solve_2x2)
-
-    @njit
-    def acc(kind, p, b, q0, q1, v0, v1, t0, t1):  # type: ignore[no-untyped-def]
-        if kind == 2:  # geared_arm, one degree of freedom
-            m = gm(p, q0)[0]
-            return (t0 - b[0] * v0 - gc(p, q0, v0)[0] * v0 - gg(p, q0)[0]) / m, 0.0
-        if kind == 0:
-            m11, m12, m22 = pm(p, q0, q1)
-            c11, c12, c21, c22 = pc(p, q0, q1, v0, v1)
-            g0, g1 = pg(p, q0, q1)
-        else:
-            m11, m12, m22 = cm(p, q0, q1)
-            c11, c12, c21, c22 = cc(p, q0, q1, v0, v1)
-            g0, g1 = cg(p, q0, q1)
-        r0 = t0 - b[0] * v0 - (c11 * v0 + c12 * v1) - g0
-        r1 = t1 - b[1] * v1 - (c21 * v0 + c22 * v1) - g1
-        return solve(m11, m12, m22, r0, r1)
-
-    @njit
-    def energies(kind, p, q0, q1, v0, v1):  # type: ignore[no-untyped-def]
-        """(kinetic, potential) on each kind's own zero of the potential."""
-        if kind == 2:
-            return 0.5 * gm(p, q0)[0] * v0 * v0, gp(p, q0)
-        if kind == 0:
-            m11, m12, m22 = pm(p, q0, q1)
-            pot = pp(p, q0, q1)
-        else:
-            m11, m12, m22 = cm(p, q0, q1)
-            pot = cp(p, q0, q1)
-        return 0.5 * (m11 * v0 * v0 + 2.0 * m12 * v0 * v1 + m22 * v1 * v1), pot
-
-    @njit
-    def run(kind, method, p, b, nv, q, v, tau, dt, n, Q, V, A):  # type: ignore[no-untyped-def]
-        """Fill Q, V, A (n + 1, 2) from (q, v); method 0 = RK4, 1 = semi-implicit Euler."""
-        q0, q1, v0, v1 = q[0], q[1], v[0], v[1]
-        t0, t1 = tau[0], tau[1]
-        h = dt
-        for k in range(n + 1):
-            Q[k, 0] = q0
-            Q[k, 1] = q1
-            V[k, 0] = v0
-            V[k, 1] = v1
-            a0, a1 = acc(kind, p, b, q0, q1, v0, v1, t0, t1)
-            A[k, 0] = a0
-            A[k, 1] = a1
-            if k == n:  # the last sample: recorded, not stepped from
-                break
-            if method == 0:
-                b0, b1 = acc(
-                    kind, p, b, q0 + 0.5 * h * v0, q1 + 0.5 * h * v1, v0 + 0.5 * h * a0, v1 + 0.5 * h * a1, t0, t1
-                )
-                w0 = v0 + 0.5 * h * a0
-                w1 = v1 + 0.5 * h * a1
-                c0, c1 = acc(
-                    kind, p, b, q0 + 0.5 * h * w0, q1 + 0.5 * h * w1, v0 + 0.5 * h * b0, v1 + 0.5 * h * b1, t0, t1
-                )
-                x0 = v0 + 0.5 * h * b0
-                x1 = v1 + 0.5 * h * b1
-                d0, d1 = acc(kind, p, b, q0 + h * x0, q1 + h * x1, v0 + h * c0, v1 + h * c1, t0, t1)
-                y0 = v0 + h * c0
-                y1 = v1 + h * c1
-                q0 = q0 + h / 6.0 * (v0 + 2.0 * w0 + 2.0 * x0 + y0)
-                q1 = q1 + h / 6.0 * (v1 + 2.0 * w1 + 2.0 * x1 + y1)
-                v0 = v0 + h / 6.0 * (a0 + 2.0 * b0 + 2.0 * c0 + d0)
-                v1 = v1 + h / 6.0 * (a1 + 2.0 * b1 + 2.0 * c1 + d1)
-            else:
-                # Semi-implicit Euler: kick the velocity first, then drift the position with the new velocity.
-                v0 = v0 + h * a0
-                v1 = v1 + h * a1
-                q0 = q0 + h * v0
-                q1 = q1 + h * v1
-            if nv == 1:
-                q1 = 0.0
-                v1 = 0.0
-            if not (np.isfinite(q0) and np.isfinite(q1) and np.isfinite(v0) and np.isfinite(v1)):
-                return k + 1
-        return n
-
-    @njit
-    def energy_series(kind, p, Q, V, K, P):  # type: ignore[no-untyped-def]
-        for k in range(Q.shape[0]):
-            K[k], P[k] = energies(kind, p, Q[k, 0], Q[k, 1], V[k, 0], V[k, 1])
-
-    @njit
-    def acc_batch(kind, p, b, Q, V, T, A):  # type: ignore[no-untyped-def]
-        for k in range(Q.shape[0]):
-            A[k, 0], A[k, 1] = acc(kind, p, b, Q[k, 0], Q[k, 1], V[k, 0], V[k, 1], T[k, 0], T[k, 1])
-
-    @jit.njit(nogil=True, parallel=True)
-    def batch_rk4(kind, p, b, nv, Q, V, dt, n, blocks):  # type: ignore[no-untyped-def]
-        """Classic RK4 (the arithmetic of ``run``) on every state of Q, V (m, 2), in place, one prange over blocks."""
-        h = dt
-        for bi in numba.prange(blocks.shape[0] - 1):
-            for r in range(blocks[bi], blocks[bi + 1]):
-                q0, q1, v0, v1 = Q[r, 0], Q[r, 1], V[r, 0], V[r, 1]
-                for _ in range(n):
-                    a0, a1 = acc(kind, p, b, q0, q1, v0, v1, 0.0, 0.0)
-                    b0, b1 = acc(
-                        kind, p, b, q0 + 0.5 * h * v0, q1 + 0.5 * h * v1, v0 + 0.5 * h * a0, v1 + 0.5 * h * a1, 0.0, 0.0
-                    )
-                    w0 = v0 + 0.5 * h * a0
-                    w1 = v1 + 0.5 * h * a1
-                    c0, c1 = acc(
-                        kind, p, b, q0 + 0.5 * h * w0, q1 + 0.5 * h * w1, v0 + 0.5 * h * b0, v1 + 0.5 * h * b1, 0.0, 0.0
-                    )
-                    x0 = v0 + 0.5 * h * b0
-                    x1 = v1 + 0.5 * h * b1
-                    d0, d1 = acc(kind, p, b, q0 + h * x0, q1 + h * x1, v0 + h * c0, v1 + h * c1, 0.0, 0.0)
-                    y0 = v0 + h * c0
-                    y1 = v1 + h * c1
-                    q0 = q0 + h / 6.0 * (v0 + 2.0 * w0 + 2.0 * x0 + y0)
-                    q1 = q1 + h / 6.0 * (v1 + 2.0 * w1 + 2.0 * x1 + y1)
-                    v0 = v0 + h / 6.0 * (a0 + 2.0 * b0 + 2.0 * c0 + d0)
-                    v1 = v1 + h / 6.0 * (a1 + 2.0 * b1 + 2.0 * c1 + d1)
-                    if nv == 1:
-                        q1 = 0.0
-                        v1 = 0.0
-                Q[r, 0], Q[r, 1], V[r, 0], V[r, 1] = q0, q1, v0, v1
-        return 0
-
-    # Compile now (or load numba's cache), so that no timed run pays for it.
-    if not all(jit.is_cached(f) for f in (run, energy_series, acc_batch)):
-        jit.announce(*COMPILING)
-    z2, z = np.zeros(2), np.zeros((2, 2))
-    for method in (0, 1):
-        run(2, method, np.ones(6), z2, 1, z2, z2, z2, 1e-3, 1, z.copy(), z.copy(), z.copy())
-    energy_series(2, np.ones(6), z, z, np.zeros(2), np.zeros(2))
-    acc_batch(2, np.ones(6), z2, z, z, z, z.copy())
-    return {"run": run, "energy_series": energy_series, "acc_batch": acc_batch, "batch_rk4": batch_rk4}
-
-
 def batch_rk4(fast: FastDynamics, Q: Array, V: Array, *, dt: float, steps: int, blocks: NDArray[np.int64]) -> None:
     """Classic RK4 without torque on a batch Q, V (m, 2) in place (padded to 2 columns), one prange over ``blocks``."""
     code = KINDS[fast.kind][0]
-    _kernels()["batch_rk4"](code, fast.param_vector, _pad(fast.damping), fast.nv, Q, V, dt, steps, blocks)
+    kernels()["batch_rk4"](code, fast.param_vector, _pad(fast.damping), fast.nv, Q, V, dt, steps, blocks)
 
 
 def _pad(x: Array) -> Array:
@@ -307,7 +151,7 @@ class FastDynamics:
         Q, V, T = pad.copy(), pad.copy(), pad.copy()
         Q[:, : self.nv], V[:, : self.nv], T[:, : self.nv] = q_, v_, t_
         A = np.zeros_like(Q)
-        _kernels()["acc_batch"](KINDS[self.kind][0], self.param_vector, _pad(self.damping), Q, V, T, A)
+        kernels()["acc_batch"](KINDS[self.kind][0], self.param_vector, _pad(self.damping), Q, V, T, A)
         out = A[:, : self.nv]
         return out[0].copy() if np.ndim(q) == 1 else out
 
@@ -316,14 +160,14 @@ class FastDynamics:
         Q = _pad(np.asarray(q, dtype=np.float64))[None, :]
         V = _pad(np.asarray(v, dtype=np.float64))[None, :]
         K, P = np.zeros(1), np.zeros(1)
-        _kernels()["energy_series"](KINDS[self.kind][0], self.param_vector, Q, V, K, P)
+        kernels()["energy_series"](KINDS[self.kind][0], self.param_vector, Q, V, K, P)
         return float(K[0]), float(P[0]) + self.potential_offset
 
     def energies_batch(self, Q: ArrayLike, V: ArrayLike) -> tuple[Array, Array]:
         """(kinetic (n,), potential (n,)) [J] of a batch of states Q, V (n, nv); the potential on Pinocchio's zero."""
         Q_, V_ = _pad2(np.asarray(Q, dtype=np.float64)), _pad2(np.asarray(V, dtype=np.float64))
         K, P = np.zeros(Q_.shape[0]), np.zeros(Q_.shape[0])
-        _kernels()["energy_series"](KINDS[self.kind][0], self.param_vector, Q_, V_, K, P)
+        kernels()["energy_series"](KINDS[self.kind][0], self.param_vector, Q_, V_, K, P)
         return K, P + self.potential_offset
 
     def simulate(
@@ -353,7 +197,7 @@ class FastDynamics:
             if x.shape != (self.nv,) or not np.all(np.isfinite(x)):
                 raise InputError(f"{name} must be {self.nv} finite numbers, got {x}")
         n = step_count(duration, dt)
-        kern = _kernels()
+        kern = kernels()
         code, method_code = KINDS[self.kind][0], METHODS.index(method)
         Q, V, A = np.zeros((n + 1, 2)), np.zeros((n + 1, 2)), np.zeros((n + 1, 2))
         p, b = self.param_vector, _pad(self.damping)
@@ -404,4 +248,4 @@ def _cumtrapz(y: Array, dt: float) -> Array:
 
 def warm_up() -> dict[str, Any]:
     """Compile (or load from numba's cache) every kernel now; later runs time the loop only. Returns them by name."""
-    return _kernels()
+    return kernels()

@@ -47,6 +47,8 @@ GAP_TOL = 1e-14
 
 # An impulse that pulls by more than this fraction of the largest one lets its row go.
 PULL_RTOL = 1e-12
+# lstsq's rcond in the Delassus solve of an impact: singular values below it (relative) are dropped.
+IMPACT_RCOND = 1e-13
 
 
 @dataclass(frozen=True, eq=False)
@@ -246,7 +248,7 @@ def impact(
             return Impact(v.copy(), {}, [], 0.0)
         Minv_Jt = np.linalg.solve(M, J.T)
         delassus = J @ Minv_Jt
-        L = np.linalg.lstsq(delassus, target - J @ v, rcond=1e-13)[0]
+        L = np.linalg.lstsq(delassus, target - J @ v, rcond=IMPACT_RCOND)[0]
         pulls = [i for i in range(len(rows)) if L[i] < -PULL_RTOL * max(1.0, float(np.max(np.abs(L))))]
         if plastic or not pulls:
             break

@@ -2,9 +2,9 @@
 
 :func:`extract` reads a Pinocchio model's data (``robot.model``: parents, joint types and
 axes, joint placements, inertias, armature, gravity) into a :class:`TreeModel` of three
-arrays; it calls no Pinocchio algorithm. The kernels of :mod:`robodyn.sim.tree_kernels`
+arrays; it calls no Pinocchio algorithm. The kernels of :mod:`robodyn.engine.tree.algorithms`
 (articulated-body algorithm, RNEA, CRBA, energies) and of
-:mod:`robodyn.sim.tree_steps` (steps and whole runs) then run on those arrays.
+:mod:`robodyn.engine.tree.steps` (steps and whole runs) then run on those arrays.
 
 It serves trees of revolute, prismatic and continuous joints (one degree of freedom each),
 fixed to the world or mounted on a free flyer at the root (Pinocchio's ``JointModelFreeFlyer``:
@@ -34,9 +34,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robodyn import dynamics
-from robodyn.errors import AssumptionError, InputError, MissingDependencyError
-from robodyn.sim import jit
-from robodyn.sim.tree_layout import (
+from robodyn.engine import jit
+from robodyn.engine.tree.layout import (
     CONTINUOUS,
     F_ARM6,
     F_ARMATURE,
@@ -55,6 +54,7 @@ from robodyn.sim.tree_layout import (
     PRISMATIC,
     REVOLUTE,
 )
+from robodyn.errors import AssumptionError, InputError, MissingDependencyError
 
 if TYPE_CHECKING:
     from robodyn.robot import Robot
@@ -83,7 +83,7 @@ _TYPES: dict[str, tuple[int, tuple[float, float, float] | None]] = {
     "JointModelRevoluteUnboundedUnaligned": (CONTINUOUS, None),
     "JointModelFreeFlyer": (FREEFLYER, (0.0, 0.0, 0.0)),
 }
-# What a first compile of the tree kernels says it does (robodyn.sim.jit.announce): ABA, RNEA, CRBA,
+# What a first compile of the tree kernels says it does (robodyn.engine.jit.announce): ABA, RNEA, CRBA,
 # the energies and the loop of steps clear of the stops, about 30 s of CPU (benchmarks/bench_first_run.py)
 COMPILING = ("the tree-robot kernels", "about half a minute")
 # ... and the stop events, when a run first meets a joint stop: about 70 s of CPU more (the Panda's
@@ -221,12 +221,12 @@ def one_joint() -> tuple[NDArray[np.int64], Array, Array]:
 
 @lru_cache(maxsize=1)
 def kernels() -> ModuleType:
-    """The numba kernels (:mod:`robodyn.sim.tree_steps`, which re-exports the algorithms), loaded or compiled.
+    """The numba kernels (:mod:`robodyn.engine.tree.steps`, which re-exports the algorithms), loaded or compiled.
 
     A one-joint tree runs each kernel once here, so that no timed run pays for loading it.
     """
     try:
-        from robodyn.sim import tree_steps as k
+        from robodyn.engine.tree import steps as k
     except ImportError as exc:  # pragma: no cover - numba is a declared dependency
         raise MissingDependencyError(f"the compiled path needs numba: pip install numba ({exc})") from None
     if not all(jit.is_cached(f) for f in (k.aba, k.rnea, k.crba, k.kinematics, k.sample)):
@@ -252,13 +252,13 @@ def _one_stop() -> tuple[Array, Array, Array]:
 
 @lru_cache(maxsize=1)
 def step_kernels() -> ModuleType:
-    """:mod:`robodyn.sim.tree_events` with its loop of steps clear of the stops (``run_steps``) loaded or compiled.
+    """:mod:`robodyn.engine.tree.events` with its loop of steps clear of the stops (``run_steps``) loaded or compiled.
 
     Every whole run starts there; the stop events (:func:`event_kernels`) compile only when a
     run meets a stop. A one-joint tree runs it once here, so that no timed run pays for loading it.
     """
     steps = kernels()
-    from robodyn.sim import tree_events as k
+    from robodyn.engine.tree import events as k
 
     if not jit.is_cached(k.run_steps):
         jit.announce(*COMPILING)
@@ -276,12 +276,12 @@ def step_kernels() -> ModuleType:
 
 @lru_cache(maxsize=1)
 def event_kernels() -> ModuleType:
-    """The numba kernels of whole runs with stop events (:mod:`robodyn.sim.tree_events`), loaded or compiled.
+    """The numba kernels of whole runs with stop events (:mod:`robodyn.engine.tree.events`), loaded or compiled.
 
     A one-joint tree with a stop runs them once here, so that no timed run pays for loading them.
     """
     steps = kernels()
-    from robodyn.sim import tree_events as k
+    from robodyn.engine.tree import events as k
 
     if not jit.is_cached(k.run_events):
         jit.announce(*COMPILING_EVENTS)

@@ -1,6 +1,6 @@
 """Compile every kernel ahead of its first use: ``robodyn warmup``, for a classroom or a CI image.
 
-Each group loads its kernels from numba's cache (:mod:`robodyn.sim.jit`) or compiles them, for
+Each group loads its kernels from numba's cache (:mod:`robodyn.engine.jit`) or compiles them, for
 the argument types the runs use, so that no later run on this machine waits. The groups, in the
 order :func:`warm` takes them:
 

@@ -3,7 +3,7 @@
 :func:`prepare` checks that the compiled loop can take a run, and :func:`attempt` takes a
 :class:`~robodyn.sim.run.Run` that :func:`robodyn.simulate` has set up
 and, when the compiled loop can take it, fills its records (q, v, the works, a, T, V) with
-:func:`robodyn.sim.tree_events.run_events`: the same pipeline as
+:func:`robodyn.engine.tree.events.run_events`: the same pipeline as
 :class:`~robodyn.sim.system.RobotSystem` (springs, losses -D v - F tanh(v / v_friction), the
 constant torque clamped at the efforts, ABA), the works W_input and W_damping integrated in the
 same stages as v, stepped by the same method (classic RK4, any explicit Runge--Kutta tableau,
@@ -13,9 +13,9 @@ It takes a run when the robot is a tree the compiled algorithms serve (checked a
 Pinocchio first, :func:`robodyn.sim.tree.compiled_of`), without loops or couplings, with no
 torque, a constant one or a torque callable, under one of those methods.
 
-The steps clear of every stop are taken by :func:`robodyn.sim.tree_events.run_steps`, a small
+The steps clear of every stop are taken by :func:`robodyn.engine.tree.events.run_steps`, a small
 kernel; a run that meets no stop never compiles the events (about four fifths of the compile).
-Joint stops are taken inside the compiled loop (:func:`robodyn.sim.tree_events.run_events`)
+Joint stops are taken inside the compiled loop (:func:`robodyn.engine.tree.events.run_events`)
 with the arithmetic of the event stepper of :mod:`robodyn.sim.events` (the Python pipeline's,
 which stays the reference): crossings located to round-off by the same regula falsi on trial
 steps, the same restitution impulse and holds, releases where a held stop pulls, the work of
@@ -56,7 +56,7 @@ from robodyn.sim.events import (
     RELEASE_TOL,
     ImpactRecord,
 )
-from robodyn.sim.limits import PULL_RTOL
+from robodyn.sim.limits import IMPACT_RCOND, PULL_RTOL
 from robodyn.sim.run import Run, step_sizes
 from robodyn.sim.system import V_FRICTION, RobotSystem
 
@@ -169,7 +169,7 @@ def prepare(system: RobotSystem, method: Integrator) -> Plan | str:
 
 
 def _event_arrays(system: RobotSystem, tr: tree.TreeModel) -> tuple[Array, Array]:
-    """(stops (6, m), par) in :mod:`robodyn.sim.tree_events`' layout: the limited joints, the stepper's constants."""
+    """(stops (6, m), par) in :mod:`robodyn.engine.tree.events`' layout: the limited joints, the stepper's constants."""
     st = system.stops
     rows = np.empty(system.nv, dtype=np.intp)  # the tree row of each index in v
     rows[tr.itree[:, 3]] = np.arange(tr.itree.shape[0])
@@ -187,7 +187,7 @@ def _event_arrays(system: RobotSystem, tr: tree.TreeModel) -> tuple[Array, Array
         MAX_EVENTS_PER_STEP,
         st.restitution,
         0.0,  # the method's stages per step: set by _setup
-        1e-13,  # lstsq's rcond in limits.impact
+        IMPACT_RCOND,
     ]
     return np.ascontiguousarray(stops), par
 
@@ -446,7 +446,7 @@ def _close(w: Work, interrupted: bool, evaluations: int) -> Outcome:
 
 
 def _held_rows(w: Work) -> Array:
-    """The held stops in :func:`robodyn.sim.tree_steps.sample`'s layout (2, h): [tree row; side]."""
+    """The held stops in :func:`robodyn.engine.tree.steps.sample`'s layout (2, h): [tree row; side]."""
     ks = w.held[1 : 1 + int(w.held[0])]
     return np.ascontiguousarray(np.vstack([w.stops[5, ks], w.side[ks].astype(np.float64)]).reshape(2, -1))
 

@@ -226,7 +226,7 @@ def run(
     fresh = not Path(out).exists()  # a folder this sweep makes is removed again if it ends with nothing in it
     prepared = prepare(source, out, read_scene=read_scene)
     if prepared.job.device == "cuda" and client is None and scheduler is None:  # this process's GPU runs the chunks
-        from robodyn.sim import cuda_batch
+        from robodyn.engine.cuda import batch as cuda_batch
 
         cuda_batch.cuda_module()  # no GPU (exit 5) or no numba CUDA target (exit 4): one line, before any work
     store = Store(prepared.out, prepared.spec.digest, prepared.spec.source, fresh=fresh)

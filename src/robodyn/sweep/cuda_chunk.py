@@ -4,14 +4,14 @@
 :func:`execute` computes a chunk (:func:`robodyn.sweep.chunk.execute` hands ``cuda`` chunks here):
 
 * a built-in kind without controller, ``rk4``: from the model's arrays alone (:func:`device_task`,
-  :func:`robodyn.sim.cuda_sweep.run_task`: NumPy and numba, no Pinocchio, so a Dask worker with a
+  :func:`robodyn.engine.cuda.sweep.run_task`: NumPy and numba, no Pinocchio, so a Dask worker with a
   GPU needs no robodyn model), the measures computed on the device, the columns built by
   :func:`finish_device` without a per-run loop;
-* any other robot the compiled tree kernels take (:mod:`robodyn.sim.cuda_tree`), and a kind with
+* any other robot the compiled tree kernels take (:mod:`robodyn.engine.cuda.tree`), and a kind with
   heun or euler: final states on the GPU, energies checked on the host (:func:`_tree_rows`);
-* an LQR or a swing-up to LQR of the cart-pole or the Pendubot: :func:`robodyn.sim.cuda_closed.closed_loop`,
+* an LQR or a swing-up to LQR of the cart-pole or the Pendubot: :func:`robodyn.engine.cuda.closed_loop.closed_loop`,
   one GPU thread a run: the ``closed_loop`` path's RK4 (torque at every stage), law
-  (:mod:`robodyn.sim.torque_laws`, the controller packed by :func:`robodyn.control.compiled.law_of`),
+  (:mod:`robodyn.engine.torque_laws`, the controller packed by :func:`robodyn.control.compiled.law_of`),
   energy ledger (torques and joint damping, the divergence bound tested every step) and balance
   test, so only each run's final state, time to balance and flags come back (:func:`_loop_rows`).
 
@@ -28,9 +28,10 @@ from typing import Any
 import numpy as np
 
 from robodyn.control.compiled import law_of
+from robodyn.engine.cuda import closed_loop as cuda_closed
 from robodyn.errors import InputError
 from robodyn.integrators import step_count
-from robodyn.sim import cuda_closed
+from robodyn.sim import batch
 from robodyn.sim.energy import reference_energy
 from robodyn.sim.fast import FastDynamics
 from robodyn.sim.simulation import DEFAULT_MAX_ENERGY_GROWTH
@@ -43,7 +44,7 @@ from robodyn.sweep.source import Model
 def execute(chunk: Chunk, job: ch.Job) -> dict[str, Any]:
     """The columns of a ``cuda`` chunk (see the module docstring for the three ways it runs)."""
     if on_arrays(chunk, job):
-        from robodyn.sim import cuda_sweep
+        from robodyn.engine.cuda import sweep as cuda_sweep
 
         return finish_device(chunk, job, cuda_sweep.run_task(device_task(chunk, job)))
     if ch.controller_of(chunk.model, chunk.setting.controller, job.gains) is not None:
@@ -65,11 +66,9 @@ def refusal(
         if precision == "float32":
             return "precision float32 runs without a controller only; the closed loop on the GPU is float64"
         return _loop_refusal(controller, ch.fast_of(model), integrator, measures)
-    if ch.fast_of(model) is None or integrator != "rk4":  # the compiled tree algorithms (robodyn.sim.cuda_tree)
-        from robodyn.sim import cuda_tree
-
+    if ch.fast_of(model) is None or integrator != "rk4":  # the compiled tree algorithms (robodyn.engine.cuda.tree)
         other = [m for m in measures if m not in ms.BATCH_MEASURES]
-        why = cuda_tree.refusal(robot, integrator)
+        why = batch.cuda_tree_refusal(robot, integrator)
         if not why and precision == "float32":
             why = "precision float32 runs a built-in kind's closed form with rk4 only; the tree kernels are float64"
         if not why and other:
@@ -87,12 +86,10 @@ def refusal(
 
 def _tree_rows(chunk: Chunk, job: ch.Job) -> list[dict[str, Any]]:
     """A torque-free chunk on the GPU by the compiled tree kernels; runs past a limit or the bound: ``simulate``."""
-    from robodyn.sim import cuda_tree
-
     s = chunk.setting
     robot = ch.robot_of(chunk.model)
     steps = step_count(job.duration, s.dt)
-    q, v, q_min, q_max, wall = cuda_tree.robot_rollout(
+    q, v, q_min, q_max, wall = batch.cuda_tree_rollout(
         robot, chunk.q0, chunk.v0, dt=s.dt, steps=steps, integrator=s.integrator
     )
     rows = ch.rows_of(chunk, job, q, v, None, wall)
@@ -109,8 +106,8 @@ def on_arrays(chunk: Chunk, job: ch.Job) -> bool:
 
 @lru_cache(maxsize=8)
 def device_model_of(model: Model) -> Any:
-    """The arrays a GPU worker needs of a built-in kind's model (:class:`robodyn.sim.cuda_sweep.DeviceModel`)."""
-    from robodyn.sim.cuda_sweep import DeviceModel
+    """The arrays a GPU worker needs of a built-in kind's model (:class:`robodyn.engine.cuda.sweep.DeviceModel`)."""
+    from robodyn.engine.cuda.sweep import DeviceModel
 
     robot, fast = ch.robot_of(model), ch.fast_of(model)
     assert fast is not None  # only the cuda path, which has a closed form, asks
@@ -127,16 +124,17 @@ def device_model_of(model: Model) -> Any:
 
 
 def device_task(chunk: Chunk, job: ch.Job) -> Any:
-    """What a GPU worker computes of a ``cuda`` chunk, as arrays (:class:`robodyn.sim.cuda_sweep.DeviceTask`).
+    """What a GPU worker computes of a ``cuda`` chunk, as arrays (:class:`robodyn.engine.cuda.sweep.DeviceTask`).
 
     Built where robodyn and Pinocchio are (the sweep's own process): the model's arrays, the
     states, the step and each run's twin stream. The worker runs it with
-    :func:`robodyn.sim.cuda_sweep.run_task`, which needs NumPy and numba alone.
+    :func:`robodyn.engine.cuda.sweep.run_task`, which needs NumPy and numba alone.
 
     Raises:
         InputError: the chunk's setting is one the GPU path does not take.
     """
-    from robodyn.sim import cuda_batch, cuda_sweep
+    from robodyn.engine.cuda import batch as cuda_batch
+    from robodyn.engine.cuda import sweep as cuda_sweep
 
     s = chunk.setting
     controller = ch.controller_of(chunk.model, s.controller, job.gains)
@@ -158,13 +156,13 @@ def device_task(chunk: Chunk, job: ch.Job) -> Any:
 
 
 def finish_device(chunk: Chunk, job: ch.Job, measured: Any) -> dict[str, Any]:
-    """A ``cuda`` chunk's columns from what its worker computed (:class:`robodyn.sim.cuda_sweep.DeviceMeasures`).
+    """A ``cuda`` chunk's columns from what its worker computed (:class:`robodyn.engine.cuda.sweep.DeviceMeasures`).
 
-    The host builds the columns from the arrays (:func:`robodyn.sim.cuda_sweep.columns`, no
+    The host builds the columns from the arrays (:func:`robodyn.engine.cuda.sweep.columns`, no
     per-run loop) and computes again, one by one with ``simulate``, only the runs the device
     flagged (a position limit passed, or the divergence bound).
     """
-    from robodyn.sim import cuda_sweep
+    from robodyn.engine.cuda import sweep as cuda_sweep
 
     columns = cuda_sweep.columns(measured, job.measures, job.joint_names)
     paths = ["cuda"] * chunk.runs.size

@@ -15,7 +15,7 @@ with its chunk); a scheduler that goes away mid-sweep ends it with :class:`Unava
 A ``device = "cuda"`` sweep without ``--scheduler`` starts no cluster: this process runs its chunks
 one after the other on its GPU (each chunk is one kernel launch over all its runs). With a
 scheduler, each chunk goes to a worker as arrays (:func:`robodyn.sweep.cuda_chunk.device_task`): the
-worker runs the kernels (:func:`robodyn.sim.cuda_sweep.run_task`, NumPy and numba alone, no
+worker runs the kernels (:func:`robodyn.engine.cuda.sweep.run_task`, NumPy and numba alone, no
 Pinocchio) and sends the measures back (a tree robot's chunk, which the compiled tree kernels run, goes
 as a whole: its worker needs robodyn); the columns, and the few runs the device flagged for
 ``simulate``, are made here.
@@ -31,9 +31,9 @@ import uuid
 from collections.abc import Callable, Iterator
 from typing import Any, TextIO
 
+from robodyn.engine.cuda.sweep import run_task
 from robodyn.errors import InputError, MissingDependencyError, RobodynError, SweepInterrupted, UnavailableError
 from robodyn.fileio import pause_for_test
-from robodyn.sim.cuda_sweep import run_task
 from robodyn.sweep import lifetime
 from robodyn.sweep.chunk import Job, execute
 from robodyn.sweep.cuda_chunk import device_task, finish_device, on_arrays

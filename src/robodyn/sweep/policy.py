@@ -13,7 +13,7 @@ controller's own ``__call__`` gives:
   equal to round-off.
 
 On the two-degree-of-freedom built-in kinds (one actuated joint) both run through
-:func:`robodyn.sim.torque_laws.law`, the one body that numba also compiles for the GPU
+:func:`robodyn.engine.torque_laws.law`, the one body that numba also compiles for the GPU
 (:func:`robodyn.control.compiled.law_of` packs the controller's numbers into its parameter vector); an LQR of any other
 robot uses :func:`lqr_torque` (any size, NumPy only).
 
@@ -35,7 +35,7 @@ from numpy.typing import NDArray
 
 from robodyn.control import LQR
 from robodyn.control.compiled import law_of
-from robodyn.sim import torque_laws as tl
+from robodyn.engine import torque_laws as tl
 from robodyn.sim.fast import FastDynamics
 
 Array = NDArray[np.float64]

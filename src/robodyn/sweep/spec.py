@@ -132,7 +132,7 @@ class SweepSpec:
     given: frozenset[str] = frozenset()
     physics_check: bool = True  # False: the model's file is loaded with its numbers as written
     passive: tuple[str, ...] = ()
-    device: str = "cpu"  # "cuda": the chunks run on an NVIDIA GPU (robodyn.sim.cuda_batch)
+    device: str = "cpu"  # "cuda": the chunks run on an NVIDIA GPU (robodyn.engine.cuda.batch)
     precision: str = "float64"  # "float32": the cuda path steps in single precision
 
 

@@ -2,7 +2,7 @@
 
 Pinocchio's ``JointModelFreeFlyer``: q = [position [m] (3); unit quaternion x, y, z, w],
 v = [linear [m/s]; angular [rad/s]] in the body's own frame. Used by the kernels of
-:mod:`robodyn.sim.tree_kernels` on row 0 when it is a free flyer.
+:mod:`robodyn.engine.tree.algorithms` on row 0 when it is a free flyer.
 """
 
 from __future__ import annotations
@@ -11,9 +11,9 @@ import math
 
 import numpy as np
 
-from robodyn.sim import jit
-from robodyn.sim.tree_body import body
-from robodyn.sim.tree_layout import (
+from robodyn.engine import jit
+from robodyn.engine.tree.body import body
+from robodyn.engine.tree.layout import (
     F_ARM6,
     F_POS,
     F_ROT,

@@ -2,12 +2,12 @@
 
 Imported only by :mod:`robodyn.sim.tree` (numba is heavy). :func:`rates` is one evaluation of
 the pipeline of :class:`robodyn.sim.system.RobotSystem` (springs, losses, actuation, ABA of
-:mod:`robodyn.sim.tree_kernels`) with the powers of the ledger; :func:`step` is one step of a
+:mod:`robodyn.engine.tree.algorithms`) with the powers of the ledger; :func:`step` is one step of a
 fixed-step explicit method (classic RK4 with the integrators' own arithmetic, any explicit
 Runge--Kutta tableau, semi-implicit Euler); :func:`sample` evaluates one sample of a run with the
 joints held at a stop locked; :func:`batch_rollout` steps blocks of states in one ``prange``
 (each thread owns a block through all of time). The whole runs, stop events and all, are in
-:mod:`robodyn.sim.tree_events`.
+:mod:`robodyn.engine.tree.events`.
 """
 
 from __future__ import annotations
@@ -17,15 +17,15 @@ import math
 import numba
 import numpy as np
 
-from robodyn.sim import jit
-from robodyn.sim.tree_kernels import aba, crba, integrate, kinematics, rnea
-from robodyn.sim.tree_layout import W_LAMBDA, W_LOCK, WCOLS
+from robodyn.engine import jit
+from robodyn.engine.tree.algorithms import aba, crba, integrate, kinematics, rnea
+from robodyn.engine.tree.layout import W_LAMBDA, W_LOCK, WCOLS
 
 __all__ = ["WCOLS", "aba", "crba", "integrate", "kinematics", "rnea"]
 
 njit = jit.njit(nogil=True, error_model="numpy")
 
-# method codes of step / batch_rollout (and of robodyn.sim.tree_events.run_events)
+# method codes of step / batch_rollout (and of robodyn.engine.tree.events.run_events)
 RK, RK4, SEMI_IMPLICIT_EULER = 0, 1, 2
 
 # Torque callables of the runs under way, by key: key -> f(t, q, v) returning the applied torque (nv,);

@@ -1,11 +1,11 @@
 """How robodyn's numba kernels are compiled and cached: one decorator, one cache key, one notice.
 
 numba's ``cache=True`` keys a function's machine code on its own source file and bytecode only.
-The kernels call each other across files (``tree_steps`` calls ``tree_kernels``, which inlines
-``tree_body``; ``fast`` compiles the closed forms of ``kinds``), so after an edit of a callee, or
-an upgrade of robodyn, the callers' cached code would still run the old callee. Every kernel is
-therefore declared with :func:`njit`, whose cache lives in a folder of its own for each
-:func:`cache_key` (robodyn's version and a hash of every file in :data:`KERNEL_SOURCES`):
+The kernels call each other across files (``tree.steps`` calls ``tree.algorithms``, which inlines
+``tree.body``; ``closed_form`` compiles the closed forms of ``kinds`` and the step of ``rk4``), so
+after an edit of a callee, or an upgrade of robodyn, the callers' cached code would still run the
+old callee. Every kernel is therefore declared with :func:`njit`, whose cache lives in a folder of
+its own for each :func:`cache_key` (robodyn's version and a hash of every file in :data:`KERNEL_SOURCES`):
 ``robodyn-<version>-<hash>/`` inside the folder numba would use (``NUMBA_CACHE_DIR`` when set,
 else the ``__pycache__`` beside the sources, else numba's user-wide cache). Other keys' folders
 there, unused for an hour, are removed when a new one is made.
@@ -30,17 +30,18 @@ from typing import Any
 from robodyn.errors import CompileNotice
 
 # Every file whose code or constants a kernel compiles in: the kernels' own modules, the
-# constants they read (tree_layout), and the closed forms that fast.py compiles (kinds).
+# constants they read (tree/layout.py), and the closed forms and the RK4 step that closed_form.py compiles (kinds, rk4).
 # tests/test_jit.py checks that each file declaring a kernel with njit is listed.
 KERNEL_SOURCES = (
-    "sim/fast.py",
-    "sim/tree_body.py",
-    "sim/tree_events.py",
-    "sim/tree_flyer.py",
-    "sim/tree_impacts.py",
-    "sim/tree_kernels.py",
-    "sim/tree_layout.py",
-    "sim/tree_steps.py",
+    "engine/closed_form.py",
+    "engine/rk4.py",
+    "engine/tree/body.py",
+    "engine/tree/events.py",
+    "engine/tree/flyer.py",
+    "engine/tree/impacts.py",
+    "engine/tree/algorithms.py",
+    "engine/tree/layout.py",
+    "engine/tree/steps.py",
     "kinds/cart_pole.py",
     "kinds/formula.py",
     "kinds/geared_arm.py",
@@ -119,7 +120,7 @@ def _cache_class() -> Any:
             """The key numba would give, with the kernels a closure calls named rather than pickled.
 
             numba pickles a closure's cells, and a pickled dispatcher carries an id drawn anew in
-            each process: the closures of :mod:`robodyn.sim.fast` missed the cache in every
+            each process: the closures of :mod:`robodyn.engine.closed_form` missed the cache in every
             process. Within one key's folder a kernel's name says which code it is.
             """
             cells = self._py_func.__closure__ or ()

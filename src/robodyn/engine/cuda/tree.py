@@ -3,17 +3,18 @@
 One GPU thread advances one state of the batch through every step of a fixed-step explicit method
 (rk4, heun, euler: the codes and tableaux of :func:`robodyn.sim.whole_run.method_code`), torque-free,
 in float64, from the arrays :mod:`robodyn.sim.tree` extracts from Pinocchio (``itree``, ``ftree``,
-``grav``): fixed-base trees and a free-flyer root alike (q (n, nq), v (n, nv)).
+``grav``): fixed-base trees and a free-flyer root alike (q (n, nq), v (n, nv)). A robot is handed
+here by :func:`robodyn.sim.batch.cuda_tree_rollout`.
 
 No formula is written here. :func:`device_functions` rebuilds each kernel of
-:mod:`robodyn.sim.tree_body`, :mod:`~robodyn.sim.tree_flyer`, :mod:`~robodyn.sim.tree_kernels`
+:mod:`robodyn.engine.tree.body`, :mod:`~robodyn.engine.tree.flyer`, :mod:`~robodyn.engine.tree.algorithms`
 (``offset``, ``parent_acceleration``, ``pass_to_parent``, ``kinematics``, ``aba_passes``, ``aba``,
-``integrate``) and :mod:`~robodyn.sim.tree_steps` (``rates``, ``stages``, ``step``) from its Python
+``integrate``) and :mod:`~robodyn.engine.tree.steps` (``rates``, ``stages``, ``step``) from its Python
 source (``py_func``) with the names it calls bound to
 their device versions, and compiles it with ``cuda.jit(device=True)``. The one kernel with no GPU form,
 ``tree_steps._callable_torque`` (a user's torque callable, in numba's object mode), becomes
 :func:`_no_torque`, which the batch never reaches (its callable key is -1, as on the CPU). The kernel
-below is the per-state loop of :func:`robodyn.sim.tree_steps.batch_rollout`, so the GPU does the CPU
+below is the per-state loop of :func:`robodyn.engine.tree.steps.batch_rollout`, so the GPU does the CPU
 batch path's arithmetic term for term: equal to round-off (to the bit in numba's CUDA simulator).
 Each thread also keeps each coordinate's smallest and largest value on the way (a sweep hands the
 runs that passed a URDF position limit to :func:`robodyn.simulate`).
@@ -37,17 +38,13 @@ import time
 import types
 from collections.abc import Callable
 from functools import cache
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from robodyn.errors import InputError
-from robodyn.sim import cuda_batch
-from robodyn.sim.tree_layout import WCOLS
-
-if TYPE_CHECKING:
-    from robodyn.robot import Robot
+from robodyn.engine.cuda import batch as cuda_batch
+from robodyn.engine.tree.layout import WCOLS
 
 Array = NDArray[np.float64]
 
@@ -101,7 +98,10 @@ def device_functions(jit: Callable[[Any], Any]) -> dict[str, Any]:
     ``jit`` is ``cuda.jit(device=True)``; the identity gives the plain Python functions (the tests
     check that none of them still calls a CPU kernel).
     """
-    from robodyn.sim import tree_body, tree_flyer, tree_kernels, tree_steps
+    from robodyn.engine.tree import algorithms as tree_kernels
+    from robodyn.engine.tree import body as tree_body
+    from robodyn.engine.tree import flyer as tree_flyer
+    from robodyn.engine.tree import steps as tree_steps
 
     modules = {"tree_body": tree_body, "tree_flyer": tree_flyer, "tree_kernels": tree_kernels, "tree_steps": tree_steps}
     made: dict[str, Any] = {"_callable_torque": jit(_no_torque)}
@@ -110,41 +110,6 @@ def device_functions(jit: Callable[[Any], Any]) -> dict[str, Any]:
         for name in names:
             made[name] = jit(rebuilt(getattr(module, name), made))
     return made
-
-
-def refusal(robot: Robot, integrator: str) -> str:
-    """Why this path cannot run ``robot`` torque-free with ``integrator`` as the CPU batch would ("" when it can)."""
-    from robodyn.sim import tree
-
-    if integrator not in METHODS:
-        return f"integrator {', '.join(METHODS)} only, got {integrator!r}"
-    why = tree.unsupported(robot)
-    if why is not None:
-        return f"the built-in kinds and the robots the compiled tree path takes only; {robot.name}: {why}"
-    if not robot.nq_equals_nv:
-        return f"robots with nq == nv only; {robot.name} has nq={robot.nq}, nv={robot.nv}"
-    if np.any(robot.damping) or np.any(robot.friction):
-        return "lossless runs only; the model has joint damping or friction"
-    return ""
-
-
-def robot_rollout(
-    robot: Robot, Q: Array, V: Array, *, dt: float, steps: int, integrator: str
-) -> tuple[Array, Array, Array, Array, float]:
-    """:func:`rollout` of ``robot``'s tree arrays (checked against Pinocchio) with the CPU batch path's ``integrator``.
-
-    Raises:
-        AssumptionError: the compiled tree path cannot take the robot (:func:`robodyn.sim.tree.compiled_of`).
-    """
-    from robodyn import integrators
-    from robodyn.sim import tree
-    from robodyn.sim.whole_run import method_code
-
-    t = tree.compiled_of(robot).tree
-    code = method_code(integrators.get(integrator))
-    if code is None or integrator not in METHODS:
-        raise InputError(f"integrator {integrator!r}: device cuda takes {', '.join(METHODS)} on this path")
-    return rollout(t.itree, t.ftree, t.grav, Q, V, dt=dt, steps=steps, method=code[0], tab=code[1])
 
 
 def _cuda() -> Any:

@@ -1,13 +1,13 @@
 """A sweep chunk's measures on the GPU, from arrays alone: only the measures come back.
 
 :func:`measures` runs one kernel launch over a chunk's runs. Each GPU thread steps its run
-(:func:`robodyn.sim.cuda_batch._advance`, RK4 without torque) and computes, on the device, what
+(:func:`robodyn.engine.cuda.batch._advance`, RK4 without torque) and computes, on the device, what
 the sweep keeps: the final state, the energy drift E(T) - E(0) (the kind's closed form:
 ``mass`` for ½ vᵀ M v, ``potential`` plus the model's offset), and two flags: the run passed
 a URDF position limit on the way (``simulate`` stops it there), or its energy error passes
 ``simulate``'s divergence bound (growth × max(K0 + |V0|, reference energy)) or is not finite.
 Only those columns, (n,) each, are copied back; the host does no per-run work. Benettin's
-estimate runs in a second launch (:func:`robodyn.sim.cuda_batch.lyapunov`), its twins seeded
+estimate runs in a second launch (:func:`robodyn.engine.cuda.batch.lyapunov`), its twins seeded
 in the thread.
 
 Everything here needs NumPy, numba and :mod:`robodyn.kinds` only: a :class:`DeviceModel` (the
@@ -28,9 +28,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from robodyn.engine.cuda import batch as cuda_batch
 from robodyn.errors import InputError
 from robodyn.kinds.formulas import closed_form
-from robodyn.sim import cuda_batch
 
 Array = NDArray[np.float64]
 
@@ -150,7 +150,7 @@ def _thread_with_twin(jit: Any, kind: str) -> Any:
     """``run(p, b, nv, limits, q0, q1, v0, v1, dt, steps, count, span, stream, d0)``: a run, its twin, its measures.
 
     One thread steps the run ``count`` intervals of ``steps`` steps (the run's whole duration) and
-    its Benettin twin beside it, in the order of :func:`robodyn.sim.cuda_batch._benettin` (the twin
+    its Benettin twin beside it, in the order of :func:`robodyn.engine.cuda.batch._benettin` (the twin
     drawn from ``stream``, pulled back to ``d0`` after each interval); once a separation is not
     finite and positive the twin stops and the estimate is NaN, while the run goes on. Returns
     (q0, q1, v0, v1, drift, flag, exponent): :func:`_thread`'s and Benettin's numbers in one pass.
@@ -321,7 +321,7 @@ def measures(
 ) -> DeviceMeasures:
     """Every run (q0 (n, nv), v0 (n, nv)) stepped ``steps`` RK4 steps of ``dt`` [s]: its measures, computed on the GPU.
 
-    With ``streams`` (n,) uint64 (:func:`robodyn.sim.cuda_batch.streams_of`) Benettin's estimate
+    With ``streams`` (n,) uint64 (:func:`robodyn.engine.cuda.batch.streams_of`) Benettin's estimate
     of each run is computed too, over the same duration in intervals of ``lyapunov_interval`` [s]
     (shortened to the duration), twins ``d0`` away. ``cpu=True`` runs the same device functions on
     the CPU's cores. ``precision="float32"`` steps in float32 (the energies stay float64; no Lyapunov).

@@ -50,7 +50,7 @@ by Cholesky in ``ws[i, W_FD:W_FD + 36]`` (scratch vectors in ``W_FY`` and ``W_FB
 flyer has no stop: its ``W_LOCK`` is ignored and its ``W_LAMBDA`` is set to 0.
 
 RNEA and CRBA reuse pass 1. The steps and whole runs over these are in
-:mod:`robodyn.sim.tree_steps`.
+:mod:`robodyn.engine.tree.steps`.
 """
 
 from __future__ import annotations
@@ -59,9 +59,9 @@ import math
 
 import numpy as np
 
-from robodyn.sim import jit
-from robodyn.sim.tree_body import body
-from robodyn.sim.tree_flyer import (
+from robodyn.engine import jit
+from robodyn.engine.tree.body import body
+from robodyn.engine.tree.flyer import (
     ff_force,
     ff_integrate,
     ff_joint_inertia,
@@ -69,7 +69,7 @@ from robodyn.sim.tree_flyer import (
     ff_motion,
     ff_root_acceleration,
 )
-from robodyn.sim.tree_layout import (
+from robodyn.engine.tree.layout import (
     CONTINUOUS,
     F_ARM6,
     F_ARMATURE,

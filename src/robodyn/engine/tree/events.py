@@ -1,4 +1,4 @@
-"""numba kernels of the stop events: the arithmetic of :class:`robodyn.sim.events.EventStepper`, compiled.
+"""numba kernels that find the stop events inside a step: :class:`robodyn.sim.events.EventStepper`, compiled.
 
 Imported only by :mod:`robodyn.sim.tree` (numba is heavy). :func:`run_events` steps one state
 through a block of steps of a run, taking every stop event inside its step as the event
@@ -33,7 +33,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from robodyn.sim.tree_impacts import (
+from robodyn.engine.tree.algorithms import crba, kinematics
+from robodyn.engine.tree.impacts import (
     AT,
     CHATTER,
     DONE,
@@ -69,9 +70,8 @@ from robodyn.sim.tree_impacts import (
     _touch,
     njit,
 )
-from robodyn.sim.tree_kernels import crba, kinematics
-from robodyn.sim.tree_layout import W_LAMBDA, WCOLS
-from robodyn.sim.tree_steps import _finite, stages, step
+from robodyn.engine.tree.layout import W_LAMBDA, WCOLS
+from robodyn.engine.tree.steps import _finite, stages, step
 
 # re-exported: robodyn.sim.tree and whole_run read the event state's layout from this module
 __all__ = [
@@ -337,7 +337,7 @@ def _events_in_step(md, par, st, held, side, ws, counts, wlim, records, t, q0, u
 def run_events(md, par, st, held, side, counts, wlim, records, ts, hs, lo, hi, Q, U, A, KIN, POT, WL):  # type: ignore[no-untyped-def]
     """Take steps lo .. hi-1 (times ``ts``, sizes ``hs``) from sample lo of Q (n, nq), U (n, nv + 2), events and all.
 
-    ``md``: (itree, ftree, grav, forces, springs, method, tab, cb), as :func:`robodyn.sim.tree_steps.step`
+    ``md``: (itree, ftree, grav, forces, springs, method, tab, cb), as :func:`robodyn.engine.tree.steps.step`
     takes them; ``st`` (6, m): every limited joint [index in q; index in v; lower; upper;
     tolerance; tree row]. Fills samples lo+1 .. hi of Q, U and WL (the stops' work [J]), and
     A, KIN, POT (gravity's potential only) of samples lo .. hi-1. Returns (outcome, sample):

@@ -1,23 +1,24 @@
-"""numba kernels of the stop events' velocity jumps and held set: :mod:`robodyn.sim.tree_events`' second half.
+"""numba kernels of what happens at a joint stop: the impact's velocity jump, holding and letting go.
 
-The impulse when joints reach their stops (``_impact``: the Delassus solve of
-:func:`robodyn.sim.limits.impact`, pulling rows dropped, by the same LAPACK calls; ``_rests``: a
-rebound that would land again within one step is held instead), the held set made consistent
-(``_settle``: a pulling held stop lets go, a joint pushed onto its stop that would not leave it
-within a step is brought to rest by a plastic impulse, ``_rest``), and the two entries
-:mod:`robodyn.sim.tree_events` calls: ``_take`` (at the located instant) and ``_touch`` (before a
-step). Also the layout of the event state both modules share (its constants) and the small
-kernels that read it. The arithmetic and order are those of :class:`robodyn.sim.events.EventStepper`.
+This module holds the event itself; :mod:`robodyn.engine.tree.events` finds where in a step it
+happens and runs the blocks of steps. The impulse when joints reach their stops (``_impact``: the
+Delassus solve of :func:`robodyn.sim.limits.impact`, pulling rows dropped, by the same LAPACK
+calls; ``_rests``: a rebound that would land again within one step is held instead), the held set
+made consistent (``_settle``: a pulling held stop lets go, a joint pushed onto its stop that would
+not leave it within a step is brought to rest by a plastic impulse, ``_rest``), and the two
+entries the event search calls: ``_take`` (at the located instant) and ``_touch`` (before a step).
+Also the layout of the event state (its constants) and the small kernels that read it. The
+arithmetic and order are those of :class:`robodyn.sim.events.EventStepper`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from robodyn.sim import jit
-from robodyn.sim.tree_kernels import crba
-from robodyn.sim.tree_layout import W_LAMBDA, W_LOCK
-from robodyn.sim.tree_steps import rates
+from robodyn.engine import jit
+from robodyn.engine.tree.algorithms import crba
+from robodyn.engine.tree.layout import W_LAMBDA, W_LOCK
+from robodyn.engine.tree.steps import rates
 
 # run_events outcomes (and run_steps': EVENTS, the step from that sample needs run_events)
 DONE, NOT_FINITE, CHATTER, EVENTS = 0, 1, 2, 3

@@ -6,8 +6,9 @@ forms are not written here: ``cuda.jit(device=True)`` compiles each kind's own f
 functions (``mass``, ``coriolis``, ``gravity`` of :mod:`robodyn.kinds.pendubot`,
 :mod:`~robodyn.kinds.cart_pole`, :mod:`~robodyn.kinds.geared_arm`) and
 :func:`robodyn.kinds.formula.solve_2x2`, the functions :mod:`robodyn.sim.fast` hands to
-``numba.njit``. The step's arithmetic is the CPU kernel's (``batch_rk4`` in :mod:`robodyn.sim.fast`)
-term for term, so the two paths agree to round-off (to the bit in numba's CUDA simulator).
+``numba.njit``. The step is the CPU kernel's own (:func:`robodyn.engine.rk4.rk4_step`, which
+``batch_rk4`` in :mod:`robodyn.engine.closed_form` calls too), so the two paths agree to round-off
+(to the bit in numba's CUDA simulator).
 
 Each thread also keeps the smallest and largest value of each coordinate it passed through, so
 that a caller can tell which runs left the URDF's position limits on the way (the sweep hands
@@ -44,6 +45,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from robodyn.engine.rk4 import rk4_step
 from robodyn.errors import InputError, MissingDependencyError, UnavailableError
 from robodyn.integrators.twins import compiled_normal
 from robodyn.kinds.formula import solve_2x2
@@ -153,24 +155,20 @@ def _advance(jit: Any, kind: str, *, precision: str = "float64") -> Any:
             return (0.0 - b[0] * v0 - coriolis(p, q0, v0)[0] * v0 - gravity(p, q0)[0]) / m, 0.0
 
     @jit
+    def rates(ctx, q0, q1, v0, v1):  # type: ignore[no-untyped-def]
+        """The one RK4 step's rates: ctx = (p, b); no power booked."""
+        a0, a1 = acc(ctx[0], ctx[1], q0, q1, v0, v1)
+        return a0, a1, 0.0
+
+    rk4 = rk4_step(jit, rates)
+
+    @jit
     def advance(p, b, nv, q0, q1, v0, v1, dt, n):  # type: ignore[no-untyped-def]
         h = dt
         lo0, lo1, hi0, hi1 = q0, q1, q0, q1
         for _ in range(n):
-            a0, a1 = acc(p, b, q0, q1, v0, v1)
-            b0, b1 = acc(p, b, q0 + 0.5 * h * v0, q1 + 0.5 * h * v1, v0 + 0.5 * h * a0, v1 + 0.5 * h * a1)
-            w0 = v0 + 0.5 * h * a0
-            w1 = v1 + 0.5 * h * a1
-            c0, c1 = acc(p, b, q0 + 0.5 * h * w0, q1 + 0.5 * h * w1, v0 + 0.5 * h * b0, v1 + 0.5 * h * b1)
-            x0 = v0 + 0.5 * h * b0
-            x1 = v1 + 0.5 * h * b1
-            d0, d1 = acc(p, b, q0 + h * x0, q1 + h * x1, v0 + h * c0, v1 + h * c1)
-            y0 = v0 + h * c0
-            y1 = v1 + h * c1
-            q0 = q0 + h / 6.0 * (v0 + 2.0 * w0 + 2.0 * x0 + y0)
-            q1 = q1 + h / 6.0 * (v1 + 2.0 * w1 + 2.0 * x1 + y1)
-            v0 = v0 + h / 6.0 * (a0 + 2.0 * b0 + 2.0 * c0 + d0)
-            v1 = v1 + h / 6.0 * (a1 + 2.0 * b1 + 2.0 * c1 + d1)
+            a0, a1, p1 = rates((p, b), q0, q1, v0, v1)
+            q0, q1, v0, v1, _work = rk4((p, b), q0, q1, v0, v1, a0, a1, p1, h)
             if nv == 1:
                 q1 = 0.0
                 v1 = 0.0

@@ -1,14 +1,14 @@
 """One body's world-frame inertia, bias force and energies, for the compiled tree kernels.
 
-Shared by the kernels' pass 1 (:mod:`robodyn.sim.tree_kernels`) and the free-flyer root
-(:mod:`robodyn.sim.tree_flyer`); inlined into both in numba's IR (an LLVM call there cost the
+Shared by the kernels' pass 1 (:mod:`robodyn.engine.tree.algorithms`) and the free-flyer root
+(:mod:`robodyn.engine.tree.flyer`); inlined into both in numba's IR (an LLVM call there cost the
 Panda's pass 1 40 %, measured).
 """
 
 from __future__ import annotations
 
-from robodyn.sim import jit
-from robodyn.sim.tree_layout import (
+from robodyn.engine import jit
+from robodyn.engine.tree.layout import (
     F_INERTIA,
     F_LEVER,
     F_MASS,

@@ -1,13 +1,13 @@
 """Runs under a torque law on an NVIDIA GPU: the LQR and the swing-up to LQR of the built-in two-joint kinds.
 
-One GPU thread steps one run by classic RK4 with the torque of the law
-(:func:`robodyn.sim.torque_laws.forces`, the controller packed into a parameter vector) at every
+One GPU thread steps one run by classic RK4 (the one step of :mod:`robodyn.engine.rk4`) with the torque of the law
+(:func:`robodyn.engine.torque_laws.forces`, the controller packed into a parameter vector) at every
 stage, integrates the work of the torques and the joint damping with the RK4 weights, stops a
 run once |E - E0 - W| passes its bound or its state stops being finite, and counts the last step
 outside the upright band (the time to balance). Only the final states, each coordinate's range,
 the time to balance and a divergence flag come back. The kind's closed form is compiled from its
-own functions (:func:`robodyn.kinds.formulas.closed_form`), as in :mod:`robodyn.sim.cuda_batch`,
-whose :func:`~robodyn.sim.cuda_batch.cuda_module` finds the GPU (or numba's CUDA simulator).
+own functions (:func:`robodyn.kinds.formulas.closed_form`), as in :mod:`robodyn.engine.cuda.batch`,
+whose :func:`~robodyn.engine.cuda.batch.cuda_module` finds the GPU (or numba's CUDA simulator).
 """
 
 from __future__ import annotations
@@ -20,11 +20,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from robodyn.engine.cuda import batch as cuda_batch
+from robodyn.engine.rk4 import rk4_step
+from robodyn.engine.torque_laws import forces
 from robodyn.errors import InputError
 from robodyn.kinds.formula import solve_2x2
 from robodyn.kinds.formulas import closed_form
-from robodyn.sim import cuda_batch
-from robodyn.sim.torque_laws import forces
 
 Array = NDArray[np.float64]
 
@@ -36,7 +37,7 @@ def _closed(jit: Any, kind: str, law: str) -> Any:
     """``closed(p, b, c, up, ang, tol, q0, q1, v0, v1, bound, offset, dt, n)``: n RK4 steps under a torque law.
 
     The arithmetic of the sweep's CPU closed loop (``_closed_loop`` in :mod:`robodyn.sweep.chunk`),
-    one state: the law :func:`robodyn.sim.torque_laws.forces` (parameter vector ``c``) gives the
+    one state: the law :func:`robodyn.engine.torque_laws.forces` (parameter vector ``c``) gives the
     torque at every RK4 stage; the work W of the torques and the damping is integrated with the
     RK4 weights; a run is diverged once |E - E0 - W| passes ``bound`` [J] or its state stops being
     finite (the step stops there: the caller recomputes such runs); ``last`` is the last step
@@ -52,8 +53,9 @@ def _closed(jit: Any, kind: str, law: str) -> Any:
     torque = forces(kind, law, jit)
 
     @jit
-    def rates(p, b, c, q0, q1, v0, v1):  # type: ignore[no-untyped-def]
-        """(a0, a1, power of the torques and damping [W])."""
+    def rates(ctx, q0, q1, v0, v1):  # type: ignore[no-untyped-def]
+        """(a0, a1, power of the torques and damping [W]); ctx = (p, b, c)."""
+        p, b, c = ctx
         t0, t1 = torque(c, p, b, q0, q1, v0, v1)
         m11, m12, m22 = mass(p, q0, q1)
         c11, c12, c21, c22 = coriolis(p, q0, q1, v0, v1)
@@ -62,6 +64,8 @@ def _closed(jit: Any, kind: str, law: str) -> Any:
         r1 = t1 - b[1] * v1 - (c21 * v0 + c22 * v1) - g1
         a0, a1 = solve(m11, m12, m22, r0, r1)
         return a0, a1, (t0 - b[0] * v0) * v0 + (t1 - b[1] * v1) * v1
+
+    rk4 = rk4_step(jit, rates)
 
     @jit
     def energy(p, q0, q1, v0, v1, offset):  # type: ignore[no-untyped-def]
@@ -88,21 +92,9 @@ def _closed(jit: Any, kind: str, law: str) -> Any:
                 last = step
             if step == n:
                 break
-            a0, a1, p1 = rates(p, b, c, q0, q1, v0, v1)
-            b0, b1, p2 = rates(p, b, c, q0 + 0.5 * h * v0, q1 + 0.5 * h * v1, v0 + 0.5 * h * a0, v1 + 0.5 * h * a1)
-            w0 = v0 + 0.5 * h * a0
-            w1 = v1 + 0.5 * h * a1
-            c0, c1, p3 = rates(p, b, c, q0 + 0.5 * h * w0, q1 + 0.5 * h * w1, v0 + 0.5 * h * b0, v1 + 0.5 * h * b1)
-            x0 = v0 + 0.5 * h * b0
-            x1 = v1 + 0.5 * h * b1
-            d0, d1, p4 = rates(p, b, c, q0 + h * x0, q1 + h * x1, v0 + h * c0, v1 + h * c1)
-            y0 = v0 + h * c0
-            y1 = v1 + h * c1
-            q0 = q0 + h / 6.0 * (v0 + 2.0 * w0 + 2.0 * x0 + y0)
-            q1 = q1 + h / 6.0 * (v1 + 2.0 * w1 + 2.0 * x1 + y1)
-            v0 = v0 + h / 6.0 * (a0 + 2.0 * b0 + 2.0 * c0 + d0)
-            v1 = v1 + h / 6.0 * (a1 + 2.0 * b1 + 2.0 * c1 + d1)
-            work = work + h / 6.0 * (p1 + 2.0 * p2 + 2.0 * p3 + p4)
+            a0, a1, p1 = rates((p, b, c), q0, q1, v0, v1)
+            q0, q1, v0, v1, dw = rk4((p, b, c), q0, q1, v0, v1, a0, a1, p1, h)
+            work = work + dw
             if not abs(energy(p, q0, q1, v0, v1, offset) - e0 - work) <= bound:  # NaN (a blown-up state) counts
                 diverged = True
                 break
@@ -185,7 +177,7 @@ def closed_loop(
     steps: int,
     cpu: bool = False,
 ) -> tuple[Array, Array, Array, Array, Array, NDArray[np.bool_], float]:
-    """RK4 under the torque law ``law`` (:mod:`robodyn.sim.torque_laws`, parameters ``c``) on the GPU, a run a thread.
+    """RK4 under the torque law ``law`` (:mod:`robodyn.engine.torque_laws`, parameters ``c``) on the GPU.
 
     ``Q``, ``V`` (n, 2) the starts; ``p`` the kind's parameters, ``b`` (2,) its damping; ``upright``
     (2,) and ``angular`` (2,) flags the balance test (every flagged coordinate within ``tol`` [rad]);

@@ -17,8 +17,8 @@ import pytest
 import robodyn
 from robodyn import dynamics
 from robodyn.cli import main
-from robodyn.engines import against, compare
-from robodyn.engines.reading import BodyInertia, EngineReading
+from robodyn.crosscheck import against, compare
+from robodyn.crosscheck.reading import BodyInertia, EngineReading
 from robodyn.errors import EXIT_BAD_INPUT, EXIT_MISMATCH, EXIT_MISSING_DEPENDENCY, EXIT_OK, MissingDependencyError
 from tests import _against_urdfs as urdfs
 

@@ -106,8 +106,8 @@ def test_every_help_string_that_lists_the_kinds_lists_the_toy_kind(toy):
 
 
 def test_each_built_in_kind_has_its_urdf_and_its_compiled_code():
-    from robodyn.model.files import BUILTIN_NAMES
     from robodyn.engine import closed_form as fast
+    from robodyn.model.files import BUILTIN_NAMES
 
     for kind in formulas.kinds():
         assert kind.name in BUILTIN_NAMES, f"models/{kind.name}.urdf is missing"

@@ -29,7 +29,7 @@ __version__ = "0.2.0"
 
 if TYPE_CHECKING:
     from robodyn.checker.compare import CheckReport, check
-    from robodyn.engines import AgainstReport, against
+    from robodyn.crosscheck import AgainstReport, against
     from robodyn.model.files import example
     from robodyn.model.load import load
     from robodyn.robot import Robot
@@ -48,9 +48,9 @@ def __getattr__(name: str) -> Any:
 
         value = Robot
     elif name == "against":
-        from robodyn.engines import against as value
+        from robodyn.crosscheck import against as value
     elif name == "AgainstReport":
-        from robodyn.engines import AgainstReport
+        from robodyn.crosscheck import AgainstReport
 
         value = AgainstReport
     elif name == "check":

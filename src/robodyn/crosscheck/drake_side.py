@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from robodyn.engines.reading import (
+from robodyn.crosscheck.reading import (
     Array,
     BodyInertia,
     EngineReading,

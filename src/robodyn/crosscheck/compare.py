@@ -16,9 +16,18 @@ from typing import Any
 import numpy as np
 
 from robodyn import dynamics
-from robodyn.engines import causes as names
-from robodyn.engines.reading import DEFAULT, ENGINES, TRUSTED, Array, BodyInertia, EngineReading, JointReading, require
-from robodyn.engines.report import AgainstReport, Cause, Comparison
+from robodyn.crosscheck import causes as names
+from robodyn.crosscheck.reading import (
+    DEFAULT,
+    ENGINES,
+    TRUSTED,
+    Array,
+    BodyInertia,
+    EngineReading,
+    JointReading,
+    require,
+)
+from robodyn.crosscheck.report import AgainstReport, Cause, Comparison
 from robodyn.errors import EngineRefusedError, InputError, UnknownNameError
 from robodyn.model.files import read_xml
 from robodyn.robot import Robot
@@ -127,14 +136,14 @@ def _read(robot: Robot, engine: str, reading: str) -> EngineReading:
     assert robot.urdf_path is not None  # checked by _require_tree
     dirs = package_dirs(robot.urdf_path)
     if engine == "mujoco":
-        from robodyn.engines import mujoco_side
+        from robodyn.crosscheck import mujoco_side
 
         return mujoco_side.read(robot.urdf_path, dirs, reading)
     if engine == "pybullet":
-        from robodyn.engines import pybullet_side
+        from robodyn.crosscheck import pybullet_side
 
         return pybullet_side.read(robot.urdf_path, dirs, reading)
-    from robodyn.engines import drake_side
+    from robodyn.crosscheck import drake_side
 
     return drake_side.read(robot.urdf_path, dirs, reading, root_link=_root_link(robot))
 

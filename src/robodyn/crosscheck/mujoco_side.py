@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from robodyn.engines.reading import (
+from robodyn.crosscheck.reading import (
     DEFAULT,
     Array,
     BodyInertia,

@@ -30,7 +30,7 @@ from world_urdfs import erd_files, label_of, portable, pybullet_files
 
 from _common import argument_parser, output_folder, run_facts, write_json
 
-# The named causes, by the words each line starts with (robodyn.crosscheck.causes).
+# The named causes, by the words each line starts with (robodyn.other_engines.causes).
 CAUSES = (
     "no <inertial>",
     "zero-mass link",

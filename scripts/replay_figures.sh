@@ -42,7 +42,7 @@ robodyn view pendubot t.npz --html t.html > /dev/null
 shoot linkage-spring.html 1.77 "$figures/replay_linkage_spring.png"
 shoot linkage-drift.html 1.5 "$figures/replay_linkage_drift.png"
 shoot swing.html 0.8 "$figures/replay_swing_up_cart_pole.png"
-shoot pendubot-swing.html 7.3 "$figures/replay_swing_up_pendubot.png"
+shoot pendubot-swing.html 1.5 "$figures/replay_swing_up_pendubot.png"
 shoot panda.html 1.5 "$figures/replay_panda_stops.png"
 shoot compare.html 3 "$figures/replay_two_runs.png"
 shoot t.html 2.2 "$figures/replay_fit_pendubot.png"

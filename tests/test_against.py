@@ -17,9 +17,9 @@ import pytest
 import robodyn
 from robodyn import dynamics
 from robodyn.cli import main
-from robodyn.crosscheck import against, compare
-from robodyn.crosscheck.reading import BodyInertia, EngineReading
 from robodyn.errors import EXIT_BAD_INPUT, EXIT_MISMATCH, EXIT_MISSING_DEPENDENCY, EXIT_OK, MissingDependencyError
+from robodyn.other_engines import against, compare
+from robodyn.other_engines.reading import BodyInertia, EngineReading
 from tests import _against_urdfs as urdfs
 
 ENGINES = ("mujoco", "pybullet", "drake")

@@ -66,6 +66,6 @@ def test_the_count_leaves_out_docstrings_comments_and_blank_lines_only(tmp_path)
     assert long_functions(tmp_path) == []  # the def line and 79 statements: 80 lines, the limit
     (tmp_path / "ok.py").write_text(f"def f():\n{body}\n    return x0\n", encoding="utf-8")
     assert long_functions(tmp_path) == ["ok.py::f (82 lines)"]
-    (tmp_path / "sim").mkdir()
-    (tmp_path / "sim" / "tree_kernels.py").write_text(f"def f():\n{body}\n    return x0\n", encoding="utf-8")
+    (tmp_path / "engine").mkdir()
+    (tmp_path / "engine" / "closed_form.py").write_text(f"def f():\n{body}\n    return x0\n", encoding="utf-8")
     assert long_functions(tmp_path) == ["ok.py::f (82 lines)"]  # a kernel module is exempt

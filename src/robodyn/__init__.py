@@ -29,9 +29,9 @@ __version__ = "0.2.0"
 
 if TYPE_CHECKING:
     from robodyn.checker.compare import CheckReport, check
-    from robodyn.crosscheck import AgainstReport, against
     from robodyn.model.files import example
     from robodyn.model.load import load
+    from robodyn.other_engines import AgainstReport, against
     from robodyn.robot import Robot
 
 
@@ -48,9 +48,9 @@ def __getattr__(name: str) -> Any:
 
         value = Robot
     elif name == "against":
-        from robodyn.crosscheck import against as value
+        from robodyn.other_engines import against as value
     elif name == "AgainstReport":
-        from robodyn.crosscheck import AgainstReport
+        from robodyn.other_engines import AgainstReport
 
         value = AgainstReport
     elif name == "check":

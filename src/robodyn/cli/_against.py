@@ -12,7 +12,7 @@ from typing import Any
 from robodyn.cli._common import load_robot, print_json
 from robodyn.errors import EXIT_BAD_INPUT, EXIT_MISMATCH, EXIT_OK, InputError
 
-ENGINE_NAMES = ("mujoco", "pybullet", "drake")  # robodyn.crosscheck.ENGINES, without importing the package here
+ENGINE_NAMES = ("mujoco", "pybullet", "drake")  # robodyn.other_engines.ENGINES, without importing the package here
 _IGNORED = ("formula", "params", "explain", "mimic")
 
 
@@ -42,7 +42,7 @@ def add_against_argument(parser: Any) -> None:
 
 def run_against(args: argparse.Namespace) -> int:
     """Compare each model with each engine; print the causes (or JSON); pick the exit code."""
-    from robodyn.crosscheck import against, format_report
+    from robodyn.other_engines import against, format_report
 
     given = [f"--{name}" for name in _IGNORED if getattr(args, name, None) not in (None, False)]
     if given:

@@ -44,7 +44,7 @@ class Switched:
 
         ``modes`` the modes' names; ``mode`` the mode at each state of q (m, nq), v (m, nv);
         ``energy`` the swing-up law's own energy at each state [J] (the cart-pole's pole energy,
-        zero upright at rest; the Pendubot's total energy), ``energy_target`` [J] the value it
+        zero upright at rest; the Pendubot's link 2 energy, zero upright at rest), ``energy_target`` [J] the value it
         pumps towards and ``energy_name`` what that energy is (left out when the swing-up law
         states no energy); ``upright`` the LQR's equilibrium q (nq,) and ``angular`` the
         coordinates whose error is an angle.

@@ -214,22 +214,15 @@ def build(
         MissingDependencyError: meshcat is not installed.
     """
     mc = import_meshcat()
-    check_rate("speed", speed)
-    if trace_window is not None:
-        check_rate("trace_window", trace_window)
-    check_rate("fps", fps)
+    _check_rates(speed, fps, trace_window)
     trajectories, runs, times, configurations = _runs(robot, trajectory, q, names, speed=speed, fps=fps)
     ghost_objects, ghost_geoms, skipped = _geometry(robot, geometry, configurations)
     frames = [frame_positions(robot, configs) for configs in configurations]
     chosen = choose_trace_frame(frames[0], trace_frame) if trace and trajectories else None
     traces = [f[chosen] if chosen is not None else np.zeros((0, 3)) for f in frames]
     playback_times = (times - times[0]) / speed
-    framing = frame_motion(
-        [obj for objs in ghost_objects for obj in objs],
-        np.concatenate([*traces, np.zeros((0, 3))]),
-        len(times),
-        mode=camera,
-    )
+    shapes = [obj for objs in ghost_objects for obj in objs]
+    framing = frame_motion(shapes, np.concatenate([*traces, np.zeros((0, 3))]), len(times), mode=camera)
 
     commands, tracks = _object_commands(mc, runs, ghost_objects, ghost_geoms)
     trace_times = _add_traces(mc, robot, runs, chosen, traces, framing, (times[0], speed), commands, tracks)
@@ -243,10 +236,7 @@ def build(
     animation = bake_animation(mc, tracks, playback_times, fps=fps) if trajectories else None
     first = runs[0] if runs else None
     chart_list = panel_charts(robot, runs) if charts and runs else []
-    arrows = joint_arrows(robot, runs[0], configurations[0], framing.size) if runs else []
-    impacts = stop_impacts(robot, runs[0], configurations[0]) if runs else []
-    mode = mode_marks(runs[0], framing.centres, framing.half) if runs else None
-    notes = below_ground(frames[0]) if slab is not None and runs else ()
+    arrows, impacts, mode, notes = _physics_marks(robot, runs, configurations, frames, framing, ground=slab is not None)
     return Playback(
         robot_name=robot.name,
         objects=tuple(ghost_objects[0]),
@@ -282,6 +272,27 @@ def build(
         notes=tuple(notes),
         axes=axes,
     )
+
+
+def _check_rates(speed: float, fps: float, trace_window: float | None) -> None:
+    """Refuse a non-positive or non-finite speed, frame rate or trace window (InputError)."""
+    check_rate("speed", speed)
+    if trace_window is not None:
+        check_rate("trace_window", trace_window)
+    check_rate("fps", fps)
+
+
+def _physics_marks(
+    robot: Robot, runs: list[Run], configurations: Any, frames: Any, framing: Any, *, ground: bool
+) -> tuple[list[Any], list[Any], Any, Any]:
+    """The first run's physics drawn: force arrows, stop impacts, the controller's mode, what passes the ground."""
+    if not runs:
+        return [], [], None, ()
+    arrows = joint_arrows(robot, runs[0], configurations[0], framing.size)
+    impacts = stop_impacts(robot, runs[0], configurations[0])
+    mode = mode_marks(runs[0], framing.centres, framing.half)
+    notes = below_ground(frames[0]) if ground else ()
+    return arrows, impacts, mode, notes
 
 
 def _energy_rows(run: Run | None, name: str) -> Array:

@@ -1,6 +1,6 @@
 """What another engine holds after reading a URDF, in one shape for every engine.
 
-Each engine's module (:mod:`robodyn.crosscheck.mujoco_side`, ``pybullet_side``, ``drake_side``) reads the file
+Each engine's module (:mod:`robodyn.other_engines.mujoco_side`, ``pybullet_side``, ``drake_side``) reads the file
 and returns an :class:`EngineReading`: per moving joint, the inertia of the bodies it moves (the joint's child
 link with every link welded to it by fixed joints, as Pinocchio merges them), expressed in the child link's
 frame; the joint's axis, limits, damping and armature; and a function evaluating M(q), C(q, v) v and G(q).

@@ -15,7 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from robodyn.crosscheck.reading import (
+from robodyn.errors import EngineRefusedError
+from robodyn.other_engines.reading import (
     Array,
     BodyInertia,
     EngineReading,
@@ -26,7 +27,6 @@ from robodyn.crosscheck.reading import (
     portable_copy,
     require,
 )
-from robodyn.errors import EngineRefusedError
 
 
 def read(urdf: Path, package_dirs: Sequence[Path], reading: str, *, root_link: str) -> EngineReading:

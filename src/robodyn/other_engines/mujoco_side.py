@@ -17,7 +17,8 @@ from typing import Any
 
 import numpy as np
 
-from robodyn.crosscheck.reading import (
+from robodyn.errors import EngineRefusedError
+from robodyn.other_engines.reading import (
     DEFAULT,
     Array,
     BodyInertia,
@@ -29,7 +30,6 @@ from robodyn.crosscheck.reading import (
     portable_copy,
     require,
 )
-from robodyn.errors import EngineRefusedError
 
 TRUST = {"fusestatic": "false", "balanceinertia": "false", "inertiafromgeom": "false"}
 TRUST_OPTION = '<mujoco><compiler fusestatic="false" balanceinertia="false" inertiafromgeom="false"/></mujoco>'

@@ -5,8 +5,8 @@ No engine is imported here: each is imported by its own module when a comparison
 
 from __future__ import annotations
 
-from robodyn.crosscheck.compare import against
-from robodyn.crosscheck.reading import ENGINES
-from robodyn.crosscheck.report import AgainstReport, Cause, Comparison, format_report
+from robodyn.other_engines.compare import against
+from robodyn.other_engines.reading import ENGINES
+from robodyn.other_engines.report import AgainstReport, Cause, Comparison, format_report
 
 __all__ = ["ENGINES", "AgainstReport", "Cause", "Comparison", "against", "format_report"]

@@ -16,8 +16,10 @@ from typing import Any
 import numpy as np
 
 from robodyn import dynamics
-from robodyn.crosscheck import causes as names
-from robodyn.crosscheck.reading import (
+from robodyn.errors import EngineRefusedError, InputError, UnknownNameError
+from robodyn.model.files import read_xml
+from robodyn.other_engines import causes as names
+from robodyn.other_engines.reading import (
     DEFAULT,
     ENGINES,
     TRUSTED,
@@ -27,9 +29,7 @@ from robodyn.crosscheck.reading import (
     JointReading,
     require,
 )
-from robodyn.crosscheck.report import AgainstReport, Cause, Comparison
-from robodyn.errors import EngineRefusedError, InputError, UnknownNameError
-from robodyn.model.files import read_xml
+from robodyn.other_engines.report import AgainstReport, Cause, Comparison
 from robodyn.robot import Robot
 
 _MODULES = {"mujoco": "mujoco", "pybullet": "pybullet", "drake": "pydrake"}
@@ -136,14 +136,14 @@ def _read(robot: Robot, engine: str, reading: str) -> EngineReading:
     assert robot.urdf_path is not None  # checked by _require_tree
     dirs = package_dirs(robot.urdf_path)
     if engine == "mujoco":
-        from robodyn.crosscheck import mujoco_side
+        from robodyn.other_engines import mujoco_side
 
         return mujoco_side.read(robot.urdf_path, dirs, reading)
     if engine == "pybullet":
-        from robodyn.crosscheck import pybullet_side
+        from robodyn.other_engines import pybullet_side
 
         return pybullet_side.read(robot.urdf_path, dirs, reading)
-    from robodyn.crosscheck import drake_side
+    from robodyn.other_engines import drake_side
 
     return drake_side.read(robot.urdf_path, dirs, reading, root_link=_root_link(robot))
 

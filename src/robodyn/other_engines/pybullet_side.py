@@ -15,7 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from robodyn.crosscheck.reading import (
+from robodyn.errors import EngineRefusedError
+from robodyn.other_engines.reading import (
     DEFAULT,
     Array,
     BodyInertia,
@@ -29,7 +30,6 @@ from robodyn.crosscheck.reading import (
     quiet_native_output,
     require,
 )
-from robodyn.errors import EngineRefusedError
 
 TRUST_OPTION = "flags=URDF_USE_INERTIA_FROM_FILE"
 _MOVING = (0, 1)  # JOINT_REVOLUTE, JOINT_PRISMATIC

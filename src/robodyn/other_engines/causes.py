@@ -1,6 +1,6 @@
 """Name why an engine's body or joint differs from robodyn's, in one line, and the option that removes it.
 
-Pure functions of the two readings and of what the file declares; :mod:`robodyn.crosscheck.compare` measures
+Pure functions of the two readings and of what the file declares; :mod:`robodyn.other_engines.compare` measures
 each cause's effect on M, C v and G by applying it to robodyn's copy of the model.
 """
 
@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robodyn.crosscheck.reading import DEFAULT, Array, BodyInertia, JointReading
+from robodyn.other_engines.reading import DEFAULT, Array, BodyInertia, JointReading
 
 # A diagonalisation keeps the principal moments to float32-like precision (PyBullet: ~1e-6 relative);
 # below this band two inertias with equal moments differ only by their orientation.

@@ -203,3 +203,20 @@ def test_the_simulated_basin_balances_near_the_upright_and_not_from_hanging() ->
             assert bool(np.all(np.abs(error) < wide.tolerance)) == bool(wide.balanced[i, k]), (q, v)
     with pytest.raises(InputError, match="basin side"):
         basin.simulate(robot, side=1)
+
+
+def test_a_run_is_named_by_the_outcome_simulate_judged_and_saved(tmp_path, capsys) -> None:
+    """issue 34: the portrait's runs carry the same outcome as simulate's summary (one decision, saved with the run)."""
+    args = ["simulate", "pendubot", "--controller", "swing_up", "--q0", "1.58,0.02", "--duration", "3", "--dt", "0.005"]
+    assert main([*args, "--out", str(tmp_path / "b.npz")]) == 0
+    said = next(line for line in capsys.readouterr().out.splitlines() if line.startswith("outcome: balanced from"))
+    balanced_at = float(said.split("t = ")[1].split(" s")[0])
+    saved = robodyn.Trajectory.load(tmp_path / "b.npz").meta["outcome"]
+    assert saved["balanced"] and saved["time_to_balance_s"] == pytest.approx(balanced_at, abs=5e-4)
+    out = tmp_path / "portrait"
+    assert (
+        main(["portrait", "pendubot", "--trajectory", str(tmp_path / "b.npz"), "--resolution", "21", "--out", str(out)])
+        == 0
+    )
+    names = json.loads((out / "portrait.json").read_text())["trajectories"]
+    assert names == [f"swing_up from q(0) = (1.58, 0.02), balanced from t = {saved['time_to_balance_s']:.3g} s"]

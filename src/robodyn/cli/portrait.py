@@ -134,13 +134,27 @@ def _value(x: float) -> str:
 
 
 def _run_name(trajectory: Any, path: Path, taken: list[str]) -> str:
-    """A trajectory's name on the chart: its controller and start, "lqr from q(0) = (1.6, 0.05)".
+    """A trajectory's name on the chart: its controller, start and outcome.
 
+    For example "lqr from q(0) = (1.6, 0.05), balanced from t = 0.42 s".
+
+    The outcome is the one ``robodyn simulate`` judged and saved with the run (:mod:`robodyn.control.outcome`,
+    the decision of its summary and of a sweep's ``time_to_balance``); a run saved without one names none.
     The file's name is added when two runs would read the same.
     """
     meta = trajectory.meta if isinstance(trajectory.meta, dict) else {}
     controller = meta.get("controller")
     law = str(controller.get("name")) if isinstance(controller, dict) and controller.get("name") else "free motion"
     start = ", ".join(f"{x:.3g}" for x in np.asarray(trajectory.q[0], dtype=np.float64))
-    name = f"{law} from q(0) = ({start})"
+    name = f"{law} from q(0) = ({start}){_outcome_words(meta.get('outcome'))}"
     return f"{name} [{path.name}]" if name in taken else name
+
+
+def _outcome_words(judged: Any) -> str:
+    """The words a saved outcome record adds to a run's name (", balanced from t = 2.06 s"); none without one."""
+    if not isinstance(judged, dict) or "balanced" not in judged:
+        return ""
+    time = judged.get("time_to_balance_s")
+    if judged["balanced"] and isinstance(time, (int, float)):
+        return f", balanced from t = {time:.3g} s"
+    return ", did not balance"

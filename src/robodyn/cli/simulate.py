@@ -299,9 +299,11 @@ def run(args: argparse.Namespace) -> int:
         if failure is not None:  # what was computed goes beside, never over, an earlier complete run
             kept = [p for p in (out, csv) if p is not None and p.exists()]
             out, csv = (None if p is None else partial_path(p) for p in (out, csv))
-        _write(trajectory, out, csv, written)
         verdict = _control.outcome(built[0] if built else None, trajectory) if failure is None else None
         judged = None if verdict is None else verdict.as_record()
+        if judged is not None:  # the file carries the verdict: `robodyn portrait` names the run by it
+            trajectory = dataclasses.replace(trajectory, meta={**trajectory.meta, "outcome": judged})
+        _write(trajectory, out, csv, written)
         _report(trajectory, out, csv, as_json=args.json, effort=robot.model.effortLimit, outcome=judged)
         if verdict is not None and not args.json:
             print(verdict.line())

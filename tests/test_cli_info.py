@@ -146,8 +146,9 @@ def test_info_list_names_every_model(capsys):
     names = [line.split()[0] for line in out.splitlines()[:-1]]
     assert sorted(names) == sorted(model_sources().names()) and {"pendubot", "panda", "talos"} <= set(names)
     assert main(["info", "--list", "--json"]) == 0
+    # the description is the opening line of the built-in URDF's comment
     described = json.loads(capsys.readouterr().out)["pendubot"]["description"]
-    assert described == "a two-link planar arm, joint 1 actuated (shoulder), joint 2 passive (elbow)"  # its URDF says so
+    assert described == "a two-link planar arm, joint 1 actuated (shoulder), joint 2 passive (elbow)"
     assert main(["info"]) == EXIT_BAD_INPUT
     assert "--list" in capsys.readouterr().err
 

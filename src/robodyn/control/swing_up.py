@@ -123,7 +123,7 @@ class PendubotEnergy:
     energy_up: float
     swing_effort: float
     hold_torque: float
-    energy_name: ClassVar[str] = "link 2's ½ J₂ φ̇² + m₂ g l_c2 (cos ψ − 1), zero upright at rest"
+    energy_name: ClassVar[str] = "link 2's ½ J2 φ̇² + m2 g lc2 (cos ψ − 1), zero upright at rest"
 
     def energy(self, q: Array, v: Array) -> float:
         """Link 2's pendulum energy 1/2 J2 phi'^2 + m2 g lc2 (cos psi - 1) [J], 0 upright at rest.

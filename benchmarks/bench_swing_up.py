@@ -33,7 +33,7 @@ import robodyn
 import robodyn.control as control
 from robodyn.control import outcome, rollout
 from robodyn.control.compiled import law_of
-from robodyn.control.swing_up import NEED_CART_POLE, NEED_PENDUBOT, swing_need
+from robodyn.control.swing_up import NEED_CART_POLE, swing_need
 from robodyn.kinds.formulas import closed_form
 from robodyn.sim.fast import FastDynamics
 
@@ -105,9 +105,11 @@ def build(kind: str, p: dict[str, float], effort: float, folder: Path, k: int) -
 
 
 def need_of(kind: str, p: dict[str, float]) -> float:
-    """The effort the swing needs (:func:`robodyn.control.swing_up.swing_need`) from the drawn parameters."""
+    """The scale of the drawn effort, from the drawn parameters: the static part of
+    :func:`robodyn.control.swing_up.swing_need` (the lift torque; NEED_CART_POLE of the weight). The
+    need each run is judged against is swing_need's, which also weighs the swing's reaction."""
     if kind == "pendubot":
-        return NEED_PENDUBOT * (p["m1"] * p["lc1"] + p["m2"] * (p["l1"] + p["lc2"])) * G
+        return (p["m1"] * p["lc1"] + p["m2"] * p["l1"]) * G
     return NEED_CART_POLE * (p["m_cart"] + p["m"]) * G
 
 

@@ -82,7 +82,10 @@ def test_momentum_rate_is_the_rate_of_M_v(kind, backend):
     robot = robodyn.load(kind)
     tau = np.array(TORQUES[kind])
     q0, v0 = robot.random_state(np.random.default_rng(SEED))
-    probe = MomentumProbe("momentum_probe", 4, False, False, False, "rk4 that records dp/dt")
+    probe = MomentumProbe(
+        name="momentum_probe", order=4, symplectic=False, adaptive=False, implicit=False,
+        description="rk4 that records dp/dt",
+    )  # fmt: skip
     robodyn.simulate(
         robot, q0, v0, duration=PROBE_DURATION, dt=DT, integrator=probe, torque=tau, backend=backend, losses=False
     )

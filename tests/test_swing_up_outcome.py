@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +24,9 @@ from robodyn.control import outcome
 from robodyn.control.switch import BALANCE, SWING_UP
 from robodyn.errors import EXIT_NOT_BALANCED
 from robodyn.sweep import measures
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+import bench_swing_up  # the benchmark's own file templates: the tests pin systems it drew
 
 SPONG = Path(__file__).parent / "fixtures" / "spong_pendubot.urdf"
 HANGING = "--q0=-1.5707963268,0"
@@ -154,26 +158,6 @@ LEAN_FROM_S = 3.0  # [s] past the first swing's overshoot (to +0.34 rad); after 
 HEAVY_POLE = dict(m_cart=0.32, m=0.126, l=1.14, I=0.00292)
 ORBIT_TOL = 1e-3  # relative: the need samples the orbit every 2 degrees, the closed form is the maximum
 
-PENDUBOT_URDF = """<robot name="p"><link name="base"/>
-<link name="link1"><inertial><origin xyz="{lc1} 0 0"/><mass value="{m1}"/>
-<inertia ixx="1e-6" iyy="{I1}" izz="{I1}" ixy="0" ixz="0" iyz="0"/></inertial></link>
-<link name="link2"><inertial><origin xyz="{lc2} 0 0"/><mass value="{m2}"/>
-<inertia ixx="1e-6" iyy="{I2}" izz="{I2}" ixy="0" ixz="0" iyz="0"/></inertial></link>
-<joint name="joint1" type="revolute"><parent link="base"/><child link="link1"/><axis xyz="0 -1 0"/>
-<limit lower="-100" upper="100" effort="{effort}" velocity="100"/></joint>
-<joint name="joint2" type="revolute"><parent link="link1"/><child link="link2"/><origin xyz="{l1} 0 0"/>
-<axis xyz="0 -1 0"/><limit lower="-100" upper="100" effort="0" velocity="100"/></joint></robot>"""
-
-CART_POLE_URDF = """<robot name="c"><link name="world"/>
-<link name="cart"><inertial><mass value="{m_cart}"/>
-<inertia ixx="1e-3" iyy="1e-3" izz="1e-3" ixy="0" ixz="0" iyz="0"/></inertial></link>
-<link name="pole"><inertial><origin xyz="0 0 {l}"/><mass value="{m}"/>
-<inertia ixx="{I}" iyy="{I}" izz="1e-6" ixy="0" ixz="0" iyz="0"/></inertial></link>
-<joint name="slider" type="prismatic"><parent link="world"/><child link="cart"/><axis xyz="1 0 0"/>
-<limit lower="-2.4" upper="2.4" effort="{effort}" velocity="100"/></joint>
-<joint name="hinge" type="revolute"><parent link="cart"/><child link="pole"/><axis xyz="0 1 0"/>
-<limit lower="-1000" upper="1000" effort="0" velocity="100"/></joint></robot>"""
-
 
 def test_below_the_lift_torque_link_1_never_rises_and_the_need_says_so(tmp_path: Path) -> None:
     """The need is the torque that holds link 1 horizontal with link 2 hanging, (m1 lc1 + m2 l1) g:
@@ -183,7 +167,7 @@ def test_below_the_lift_torque_link_1_never_rises_and_the_need_says_so(tmp_path:
     p = HEAVY_ELBOW
     lift = (p["m1"] * p["lc1"] + p["m2"] * p["l1"]) * 9.81
     path = tmp_path / "heavy_elbow.urdf"
-    path.write_text(PENDUBOT_URDF.format(effort=LIFT_SHORT * lift, **p))
+    path.write_text(bench_swing_up.PENDUBOT.format(effort=LIFT_SHORT * lift, **p))
     robot = robodyn.load(str(path), passive=["joint2"])
     controller = control.make("swing_up", robot)
     need, how = swing_need(controller.swing_up)
@@ -203,7 +187,7 @@ def test_a_heavy_pole_needs_the_force_its_swing_pulls_on_the_cart(tmp_path: Path
 
     p = HEAVY_POLE
     path = tmp_path / "heavy_pole.urdf"
-    path.write_text(CART_POLE_URDF.format(effort=1.0, **p))
+    path.write_text(bench_swing_up.CART_POLE.format(effort=1.0, **p))
     law = control.make("swing_up", robodyn.load(str(path), passive=["hinge"])).swing_up
     J = p["m"] * p["l"] ** 2 + p["I"]
     psi = np.linspace(-np.pi, np.pi, 200001)

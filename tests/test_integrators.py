@@ -308,8 +308,9 @@ def test_scipy_implicit_methods_converge_with_tolerance(name: str) -> None:
     assert 1.0 - ADAPTIVE_ORDER_BAND < measured < method.order + ADAPTIVE_ORDER_BAND
 
 
-def test_classic_rk4_matches_generic_tableau_loop() -> None:
-    generic = ExplicitRungeKutta(
+def generic_rk4() -> ExplicitRungeKutta:
+    """Classic RK4 through the generic tableau loop, to compare with the hand-written stages."""
+    return ExplicitRungeKutta(
         name="rk4-generic",
         order=4,
         symplectic=False,
@@ -318,6 +319,10 @@ def test_classic_rk4_matches_generic_tableau_loop() -> None:
         description="",
         tableau=CLASSIC_RK4,
     )
+
+
+def test_classic_rk4_matches_generic_tableau_loop() -> None:
+    generic = generic_rk4()
     fast = integrators.get("rk4")
     a = solve(pendulum_problem(), [AMPLITUDE], [0.3], dt=0.01, n_steps=300, method=generic)
     b = solve(pendulum_problem(), [AMPLITUDE], [0.3], dt=0.01, n_steps=300, method=fast)
@@ -329,15 +334,7 @@ def test_classic_rk4_matches_generic_tableau_loop() -> None:
 def test_classic_rk4_general_branch_matches_generic_tableau_loop(kind: str) -> None:
     # Off the bare-loop branch (q on a manifold, or work carried in u) the hand-written
     # stages still are the tableau's, step by step.
-    generic = ExplicitRungeKutta(
-        name="rk4-generic",
-        order=4,
-        symplectic=False,
-        adaptive=False,
-        implicit=False,
-        description="",
-        tableau=CLASSIC_RK4,
-    )
+    generic = generic_rk4()
     fast = integrators.get("rk4")
     assert isinstance(fast, integrators.FixedStepIntegrator)
     problem, q, u = start(kind)

@@ -309,6 +309,24 @@ def test_a_long_run_says_how_far_it_got_every_ten_seconds() -> None:
     ]
 
 
+def test_a_step_that_takes_long_is_still_reported() -> None:
+    """Between the hook's calls (a step with many stop events, a slow controller) the watch thread prints."""
+    import io
+    import time
+
+    from robodyn.cli.simulate import ProgressLines
+
+    stream = io.StringIO()
+    lines = ProgressLines(stream, 0.5, every=0.2)
+    lines(0.0)  # the run is about to take its first step...
+    time.sleep(0.9)  # ...which takes long: no call comes
+    lines.close()
+    printed = stream.getvalue().splitlines()
+    assert printed and all(line.startswith("robodyn simulate: t = 0 s of 0.5 s (0 %), ") for line in printed), printed
+    time.sleep(0.5)
+    assert stream.getvalue().splitlines() == printed  # closed: no more lines
+
+
 @pytest.mark.parametrize("backend", ["aba", None])  # the Python loop (each step), the compiled loop (each block)
 def test_simulate_reports_its_progress_to_the_end(backend: str | None) -> None:
     robot = robodyn.load("pendubot")
@@ -318,5 +336,6 @@ def test_simulate_reports_its_progress_to_the_end(backend: str | None) -> None:
     )
     assert traj.meta["loop"] == ("python" if backend == "aba" else "compiled")
     assert seen and seen[-1] == pytest.approx(0.05, abs=1e-15) and seen == sorted(seen)
+    assert seen[0] == 0.0  # before the first step: a first step that takes long is watched too
     if backend == "aba":
-        assert len(seen) == traj.n_steps  # after every step
+        assert len(seen) == traj.n_steps + 1  # before the first step, then after every step

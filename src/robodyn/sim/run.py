@@ -153,7 +153,7 @@ class Run:
         progress: Progress | None = None,
     ) -> None:
         self.robot, self.system, self.method, self.t = robot, system, method, t
-        self.progress = progress  # called with the time reached [s] after every step (it keeps its own clock)
+        self.progress = progress  # called with the time reached [s] before the first step and after every step
         n = t.size
         nv = system.nv
         self.Q = np.empty((n, system.nq))
@@ -217,6 +217,8 @@ class Run:
         q, u = self.Q[0].copy(), self.U[0].copy()
         n_steps = len(steps)
         eventful = not (self.system.stops.empty and self.system.loops is None)
+        if self.progress is not None:  # the first step may be long (stops that chatter): the clock starts here
+            self.progress(times[0])
         with np.errstate(all="ignore"):
             for lo in range(0, n_steps, CHECK_EVERY):
                 block = _Block(lo, [self.stepper.mark()] if eventful else [])

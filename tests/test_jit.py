@@ -139,6 +139,38 @@ def test_announce_says_each_thing_once() -> None:
     ]
 
 
+def test_a_long_compile_says_it_is_still_compiling() -> None:
+    """A note every ``every`` s while numba compiles (however long), none once it has stopped."""
+    import time
+
+    compiling = jit.QUIET_S + 2.0  # [s] longer than the quiet spell that ends the watch
+    watch = jit.CompileWatch("the test kernels", every=0.3)
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        watch.start()
+        watch.compile_started()  # as numba's compile event would
+        time.sleep(compiling)
+        watch.compile_ended()
+        time.sleep(jit.QUIET_S + 1.0)  # the watch has ended: no more notes
+        count = len(seen)
+        time.sleep(0.7)
+    notes = [str(w.message) for w in seen]
+    assert len(seen) == count, notes
+    said = [
+        int(m.group(1)) for n in notes if (m := re.fullmatch(r"still compiling the test kernels: (\d+) s so far", n))
+    ]
+    assert len(said) == len(notes) and max(said) >= compiling, notes  # through the whole compile
+
+
+def test_the_compile_watch_hears_numba_compile() -> None:
+    import numba
+
+    watch = jit.CompileWatch("the test kernels", every=60.0)
+    watch.start()
+    numba.njit(lambda x: x + 1)(1)  # a fresh function: compiled now
+    assert watch.started and watch.depth == 0
+
+
 @pytest.mark.timeout(900)
 def test_warmup_fills_the_cache_and_says_how_long(tmp_path: Path) -> None:
     code = "import sys; from robodyn.cli import main; sys.exit(main(['warmup', '--only', 'closed-forms']))"

@@ -184,3 +184,87 @@ def announce(what: str, duration: str) -> None:
         return
     _ANNOUNCED.add(what)
     warnings.warn(f"compiling {what} for this machine ({duration}, {WARMUP_HINT})", CompileNotice, stacklevel=3)
+    CompileWatch(what).start()
+
+
+# While a compile goes on, a further note this often [s] (no command is silent for a minute)...
+STILL_EVERY = 20.0
+# ...until numba has compiled nothing for this long [s] (or, if no compile starts, this long after the notice)
+QUIET_S = 2.0
+NEVER_STARTED_S = 30.0
+
+
+class CompileWatch:
+    """A thread that says ``still compiling WHAT: 40 s so far`` every STILL_EVERY s while numba compiles.
+
+    It counts numba's own compile events (``numba.core.event``, kind ``numba:compile``) and ends
+    once none has run for QUIET_S seconds. Its notes are :class:`CompileNotice` warnings, as the
+    first one (the command line prints each as one ``note:`` line).
+    """
+
+    def __init__(self, what: str, *, every: float | None = None) -> None:
+        import threading
+
+        self.what, self.every = what, STILL_EVERY if every is None else every
+        self.depth = 0  # compiles under way
+        self.started = False
+        self.quiet_since = time.monotonic()
+        self.lock = threading.Lock()
+
+    def compile_started(self) -> None:
+        """A compile of one function begins (a numba event)."""
+        with self.lock:
+            self.depth += 1
+            self.started = True
+
+    def compile_ended(self) -> None:
+        """A compile of one function ends (a numba event)."""
+        with self.lock:
+            self.depth -= 1
+            self.quiet_since = time.monotonic()
+
+    def start(self) -> None:
+        """Listen to numba's compile events and watch them from a daemon thread."""
+        import threading
+
+        from numba.core import event
+
+        watch = self
+
+        class Listener(event.Listener):  # type: ignore[misc]
+            def on_start(self, event: Any) -> None:
+                watch.compile_started()
+
+            def on_end(self, event: Any) -> None:
+                watch.compile_ended()
+
+        self.listener = Listener()
+        event.register("numba:compile", self.listener)
+        threading.Thread(target=self._watch, name="robodyn-compile-watch", daemon=True).start()
+
+    def _over(self, now: float, begun: float) -> bool:
+        with self.lock:
+            if self.depth > 0:
+                return False
+            if not self.started:
+                return now - begun > NEVER_STARTED_S
+            return now - self.quiet_since > QUIET_S
+
+    def _watch(self) -> None:
+        from numba.core import event
+
+        begun = time.monotonic()
+        said = begun
+        try:
+            while True:
+                time.sleep(min(0.5, self.every / 4.0))
+                now = time.monotonic()
+                if self._over(now, begun):
+                    return
+                if now - said >= self.every:
+                    said = now
+                    warnings.warn(
+                        f"still compiling {self.what}: {now - begun:.0f} s so far", CompileNotice, stacklevel=1
+                    )
+        finally:
+            event.unregister("numba:compile", self.listener)

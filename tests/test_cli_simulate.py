@@ -327,6 +327,27 @@ def test_a_step_that_takes_long_is_still_reported() -> None:
     assert stream.getvalue().splitlines() == printed  # closed: no more lines
 
 
+def test_a_compile_inside_a_run_is_left_to_its_notes() -> None:
+    """While numba compiles (the stop events, met late in a run) the progress lines wait: the compile's notes speak."""
+    import io
+    import time
+
+    from robodyn.cli.simulate import ProgressLines
+    from robodyn.engine import jit
+
+    stream = io.StringIO()
+    lines = ProgressLines(stream, 0.5, every=0.2)
+    watch = jit.CompileWatch("the test kernels")  # its thread is not started: only its state counts here
+    lines(0.0)
+    watch.compile_started()
+    time.sleep(0.8)
+    assert stream.getvalue() == ""
+    watch.compile_ended()
+    time.sleep(0.8)
+    lines.close()
+    assert stream.getvalue().startswith("robodyn simulate: t = 0 s of 0.5 s (0 %), ")
+
+
 @pytest.mark.parametrize("backend", ["aba", None])  # the Python loop (each step), the compiled loop (each block)
 def test_simulate_reports_its_progress_to_the_end(backend: str | None) -> None:
     robot = robodyn.load("pendubot")
@@ -336,6 +357,5 @@ def test_simulate_reports_its_progress_to_the_end(backend: str | None) -> None:
     )
     assert traj.meta["loop"] == ("python" if backend == "aba" else "compiled")
     assert seen and seen[-1] == pytest.approx(0.05, abs=1e-15) and seen == sorted(seen)
-    assert seen[0] == 0.0  # before the first step: a first step that takes long is watched too
-    if backend == "aba":
-        assert len(seen) == traj.n_steps + 1  # before the first step, then after every step
+    if backend == "aba":  # before the first step (a first step that takes long is watched too), then after each
+        assert seen[0] == 0.0 and len(seen) == traj.n_steps + 1

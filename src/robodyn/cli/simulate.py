@@ -49,6 +49,7 @@ from robodyn.cli._interrupts import held
 from robodyn.cli._output import partial_path, refuse_clobbering, writable_path
 from robodyn.cli._summary import _report, note_clamped_q0
 from robodyn.cli.view import add_ground_argument
+from robodyn.engine import jit
 from robodyn.errors import EXIT_DIVERGED, EXIT_NOT_BALANCED, EXIT_OK, InputError, UnknownNameError
 from robodyn.fileio import read_user_file
 from robodyn.kinds import formulas
@@ -119,6 +120,8 @@ class ProgressLines:
 
     def _print_if_due(self, now: float) -> None:
         if now < self.next or self.start is None:
+            return
+        if jit.compiling():  # a compile inside the run (the stop events, met late): its notes speak
             return
         self.next = now + self.every
         share = 100.0 * self.t / self.duration if self.duration > 0 else 100.0

@@ -192,6 +192,12 @@ STILL_EVERY = 20.0
 # ...until numba has compiled nothing for this long [s] (or, if no compile starts, this long after the notice)
 QUIET_S = 2.0
 NEVER_STARTED_S = 30.0
+_BUSY: set[CompileWatch] = set()  # the watches whose compile is under way
+
+
+def compiling() -> bool:
+    """True while an announced compile is under way (a run's progress lines wait: the notes speak for it)."""
+    return bool(_BUSY)
 
 
 class CompileWatch:
@@ -216,12 +222,15 @@ class CompileWatch:
         with self.lock:
             self.depth += 1
             self.started = True
+            _BUSY.add(self)
 
     def compile_ended(self) -> None:
         """A compile of one function ends (a numba event)."""
         with self.lock:
             self.depth -= 1
             self.quiet_since = time.monotonic()
+            if self.depth <= 0:
+                _BUSY.discard(self)
 
     def start(self) -> None:
         """Listen to numba's compile events and watch them from a daemon thread."""

@@ -140,9 +140,9 @@ def simulate(
         atol: absolute tolerance of the adaptive methods.
         max_energy_growth: stop when |ledger residual| exceeds this many times the
             energy scale max(T0 + |V0|, m |g| 0.1 m); None never stops on energy.
-        progress: called with the start time [s] before the first step, then with the time
-            reached after every step (Python loop) or every block of steps (compiled loop); a
-            run handed back to the Python loop starts again from t = 0. It keeps its own clock
+        progress: called with the time reached [s] after every block of steps (compiled loop),
+            or with the start time before the first step and then after every step (Python loop;
+            a run handed back to it starts again from t = 0). It keeps its own clock
             (``robodyn simulate`` prints a line from it every few seconds of a long run).
 
     Returns:

@@ -363,8 +363,6 @@ def attempt(plan: Plan, system: RobotSystem, run: Run) -> Outcome:
     held0, evaluations0 = dict(system.held), (system.evaluations, system.jacobian_evaluations)
     w = _setup(plan, system, run)
     interrupted = False
-    if run.progress is not None:  # the clock of a progress hook starts at the first step
-        run.progress(float(run.t[w.done]))
     try:
         while w.done < run.t.size - 1:
             status, last = _block(w)

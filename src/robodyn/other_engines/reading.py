@@ -24,7 +24,9 @@ from numpy.typing import NDArray
 from robodyn.errors import MissingDependencyError
 
 Array = NDArray[np.float64]
-# (q, v) of the moving joints in the order of ``EngineReading.names`` -> (M, C v, G) in that order.
+# (q, v) of the moving joints in the order of ``EngineReading.names`` -> (M, C v, G) in that order. With a free
+# flyer, q and v begin with its 7 coordinates and 6 velocities in Pinocchio's convention, and so do M, C v, G
+# (robodyn.other_engines.floating maps them).
 Evaluate = Callable[[Array, Array], tuple[Array, Array, Array]]
 
 ENGINES = ("mujoco", "pybullet", "drake")

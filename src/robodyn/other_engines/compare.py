@@ -9,8 +9,10 @@ together must reproduce the engine: whatever is left is reported as unexplained.
 
 from __future__ import annotations
 
+import functools
 import time
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -256,7 +258,7 @@ def _causes(
     tol = _tolerances(bodies, rtol)
     links = file_links(robot)
     everything = robot.model.copy()
-    found = []
+    found, patched = [], False
     for name in robot.joint_names:
         j = robot.model.getJointId(name)
         said = names.body_cause(theirs.engine, theirs.reading, bodies[name], theirs.bodies[name], links, tol)
@@ -264,6 +266,7 @@ def _causes(
             patch = robot.model.copy()
             _set_inertia(patch, j, theirs.bodies[name])
             _set_inertia(everything, j, theirs.bodies[name])
+            patched = True
             effect = _effect(_evaluate(patch, robot, states), mine, scale, rtol)
             found.append(Cause(f"{bodies[name].links[0]} ({name})", said[0], said[1], effect))
         if name not in theirs.joints:
@@ -276,9 +279,10 @@ def _causes(
             if what.startswith("armature"):
                 patch = robot.model.copy()
                 patch.armature[joint.idx_v] = everything.armature[joint.idx_v] = theirs.joints[name].armature
+                patched = True
                 effect = _effect(_evaluate(patch, robot, states), mine, scale, rtol)
             found.append(Cause(name, what, option, effect))
-    return found, _evaluate(everything, robot, states)
+    return found, _evaluate(everything, robot, states) if patched else mine
 
 
 def _set_inertia(model: Any, joint: int, body: BodyInertia) -> None:
@@ -332,16 +336,18 @@ def _limit(value: float) -> float:
 def _axis(robot: Robot, name: str) -> Array:
     """The unit axis the URDF gives ``name`` (robodyn's validated reading of the file)."""
     assert robot.urdf_path is not None  # checked by _require_tree
-    for joint in read_xml(robot.urdf_path, "URDF").findall("joint"):
-        if joint.get("name") == name:
-            element = joint.find("axis")
-            axis = (
-                np.array([float(x) for x in element.get("xyz", "1 0 0").split()])
-                if element is not None
-                else np.array([1.0, 0, 0])
-            )
-            return axis / np.linalg.norm(axis)
-    return np.array([1.0, 0.0, 0.0])
+    return _file_axes(str(robot.urdf_path), robot.urdf_path.stat().st_mtime_ns).get(name, np.array([1.0, 0.0, 0.0]))
+
+
+@functools.lru_cache(maxsize=8)
+def _file_axes(urdf: str, _mtime_ns: int) -> dict[str, Array]:
+    """Joint name -> unit axis, read once per file (and again if it changed)."""
+    axes = {}
+    for joint in read_xml(Path(urdf), "URDF").findall("joint"):
+        element = joint.find("axis")
+        axis = np.array([float(x) for x in element.get("xyz", "1 0 0").split()]) if element is not None else None
+        axes[str(joint.get("name"))] = np.array([1.0, 0, 0]) if axis is None else axis / np.linalg.norm(axis)
+    return axes
 
 
 def file_links(robot: Robot) -> names.FileLinks:

@@ -10,6 +10,7 @@ Units: mass [kg], centre of mass [m], rotational inertia about the centre of mas
 
 from __future__ import annotations
 
+import functools
 import os
 import tempfile
 import xml.etree.ElementTree as ET
@@ -99,6 +100,7 @@ def group_inertia(parts: Sequence[WorldBody], rotation: Array, origin: Array) ->
     return BodyInertia(tuple(p.link for p in parts), mass, rotation.T @ (com - origin), 0.5 * (local + local.T))
 
 
+@functools.lru_cache(maxsize=None)
 def engine_version(distribution: str) -> str:
     """The installed version of an engine's PyPI distribution (``mujoco``, ``pybullet``, ``drake``)."""
     from importlib.metadata import PackageNotFoundError, version

@@ -214,7 +214,8 @@ def main() -> None:
             or ", ".join(f"{r['engine']}/{r['reading']} {r['status']}" for r in row["readings"])
         )
         print(f"{row['file']}: {shown}", flush=True)
-    write_json(out, table, {"engines": list(engines), "samples": args.samples, "files": len(files), "rows": rows}, facts)
+    summary = {"engines": list(engines), "samples": args.samples, "files": len(files), "rows": rows}
+    write_json(out, table, summary, facts)
     print(f"wrote {out / table}.json: the benchmarks page renders its table (docs/hooks/robodyn_docs.py)")
 
 

@@ -59,7 +59,9 @@ def test_the_base_body_is_compared(folder: Path) -> None:
     assert drake.unexplained is None and len(drake.causes) == 1
     (cause,) = drake.causes
     assert cause.where == "trunk (root_joint)"
-    assert cause.what.startswith("physically invalid inertia of trunk in the file") and "drake replaces it" in cause.what
+    assert (
+        cause.what.startswith("physically invalid inertia of trunk in the file") and "drake replaces it" in cause.what
+    )
     assert cause.effect["M"] > 1e-3
 
 

@@ -100,7 +100,7 @@ def group_inertia(parts: Sequence[WorldBody], rotation: Array, origin: Array) ->
     return BodyInertia(tuple(p.link for p in parts), mass, rotation.T @ (com - origin), 0.5 * (local + local.T))
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def engine_version(distribution: str) -> str:
     """The installed version of an engine's PyPI distribution (``mujoco``, ``pybullet``, ``drake``)."""
     from importlib.metadata import PackageNotFoundError, version

@@ -130,6 +130,13 @@ CASES["invalid_base"] = FLOATING_BASE.replace(
     '<inertia ixx="0.0431" iyy="0.0527" izz="0.0389" ixy="0.0031" ixz="-0.0022" iyz="0.0017"/>',
     '<inertia ixx="1e-6" iyy="1e-6" izz="1e-6" ixy="1e-6" ixz="1e-6" iyz="1e-6"/>',
 )
+# The same robot under a root link named world, welded to the base at an offset (example-robot-data's TwoDofs.urdf does
+# this): MuJoCo takes a link named world as its world body, and its freejoint goes on the base, not the root link.
+CASES["world_root"] = FLOATING_BASE.replace(
+    '<link name="trunk">',
+    '<link name="world"/><joint name="world_to_trunk" type="fixed"><parent link="world"/><child link="trunk"/>'
+    '<origin xyz="0.031 -0.017 0.052" rpy="0.1 -0.2 -1.57"/></joint>\n  <link name="trunk">',
+)
 
 ROTOR_SRDF = """<?xml version="1.0"?>
 <robot name="arm"><rotor_params><joint name="joint2" mass="2e-6" gear_ratio="40"/></rotor_params></robot>

@@ -48,6 +48,15 @@ def test_a_rotated_off_centre_base_with_a_welded_sensor_agrees(folder: Path) -> 
     assert abs(q[6]) < 0.99 and np.abs(v[:6]).min() > 0.0
 
 
+def test_a_root_link_named_world_floats_in_mujoco_at_its_child(folder: Path) -> None:
+    # Pinocchio floats the root link `world`; MuJoCo's freejoint is on `trunk`, 0.06 m and a quarter turn away.
+    robot = robodyn.load(urdfs.write("world_root", folder), free_flyer=True)
+    assert robot.model.frames[robot.model.getFrameId("world")].parentJoint == 1
+    report = against(robot, "mujoco", samples=SAMPLES, rtol=RTOL)
+    assert report.status == "agree", report.rows()
+    assert _largest(report) < RTOL
+
+
 def test_the_base_body_is_compared(folder: Path) -> None:
     # Drake replaces a base link's physically invalid inertia (as it does ANYmal's and Go1's): the difference is in
     # the free flyer's body, and named; MuJoCo refuses the file with its own message.

@@ -72,13 +72,13 @@ def read(urdf: Path, package_dirs: Sequence[Path], reading: str, *, free_flyer: 
         reading=reading,
         option="compiler defaults" if reading == DEFAULT else TRUST_OPTION,
         names=names,
-        bodies=_bodies(model, data, free + joints),
+        bodies=_bodies(model, data, free + joints, free[0] if free else None),
         joints={model.joint(j).name: _joint(model, j) for j in joints},
         evaluate=_evaluator(model, data, joints, free[0] if free else None),
     )
 
 
-def _bodies(model: Any, data: Any, joints: list[int]) -> dict[str, BodyInertia]:
+def _bodies(model: Any, data: Any, joints: list[int], free: int | None) -> dict[str, BodyInertia]:
     """Per moving joint (the free joint among them), its body and the bodies welded below it, in its frame."""
     owner = {int(model.jnt_bodyid[j]): model.joint(j).name for j in joints}
     parts: dict[str, list[WorldBody]] = {name: [] for name in owner.values()}
@@ -97,8 +97,13 @@ def _bodies(model: Any, data: Any, joints: list[int]) -> dict[str, BodyInertia]:
                 R @ np.diag(model.body_inertia[b]) @ R.T,
             )
         )
+    # At qpos0 the free body sits at its placement in the root link's frame, which is the world's: the free flyer's
+    # body is expressed in the world's axes, as Pinocchio holds it in the root link's.
+    base = int(model.jnt_bodyid[free]) if free is not None else -1
     return {
-        name: group_inertia(parts[name], data.xmat[b].reshape(3, 3).copy(), data.xpos[b].copy())
+        name: group_inertia(parts[name], np.eye(3), np.zeros(3))
+        if b == base
+        else group_inertia(parts[name], data.xmat[b].reshape(3, 3).copy(), data.xpos[b].copy())
         for b, name in owner.items()
     }
 
@@ -126,14 +131,18 @@ def _evaluator(model: Any, data: Any, joints: list[int], free: int | None) -> An
 
     qadr = [int(model.jnt_qposadr[j]) for j in joints]
     vadr = [int(model.jnt_dofadr[j]) for j in joints]
+    offset = None
     if free is not None:  # the freejoint's 7 qpos and 6 qvel first
         qadr = [int(model.jnt_qposadr[free]) + i for i in range(7)] + qadr
         vadr = [int(model.jnt_dofadr[free]) + i for i in range(6)] + vadr
+        # the free body's placement in the root link's frame: its pose at qpos0 (MuJoCo data at qpos0)
+        body = int(model.jnt_bodyid[free])
+        offset = (data.xmat[body].reshape(3, 3).copy(), data.xpos[body].copy(), data.xquat[body].copy())
 
     def evaluate(q: Array, v: Array) -> tuple[Array, Array, Array]:
         u = v
         if free is not None:
-            base_q, base_u, T, drift = mujoco_base(q[:7], v[:6])
+            base_q, base_u, T, drift = mujoco_base(q[:7], v[:6], offset)
             q, u = np.concatenate([base_q, q[7:]]), np.concatenate([base_u, v[6:]])
         data.qpos[:] = model.qpos0
         data.qpos[qadr] = q

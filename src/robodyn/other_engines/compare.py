@@ -346,7 +346,9 @@ def _file_axes(urdf: str, _mtime_ns: int) -> dict[str, Array]:
     for joint in read_xml(Path(urdf), "URDF").findall("joint"):
         element = joint.find("axis")
         axis = np.array([float(x) for x in element.get("xyz", "1 0 0").split()]) if element is not None else None
-        axes[str(joint.get("name"))] = np.array([1.0, 0, 0]) if axis is None else axis / np.linalg.norm(axis)
+        if axis is None or not np.linalg.norm(axis) > 0:  # a fixed joint's axis may be (0, 0, 0): no direction
+            axis = np.array([1.0, 0.0, 0.0])
+        axes[str(joint.get("name"))] = axis / np.linalg.norm(axis)
     return axes
 
 

@@ -52,9 +52,13 @@ def test_a_root_link_named_world_floats_in_mujoco_at_its_child(folder: Path) -> 
     # Pinocchio floats the root link `world`; MuJoCo's freejoint is on `trunk`, 0.06 m and a quarter turn away.
     robot = robodyn.load(urdfs.write("world_root", folder), free_flyer=True)
     assert robot.model.frames[robot.model.getFrameId("world")].parentJoint == 1
-    report = against(robot, "mujoco", samples=SAMPLES, rtol=RTOL)
-    assert report.status == "agree", report.rows()
-    assert _largest(report) < RTOL
+    report = against(robot, ENGINES, samples=SAMPLES, rtol=RTOL)
+    mujoco = [c for c in report.comparisons if c.engine == "mujoco"]
+    assert [c.status for c in mujoco] == ["agree", "agree"], report.rows()
+    assert max(max(c.differences.values()) for c in mujoco) < RTOL
+    # Drake welds the robot to its world body `world`: nothing floats, and it says so
+    (drake,) = [c for c in report.comparisons if c.engine == "drake"]
+    assert drake.refused is not None and "takes the root link named world as its world body" in drake.refused
 
 
 def test_the_base_body_is_compared(folder: Path) -> None:

@@ -54,6 +54,11 @@ def read(
     joints = [plant.get_joint(i) for i in plant.GetJointIndices()]
     moving = [j for j in joints if j.num_velocities() == 1]
     free = [j for j in joints if j.num_velocities() == 6 and j.child_body().name() == root_link]
+    if free_flyer and root_link == "world":
+        raise EngineRefusedError(
+            f"drake refuses to float {urdf.name}: it takes the root link named world as its world body, the robot "
+            "is welded to it"
+        )
     if free_flyer and (len(free) != 1 or free[0].type_name() != "quaternion_floating"):
         kinds = ", ".join(j.type_name() for j in free) or "none"
         raise EngineRefusedError(f"drake gives {root_link} no quaternion_floating joint (it has: {kinds})")

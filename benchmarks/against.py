@@ -1,7 +1,7 @@
 """``robodyn check --against``: every URDF of example-robot-data and pybullet_data against each engine installed.
 
     python benchmarks/against.py [--sets erd,pybullet] [--engines mujoco,pybullet,drake] [--limit N]
-                                 [--samples 5] [--timeout 300] [--jobs 1] [--out bench-out]
+                                 [--samples 5] [--timeout 300] [--jobs 1] [--free-flyer] [--out bench-out]
     python benchmarks/against.py --merge ERD.json PYBULLET.json --out DIR
 
 For each file robodyn loads (fixed base, revolute, continuous and prismatic joints only), each installed
@@ -11,6 +11,10 @@ refuses, and any difference no cause explains; with robodyn's time (its load and
 included). Each file is compared in a forked child of this process (``--jobs`` of them at once), killed after
 ``--timeout`` seconds (a row marked ``timed out``), so one engine that hangs on a file does not end the survey.
 It writes ``against.json`` to ``--out`` after each file; the benchmarks page renders its table.
+
+With ``--free-flyer`` each file's root link floats (``robodyn.load(path, free_flyer=True)``), in MuJoCo (a
+``<freejoint>``) and Drake (its quaternion floating joint); PyBullet is left out (``--against pybullet`` compares
+fixed bases only), and the table is ``against_free_flyer.json``.
 """
 
 from __future__ import annotations
@@ -40,6 +44,7 @@ CAUSES = (
     "inertia rotation dropped",
     "inertia's off-diagonal terms dropped",
     "a diagonalisation",
+    "physically invalid inertia",
     "inertia rotated differently",
     "inertia changed by the URDF compiler",
     "rotational inertia read differently",
@@ -59,7 +64,7 @@ def cause_of(what: str) -> str:
     return next((c for c in CAUSES if what.startswith(c)), what.split(":")[0])
 
 
-def survey_file(path: Path, engines: tuple[str, ...], samples: int) -> dict[str, Any]:
+def survey_file(path: Path, engines: tuple[str, ...], samples: int, free_flyer: bool = False) -> dict[str, Any]:
     """One file's row: skipped (with why) or, per engine and reading, its status and causes."""
     import robodyn
     from robodyn.errors import RobodynError
@@ -69,8 +74,8 @@ def survey_file(path: Path, engines: tuple[str, ...], samples: int) -> dict[str,
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            robot = robodyn.load(path)
-        if robot.nv == 0 or any(j.nv != 1 for j in robot.joints):
+            robot = robodyn.load(path, free_flyer=free_flyer)
+        if robot.nv == 0 or any(j.nv != 1 for j in robot.joints[1 if free_flyer else 0 :]):
             return {**row, "skipped": "no moving joint" if robot.nv == 0 else "a joint other than 1-DoF"}
         report = robodyn.against(robot, engines, samples=samples)
     except RobodynError as exc:
@@ -95,7 +100,7 @@ def survey_file(path: Path, engines: tuple[str, ...], samples: int) -> dict[str,
 class Child:
     """One file compared in a forked child of this process; its row comes back through a temporary file."""
 
-    def __init__(self, path: Path, engines: tuple[str, ...], samples: int) -> None:
+    def __init__(self, path: Path, engines: tuple[str, ...], samples: int, free_flyer: bool) -> None:
         self.path, self.start = path, time.perf_counter()
         self.result = tempfile.TemporaryFile()
         sys.stdout.flush()
@@ -103,7 +108,7 @@ class Child:
         self.pid = os.fork()
         if self.pid == 0:  # the child: its row as JSON into the shared file
             try:
-                self.result.write(json.dumps(survey_file(path, engines, samples)).encode())
+                self.result.write(json.dumps(survey_file(path, engines, samples, free_flyer)).encode())
                 self.result.flush()
             finally:
                 os._exit(0)
@@ -126,12 +131,14 @@ class Child:
         return row
 
 
-def survey(files: list[Path], engines: tuple[str, ...], samples: int, timeout: float, jobs: int) -> Any:
+def survey(
+    files: list[Path], engines: tuple[str, ...], samples: int, timeout: float, jobs: int, free_flyer: bool
+) -> Any:
     """Each file's row, ``jobs`` files at once, yielded as each ends (the rows are put back in file order later)."""
     waiting, running = list(files), []
     while waiting or running:
         while waiting and len(running) < jobs:
-            running.append(Child(waiting.pop(0), engines, samples))
+            running.append(Child(waiting.pop(0), engines, samples, free_flyer))
         for child in list(running):
             row = child.row(timeout)
             if row is not None:
@@ -174,13 +181,16 @@ def main() -> None:
     parser.add_argument("--timeout", type=float, default=300.0, help="seconds per file before it is killed")
     parser.add_argument("--jobs", type=int, default=1, help="files compared at once, each in a child (default 1)")
     parser.add_argument("--merge", type=Path, nargs="+", help="write these saved surveys as one against.json, and stop")
+    parser.add_argument("--free-flyer", action="store_true", help="float each root link (MuJoCo and Drake only)")
     args = parser.parse_args()
+    table = "against_free_flyer" if args.free_flyer else "against"
     out = output_folder(args.out, overwrite_committed=args.overwrite_committed)
     if args.merge:
-        write_json(out, "against", merge(args.merge))
-        print(f"wrote {out / 'against.json'}: {len(args.merge)} surveys as one table")
+        write_json(out, table, merge(args.merge))
+        print(f"wrote {out / table}.json: {len(args.merge)} surveys as one table")
         return
-    engines = tuple(e for e in args.engines.split(",") if importlib.util.find_spec(_MODULES[e]) is not None)
+    wanted = [e for e in args.engines.split(",") if not (args.free_flyer and e == "pybullet")]
+    engines = tuple(e for e in wanted if importlib.util.find_spec(_MODULES[e]) is not None)
     facts = run_facts()
     import robodyn  # imported once, before the children fork, with each engine's module
 
@@ -193,21 +203,20 @@ def main() -> None:
         files += found[: args.limit] if args.limit else found
     rows: list[dict[str, Any]] = []
     order = {label_of(path): k for k, path in enumerate(files)}
-    for row in survey(files, engines, args.samples, args.timeout, args.jobs):
+    for row in survey(files, engines, args.samples, args.timeout, args.jobs, args.free_flyer):
         rows.append(row)
         rows.sort(key=lambda r: order[r["file"]])
         partial = {"engines": list(engines), "samples": args.samples, "files": len(files), "rows": rows}
-        write_json(out, "against", partial, dict(facts))  # after each file: a stopped survey keeps its rows
+        write_json(out, table, partial, dict(facts))  # after each file: a stopped survey keeps its rows
         shown = (
             row.get("skipped")
             or row.get("crashed")
             or ", ".join(f"{r['engine']}/{r['reading']} {r['status']}" for r in row["readings"])
         )
         print(f"{row['file']}: {shown}", flush=True)
-    write_json(
-        out, "against", {"engines": list(engines), "samples": args.samples, "files": len(files), "rows": rows}, facts
-    )
-    print(f"wrote {out / 'against.json'}: the benchmarks page renders its table (docs/hooks/robodyn_docs.py)")
+    summary = {"engines": list(engines), "samples": args.samples, "files": len(files), "rows": rows}
+    write_json(out, table, summary, facts)
+    print(f"wrote {out / table}.json: the benchmarks page renders its table (docs/hooks/robodyn_docs.py)")
 
 
 if __name__ == "__main__":

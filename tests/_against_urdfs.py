@@ -99,6 +99,45 @@ CASES = {
     ),
 }
 
+# A free-flying base with a rotated, non-diagonal inertia off its origin and a rotated sensor welded to it (merged
+# into the base by Pinocchio and by MuJoCo's defaults), carrying a revolute and a prismatic joint: non-round numbers
+# throughout, so that a wrong quaternion order or a velocity in the wrong frame shows in every block of M, C v, G.
+FLOATING_BASE = """<?xml version="1.0"?>
+<robot name="floating">
+  <link name="trunk"><inertial><origin xyz="0.0123 -0.0347 0.0561" rpy="0.31 -0.47 0.73"/><mass value="3.1416"/>
+    <inertia ixx="0.0431" iyy="0.0527" izz="0.0389" ixy="0.0031" ixz="-0.0022" iyz="0.0017"/></inertial></link>
+  <link name="sensor"><inertial><origin xyz="0.021 0.013 -0.008" rpy="-0.2 0.5 0.35"/><mass value="0.2718"/>
+    <inertia ixx="0.00041" iyy="0.00033" izz="0.00029" ixy="0.00004" ixz="-0.00002" iyz="0.00003"/></inertial></link>
+  <link name="arm"><inertial><origin xyz="0.017 0.004 -0.137" rpy="0.11 0.07 -0.23"/><mass value="0.7071"/>
+    <inertia ixx="0.0047" iyy="0.0051" izz="0.0009" ixy="0.0002" ixz="0.0003" iyz="-0.0001"/></inertial></link>
+  <link name="slider"><inertial><origin xyz="0.003 -0.011 0.027"/><mass value="0.3183"/>
+    <inertia ixx="0.00023" iyy="0.00019" izz="0.00017" ixy="0.00001" ixz="0" iyz="0.00002"/></inertial></link>
+  <joint name="sensor_mount" type="fixed"><parent link="trunk"/><child link="sensor"/>
+    <origin xyz="0.113 0.027 0.041" rpy="0.6 -0.1 1.2"/></joint>
+  <joint name="shoulder" type="revolute"><parent link="trunk"/><child link="arm"/>
+    <origin xyz="0.071 -0.093 -0.029" rpy="0.23 -0.41 0.17"/><axis xyz="0.267 0.535 0.802"/>
+    <limit lower="-2.1" upper="2.3" effort="7" velocity="4"/></joint>
+  <joint name="slide" type="prismatic"><parent link="arm"/><child link="slider"/>
+    <origin xyz="0.009 0.012 -0.247" rpy="-0.37 0.29 0.05"/><axis xyz="0 0.6 0.8"/>
+    <limit lower="-0.1" upper="0.15" effort="20" velocity="1"/></joint>
+</robot>
+"""
+CASES["floating_base"] = FLOATING_BASE
+# The same base, its own inertia broken (every entry 1e-6 kg m^2: principal moments 0, 0, 3e-6, as ANYmal's and Go1's
+# base links have), the sensor's mass keeping the merged body valid: an engine that replaces the link's inertia
+# changes the base.
+CASES["invalid_base"] = FLOATING_BASE.replace(
+    '<inertia ixx="0.0431" iyy="0.0527" izz="0.0389" ixy="0.0031" ixz="-0.0022" iyz="0.0017"/>',
+    '<inertia ixx="1e-6" iyy="1e-6" izz="1e-6" ixy="1e-6" ixz="1e-6" iyz="1e-6"/>',
+)
+# The same robot under a root link named world, welded to the base at an offset (example-robot-data's TwoDofs.urdf does
+# this): MuJoCo takes a link named world as its world body, and its freejoint goes on the base, not the root link.
+CASES["world_root"] = FLOATING_BASE.replace(
+    '<link name="trunk">',
+    '<link name="world"/><joint name="world_to_trunk" type="fixed"><parent link="world"/><child link="trunk"/>'
+    '<origin xyz="0.031 -0.017 0.052" rpy="0.1 -0.2 -1.57"/></joint>\n  <link name="trunk">',
+)
+
 ROTOR_SRDF = """<?xml version="1.0"?>
 <robot name="arm"><rotor_params><joint name="joint2" mass="2e-6" gear_ratio="40"/></rotor_params></robot>
 """

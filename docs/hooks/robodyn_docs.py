@@ -1073,6 +1073,7 @@ RENDERERS: dict[str, Callable[[dict[str, Any]], str]] = {
     "world_urdfs": _world_urdfs,
     "world_urdfs_corpora": _world_corpora,
     "against": _against,
+    "against_free_flyer": _against,
     "first_run": _first_run,
 }
 

@@ -47,8 +47,6 @@ def run_against(args: argparse.Namespace) -> int:
     given = [f"--{name}" for name in _IGNORED if getattr(args, name, None) not in (None, False)]
     if given:
         raise InputError(f"--against compares engines' readings of the file; {given[0]} belongs to a formula check")
-    if args.free_flyer:
-        raise InputError("--against compares fixed-base robots; --free-flyer is not supported with it")
     reports = []
     for name in args.models:
         robot = load_robot(args, name)

@@ -6,7 +6,7 @@ each cause's effect on M, C v and G by applying it to robodyn's copy of the mode
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -17,12 +17,29 @@ from robodyn.other_engines.reading import DEFAULT, Array, BodyInertia, JointRead
 DIAGONALISATION_RTOL = 1e-4
 
 
+# Principal moments a <= b <= c are physically valid when a >= 0 and a + b >= c; within this fraction of c, a file's
+# rounding (a thin rod's 0, I, I written to 6 digits), not an invalid inertia.
+VALIDITY_RTOL = 1e-9
+
+
 @dataclass(frozen=True)
 class FileLinks:
-    """What the URDF says of its links: those without ``<inertial>`` and those with mass 0."""
+    """What the URDF says of its links: those without ``<inertial>``, with mass 0, with an invalid inertia.
+
+    ``invalid``: link -> its principal moments [kg m^2] where one is negative or they break the triangle
+    inequality (Drake substitutes such an inertia; MuJoCo refuses it).
+    """
 
     no_inertial: frozenset[str]
     zero_mass: frozenset[str]
+    invalid: dict[str, Array] = field(default_factory=dict)
+
+
+def invalid_moments(inertia: Array) -> Array | None:
+    """The principal moments of ``inertia`` [kg m^2] if they are not physically valid, else None."""
+    a, b, c = _moments(inertia)
+    slack = VALIDITY_RTOL * max(abs(c), 1e-300)
+    return np.array([a, b, c]) if a < -slack or a + b < c - slack else None
 
 
 @dataclass(frozen=True)
@@ -65,6 +82,14 @@ def body_cause(
         return f"mass read differently{merged} ({sizes})", None
     if moved > tol.length:
         return f"centre of mass read differently{merged} (moved by {moved:.3g} m)", None
+    broken = [link for link in mine.links if link in links.invalid]
+    if broken:
+        moments = ", ".join(f"{m:.3g}" for m in links.invalid[broken[0]])
+        return (
+            f"physically invalid inertia of {broken[0]} in the file (principal moments {moments} kg m^2): "
+            f"{engine} replaces it{merged}",
+            None,
+        )
     return _inertia_cause(engine, reading, mine.inertia, theirs.inertia, tol.inertia, merged)
 
 

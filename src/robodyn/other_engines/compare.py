@@ -9,8 +9,10 @@ together must reproduce the engine: whatever is left is reported as unexplained.
 
 from __future__ import annotations
 
+import functools
 import time
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -53,7 +55,8 @@ def against(
     """Compare robodyn's reading of ``robot``'s URDF with each engine's, naming the cause of each difference.
 
     Args:
-        robot: a fixed-base robot loaded from a URDF (built-in, example-robot-data or a path).
+        robot: a robot loaded from a URDF (built-in, example-robot-data or a path), fixed base or with
+            ``free_flyer=True`` (mapped to each engine's floating base: :mod:`robodyn.other_engines.floating`).
         engines: ``"mujoco"``, ``"pybullet"``, ``"drake"`` or a sequence of them.
         samples: number of seeded random states at which M, C v and G are compared.
         seed: seed of those states.
@@ -64,7 +67,8 @@ def against(
     Raises:
         UnknownNameError: an engine that is not one of mujoco, pybullet, drake.
         MissingDependencyError: an engine that is not installed (the message names the extra).
-        InputError: a robot without a URDF file, or with a joint other than revolute, continuous, prismatic.
+        InputError: a robot without a URDF file, or with a joint other than revolute, continuous, prismatic
+            (and a free flyer at its root); a free flyer compared with PyBullet.
     """
     start = time.perf_counter()
     chosen = (engines,) if isinstance(engines, str) else tuple(engines)
@@ -72,7 +76,7 @@ def against(
         if engine not in ENGINES:
             raise UnknownNameError("engine", engine, ENGINES)
         require(_MODULES[engine], engine)
-    _require_tree(robot)
+    _require_tree(robot, chosen)
     rng = np.random.default_rng(seed)
     states = [robot.random_state(rng) for _ in range(samples)]
     mine = _evaluate(robot.model, robot, states)
@@ -85,15 +89,31 @@ def against(
     return AgainstReport(robot.name, rtol, samples, seed, comparisons, time.perf_counter() - start)
 
 
-def _require_tree(robot: Robot) -> None:
+def _require_tree(robot: Robot, engines: Sequence[str]) -> None:
     if robot.urdf_path is None:
         raise InputError(f"{robot.name}: --against reads the robot's URDF file, and this robot has none")
-    odd = [j.name for j in robot.joints if j.nv != 1]
+    odd = [j.name for j in robot.joints[1 if free_flyer(robot) else 0 :] if j.nv != 1]
     if odd:
         raise InputError(
-            f"{robot.name}: joint {odd[0]} has {robot.joint(odd[0]).nv} velocities; --against compares fixed-base "
-            "robots whose joints are revolute, continuous or prismatic (no --free-flyer)"
+            f"{robot.name}: joint {odd[0]} has {robot.joint(odd[0]).nv} velocities; --against compares robots whose "
+            "joints are revolute, continuous or prismatic, on a fixed base or a free flyer (--free-flyer)"
         )
+    if free_flyer(robot) and "pybullet" in engines:
+        raise InputError(
+            f"{robot.name}: --against pybullet compares fixed-base robots only: PyBullet 3.2.7 gives no floating "
+            "base's C v and G (calculateInverseDynamics fails on it; with flags=1 its mass matrix is not symmetric "
+            "and the call corrupts memory); drop --free-flyer, or compare with mujoco or drake"
+        )
+
+
+def free_flyer(robot: Robot) -> bool:
+    """Whether ``robot``'s root is Pinocchio's free flyer (robodyn's ``--free-flyer``)."""
+    return bool(robot.joints) and robot.joints[0].kind == "JointModelFreeFlyer"
+
+
+def _hinges(robot: Robot) -> tuple[str, ...]:
+    """The joints with one velocity (revolute, continuous, prismatic): all but a free flyer."""
+    return robot.joint_names[1:] if free_flyer(robot) else robot.joint_names
 
 
 def _kind(robot: Robot, name: str) -> str:
@@ -102,9 +122,10 @@ def _kind(robot: Robot, name: str) -> str:
 
 
 def _scalars(robot: Robot, q: Array) -> Array:
-    """One coordinate per joint: a continuous joint's (cos, sin) becomes its angle [rad]."""
+    """One coordinate per one-velocity joint: a continuous joint's (cos, sin) becomes its angle [rad]."""
     out = []
-    for j in robot.joints:
+    for name in _hinges(robot):
+        j = robot.joint(name)
         out.append(np.arctan2(q[j.idx_q + 1], q[j.idx_q]) if j.nq == 2 else q[j.idx_q])
     return np.array(out)
 
@@ -135,22 +156,24 @@ def _read(robot: Robot, engine: str, reading: str) -> EngineReading:
 
     assert robot.urdf_path is not None  # checked by _require_tree
     dirs = package_dirs(robot.urdf_path)
+    free = free_flyer(robot)
     if engine == "mujoco":
         from robodyn.other_engines import mujoco_side
 
-        return mujoco_side.read(robot.urdf_path, dirs, reading)
+        return mujoco_side.read(robot.urdf_path, dirs, reading, free_flyer=free)
     if engine == "pybullet":
         from robodyn.other_engines import pybullet_side
 
         return pybullet_side.read(robot.urdf_path, dirs, reading)
     from robodyn.other_engines import drake_side
 
-    return drake_side.read(robot.urdf_path, dirs, reading, root_link=_root_link(robot))
+    return drake_side.read(robot.urdf_path, dirs, reading, root_link=_root_link(robot), free_flyer=free)
 
 
 def _root_link(robot: Robot) -> str:
-    model = robot.model
-    return next(str(f.name) for f in model.frames if f.parentJoint == 0 and str(f.type).endswith("BODY"))
+    """The URDF's root link: the first body frame on the universe (fixed base) or on the free flyer."""
+    model, root = robot.model, 1 if free_flyer(robot) else 0
+    return next(str(f.name) for f in model.frames if f.parentJoint == root and str(f.type).endswith("BODY"))
 
 
 def _compare(
@@ -161,15 +184,20 @@ def _compare(
         theirs = _read(robot, engine, reading)
     except EngineRefusedError as exc:
         return Comparison(engine, "", reading, "", {}, (), None, str(exc), time.perf_counter() - start)
-    if set(theirs.names) != set(robot.joint_names):
-        told = f"{engine} moves joints {sorted(theirs.names)}, robodyn {sorted(robot.joint_names)}"
+    hinges = _hinges(robot)
+    if set(theirs.names) != set(hinges):
+        told = f"{engine} moves joints {sorted(theirs.names)}, robodyn {sorted(hinges)}"
         return Comparison(
             engine, theirs.version, reading, theirs.option, {}, (), None, told, time.perf_counter() - start
         )
-    order = [theirs.names.index(name) for name in robot.joint_names]
+    base = 6 if free_flyer(robot) else 0  # a free flyer's 6 velocities come first, in Pinocchio's coordinates
+    within = [theirs.names.index(name) for name in hinges]
+    order = list(range(base)) + [base + i for i in within]
     values: dict[str, list[Array]] = {k: [] for k in QUANTITIES}
     for q, v in states:
-        M, Cv, G = theirs.evaluate(_scalars(robot, q)[np.argsort(order)], v[np.argsort(order)])
+        head = q[:7] if base else q[:0]  # Pinocchio's free-flyer q: [x y z qx qy qz qw]
+        engine_q = np.concatenate([head, _scalars(robot, q)[np.argsort(within)]])
+        M, Cv, G = theirs.evaluate(engine_q, v[np.argsort(order)])
         for k, x in zip(QUANTITIES, (M[np.ix_(order, order)], Cv[order], G[order]), strict=True):
             values[k].append(x)
     engine_values = {k: np.array(x) for k, x in values.items()}
@@ -230,7 +258,7 @@ def _causes(
     tol = _tolerances(bodies, rtol)
     links = file_links(robot)
     everything = robot.model.copy()
-    found = []
+    found, patched = [], False
     for name in robot.joint_names:
         j = robot.model.getJointId(name)
         said = names.body_cause(theirs.engine, theirs.reading, bodies[name], theirs.bodies[name], links, tol)
@@ -238,8 +266,11 @@ def _causes(
             patch = robot.model.copy()
             _set_inertia(patch, j, theirs.bodies[name])
             _set_inertia(everything, j, theirs.bodies[name])
+            patched = True
             effect = _effect(_evaluate(patch, robot, states), mine, scale, rtol)
             found.append(Cause(f"{bodies[name].links[0]} ({name})", said[0], said[1], effect))
+        if name not in theirs.joints:
+            continue  # the free flyer: a body, with no axis, limits or armature
         joint = robot.joint(name)
         for what, option in names.joint_causes(
             theirs.engine, _kind(robot, name), robodyn_joint(robot, name), theirs.joints[name]
@@ -248,9 +279,10 @@ def _causes(
             if what.startswith("armature"):
                 patch = robot.model.copy()
                 patch.armature[joint.idx_v] = everything.armature[joint.idx_v] = theirs.joints[name].armature
+                patched = True
                 effect = _effect(_evaluate(patch, robot, states), mine, scale, rtol)
             found.append(Cause(name, what, option, effect))
-    return found, _evaluate(everything, robot, states)
+    return found, _evaluate(everything, robot, states) if patched else mine
 
 
 def _set_inertia(model: Any, joint: int, body: BodyInertia) -> None:
@@ -304,29 +336,42 @@ def _limit(value: float) -> float:
 def _axis(robot: Robot, name: str) -> Array:
     """The unit axis the URDF gives ``name`` (robodyn's validated reading of the file)."""
     assert robot.urdf_path is not None  # checked by _require_tree
-    for joint in read_xml(robot.urdf_path, "URDF").findall("joint"):
-        if joint.get("name") == name:
-            element = joint.find("axis")
-            axis = (
-                np.array([float(x) for x in element.get("xyz", "1 0 0").split()])
-                if element is not None
-                else np.array([1.0, 0, 0])
-            )
-            return axis / np.linalg.norm(axis)
-    return np.array([1.0, 0.0, 0.0])
+    return _file_axes(str(robot.urdf_path), robot.urdf_path.stat().st_mtime_ns).get(name, np.array([1.0, 0.0, 0.0]))
+
+
+@functools.lru_cache(maxsize=8)
+def _file_axes(urdf: str, _mtime_ns: int) -> dict[str, Array]:
+    """Joint name -> unit axis, read once per file (and again if it changed)."""
+    axes = {}
+    for joint in read_xml(Path(urdf), "URDF").findall("joint"):
+        element = joint.find("axis")
+        axis = np.array([float(x) for x in element.get("xyz", "1 0 0").split()]) if element is not None else None
+        if axis is None or not np.linalg.norm(axis) > 0:  # a fixed joint's axis may be (0, 0, 0): no direction
+            axis = np.array([1.0, 0.0, 0.0])
+        axes[str(joint.get("name"))] = axis / np.linalg.norm(axis)
+    return axes
 
 
 def file_links(robot: Robot) -> names.FileLinks:
-    """The URDF's links without ``<inertial>`` and those whose mass is 0."""
+    """The URDF's links without ``<inertial>``, those whose mass is 0 and those whose inertia is invalid."""
     assert robot.urdf_path is not None  # checked by _require_tree
-    lacking, zero = set(), set()
+    lacking, zero, invalid = set(), set(), {}
     for link in read_xml(robot.urdf_path, "URDF").findall("link"):
         mass = link.find("inertial/mass")
+        inertia = link.find("inertial/inertia")
         if link.find("inertial") is None:
             lacking.add(str(link.get("name")))
         elif mass is not None and float(mass.get("value", "0")) == 0.0:
             zero.add(str(link.get("name")))
-    return names.FileLinks(frozenset(lacking), frozenset(zero))
+        if inertia is not None:
+            i = {k: float(inertia.get(k, "0")) for k in ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")}
+            matrix = np.array(
+                [[i["ixx"], i["ixy"], i["ixz"]], [i["ixy"], i["iyy"], i["iyz"]], [i["ixz"], i["iyz"], i["izz"]]]
+            )
+            moments = names.invalid_moments(matrix)
+            if moments is not None:
+                invalid[str(link.get("name"))] = moments
+    return names.FileLinks(frozenset(lacking), frozenset(zero), invalid)
 
 
 def _tolerances(bodies: dict[str, BodyInertia], rtol: float) -> names.Tolerances:

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from robodyn.errors import EngineRefusedError
+from robodyn.other_engines.floating import FREE_FLYER, drake_base, to_pinocchio
 from robodyn.other_engines.reading import (
     Array,
     BodyInertia,
@@ -29,8 +30,13 @@ from robodyn.other_engines.reading import (
 )
 
 
-def read(urdf: Path, package_dirs: Sequence[Path], reading: str, *, root_link: str) -> EngineReading:
-    """Load ``urdf`` into a ``MultibodyPlant`` with ``root_link`` welded to the world."""
+def read(
+    urdf: Path, package_dirs: Sequence[Path], reading: str, *, root_link: str, free_flyer: bool = False
+) -> EngineReading:
+    """Load ``urdf`` into a ``MultibodyPlant`` with ``root_link`` welded to the world, or floating (``free_flyer``).
+
+    A floating root link is Drake's default: ``Finalize`` gives it a ``quaternion_floating`` joint.
+    """
     require("pydrake", "drake")
     from pydrake.multibody.parsing import Parser
     from pydrake.multibody.plant import MultibodyPlant
@@ -39,28 +45,40 @@ def read(urdf: Path, package_dirs: Sequence[Path], reading: str, *, root_link: s
     with portable_copy(urdf, package_dirs) as path, _unsupported_tags_unsaid():
         try:
             Parser(plant).AddModels(path)
-            plant.WeldFrames(plant.world_frame(), plant.GetBodyByName(root_link).body_frame())
+            if not free_flyer:
+                plant.WeldFrames(plant.world_frame(), plant.GetBodyByName(root_link).body_frame())
             plant.Finalize()
         except (RuntimeError, ValueError) as exc:
             raise EngineRefusedError(f"drake refuses {urdf.name}: {' '.join(str(exc).split())}") from None
     context = plant.CreateDefaultContext()
     joints = [plant.get_joint(i) for i in plant.GetJointIndices()]
     moving = [j for j in joints if j.num_velocities() == 1]
+    free = [j for j in joints if j.num_velocities() == 6 and j.child_body().name() == root_link]
+    if free_flyer and root_link == "world":
+        raise EngineRefusedError(
+            f"drake refuses to float {urdf.name}: it takes the root link named world as its world body, the robot "
+            "is welded to it"
+        )
+    if free_flyer and (len(free) != 1 or free[0].type_name() != "quaternion_floating"):
+        kinds = ", ".join(j.type_name() for j in free) or "none"
+        raise EngineRefusedError(f"drake gives {root_link} no quaternion_floating joint (it has: {kinds})")
     return EngineReading(
         engine="drake",
         version=engine_version("drake"),
         reading=reading,
         option="Parser defaults; Drake has no option that changes how it reads inertia",
         names=tuple(j.name() for j in moving),
-        bodies=_bodies(plant, context, joints, moving),
+        bodies=_bodies(plant, context, joints, moving, free),
         joints={j.name(): _joint(plant, j) for j in moving},
-        evaluate=_evaluator(plant, context, moving),
+        evaluate=_evaluator(plant, context, moving, free[0] if free_flyer else None),
     )
 
 
-def _bodies(plant: Any, context: Any, joints: list[Any], moving: list[Any]) -> dict[str, BodyInertia]:
+def _bodies(plant: Any, context: Any, joints: list[Any], moving: list[Any], free: list[Any]) -> dict[str, BodyInertia]:
+    """Per moving joint (a floating base as Pinocchio's root_joint), its body and those welded below it."""
     inbound = {int(j.child_body().index()): j for j in joints}
     owner = {int(j.child_body().index()): j.name() for j in moving}
+    owner |= {int(j.child_body().index()): FREE_FLYER for j in free}
     parts: dict[str, list[WorldBody]] = {name: [] for name in owner.values()}
     frames = {}
     for b in range(1, plant.num_bodies()):
@@ -126,19 +144,27 @@ def _joint(plant: Any, joint: Any) -> JointReading:
     )
 
 
-def _evaluator(plant: Any, context: Any, moving: list[Any]) -> Any:
-    qadr = np.array([j.position_start() for j in moving])
-    vadr = np.array([j.velocity_start() for j in moving])
+def _evaluator(plant: Any, context: Any, moving: list[Any], free: Any) -> Any:
+    """M, C v, G at (q, v); with a floating base, q and v begin with the base's in Pinocchio's convention."""
+    qadr = [j.position_start() for j in moving]
+    vadr = [j.velocity_start() for j in moving]
+    if free is not None:  # the quaternion_floating joint's 7 positions and 6 velocities first
+        qadr = [free.position_start() + i for i in range(7)] + qadr
+        vadr = [free.velocity_start() + i for i in range(6)] + vadr
 
     def evaluate(q: Array, v: Array) -> tuple[Array, Array, Array]:
+        u = v
+        if free is not None:
+            base_q, base_u, T, drift = drake_base(q[:7], v[:6])
+            q, u = np.concatenate([base_q, q[7:]]), np.concatenate([base_u, v[6:]])
         positions = np.zeros(plant.num_positions())
         velocities = np.zeros(plant.num_velocities())
-        positions[qadr], velocities[vadr] = q, v
+        positions[qadr], velocities[vadr] = q, u
         plant.SetPositions(context, positions)
         plant.SetVelocities(context, velocities)
         M = plant.CalcMassMatrix(context)[np.ix_(vadr, vadr)]
         Cv = plant.CalcBiasTerm(context)[vadr]
         G = -plant.CalcGravityGeneralizedForces(context)[vadr]
-        return M, Cv, G
+        return to_pinocchio(M, Cv, G, T, drift) if free is not None else (M, Cv, G)
 
     return evaluate

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from robodyn.errors import EngineRefusedError
+from robodyn.other_engines.floating import FREE_FLYER, mujoco_base, to_pinocchio
 from robodyn.other_engines.reading import (
     DEFAULT,
     Array,
@@ -35,8 +36,12 @@ TRUST = {"fusestatic": "false", "balanceinertia": "false", "inertiafromgeom": "f
 TRUST_OPTION = '<mujoco><compiler fusestatic="false" balanceinertia="false" inertiafromgeom="false"/></mujoco>'
 
 
-def read(urdf: Path, package_dirs: Sequence[Path], reading: str) -> EngineReading:
-    """Load ``urdf`` into MuJoCo (fixed base) with its defaults (``reading="default"``) or trusting the file."""
+def read(urdf: Path, package_dirs: Sequence[Path], reading: str, *, free_flyer: bool = False) -> EngineReading:
+    """Load ``urdf`` into MuJoCo with its defaults (``reading="default"``) or trusting the file.
+
+    Fixed base, as MuJoCo's URDF compiler mounts the root link; with ``free_flyer`` the root body gets a
+    ``<freejoint name="root_joint">``, as a MuJoCo user adds one to the model the compiler makes.
+    """
     require("mujoco", "mujoco")
     import mujoco
 
@@ -45,7 +50,10 @@ def read(urdf: Path, package_dirs: Sequence[Path], reading: str) -> EngineReadin
     extension.append(compiler)
     with portable_copy(urdf, package_dirs, extension) as path:
         try:
-            model = mujoco.MjModel.from_xml_path(str(path))
+            spec = mujoco.MjSpec.from_file(str(path))
+            if free_flyer:
+                spec.worldbody.first_body().add_freejoint(name=FREE_FLYER)
+            model = spec.compile()
         except ValueError as exc:
             said = " ".join(str(exc).split())
             raise EngineRefusedError(f"mujoco {mujoco.__version__} refuses {urdf.name}: {said}") from None
@@ -56,6 +64,7 @@ def read(urdf: Path, package_dirs: Sequence[Path], reading: str) -> EngineReadin
         for j in range(model.njnt)
         if int(model.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
     ]
+    free = [j for j in range(model.njnt) if int(model.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_FREE)]
     names = tuple(model.joint(j).name for j in joints)
     return EngineReading(
         engine="mujoco",
@@ -63,14 +72,14 @@ def read(urdf: Path, package_dirs: Sequence[Path], reading: str) -> EngineReadin
         reading=reading,
         option="compiler defaults" if reading == DEFAULT else TRUST_OPTION,
         names=names,
-        bodies=_bodies(model, data, joints),
+        bodies=_bodies(model, data, free + joints, free[0] if free else None),
         joints={model.joint(j).name: _joint(model, j) for j in joints},
-        evaluate=_evaluator(model, data, joints),
+        evaluate=_evaluator(model, data, joints, free[0] if free else None),
     )
 
 
-def _bodies(model: Any, data: Any, joints: list[int]) -> dict[str, BodyInertia]:
-    """Per moving joint, its body and the bodies welded below it, in the joint body's frame."""
+def _bodies(model: Any, data: Any, joints: list[int], free: int | None) -> dict[str, BodyInertia]:
+    """Per moving joint (the free joint among them), its body and the bodies welded below it, in its frame."""
     owner = {int(model.jnt_bodyid[j]): model.joint(j).name for j in joints}
     parts: dict[str, list[WorldBody]] = {name: [] for name in owner.values()}
     for b in range(1, model.nbody):
@@ -88,8 +97,13 @@ def _bodies(model: Any, data: Any, joints: list[int]) -> dict[str, BodyInertia]:
                 R @ np.diag(model.body_inertia[b]) @ R.T,
             )
         )
+    # At qpos0 the free body sits at its placement in the root link's frame, which is the world's: the free flyer's
+    # body is expressed in the world's axes, as Pinocchio holds it in the root link's.
+    base = int(model.jnt_bodyid[free]) if free is not None else -1
     return {
-        name: group_inertia(parts[name], data.xmat[b].reshape(3, 3).copy(), data.xpos[b].copy())
+        name: group_inertia(parts[name], np.eye(3), np.zeros(3))
+        if b == base
+        else group_inertia(parts[name], data.xmat[b].reshape(3, 3).copy(), data.xpos[b].copy())
         for b, name in owner.items()
     }
 
@@ -111,13 +125,25 @@ def _joint(model: Any, j: int) -> JointReading:
     )
 
 
-def _evaluator(model: Any, data: Any, joints: list[int]) -> Any:
+def _evaluator(model: Any, data: Any, joints: list[int], free: int | None) -> Any:
+    """M, C v, G at (q, v); with a free joint, q and v begin with the base's in Pinocchio's convention."""
     import mujoco
 
-    qadr = np.array([model.jnt_qposadr[j] for j in joints])
-    vadr = np.array([model.jnt_dofadr[j] for j in joints])
+    qadr = [int(model.jnt_qposadr[j]) for j in joints]
+    vadr = [int(model.jnt_dofadr[j]) for j in joints]
+    offset = None
+    if free is not None:  # the freejoint's 7 qpos and 6 qvel first
+        qadr = [int(model.jnt_qposadr[free]) + i for i in range(7)] + qadr
+        vadr = [int(model.jnt_dofadr[free]) + i for i in range(6)] + vadr
+        # the free body's placement in the root link's frame: its pose at qpos0 (MuJoCo data at qpos0)
+        body = int(model.jnt_bodyid[free])
+        offset = (data.xmat[body].reshape(3, 3).copy(), data.xpos[body].copy(), data.xquat[body].copy())
 
     def evaluate(q: Array, v: Array) -> tuple[Array, Array, Array]:
+        u = v
+        if free is not None:
+            base_q, base_u, T, drift = mujoco_base(q[:7], v[:6], offset)
+            q, u = np.concatenate([base_q, q[7:]]), np.concatenate([base_u, v[6:]])
         data.qpos[:] = model.qpos0
         data.qpos[qadr] = q
         data.qvel[:] = 0.0
@@ -125,8 +151,9 @@ def _evaluator(model: Any, data: Any, joints: list[int]) -> Any:
         G = data.qfrc_bias[vadr].copy()
         full = np.zeros((model.nv, model.nv))
         mujoco.mj_fullM(model, data, full)
-        data.qvel[vadr] = v
+        data.qvel[vadr] = u
         mujoco.mj_forward(model, data)
-        return full[np.ix_(vadr, vadr)], data.qfrc_bias[vadr] - G, G
+        M, Cv = full[np.ix_(vadr, vadr)], data.qfrc_bias[vadr] - G
+        return to_pinocchio(M, Cv, G, T, drift) if free is not None else (M, Cv, G)
 
     return evaluate

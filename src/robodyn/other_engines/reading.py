@@ -10,6 +10,7 @@ Units: mass [kg], centre of mass [m], rotational inertia about the centre of mas
 
 from __future__ import annotations
 
+import functools
 import os
 import tempfile
 import xml.etree.ElementTree as ET
@@ -24,7 +25,9 @@ from numpy.typing import NDArray
 from robodyn.errors import MissingDependencyError
 
 Array = NDArray[np.float64]
-# (q, v) of the moving joints in the order of ``EngineReading.names`` -> (M, C v, G) in that order.
+# (q, v) of the moving joints in the order of ``EngineReading.names`` -> (M, C v, G) in that order. With a free
+# flyer, q and v begin with its 7 coordinates and 6 velocities in Pinocchio's convention, and so do M, C v, G
+# (robodyn.other_engines.floating maps them).
 Evaluate = Callable[[Array, Array], tuple[Array, Array, Array]]
 
 ENGINES = ("mujoco", "pybullet", "drake")
@@ -97,6 +100,7 @@ def group_inertia(parts: Sequence[WorldBody], rotation: Array, origin: Array) ->
     return BodyInertia(tuple(p.link for p in parts), mass, rotation.T @ (com - origin), 0.5 * (local + local.T))
 
 
+@functools.cache
 def engine_version(distribution: str) -> str:
     """The installed version of an engine's PyPI distribution (``mujoco``, ``pybullet``, ``drake``)."""
     from importlib.metadata import PackageNotFoundError, version

@@ -295,7 +295,7 @@ def test_a_long_run_says_how_far_it_got_every_ten_seconds() -> None:
     """Every PROGRESS_EVERY seconds after the run's first steps; a first compile before them (97 s here) prints none."""
     import io
 
-    from robodyn.cli.simulate import PROGRESS_EVERY, ProgressLines
+    from robodyn.cli._progress import PROGRESS_EVERY, ProgressLines
 
     first = 97.0  # the first steps end after a compile: the documented output of a short run stays as it is
     ticks = iter([first, first + 3.0, first + PROGRESS_EVERY + 0.5, first + PROGRESS_EVERY + 2.0, first + 21.0])
@@ -314,7 +314,7 @@ def test_a_step_that_takes_long_is_still_reported() -> None:
     import io
     import time
 
-    from robodyn.cli.simulate import ProgressLines
+    from robodyn.cli._progress import ProgressLines
 
     stream = io.StringIO()
     lines = ProgressLines(stream, 0.5, every=0.2)
@@ -332,7 +332,7 @@ def test_a_compile_inside_a_run_is_left_to_its_notes() -> None:
     import io
     import time
 
-    from robodyn.cli.simulate import ProgressLines
+    from robodyn.cli._progress import ProgressLines
     from robodyn.engine import jit
 
     stream = io.StringIO()

@@ -19,6 +19,7 @@ that waits. numba is imported on first use, never at ``import robodyn``.
 from __future__ import annotations
 
 import hashlib
+import os
 import shutil
 import time
 import warnings
@@ -54,6 +55,12 @@ IN_USE_S = 3600.0
 HASH_CHARS = 16  # of the sources' sha256 in the key: 64 bits, no two edits alike in practice
 
 WARMUP_HINT = "once per machine and robodyn version; `robodyn warmup` does it ahead"
+
+# numba's type inference formats (and colours, with colorama) a message for every overload it
+# tries and rejects: about 20,000 while the tree kernels compile, 5 s of CPU of a 34 s first run
+# (measured). Without colour the messages are the same text. Read when numba is first imported,
+# which no module does before this one (robodyn.engine imports it); a user's own setting stands.
+os.environ.setdefault("NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING", "1")
 
 
 def cache_key(version: str, root: Path) -> str:

@@ -183,9 +183,7 @@ def kinematics(itree, ftree, grav, flyer, q, v, ws):  # type: ignore[no-untyped-
     kinetic = 0.0
     potential = 0.0
     start = 0
-    if (
-        flyer is not None and n > 0 and itree[0, 1] == FREEFLYER
-    ):  # the root of the whole tree (tree.unsupported checks it)
+    if flyer is not None and n > 0 and itree[0, 1] == FREEFLYER:  # the tree's root (tree.unsupported checks it)
         kinetic, potential = ff_kinematics(itree, ftree, grav, q, v, ws)
         start = 1
     for i in range(start, n):

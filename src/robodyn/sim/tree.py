@@ -35,6 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from robodyn import dynamics
 from robodyn.engine import jit
+from robodyn.engine.tree import warm
 from robodyn.engine.tree.layout import (
     CONTINUOUS,
     F_ARM6,
@@ -88,12 +89,13 @@ _TYPES: dict[str, tuple[int, tuple[float, float, float] | None]] = {
     "JointModelRevoluteUnboundedUnaligned": (CONTINUOUS, None),
     "JointModelFreeFlyer": (FREEFLYER, (0.0, 0.0, 0.0)),
 }
-# What a first compile of the tree kernels says it does (robodyn.engine.jit.announce): ABA, RNEA, CRBA,
-# the energies and the loop of steps clear of the stops, about 30 s of CPU (benchmarks/bench_first_run.py)
-COMPILING = ("the tree-robot kernels", "about half a minute")
-# ... and the stop events, when a run first meets a joint stop: about 70 s of CPU more (the Panda's
-# first run, which starts held at a stop, 105 s, less the Pendubot's, 37 s; bench_first_run.py)
-COMPILING_EVENTS = ("the tree-robot kernels of joint stops", "a minute or two")
+# What a first compile of the tree kernels says it does (robodyn.engine.jit.announce): ABA, the energies,
+# one sample and the loop of steps clear of the stops, for the tree's base (fixed, or a free-flyer root)
+# and the run's method (RK4, or a tableau): about 20 s of CPU for the Pendubot (benchmarks/bench_first_run.py)
+COMPILING = ("the tree-robot kernels", "about 20 s")
+# ... and the stop events, when a run first meets a joint stop: about a minute of CPU more (the Panda's
+# first run, which starts held at a stop, less the Pendubot's; bench_first_run.py)
+COMPILING_EVENTS = ("the tree-robot kernels of joint stops", "about a minute")
 
 
 @dataclass(frozen=True, eq=False)
@@ -242,14 +244,6 @@ def one_joint(flyer: bool = False) -> TreeModel:
     return TreeModel("one joint", nq, nv, itree, ftree, np.array([0.0, 0.0, -9.81]))
 
 
-def _neutral(t: TreeModel) -> Array:
-    """The neutral q of :func:`one_joint`'s tree (a free flyer's quaternion (0, 0, 0, 1))."""
-    q = np.zeros(t.nq)
-    if t.flyer is not None:
-        q[6] = 1.0
-    return q
-
-
 def _module() -> ModuleType:
     """:mod:`robodyn.engine.tree.steps` (which re-exports the algorithms), imported."""
     try:
@@ -257,13 +251,6 @@ def _module() -> ModuleType:
     except ImportError as exc:  # pragma: no cover - numba is a declared dependency
         raise MissingDependencyError(f"the compiled path needs numba: pip install numba ({exc})") from None
     return steps
-
-
-def _warm_inputs(t: TreeModel) -> tuple[Array, Array, Array, Array]:
-    """(q, v, forces (4, nv), springs (4, 0)) of :func:`one_joint`'s tree at rest, a friction velocity set."""
-    forces = np.zeros((4, t.nv))
-    forces[3, 0] = 1e-3
-    return _neutral(t), np.zeros(t.nv), forces, np.zeros((4, 0))
 
 
 @lru_cache(maxsize=2)
@@ -279,11 +266,7 @@ def kernels(flyer: bool = False) -> ModuleType:
     if not all(jit.is_cached(f) for f in (k.aba, k.kinematics, k.sample)):
         jit.announce(*COMPILING)
     t = one_joint(flyer)
-    q, v, forces, springs = _warm_inputs(t)
-    ws, u = np.zeros((t.itree.shape[0], k.WCOLS)), np.zeros(t.nv + 2)
-    k.aba(t.itree, t.ftree, t.grav, t.flyer, q, v, v, ws, np.zeros(t.nv))
-    k.kinematics(t.itree, t.ftree, t.grav, t.flyer, q, v, ws)
-    k.sample(t.itree, t.ftree, t.grav, t.flyer, 0.0, q, u, forces, springs, -1, np.zeros((2, 0)), 1e-12, u.copy())
+    warm.algorithms(k, t.itree, t.ftree, t.grav, t.nq, t.nv)
     return k
 
 
@@ -294,42 +277,8 @@ def dynamics_kernels(flyer: bool = False) -> ModuleType:
     if not all(jit.is_cached(f) for f in (k.rnea, k.crba)):
         jit.announce(*COMPILING)
     t = one_joint(flyer)
-    q, v, _, _ = _warm_inputs(t)
-    ws = np.zeros((t.itree.shape[0], k.WCOLS))
-    k.rnea(t.itree, t.ftree, t.grav, t.flyer, q, v, v, ws, np.zeros(t.nv))
-    k.crba(t.itree, t.ftree, t.grav, t.flyer, q, ws, np.zeros((t.nv, t.nv)))
+    warm.dynamics(k, t.itree, t.ftree, t.grav, t.nq, t.nv)
     return k
-
-
-def _one_stop(t: TreeModel) -> Array:
-    """The stops (6, 1) of :func:`one_joint`'s revolute: at +-1 rad."""
-    iq, iv = t.itree[-1, 2], t.itree[-1, 3]
-    return np.array([[iq], [iv], [-1.0], [1.0], [1e-14], [t.itree.shape[0] - 1.0]])
-
-
-# The methods the warm-ups run: (code, tableau) of RK4 (no tableau: its own arithmetic) and of a
-# general tableau (explicit Euler's), as robodyn.sim.whole_run.method_code gives them
-_RK4_CODE = (1, None)
-_TABLEAU_CODE = (0, np.array([[0.0], [1.0], [0.0]]))
-
-
-def _warm_run(k: ModuleType, flyer: bool, tableau: bool, events: bool) -> None:
-    """Run ``k.run_steps`` (or ``k.run_events``) of :func:`one_joint`'s tree, with a stop, over two steps."""
-    t = one_joint(flyer)
-    q, _, forces, springs = _warm_inputs(t)
-    code, tab = _TABLEAU_CODE if tableau else _RK4_CODE
-    md = (t.itree, t.ftree, t.grav, forces, springs, code, tab, -1, t.flyer)
-    n = 3
-    ts, hs = 1e-3 * np.arange(n), np.full(n - 1, 1e-3)
-    Q, U, A = np.tile(q, (n, 1)), np.zeros((n, t.nv + 2)), np.zeros((n, t.nv))
-    kin, pot, wl = np.zeros(n), np.zeros(n), np.zeros(n)
-    counts, par, stops = np.zeros(k.NCOUNTS, dtype=np.int64), np.zeros(k.PCOLS), _one_stop(t)
-    if events:
-        held, side = np.zeros(2, dtype=np.int64), np.zeros(1, dtype=np.int64)
-        records = np.zeros((1, 6))
-        k.run_events(md, par, stops, held, side, counts, np.zeros(1), records, ts, hs, 0, n - 1, Q, U, A, kin, pot, wl)
-    else:
-        k.run_steps(md, par, stops, counts, np.zeros(1), ts, hs, 0, n - 1, Q, U, A, kin, pot, wl)
 
 
 @lru_cache(maxsize=4)
@@ -347,7 +296,8 @@ def step_kernels(flyer: bool = False, tableau: bool = False) -> ModuleType:
 
     if not jit.is_cached(k.run_steps):
         jit.announce(*COMPILING)
-    _warm_run(k, flyer, tableau, events=False)
+    t = one_joint(flyer)
+    warm.run(k, t.itree, t.ftree, t.grav, t.nq, t.nv, tableau=tableau, events=False)
     return k
 
 
@@ -363,7 +313,8 @@ def event_kernels(flyer: bool = False, tableau: bool = False) -> ModuleType:
 
     if not jit.is_cached(k.run_events):
         jit.announce(*COMPILING_EVENTS)
-    _warm_run(k, flyer, tableau, events=True)
+    t = one_joint(flyer)
+    warm.run(k, t.itree, t.ftree, t.grav, t.nq, t.nv, tableau=tableau, events=True)
     return k
 
 

@@ -166,16 +166,28 @@ def njit(**options: Any) -> Callable[[Callable[..., Any]], Any]:
     return declare
 
 
-def is_cached(dispatcher: Any) -> bool:
-    """True when ``dispatcher`` (declared with :func:`njit`) has compiled code in its cache folder."""
+def is_cached(dispatcher: Any, where: Callable[[tuple[Any, ...]], bool] | None = None) -> bool:
+    """True when ``dispatcher`` (declared with :func:`njit`) has compiled code in its cache folder.
+
+    ``where``: only code compiled for an argument-type tuple it accepts counts (a kernel's variant,
+    e.g. ``lambda sig: str(sig[3]) == "none"``), read from the cache's index.
+    """
     cache = getattr(dispatcher, "_cache", None)
     path = getattr(cache, "cache_path", None)
-    if path is None:
+    if cache is None or path is None:
         return False
     func = dispatcher.py_func
     stem = Path(func.__code__.co_filename).stem
     name = func.__qualname__.replace("<", "").replace(">", "")
-    return any(Path(path).glob(f"{stem}.{name}-*.nbi"))
+    if not any(Path(path).glob(f"{stem}.{name}-*.nbi")):
+        return False
+    if where is None:
+        return True
+    try:
+        index = cache._cache_file._load_index()  # numba's: {(argument types, target, code): data file}
+    except Exception:  # an index numba cannot read is one it recompiles
+        return False
+    return any(where(key[0]) for key in index)
 
 
 _ANNOUNCED: set[str] = set()

@@ -25,6 +25,7 @@ numba is imported on first use (the kernels' module), never at ``import robodyn`
 from __future__ import annotations
 
 import weakref
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import lru_cache
 from types import ModuleType
@@ -253,6 +254,16 @@ def _module() -> ModuleType:
     return steps
 
 
+def _variant(flyer: bool) -> Callable[[tuple[Any, ...]], bool]:
+    """Whether a cached signature of an algorithm or ``sample`` (``flyer`` its 4th argument) is this variant's."""
+    return lambda sig: (str(sig[3]) == "none") != flyer
+
+
+def _run_variant(flyer: bool, tableau: bool) -> Callable[[tuple[Any, ...]], bool]:
+    """Whether a cached signature of a whole run (its ``md``: ``tab`` 7th, ``flyer`` 9th) is this variant's."""
+    return lambda sig: (str(sig[0].types[8]) == "none") != flyer and (str(sig[0].types[6]) == "none") != tableau
+
+
 @lru_cache(maxsize=2)
 def kernels(flyer: bool = False) -> ModuleType:
     """The numba kernels (:mod:`robodyn.engine.tree.steps`), with those every run uses loaded or compiled.
@@ -263,7 +274,7 @@ def kernels(flyer: bool = False) -> ModuleType:
     here, so that no timed run pays for loading it.
     """
     k = _module()
-    if not all(jit.is_cached(f) for f in (k.aba, k.kinematics, k.sample)):
+    if not all(jit.is_cached(f, _variant(flyer)) for f in (k.aba, k.kinematics, k.sample)):
         jit.announce(*COMPILING)
     t = one_joint(flyer)
     warm.algorithms(k, t.itree, t.ftree, t.grav, t.nq, t.nv)
@@ -274,7 +285,7 @@ def kernels(flyer: bool = False) -> ModuleType:
 def dynamics_kernels(flyer: bool = False) -> ModuleType:
     """:func:`kernels` with RNEA and CRBA loaded or compiled too (no run uses them: :class:`CompiledDynamics` does)."""
     k = kernels(flyer)
-    if not all(jit.is_cached(f) for f in (k.rnea, k.crba)):
+    if not all(jit.is_cached(f, _variant(flyer)) for f in (k.rnea, k.crba)):
         jit.announce(*COMPILING)
     t = one_joint(flyer)
     warm.dynamics(k, t.itree, t.ftree, t.grav, t.nq, t.nv)
@@ -294,7 +305,7 @@ def step_kernels(flyer: bool = False, tableau: bool = False) -> ModuleType:
     kernels(flyer)
     from robodyn.engine.tree import events as k
 
-    if not jit.is_cached(k.run_steps):
+    if not jit.is_cached(k.run_steps, _run_variant(flyer, tableau)):
         jit.announce(*COMPILING)
     t = one_joint(flyer)
     warm.run(k, t.itree, t.ftree, t.grav, t.nq, t.nv, tableau=tableau, events=False)
@@ -311,7 +322,7 @@ def event_kernels(flyer: bool = False, tableau: bool = False) -> ModuleType:
     kernels(flyer)
     from robodyn.engine.tree import events as k
 
-    if not jit.is_cached(k.run_events):
+    if not jit.is_cached(k.run_events, _run_variant(flyer, tableau)):
         jit.announce(*COMPILING_EVENTS)
     t = one_joint(flyer)
     warm.run(k, t.itree, t.ftree, t.grav, t.nq, t.nv, tableau=tableau, events=True)

@@ -28,7 +28,9 @@ SRC = Path(__file__).resolve().parents[1] / "src"
 FIRST_RUN = """
 import json
 from robodyn.cli import main
-from robodyn.engine.tree import algorithms, flyer, steps
+from robodyn.engine import jit
+from robodyn.engine.tree import algorithms, events, flyer, steps
+from robodyn.sim import tree
 code = main(["simulate", "pendubot", "--duration", "0.01"])
 flyers = {name: len(getattr(flyer, name).signatures) for name in dir(flyer) if name.startswith("ff_")}
 print(json.dumps({
@@ -37,6 +39,10 @@ print(json.dumps({
     "stages": [[str(t) for t in sig] for sig in steps.stages.signatures],
     "rnea": len(algorithms.rnea.signatures),
     "crba": len(algorithms.crba.signatures),
+    "cached": {
+        "aba": [jit.is_cached(steps.aba, tree._variant(f)) for f in (False, True)],
+        "run_steps": [jit.is_cached(events.run_steps, tree._run_variant(False, t)) for t in (False, True)],
+    },
 }))
 """
 TAB_ARG = 5  # stages(itree, ftree, grav, flyer, method, tab, ...)
@@ -66,6 +72,12 @@ def test_an_rk4_run_compiles_no_general_tableau_nor_rnea_and_crba(first_run: dic
     assert isinstance(stages, list) and stages  # compiled, for RK4 ...
     assert all(sig[TAB_ARG] == "none" for sig in stages)  # ... without a tableau
     assert first_run["rnea"] == first_run["crba"] == 0
+
+
+@pytest.mark.timeout(900)
+def test_the_cache_tells_the_variants_apart(first_run: dict[str, object]) -> None:
+    # what the run compiled is cached, and no other variant counts as cached: its compile will say so
+    assert first_run["cached"] == {"aba": [True, False], "run_steps": [True, False]}
 
 
 def test_rnea_and_crba_are_checked_at_their_first_use() -> None:

@@ -135,6 +135,7 @@ def _cpu(itree: np.ndarray, ftree: np.ndarray, grav: np.ndarray, Q: np.ndarray, 
     import numba
 
     from robodyn.engine.tree import steps as tree_steps
+    from robodyn.engine.tree.layout import flyer_of
 
     n, nv = Q.shape
     forces, springs, tab = np.zeros((4, nv)), np.zeros((4, 0)), np.zeros((6, 4))
@@ -142,13 +143,16 @@ def _cpu(itree: np.ndarray, ftree: np.ndarray, grav: np.ndarray, Q: np.ndarray, 
     threads = int(numba.config.NUMBA_NUM_THREADS)
     blocks = np.linspace(0, n, max(1, min(8 * threads, n // 4)) + 1).round().astype(np.int64)
     one = np.array([0, 1], dtype=np.int64)
+    flyer = flyer_of(itree)
     with numba.parallel_chunksize(1):
-        tree_steps.batch_rollout(itree, ftree, grav, 1, tab, 1e-3, 0, Q[:1].copy(), V[:1].copy(), forces, springs, one)
+        tree_steps.batch_rollout(
+            itree, ftree, grav, flyer, 1, tab, 1e-3, 0, Q[:1].copy(), V[:1].copy(), forces, springs, one
+        )
         best, q, v = float("inf"), Q, V
         for _ in range(REPEATS):
             q, v = Q.copy(), V.copy()
             start = time.perf_counter()
-            tree_steps.batch_rollout(itree, ftree, grav, 1, tab, 1e-3, steps, q, v, forces, springs, blocks)
+            tree_steps.batch_rollout(itree, ftree, grav, flyer, 1, tab, 1e-3, steps, q, v, forces, springs, blocks)
             best = min(best, time.perf_counter() - start)
     return best, (q, v)
 

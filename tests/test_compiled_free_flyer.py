@@ -127,7 +127,7 @@ def test_integrate_is_pinocchios(talos: robodyn.Robot) -> None:
             dq[3:6] *= 1e-6
         if k % 2 == 0:  # a quaternion drifted off unit length, as a long run leaves it
             q[3:7] *= 1.0 + 1e-9
-        kernels.integrate(itree, q, dq, out)
+        kernels.integrate(itree, True, q, dq, out)
         unit = q.copy()
         unit[3:7] /= np.linalg.norm(q[3:7])  # the rotation a drifted quaternion stands for
         assert np.max(np.abs(out - pin.integrate(talos.model, unit, dq))) < INTEGRATE_ATOL
@@ -143,10 +143,10 @@ def test_a_free_flyer_is_never_held(tmp_path: Path) -> None:
     tau = rng.normal(size=robot.nv)
     free, held = np.empty(robot.nv), np.empty(robot.nv)
     ws = np.zeros((t.itree.shape[0], kernels.WCOLS))
-    kernels.aba(t.itree, t.ftree, t.grav, q, v, tau, ws, free)
+    kernels.aba(t.itree, t.ftree, t.grav, t.flyer, q, v, tau, ws, free)
     ws[0, tree_layout.W_LOCK] = 1.0
     ws[0, tree_layout.W_LAMBDA] = np.nan
-    kernels.aba(t.itree, t.ftree, t.grav, q, v, tau, ws, held)
+    kernels.aba(t.itree, t.ftree, t.grav, t.flyer, q, v, tau, ws, held)
     np.testing.assert_array_equal(held, free)  # the lock flag is ignored on a free flyer
     assert ws[0, tree_layout.W_LAMBDA] == 0.0
 
@@ -190,7 +190,7 @@ def test_the_free_flyers_step_is_exact_to_round_off_where_its_terms_would_cancel
         dq = 3.0 * rng.normal(size=robot.nv)
         axis = rng.normal(size=3)
         dq[3:6] = theta * axis / np.linalg.norm(axis)
-        kernels.integrate(itree, q, dq, out)
+        kernels.integrate(itree, True, q, dq, out)
         x, y, z, w = (mpmath.mpf(float(c)) for c in q[3:7])
         R = mpmath.matrix(
             [

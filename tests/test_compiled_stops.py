@@ -51,7 +51,7 @@ def _compiled_rates(robot: robodyn.Robot, held: dict[str, int], q: np.ndarray, v
     forces[3, 0] = 1e-3
     out = np.empty(nv + 2)
     u = np.concatenate([v, [0.0, 0.0]])
-    k.rates(tr.itree, tr.ftree, tr.grav, 0.0, q, u, forces, np.zeros((4, 0)), -1, ws, np.empty(nv), out)
+    k.rates(tr.itree, tr.ftree, tr.grav, tr.flyer, 0.0, q, u, forces, np.zeros((4, 0)), -1, ws, np.empty(nv), out)
     lam = np.zeros(nv)
     for i in hv:
         lam[i] = ws[rows[i], k.W_LAMBDA]

@@ -113,7 +113,7 @@ def test_a_free_flyer_on_cuda_equals_the_cpu_kernel_and_its_range_is_the_steps_r
         q, v = Q.copy(), V.copy()
         lo, hi = Q.copy(), Q.copy()
         for _ in range(steps):
-            k.batch_rollout(t.itree, t.ftree, t.grav, 1, np.zeros((6, 4)), {DT}, 1, q, v, forces, springs,
+            k.batch_rollout(t.itree, t.ftree, t.grav, t.flyer, 1, np.zeros((6, 4)), {DT}, 1, q, v, forces, springs,
                             np.array([0, n]))
             lo, hi = np.minimum(lo, q), np.maximum(hi, q)
         gq, gv, glo, ghi, wall = cuda_tree.rollout(t.itree, t.ftree, t.grav, Q, V, dt={DT}, steps=steps)
@@ -151,7 +151,7 @@ def test_a_batch_split_into_launches_equals_one_launch_and_the_cpu_batch_path():
         forces, springs = np.zeros((4, 2)), np.zeros((4, 0))
         forces[3, 0] = 1.0
         q, v = Q.copy(), V.copy()
-        k.batch_rollout(t.itree, t.ftree, t.grav, 1, np.zeros((6, 4)), {DT}, steps, q, v, forces, springs,
+        k.batch_rollout(t.itree, t.ftree, t.grav, t.flyer, 1, np.zeros((6, 4)), {DT}, steps, q, v, forces, springs,
                         np.array([0, n]))
         cuda_tree.WORKSPACE_BYTES = cuda_tree.bytes_per_state(2, 2, 2)  # one state fits: a block a launch
         size = cuda_tree.launch_size(n, 2, 2, 2)

@@ -31,11 +31,12 @@ from robodyn.sim import tree
 from robodyn.engine import jit
 from robodyn.engine.tree import algorithms as k
 from robodyn.engine.tree.layout import F_LEVER, F_MASS, WCOLS
-itree, ftree, grav = tree.one_joint()
+one = tree.one_joint()
+itree, ftree, grav = one.itree, one.ftree, one.grav
 ftree[0, F_MASS] = 2.0
 ftree[0, F_LEVER + 2] = 0.5
 cached = jit.is_cached(k.kinematics)
-kin, pot = k.kinematics(itree, ftree, grav, np.zeros(1), np.ones(1), np.zeros((1, WCOLS)))
+kin, pot = k.kinematics(itree, ftree, grav, None, np.zeros(1), np.ones(1), np.zeros((1, WCOLS)))
 print(jit.current_key(), cached, repr(pot))
 """
 POTENTIAL = 2.0 * 9.81 * 0.5  # [J], as computed in float64 by the kernel: m g h with these numbers

@@ -1,6 +1,6 @@
 """``robodyn warmup``: compile every numba kernel ahead, for a classroom or a CI image.
 
-The first run on a machine compiles the kernels it needs (a minute or two) and caches them
+The first run on a machine compiles the kernels it needs (20 s to a minute and a half) and caches them
 (:mod:`robodyn.engine.jit`); ``robodyn warmup`` does it for all of them at once, group by group,
 printing each group's time and the total. ``--only`` takes some groups. Exit codes: 0 done;
 2 an unknown group.

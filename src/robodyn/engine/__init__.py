@@ -8,3 +8,5 @@
 Nothing here imports :mod:`robodyn.sim` or anything above it (an import-linter contract), nor
 Pinocchio: a run arrives as arrays. numba is imported on first use, never at ``import robodyn``.
 """
+
+from robodyn.engine import jit as jit  # first: it sets numba's environment before numba is imported

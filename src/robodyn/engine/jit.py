@@ -19,6 +19,7 @@ that waits. numba is imported on first use, never at ``import robodyn``.
 from __future__ import annotations
 
 import hashlib
+import os
 import shutil
 import time
 import warnings
@@ -54,6 +55,12 @@ IN_USE_S = 3600.0
 HASH_CHARS = 16  # of the sources' sha256 in the key: 64 bits, no two edits alike in practice
 
 WARMUP_HINT = "once per machine and robodyn version; `robodyn warmup` does it ahead"
+
+# numba's type inference formats (and colours, with colorama) a message for every overload it
+# tries and rejects: about 20,000 while the tree kernels compile, 5 s of CPU of a 34 s first run
+# (measured). Without colour the messages are the same text. Read when numba is first imported,
+# which no module does before this one (robodyn.engine imports it); a user's own setting stands.
+os.environ.setdefault("NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING", "1")
 
 
 def cache_key(version: str, root: Path) -> str:
@@ -159,16 +166,28 @@ def njit(**options: Any) -> Callable[[Callable[..., Any]], Any]:
     return declare
 
 
-def is_cached(dispatcher: Any) -> bool:
-    """True when ``dispatcher`` (declared with :func:`njit`) has compiled code in its cache folder."""
+def is_cached(dispatcher: Any, where: Callable[[tuple[Any, ...]], bool] | None = None) -> bool:
+    """True when ``dispatcher`` (declared with :func:`njit`) has compiled code in its cache folder.
+
+    ``where``: only code compiled for an argument-type tuple it accepts counts (a kernel's variant,
+    e.g. ``lambda sig: str(sig[3]) == "none"``), read from the cache's index.
+    """
     cache = getattr(dispatcher, "_cache", None)
     path = getattr(cache, "cache_path", None)
-    if path is None:
+    if cache is None or path is None:
         return False
     func = dispatcher.py_func
     stem = Path(func.__code__.co_filename).stem
     name = func.__qualname__.replace("<", "").replace(">", "")
-    return any(Path(path).glob(f"{stem}.{name}-*.nbi"))
+    if not any(Path(path).glob(f"{stem}.{name}-*.nbi")):
+        return False
+    if where is None:
+        return True
+    try:
+        index = cache._cache_file._load_index()  # numba's: {(argument types, target, code): data file}
+    except Exception:  # an index numba cannot read is one it recompiles
+        return False
+    return any(where(key[0]) for key in index)
 
 
 _ANNOUNCED: set[str] = set()

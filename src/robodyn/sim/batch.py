@@ -166,8 +166,8 @@ def rollout(
         if code is None:  # pragma: no cover - rk4, heun and euler are the kernels' own
             raise InputError(f"integrator {integrator!r}: its step is not the one the batch kernels mirror")
         mcode, tab = code
-        kernels = tree.kernels()
         t = compiled.tree
+        kernels = tree.kernels(t.flyer is not None)
         forces, springs = np.zeros((4, nv)), np.zeros((4, 0))
         forces[3, 0] = 1.0
     import numba
@@ -186,10 +186,12 @@ def rollout(
         else:
             one = np.array([0, 1], dtype=np.int64)
             kernels.batch_rollout(
-                t.itree, t.ftree, t.grav, mcode, tab, dt, 0, Q[:1].copy(), V[:1].copy(), forces, springs, one
+                t.itree, t.ftree, t.grav, t.flyer, mcode, tab, dt, 0, Q[:1].copy(), V[:1].copy(), forces, springs, one
             )
             start = time.perf_counter()
-            kernels.batch_rollout(t.itree, t.ftree, t.grav, mcode, tab, dt, steps, Q, V, forces, springs, blocks)
+            kernels.batch_rollout(
+                t.itree, t.ftree, t.grav, t.flyer, mcode, tab, dt, steps, Q, V, forces, springs, blocks
+            )
             wall = time.perf_counter() - start
     stages = {"rk4": 4, "heun": 2, "euler": 1}[method.name]
     path = "closed_form" if fast is not None else "tree"

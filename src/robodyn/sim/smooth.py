@@ -69,13 +69,13 @@ def compiled_function(robot: Robot) -> Callable[[Array, Array, Array], Array]:
     except RobodynError as exc:
         raise InputError(f"backend 'numba' cannot serve {robot.name}: {exc}; use backend 'aba'") from None
     t = compiled.tree
-    kernel = tree.kernels().aba
-    itree, ftree, grav = t.itree, t.ftree, t.grav
+    kernel = tree.kernels(t.flyer is not None).aba
+    itree, ftree, grav, flyer = t.itree, t.ftree, t.grav, t.flyer
     ws = np.zeros((itree.shape[0], tree.kernels().WCOLS))
 
     def forward(q: Array, v: Array, tau: Array) -> Array:
         out = np.empty(t.nv)
-        kernel(itree, ftree, grav, q, v, tau, ws, out)
+        kernel(itree, ftree, grav, flyer, q, v, tau, ws, out)
         return out
 
     return forward

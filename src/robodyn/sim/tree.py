@@ -25,7 +25,8 @@ numba is imported on first use (the kernels' module), never at ``import robodyn`
 from __future__ import annotations
 
 import weakref
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from functools import lru_cache
 from types import ModuleType
 from typing import TYPE_CHECKING, Any
@@ -35,6 +36,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from robodyn import dynamics
 from robodyn.engine import jit
+from robodyn.engine.tree import warm
 from robodyn.engine.tree.layout import (
     CONTINUOUS,
     F_ARM6,
@@ -53,6 +55,7 @@ from robodyn.engine.tree.layout import (
     FREEFLYER,
     PRISMATIC,
     REVOLUTE,
+    flyer_of,
 )
 from robodyn.errors import AssumptionError, InputError, MissingDependencyError
 
@@ -71,6 +74,10 @@ VERIFY_STATES = 8
 # its CRBA + Cholesky solve differ by more than VERIFY_RTOL (human.urdf: 2.6e-12), the compiled ABA
 # may differ from Pinocchio's by this many times that spread: no float64 answer is nearer there.
 VERIFY_SPREAD = 2.0
+# What verify compares; a run uses only ABA and the energies: compiled_of checks those, RNEA and CRBA
+# are checked at their first use (CompiledDynamics.inverse_dynamics, mass_matrix).
+VERIFY_PARTS = ("aba", "rnea", "crba", "energy")
+RUN_PARTS = ("aba", "energy")
 
 # Joint types of the kernels (tree_layout), by Pinocchio's shortname; a free flyer has no axis.
 _AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
@@ -83,12 +90,13 @@ _TYPES: dict[str, tuple[int, tuple[float, float, float] | None]] = {
     "JointModelRevoluteUnboundedUnaligned": (CONTINUOUS, None),
     "JointModelFreeFlyer": (FREEFLYER, (0.0, 0.0, 0.0)),
 }
-# What a first compile of the tree kernels says it does (robodyn.engine.jit.announce): ABA, RNEA, CRBA,
-# the energies and the loop of steps clear of the stops, about 30 s of CPU (benchmarks/bench_first_run.py)
-COMPILING = ("the tree-robot kernels", "about half a minute")
-# ... and the stop events, when a run first meets a joint stop: about 70 s of CPU more (the Panda's
-# first run, which starts held at a stop, 105 s, less the Pendubot's, 37 s; bench_first_run.py)
-COMPILING_EVENTS = ("the tree-robot kernels of joint stops", "a minute or two")
+# What a first compile of the tree kernels says it does (robodyn.engine.jit.announce): ABA, the energies,
+# one sample and the loop of steps clear of the stops, for the tree's base (fixed, or a free-flyer root)
+# and the run's method (RK4, or a tableau): about 20 s of CPU for the Pendubot (benchmarks/bench_first_run.py)
+COMPILING = ("the tree-robot kernels", "about 20 s")
+# ... and the stop events, when a run first meets a joint stop: about a minute of CPU more (the Panda's
+# first run, which starts held at a stop, less the Pendubot's; bench_first_run.py)
+COMPILING_EVENTS = ("the tree-robot kernels of joint stops", "about a minute")
 
 
 @dataclass(frozen=True, eq=False)
@@ -113,6 +121,14 @@ class TreeModel:
     itree: NDArray[np.int64]
     ftree: Array
     grav: Array
+
+    @property
+    def flyer(self) -> bool | None:
+        """The kernels' ``flyer`` argument: True when the root row is a free flyer, else None.
+
+        With None the kernels compile no free-flyer code (:mod:`robodyn.engine.tree.algorithms`).
+        """
+        return flyer_of(self.itree)
 
     def same_as(self, other: TreeModel) -> bool:
         """True when both hold the same numbers (a model edited since extraction is not)."""
@@ -211,96 +227,105 @@ def extract(robot: Robot) -> TreeModel:
     return TreeModel(robot.name, int(model.nq), int(model.nv), itree, ftree, grav)
 
 
-def one_joint() -> tuple[NDArray[np.int64], Array, Array]:
-    """(itree, ftree, grav) of a one-joint tree (a unit revolute about z), to load or compile the kernels with."""
-    itree = np.array([[-1, 0, 0, 0]], dtype=np.int64)
-    ftree = np.zeros((1, FCOLS))
-    ftree[0, [2, 3, 7, 11, 15, 19, 23, 27]] = 1.0
-    return itree, ftree, np.array([0.0, 0.0, -9.81])
+def one_joint(flyer: bool = False) -> TreeModel:
+    """A one-joint tree (a unit revolute about z), to load or compile the kernels with.
 
-
-@lru_cache(maxsize=1)
-def kernels() -> ModuleType:
-    """The numba kernels (:mod:`robodyn.engine.tree.steps`, which re-exports the algorithms), loaded or compiled.
-
-    A one-joint tree runs each kernel once here, so that no timed run pays for loading it.
+    With ``flyer``, the joint hangs below a free-flyer root (unit mass and inertia): the kernels'
+    free-flyer variant.
     """
+    rows = 2 if flyer else 1
+    itree = np.array([[-1, FREEFLYER, 0, 0], [0, REVOLUTE, 7, 6]] if flyer else [[-1, REVOLUTE, 0, 0]], dtype=np.int64)
+    ftree = np.zeros((rows, FCOLS))
+    ftree[:, [F_ROT, F_ROT + 4, F_ROT + 8, F_MASS, F_INERTIA, F_INERTIA + 4, F_INERTIA + 8]] = 1.0
+    ftree[-1, [F_AXIS + 2, F_RA + 2]] = 1.0  # the revolute's axis z; R_p = 1, so R_p a = a
+    ftree[-1, F_K + 1], ftree[-1, F_K + 3], ftree[-1, F_N + 8] = -1.0, 1.0, 1.0  # R_p [z]x and (R_p z) z^T
+    if flyer:
+        ftree[0, F_TOTAL] = 2.0
+    nq, nv = (8, 7) if flyer else (1, 1)
+    return TreeModel("one joint", nq, nv, itree, ftree, np.array([0.0, 0.0, -9.81]))
+
+
+def _module() -> ModuleType:
+    """:mod:`robodyn.engine.tree.steps` (which re-exports the algorithms), imported."""
     try:
-        from robodyn.engine.tree import steps as k
+        from robodyn.engine.tree import steps
     except ImportError as exc:  # pragma: no cover - numba is a declared dependency
         raise MissingDependencyError(f"the compiled path needs numba: pip install numba ({exc})") from None
-    if not all(jit.is_cached(f) for f in (k.aba, k.rnea, k.crba, k.kinematics, k.sample)):
+    return steps
+
+
+def _variant(flyer: bool) -> Callable[[tuple[Any, ...]], bool]:
+    """Whether a cached signature of an algorithm or ``sample`` (``flyer`` its 4th argument) is this variant's."""
+    return lambda sig: (str(sig[3]) == "none") != flyer
+
+
+def _run_variant(flyer: bool, tableau: bool) -> Callable[[tuple[Any, ...]], bool]:
+    """Whether a cached signature of a whole run (its ``md``: ``tab`` 7th, ``flyer`` 9th) is this variant's."""
+    return lambda sig: (str(sig[0].types[8]) == "none") != flyer and (str(sig[0].types[6]) == "none") != tableau
+
+
+@lru_cache(maxsize=2)
+def kernels(flyer: bool = False) -> ModuleType:
+    """The numba kernels (:mod:`robodyn.engine.tree.steps`), with those every run uses loaded or compiled.
+
+    ABA, the energies and one sample of a run, for trees with a free-flyer root (``flyer``) or
+    without (the kernels' ``flyer`` argument True or None: two compiled variants). RNEA and CRBA
+    compile at their first use (:func:`dynamics_kernels`). A one-joint tree runs each kernel once
+    here, so that no timed run pays for loading it.
+    """
+    k = _module()
+    if not all(jit.is_cached(f, _variant(flyer)) for f in (k.aba, k.kinematics, k.sample)):
         jit.announce(*COMPILING)
-    itree, ftree, grav = one_joint()
-    one, ws = np.zeros(1), np.zeros((1, k.WCOLS))
-    k.aba(itree, ftree, grav, one, one, one, ws, np.zeros(1))
-    k.rnea(itree, ftree, grav, one, one, one, ws, np.zeros(1))
-    k.crba(itree, ftree, grav, one, ws, np.zeros((1, 1)))
-    k.kinematics(itree, ftree, grav, one, one, ws)
-    forces, springs, held = np.zeros((4, 1)), np.zeros((4, 0)), np.zeros((2, 0))
-    forces[3, 0] = 1e-3
-    k.sample(itree, ftree, grav, 0.0, one, np.zeros(3), forces, springs, -1, held, 1e-12, np.zeros(3))
+    t = one_joint(flyer)
+    warm.algorithms(k, t.itree, t.ftree, t.grav, t.nq, t.nv)
     return k
 
 
-def _one_stop() -> tuple[Array, Array, Array]:
-    """(forces (4, 1), springs (4, 0), stops (6, 1)) of :func:`one_joint` with a stop at +-1 rad."""
-    forces, springs = np.zeros((4, 1)), np.zeros((4, 0))
-    forces[3, 0] = 1e-3
-    return forces, springs, np.array([[0.0], [0.0], [-1.0], [1.0], [1e-14], [0.0]])
+@lru_cache(maxsize=2)
+def dynamics_kernels(flyer: bool = False) -> ModuleType:
+    """:func:`kernels` with RNEA and CRBA loaded or compiled too (no run uses them: :class:`CompiledDynamics` does)."""
+    k = kernels(flyer)
+    if not all(jit.is_cached(f, _variant(flyer)) for f in (k.rnea, k.crba)):
+        jit.announce(*COMPILING)
+    t = one_joint(flyer)
+    warm.dynamics(k, t.itree, t.ftree, t.grav, t.nq, t.nv)
+    return k
 
 
-@lru_cache(maxsize=1)
-def step_kernels() -> ModuleType:
+@lru_cache(maxsize=4)
+def step_kernels(flyer: bool = False, tableau: bool = False) -> ModuleType:
     """:mod:`robodyn.engine.tree.events` with its loop of steps clear of the stops (``run_steps``) loaded or compiled.
 
     Every whole run starts there; the stop events (:func:`event_kernels`) compile only when a
-    run meets a stop. A one-joint tree runs it once here, so that no timed run pays for loading it.
+    run meets a stop. ``flyer``: for a tree with a free-flyer root; ``tableau``: for a method
+    given by its tableau (RK4 and semi-implicit Euler have none: the kernels' ``tab`` None, and
+    numba compiles no general-tableau code). A one-joint tree runs it once here, so that no timed
+    run pays for loading it.
     """
-    steps = kernels()
+    kernels(flyer)
     from robodyn.engine.tree import events as k
 
-    if not jit.is_cached(k.run_steps):
+    if not jit.is_cached(k.run_steps, _run_variant(flyer, tableau)):
         jit.announce(*COMPILING)
-    itree, ftree, grav = one_joint()
-    forces, springs, stops = _one_stop()
-    n = 3
-    ts, hs = 1e-3 * np.arange(n), np.full(n - 1, 1e-3)
-    Q, U, A, kin, pot = np.zeros((n, 1)), np.zeros((n, 3)), np.zeros((n, 1)), np.zeros(n), np.zeros(n)
-    md = (itree, ftree, grav, forces, springs, 1, np.zeros((6, 4)), -1)
-    counts = np.zeros(k.NCOUNTS, dtype=np.int64)
-    k.run_steps(md, np.zeros(k.PCOLS), stops, counts, np.zeros(1), ts, hs, 0, n - 1, Q, U, A, kin, pot, np.zeros(n))
-    del steps
+    t = one_joint(flyer)
+    warm.run(k, t.itree, t.ftree, t.grav, t.nq, t.nv, tableau=tableau, events=False)
     return k
 
 
-@lru_cache(maxsize=1)
-def event_kernels() -> ModuleType:
+@lru_cache(maxsize=4)
+def event_kernels(flyer: bool = False, tableau: bool = False) -> ModuleType:
     """The numba kernels of whole runs with stop events (:mod:`robodyn.engine.tree.events`), loaded or compiled.
 
-    A one-joint tree with a stop runs them once here, so that no timed run pays for loading them.
+    ``flyer`` and ``tableau`` as :func:`step_kernels`'s. A one-joint tree with a stop runs them once
+    here, so that no timed run pays for loading them.
     """
-    steps = kernels()
+    kernels(flyer)
     from robodyn.engine.tree import events as k
 
-    if not jit.is_cached(k.run_events):
+    if not jit.is_cached(k.run_events, _run_variant(flyer, tableau)):
         jit.announce(*COMPILING_EVENTS)
-
-    itree, ftree, grav = one_joint()
-    forces, springs, stops = _one_stop()
-    par = np.zeros(k.PCOLS)
-    n = 3
-    ts, hs = 1e-3 * np.arange(n), np.full(n - 1, 1e-3)
-    for code, tab in ((0, np.array([[0.0], [1.0], [0.0]])), (1, np.zeros((6, 4))), (2, np.zeros((3, 1)))):
-        Q, U, A, kin, pot = np.zeros((n, 1)), np.zeros((n, 3)), np.zeros((n, 1)), np.zeros(n), np.zeros(n)
-        held, side = np.zeros(2, dtype=np.int64), np.zeros(1, dtype=np.int64)
-        counts = np.zeros(k.NCOUNTS, dtype=np.int64)
-        md = (itree, ftree, grav, forces, springs, code, tab, -1)
-        k.run_events(
-            md, par, stops, held, side, counts, np.zeros(1), np.zeros((1, 6)), ts, hs, 0, n - 1, Q, U, A, kin, pot,
-            np.zeros(n),
-        )  # fmt: skip
-    del steps
+    t = one_joint(flyer)
+    warm.run(k, t.itree, t.ftree, t.grav, t.nq, t.nv, tableau=tableau, events=True)
     return k
 
 
@@ -308,14 +333,24 @@ def event_kernels() -> ModuleType:
 class CompiledDynamics:
     """ABA, RNEA, CRBA and the energies of one tree, compiled; units as :class:`robodyn.Robot`'s.
 
-    ``check`` holds the largest relative differences from Pinocchio found by :meth:`verify`.
+    ``check`` holds the largest relative differences from Pinocchio found by :meth:`verify`, by
+    part. Made by :func:`compiled_of` (``source``: the robot it was read from), ABA and the
+    energies are checked before any use; RNEA and CRBA, which no run uses, at the first call of
+    :meth:`inverse_dynamics` and :meth:`mass_matrix` (their kernels compile then too).
     """
 
     tree: TreeModel
     check: dict[str, float]
+    source: weakref.ref[Robot] | None = field(default=None, repr=False)
 
     def _ws(self) -> Array:
         return np.zeros((self.tree.itree.shape[0], kernels().WCOLS))
+
+    def _checked(self, part: str) -> None:
+        """Check ``part`` against Pinocchio before its first use, when :func:`compiled_of` made this object."""
+        robot = self.source() if self.source is not None else None
+        if robot is not None and part not in self.check:
+            self.check.update(self.verify(robot, parts=(part,)))
 
     def _state(self, q: ArrayLike, v: ArrayLike, name: str = "v") -> tuple[Array, Array]:
         q_ = np.ascontiguousarray(q, dtype=np.float64).reshape(-1)
@@ -332,35 +367,55 @@ class CompiledDynamics:
         t_ = np.ascontiguousarray(tau, dtype=np.float64).reshape(-1)
         out = np.empty(self.tree.nv)
         t = self.tree
-        kernels().aba(t.itree, t.ftree, t.grav, q_, v_, t_, self._ws(), out)
+        kernels(t.flyer is not None).aba(t.itree, t.ftree, t.grav, t.flyer, q_, v_, t_, self._ws(), out)
         return out
 
     def inverse_dynamics(self, q: ArrayLike, v: ArrayLike, a: ArrayLike) -> Array:
-        """Tau = M a + C v + G [N m | N], shape (nv,), by the compiled RNEA."""
+        """Tau = M a + C v + G [N m | N], shape (nv,), by the compiled RNEA.
+
+        Raises:
+            AssumptionError: at the first call, RNEA fails its check against Pinocchio (:meth:`verify`).
+        """
+        self._checked("rnea")
+        return self._rnea(q, v, a)
+
+    def _rnea(self, q: ArrayLike, v: ArrayLike, a: ArrayLike) -> Array:
         q_, v_ = self._state(q, v)
         a_ = np.ascontiguousarray(a, dtype=np.float64).reshape(-1)
         out = np.empty(self.tree.nv)
         t = self.tree
-        kernels().rnea(t.itree, t.ftree, t.grav, q_, v_, a_, self._ws(), out)
+        dynamics_kernels(t.flyer is not None).rnea(t.itree, t.ftree, t.grav, t.flyer, q_, v_, a_, self._ws(), out)
         return out
 
     def mass_matrix(self, q: ArrayLike) -> Array:
-        """M(q) [kg m^2 | kg], shape (nv, nv), armature included, by the compiled CRBA."""
+        """M(q) [kg m^2 | kg], shape (nv, nv), armature included, by the compiled CRBA.
+
+        Raises:
+            AssumptionError: at the first call, CRBA fails its check against Pinocchio (:meth:`verify`).
+        """
+        self._checked("crba")
+        return self._crba(q)
+
+    def _crba(self, q: ArrayLike) -> Array:
         q_, _ = self._state(q, np.zeros(self.tree.nv))
         M = np.zeros((self.tree.nv, self.tree.nv))
         t = self.tree
-        kernels().crba(t.itree, t.ftree, t.grav, q_, self._ws(), M)
+        dynamics_kernels(t.flyer is not None).crba(t.itree, t.ftree, t.grav, t.flyer, q_, self._ws(), M)
         return M
 
     def energies(self, q: ArrayLike, v: ArrayLike) -> tuple[float, float]:
         """(kinetic 1/2 v^T M v, gravitational potential, zero at world height 0) [J]."""
         q_, v_ = self._state(q, v)
         t = self.tree
-        kin, pot = kernels().kinematics(t.itree, t.ftree, t.grav, q_, v_, self._ws())
+        kin, pot = kernels(t.flyer is not None).kinematics(t.itree, t.ftree, t.grav, t.flyer, q_, v_, self._ws())
         return float(kin), float(pot)
 
-    def verify(self, robot: Robot, *, seed: int = 0, states: int = VERIFY_STATES) -> dict[str, float]:
-        """Largest relative differences of ABA, RNEA, CRBA and the energies from Pinocchio on seeded states.
+    def verify(
+        self, robot: Robot, *, seed: int = 0, states: int = VERIFY_STATES, parts: tuple[str, ...] = VERIFY_PARTS
+    ) -> dict[str, float]:
+        """Largest relative differences of ``parts`` (ABA, RNEA, CRBA, the energies) from Pinocchio on seeded states.
+
+        Every part is compared at the same states (one seeded draw, whichever parts are asked).
 
         Raises:
             AssumptionError: one exceeds ``VERIFY_RTOL`` (ABA: or ``VERIFY_SPREAD`` x Pinocchio's own
@@ -368,7 +423,10 @@ class CompiledDynamics:
         """
         rng = np.random.default_rng(seed)
         model, data = robot.model, robot.data
-        worst = {"aba": 0.0, "rnea": 0.0, "crba": 0.0, "energy": 0.0}
+        unknown = set(parts) - set(VERIFY_PARTS)
+        if unknown:
+            raise ValueError(f"verify: parts must be among {VERIFY_PARTS}, got {sorted(unknown)}")
+        worst = dict.fromkeys(parts, 0.0)
         excess = dict.fromkeys(worst, 0.0)  # the largest difference over its state's allowance
         for _ in range(states):
             q, v = robot.random_state(rng)
@@ -377,15 +435,8 @@ class CompiledDynamics:
             M = dynamics.mass_matrix(model, data, q)
             ref_a = dynamics.aba(model, data, q, v, tau)
             spread = VERIFY_SPREAD * _spread(M, tau - dynamics.rnea(model, data, q, v, np.zeros(robot.nv)), ref_a)
-            kin, pot = self.energies(q, v)
-            ref_e = np.array([dynamics.kinetic_energy(model, data, q, v), dynamics.potential_energy(model, data, q)])
-            rows = (
-                ("aba", self.acceleration(q, v, tau), ref_a, max(VERIFY_RTOL, spread)),
-                ("rnea", self.inverse_dynamics(q, v, a), dynamics.rnea(model, data, q, v, a), VERIFY_RTOL),
-                ("crba", self.mass_matrix(q), M, VERIFY_RTOL),
-                ("energy", np.array([kin, pot]), ref_e, VERIFY_RTOL),
-            )
-            for name, got, ref, allowed in rows:
+            for name in parts:
+                got, ref, allowed = self._pair(name, robot, q, v, tau, a, M, ref_a, spread)
                 x = _relative(got, ref)
                 worst[name] = max(worst[name], x)
                 excess[name] = max(excess[name], x / allowed)
@@ -398,6 +449,21 @@ class CompiledDynamics:
                 "spread where M is ill-conditioned)"
             )
         return worst
+
+    def _pair(
+        self, part: str, robot: Robot, q: Array, v: Array, tau: Array, a: Array, M: Array, ref_a: Array, spread: float
+    ) -> tuple[Array, Array, float]:
+        """(compiled, Pinocchio's, the difference allowed) of ``part`` at one state of :meth:`verify`."""
+        model, data = robot.model, robot.data
+        if part == "aba":
+            return self.acceleration(q, v, tau), ref_a, max(VERIFY_RTOL, spread)
+        if part == "rnea":
+            return self._rnea(q, v, a), dynamics.rnea(model, data, q, v, a), VERIFY_RTOL
+        if part == "crba":
+            return self._crba(q), M, VERIFY_RTOL
+        kin, pot = self.energies(q, v)
+        ref = np.array([dynamics.kinetic_energy(model, data, q, v), dynamics.potential_energy(model, data, q)])
+        return np.array([kin, pot]), ref, VERIFY_RTOL
 
 
 def _spread(M: Array, rhs: Array, ref: Array) -> float:
@@ -431,7 +497,7 @@ def compiled_of(robot: Robot) -> CompiledDynamics:
     if cached is not None and cached.tree.same_as(tree):
         return cached
     compiled = CompiledDynamics(tree, {})
-    check = compiled.verify(robot)
-    compiled = CompiledDynamics(tree, check)
+    check = compiled.verify(robot, parts=RUN_PARTS)
+    compiled = CompiledDynamics(tree, check, weakref.ref(robot))
     _CACHE[robot] = compiled
     return compiled

@@ -6,7 +6,8 @@ order :func:`warm` takes them:
 
 * ``closed-forms``: the built-in kinds' closed-form runs (:mod:`robodyn.sim.fast`: sweeps, the
   Pendubot's controllers, the benchmarks' fast column);
-* ``tree``: ABA, RNEA, CRBA and the energies of any tree robot (:func:`robodyn.sim.tree.kernels`);
+* ``tree``: ABA, RNEA, CRBA and the energies of any tree robot (:func:`robodyn.sim.tree.dynamics_kernels`), fixed
+  base and free-flyer root (the kernels' two variants);
 * ``events``: the whole run that ``robodyn simulate`` takes on any tree robot, its steps clear
   of the stops (:func:`robodyn.sim.tree.step_kernels`) and its stop events
   (:func:`robodyn.sim.tree.event_kernels`, otherwise compiled when a run first meets a stop);
@@ -33,14 +34,17 @@ def _closed_forms() -> None:
 def _tree() -> None:
     from robodyn.sim import tree
 
-    tree.kernels()
+    for flyer in (False, True):  # the kernels' two variants: fixed base, free-flyer root
+        tree.dynamics_kernels(flyer)
 
 
 def _events() -> None:
     from robodyn.sim import tree
 
-    tree.step_kernels()
-    tree.event_kernels()
+    for flyer in (False, True):  # fixed base, free-flyer root; RK4 and semi-implicit Euler, a tableau
+        for tableau in (False, True):
+            tree.step_kernels(flyer, tableau)
+            tree.event_kernels(flyer, tableau)
 
 
 def _batch() -> None:
@@ -50,12 +54,16 @@ def _batch() -> None:
     code = whole_run.method_code(integrators.get("rk4"))
     if code is None:  # pragma: no cover - rk4 is the kernels' own method
         return
-    itree, ftree, grav = tree.one_joint()
-    forces, springs = np.zeros((4, 1)), np.zeros((4, 0))
-    forces[3, 0] = 1.0
     one = np.array([0, 1], dtype=np.int64)
-    Q, V = np.zeros((1, 1)), np.zeros((1, 1))
-    tree.kernels().batch_rollout(itree, ftree, grav, code[0], code[1], 1e-3, 0, Q, V, forces, springs, one)
+    for flyer in (False, True):
+        t = tree.one_joint(flyer)
+        forces, springs = np.zeros((4, t.nv)), np.zeros((4, 0))
+        forces[3, 0] = 1.0
+        Q, V = np.zeros((1, t.nq)), np.zeros((1, t.nv))
+        if flyer:
+            Q[0, 6] = 1.0  # a free flyer's unit quaternion
+        kernels = tree.kernels(flyer)
+        kernels.batch_rollout(t.itree, t.ftree, t.grav, t.flyer, code[0], code[1], 1e-3, 0, Q, V, forces, springs, one)
     Q2, V2 = np.zeros((1, 2)), np.zeros((1, 2))
     fast.warm_up()["batch_rk4"](0, np.ones(6), np.zeros(2), 2, Q2, V2, 1e-3, 0, one)
 

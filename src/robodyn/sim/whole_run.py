@@ -157,15 +157,23 @@ def prepare(system: RobotSystem, method: Integrator) -> Plan | str:
     reason = refusal(system, method)
     if reason is not None:
         return reason
-    try:
-        compiled = tree.compiled_of(system.robot)
-        tree.step_kernels()
-    except RobodynError as exc:
-        return str(exc)
     code = method_code(method)
     if code is None:  # pragma: no cover - refusal() checked it
         return f"{method.name} is not a fixed-step explicit method"
+    try:
+        compiled = tree.compiled_of(system.robot)
+        tree.step_kernels(compiled.tree.flyer is not None, code[0] == _RK)
+    except RobodynError as exc:
+        return str(exc)
     return Plan(compiled, code[0], code[1])
+
+
+def _tab(plan: Plan) -> Array | None:
+    """The kernels' ``tab``: the plan's tableau for a general method, None for RK4 and semi-implicit Euler.
+
+    With None numba compiles no general-tableau code (:func:`robodyn.engine.tree.steps.stages`).
+    """
+    return plan.tableau if plan.method == _RK else None
 
 
 def _event_arrays(system: RobotSystem, tr: tree.TreeModel) -> tuple[Array, Array]:
@@ -201,7 +209,7 @@ class Work:
     kernels: ModuleType
     events: ModuleType
     tree: tree.TreeModel
-    md: tuple[object, ...]  # (itree, ftree, grav, forces, springs, method, tab, cb) of the kernels
+    md: tuple[object, ...]  # (itree, ftree, grav, forces, springs, method, tab, cb, flyer) of the kernels
     forces: Array  # (4, nv) and (4, m) in the kernels' layout (_inputs)
     springs: Array
     par: Array
@@ -231,8 +239,8 @@ class Ending:
 
 def _setup(plan: Plan, system: RobotSystem, run: Run) -> Work:
     """Stage 1: the kernels' inputs and records of ``run``; the torque callable registered."""
-    kernels, events = tree.kernels(), tree.step_kernels()
     tr, n, nv, nw = plan.compiled.tree, run.t.size, system.nv, system.nw
+    kernels, events = tree.kernels(tr.flyer is not None), tree.step_kernels(tr.flyer is not None, plan.method == _RK)
     forces, springs = _inputs(system)
     stops, par = _event_arrays(system, tr)
     par[events.P_STAGES] = 1 if plan.method == _SIE else (4 if plan.method == _RK4 else plan.tableau.shape[1])
@@ -254,7 +262,7 @@ def _setup(plan: Plan, system: RobotSystem, run: Run) -> Work:
         kernels=kernels,
         events=events,
         tree=tr,
-        md=(tr.itree, tr.ftree, tr.grav, forces, springs, plan.method, plan.tableau, cb),
+        md=(tr.itree, tr.ftree, tr.grav, forces, springs, plan.method, _tab(plan), cb, tr.flyer),
         forces=forces,
         springs=springs,
         par=par,
@@ -294,7 +302,8 @@ def _block(w: Work) -> tuple[int, int]:
         if status != ev.EVENTS:
             return status, lo  # type: ignore[no-any-return]
     compile_start = time.perf_counter()
-    tree.event_kernels()  # loaded, or compiled with its notice, the first time a run meets a stop
+    # loaded, or compiled with its notice, the first time a run meets a stop
+    tree.event_kernels(w.tree.flyer is not None, w.md[5] == _RK)
     w.start += time.perf_counter() - compile_start
     return ev.run_events(  # type: ignore[no-any-return]
         w.md, w.par, w.stops, w.held, w.side, w.counts, w.wlim, w.records, ts, hs, lo, hi - w.done, *records
@@ -398,8 +407,8 @@ def _last_sample(w: Work) -> None:
     run, tr, nv = w.run, w.tree, w.system.nv
     a_last = np.empty(nv + 2)
     w.kin[w.done], w.pot[w.done], _ = w.kernels.sample(
-        tr.itree, tr.ftree, tr.grav, float(run.t[w.done]), run.Q[w.done], w.U[w.done], w.forces, w.springs, w.cb,
-        _held_rows(w), RELEASE_TOL, a_last,
+        tr.itree, tr.ftree, tr.grav, tr.flyer, float(run.t[w.done]), run.Q[w.done], w.U[w.done], w.forces, w.springs,
+        w.cb, _held_rows(w), RELEASE_TOL, a_last,
     )  # fmt: skip
     w.counts[w.events.EVALS] += 1
     w.A[w.done] = a_last[:nv]
@@ -500,5 +509,7 @@ def _energies_at(
     """(T, V_gravity) [J] of one sample, without calling the torque."""
     a = np.empty(u.size)
     none = np.zeros((2, 0))  # no joint locked: the energies do not depend on the held set
-    kin, pot, _ = kernels.sample(tr.itree, tr.ftree, tr.grav, 0.0, q, u, forces, springs, -1, none, RELEASE_TOL, a)
+    kin, pot, _ = kernels.sample(
+        tr.itree, tr.ftree, tr.grav, tr.flyer, 0.0, q, u, forces, springs, -1, none, RELEASE_TOL, a
+    )
     return float(kin), float(pot)

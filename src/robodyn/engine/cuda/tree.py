@@ -153,8 +153,8 @@ def rollout_kernel() -> Any:
         for j in range(nv + 2):
             u[j] = V[g, j] if j < nv else 0.0
             u1[j] = 0.0
-        for _ in range(steps):
-            step(itree, ftree, grav, method, tab, 0.0, h, q, u, forces, springs, -1, ws, buf, qs, q1, u1, k0)
+        for _ in range(steps):  # flyer True: each row's type decides, one kernel for every tree
+            step(itree, ftree, grav, True, method, tab, 0.0, h, q, u, forces, springs, -1, ws, buf, qs, q1, u1, k0)
             for j in range(nq):
                 q[j] = q1[j]
                 lo[j] = min(lo[j], q1[j])

@@ -49,6 +49,13 @@ S = [R, [o]x R; 0, R], rebuilt from ``W_ROT`` and ``W_POS`` wherever it is appli
 by Cholesky in ``ws[i, W_FD:W_FD + 36]`` (scratch vectors in ``W_FY`` and ``W_FB``). A free
 flyer has no stop: its ``W_LOCK`` is ignored and its ``W_LAMBDA`` is set to 0.
 
+Every kernel takes ``flyer``: None on a tree without a free flyer, True on one whose root is
+(:attr:`robodyn.sim.tree.TreeModel.flyer`). numba removes a branch on an argument that is None
+before it types the function, so with None no free-flyer code is compiled at all (the first run
+of a fixed-base robot compiles about 9 s of CPU less); with True each row's type decides, as it
+would alone. None on a tree with a free flyer would treat its root as a revolute joint: only
+:mod:`robodyn.sim.tree` chooses it, from the tree.
+
 RNEA and CRBA reuse pass 1. The steps and whole runs over these are in
 :mod:`robodyn.engine.tree.steps`.
 """
@@ -170,13 +177,13 @@ def pass_to_parent(ws, i, par):  # type: ignore[no-untyped-def]
 
 
 @njit
-def kinematics(itree, ftree, grav, q, v, ws):  # type: ignore[no-untyped-def]
+def kinematics(itree, ftree, grav, flyer, q, v, ws):  # type: ignore[no-untyped-def]
     """Pass 1 into ``ws``; returns (T, V) [J] (gravity potential only)."""
     n = itree.shape[0]
     kinetic = 0.0
     potential = 0.0
     start = 0
-    if n > 0 and itree[0, 1] == FREEFLYER:  # the root of the whole tree (tree.unsupported checks it)
+    if flyer is not None and n > 0 and itree[0, 1] == FREEFLYER:  # the tree's root (tree.unsupported checks it)
         kinetic, potential = ff_kinematics(itree, ftree, grav, q, v, ws)
         start = 1
     for i in range(start, n):
@@ -272,7 +279,7 @@ def kinematics(itree, ftree, grav, q, v, ws):  # type: ignore[no-untyped-def]
 
 
 @njit
-def aba_passes(itree, ftree, grav, tau, ws, out):  # type: ignore[no-untyped-def]
+def aba_passes(itree, ftree, grav, flyer, tau, ws, out):  # type: ignore[no-untyped-def]
     """ABA passes 2 and 3 after :func:`kinematics`: the accelerations into ``out`` (nv,)."""
     n = itree.shape[0]
     for i in range(n - 1, -1, -1):
@@ -322,7 +329,7 @@ def aba_passes(itree, ftree, grav, tau, ws, out):  # type: ignore[no-untyped-def
     for i in range(n):
         par, iv = itree[i, 0], itree[i, 3]
         if par < 0:
-            if itree[i, 1] == FREEFLYER:
+            if flyer is not None and itree[i, 1] == FREEFLYER:
                 ff_root_acceleration(ftree, grav, tau, ws, out, i, iv)
                 continue
             a0, a1, a2, a3, a4, a5 = -grav[0], -grav[1], -grav[2], 0.0, 0.0, 0.0
@@ -359,17 +366,17 @@ def aba_passes(itree, ftree, grav, tau, ws, out):  # type: ignore[no-untyped-def
 
 
 @njit
-def aba(itree, ftree, grav, q, v, tau, ws, out):  # type: ignore[no-untyped-def]
+def aba(itree, ftree, grav, flyer, q, v, tau, ws, out):  # type: ignore[no-untyped-def]
     """Forward dynamics a = M^-1 (tau - C v - G) into ``out`` (nv,); returns (T, V) of (q, v) [J]."""
-    kin, pot = kinematics(itree, ftree, grav, q, v, ws)
-    aba_passes(itree, ftree, grav, tau, ws, out)
+    kin, pot = kinematics(itree, ftree, grav, flyer, q, v, ws)
+    aba_passes(itree, ftree, grav, flyer, tau, ws, out)
     return kin, pot
 
 
 @njit
-def rnea(itree, ftree, grav, q, v, a, ws, out):  # type: ignore[no-untyped-def]
+def rnea(itree, ftree, grav, flyer, q, v, a, ws, out):  # type: ignore[no-untyped-def]
     """Inverse dynamics tau = M a + C v + G (armature included) into ``out`` (nv,)."""
-    kinematics(itree, ftree, grav, q, v, ws)
+    kinematics(itree, ftree, grav, flyer, q, v, ws)
     n = itree.shape[0]
     f = np.empty((n, 6))
     for i in range(n):
@@ -385,7 +392,7 @@ def rnea(itree, ftree, grav, q, v, a, ws, out):  # type: ignore[no-untyped-def]
         w[W_A + 3] = b3 + w[W_C + 3] + w[W_S + 3] * a[iv]
         w[W_A + 4] = b4 + w[W_C + 4] + w[W_S + 4] * a[iv]
         w[W_A + 5] = b5 + w[W_C + 5] + w[W_S + 5] * a[iv]
-        if itree[i, 1] == FREEFLYER:  # a root: a_i = a_0 + S a
+        if flyer is not None and itree[i, 1] == FREEFLYER:  # a root: a_i = a_0 + S a
             x = ff_motion(ws, i, a[iv], a[iv + 1], a[iv + 2], a[iv + 3], a[iv + 4], a[iv + 5])
             for k in range(6):
                 w[W_A + k] += x[k]
@@ -396,7 +403,7 @@ def rnea(itree, ftree, grav, q, v, a, ws, out):  # type: ignore[no-untyped-def]
             f[i, r] = acc
     for i in range(n - 1, -1, -1):
         par, iv = itree[i, 0], itree[i, 3]
-        if itree[i, 1] == FREEFLYER:  # tau = S^T f + armature a, six entries
+        if flyer is not None and itree[i, 1] == FREEFLYER:  # tau = S^T f + armature a, six entries
             x = ff_force(ws, i, f[i, 0], f[i, 1], f[i, 2], f[i, 3], f[i, 4], f[i, 5])
             for k in range(6):
                 out[iv + k] = x[k] + ftree[i, F_ARM6 + k] * a[iv + k]
@@ -415,15 +422,15 @@ def rnea(itree, ftree, grav, q, v, a, ws, out):  # type: ignore[no-untyped-def]
 
 
 @njit
-def crba(itree, ftree, grav, q, ws, M):  # type: ignore[no-untyped-def]
+def crba(itree, ftree, grav, flyer, q, ws, M):  # type: ignore[no-untyped-def]
     """Joint-space inertia M(q) (nv, nv), armature included, into ``M`` (both triangles)."""
     n = itree.shape[0]
     zero = np.zeros(M.shape[0])
-    kinematics(itree, ftree, grav, q, zero, ws)
+    kinematics(itree, ftree, grav, flyer, q, zero, ws)
     F = np.empty(6)
     for i in range(n - 1, -1, -1):  # row i's composite inertia is whole once the rows below it are added
         iv = itree[i, 3]
-        if itree[i, 1] == FREEFLYER:  # a root: its 6 x 6 block S^T Ic S + armature
+        if flyer is not None and itree[i, 1] == FREEFLYER:  # a root: its 6 x 6 block S^T Ic S + armature
             ff_joint_inertia(ftree, ws, i)
             for r in range(6):
                 for k in range(6):
@@ -445,7 +452,7 @@ def crba(itree, ftree, grav, q, ws, M):  # type: ignore[no-untyped-def]
             F[4] += r2 * F[0] - r0 * F[2]
             F[5] += r0 * F[1] - r1 * F[0]
             jv = itree[j, 3]
-            if itree[j, 1] == FREEFLYER:  # the root's six rows: S_j^T F
+            if flyer is not None and itree[j, 1] == FREEFLYER:  # the root's six rows: S_j^T F
                 x = ff_force(ws, j, F[0], F[1], F[2], F[3], F[4], F[5])
                 for k in range(6):
                     M[iv, jv + k] = x[k]
@@ -463,14 +470,14 @@ def crba(itree, ftree, grav, q, ws, M):  # type: ignore[no-untyped-def]
 
 
 @njit
-def integrate(itree, q, dq, out):  # type: ignore[no-untyped-def]
+def integrate(itree, flyer, q, dq, out):  # type: ignore[no-untyped-def]
     """Out = q (+) dq: addition, but a (cos, sin) pair turned by its angle (and renormalised).
 
     A free flyer moves by the SE(3) exponential of its local twist dq[iv:iv + 6]
     (:func:`ff_integrate`).
     """
     start = 0
-    if itree.shape[0] > 0 and itree[0, 1] == FREEFLYER:  # the root (row 0) when there is one
+    if flyer is not None and itree.shape[0] > 0 and itree[0, 1] == FREEFLYER:  # the root (row 0) when there is one
         ff_integrate(q, dq, itree[0, 2], itree[0, 3], out)
         start = 1
     for i in range(start, itree.shape[0]):

@@ -71,7 +71,7 @@ from robodyn.engine.tree.impacts import (
     njit,
 )
 from robodyn.engine.tree.layout import W_LAMBDA, WCOLS
-from robodyn.engine.tree.steps import _finite, stages, step
+from robodyn.engine.tree.steps import _finite, stage_rows, stages, step
 
 # re-exported: robodyn.sim.tree and whole_run read the event state's layout from this module
 __all__ = [
@@ -110,23 +110,27 @@ __all__ = [
 @njit
 def _step(md, par, ws, counts, t, q, u, h, q1, u1, k0):  # type: ignore[no-untyped-def]
     """One step of the method from (t, q, u) into (q1, u1); k0 the rates at its start; returns (T, V) there."""
-    itree, ftree, grav, forces, springs, method, tab, cb = md
+    itree, ftree, grav, forces, springs, method, tab, cb, flyer = md
     nv = forces.shape[1]
-    s = max(tab.shape[1], 7)
+    s = stage_rows(tab)
     buf = np.zeros((2 * s + 3, nv + 2))
     counts[EVALS] += int(par[P_STAGES])
-    return step(itree, ftree, grav, method, tab, t, h, q, u, forces, springs, cb, ws, buf, np.empty(q.size), q1, u1, k0)
+    return step(
+        itree, ftree, grav, flyer, method, tab, t, h, q, u, forces, springs, cb, ws, buf, np.empty(q.size), q1, u1, k0
+    )
 
 
 @njit
 def _step_from(md, par, ws, counts, t, q, u, h, q1, u1, k0):  # type: ignore[no-untyped-def]
     """:func:`_step` when k0 already holds the rates at (t, q, u)."""
-    itree, ftree, grav, forces, springs, method, tab, cb = md
+    itree, ftree, grav, forces, springs, method, tab, cb, flyer = md
     nv = forces.shape[1]
-    s = max(tab.shape[1], 7)
+    s = stage_rows(tab)
     buf = np.zeros((2 * s + 3, nv + 2))
     counts[EVALS] += int(par[P_STAGES]) - 1
-    stages(itree, ftree, grav, method, tab, t, h, q, u, forces, springs, cb, ws, buf, np.empty(q.size), q1, u1, k0)
+    stages(
+        itree, ftree, grav, flyer, method, tab, t, h, q, u, forces, springs, cb, ws, buf, np.empty(q.size), q1, u1, k0
+    )
 
 
 @njit
@@ -201,7 +205,7 @@ def _scaled_min(vals, scale, n):  # type: ignore[no-untyped-def]
 @njit
 def _locate(md, par, st, side, ws, counts, t, q, u, h, q1, u1, watch, wval, n, qo, uo):  # type: ignore[no-untyped-def]
     """The first s in [0, h] where a watched function reaches 0, the state there into (qo, uo) (``_locate``)."""
-    itree, ftree, grav = md[0], md[1], md[2]
+    itree, ftree, grav, flyer = md[0], md[1], md[2], md[8]
     nv = md[3].shape[1]
     scale = np.empty(n)
     for i in range(n):
@@ -225,7 +229,7 @@ def _locate(md, par, st, side, ws, counts, t, q, u, h, q1, u1, watch, wval, n, q
         any_held = any_held or side[watch[i, 0]] != 0
     if any_held:  # a held row's function is its stop force, known to FORCE_NOISE_RTOL sum_i |M_ji a_i|
         M = np.zeros((nv, nv))
-        crba(itree, ftree, grav, q, ws, M)
+        crba(itree, ftree, grav, flyer, q, ws, M)
         a = k_start
         for i in range(n):
             k = watch[i, 0]
@@ -337,14 +341,14 @@ def _events_in_step(md, par, st, held, side, ws, counts, wlim, records, t, q0, u
 def run_events(md, par, st, held, side, counts, wlim, records, ts, hs, lo, hi, Q, U, A, KIN, POT, WL):  # type: ignore[no-untyped-def]
     """Take steps lo .. hi-1 (times ``ts``, sizes ``hs``) from sample lo of Q (n, nq), U (n, nv + 2), events and all.
 
-    ``md``: (itree, ftree, grav, forces, springs, method, tab, cb), as :func:`robodyn.engine.tree.steps.step`
+    ``md``: (itree, ftree, grav, forces, springs, method, tab, cb, flyer), as :func:`robodyn.engine.tree.steps.step`
     takes them; ``st`` (6, m): every limited joint [index in q; index in v; lower; upper;
     tolerance; tree row]. Fills samples lo+1 .. hi of Q, U and WL (the stops' work [J]), and
     A, KIN, POT (gravity's potential only) of samples lo .. hi-1. Returns (outcome, sample):
     ``DONE`` (hi), ``NOT_FINITE`` (the state of that sample is not finite) or ``CHATTER``
     (more than the events allowed in the step from that sample).
     """
-    itree, ftree, grav = md[0], md[1], md[2]
+    itree, ftree, grav, flyer = md[0], md[1], md[2], md[8]
     nv = md[3].shape[1]
     ws = np.zeros((itree.shape[0], WCOLS))
     _lock(ws, st, held)
@@ -371,7 +375,7 @@ def run_events(md, par, st, held, side, counts, wlim, records, ts, hs, lo, hi, Q
                 kc, cache,
             )  # fmt: skip
             if np.isnan(kin):
-                kin, pot = kinematics(itree, ftree, grav, Q[k], U[k], ws)
+                kin, pot = kinematics(itree, ftree, grav, flyer, Q[k], U[k], ws)
         if status == CHATTER:
             return CHATTER, k
         for j in range(nv):

@@ -58,9 +58,9 @@ def _set_held(ws, st, held, side, rows, n):  # type: ignore[no-untyped-def]
 @njit
 def _eval(md, ws, counts, t, q, u, out):  # type: ignore[no-untyped-def]
     """The rates (into ``out``) at (t, q, u) with the held joints locked; one evaluation counted."""
-    itree, ftree, grav, forces, springs, cb = md[0], md[1], md[2], md[3], md[4], md[7]
+    itree, ftree, grav, forces, springs, cb, flyer = md[0], md[1], md[2], md[3], md[4], md[7], md[8]
     counts[EVALS] += 1
-    return rates(itree, ftree, grav, t, q, u, forces, springs, cb, ws, np.empty(forces.shape[1]), out)
+    return rates(itree, ftree, grav, flyer, t, q, u, forces, springs, cb, ws, np.empty(forces.shape[1]), out)
 
 
 @njit
@@ -145,11 +145,11 @@ def _rests(md, par, st, ws, counts, t, q, vp, k, s, h, e):  # type: ignore[no-un
 @njit
 def _impact(md, par, st, held, side, ws, counts, wlim, records, t, q, u, h, hitting, nh):  # type: ignore[no-untyped-def]
     """The impulse of hitting[:nh] with the held rows holding, into u; the held set updated (``_impact``)."""
-    itree, ftree, grav = md[0], md[1], md[2]
+    itree, ftree, grav, flyer = md[0], md[1], md[2], md[8]
     nv = md[3].shape[1]
     e = par[P_RESTITUTION]
     M = np.zeros((nv, nv))
-    crba(itree, ftree, grav, q, ws, M)
+    crba(itree, ftree, grav, flyer, q, ws, M)
     v = u[:nv].copy()
     nheld = held[0]
     m = st.shape[1]
@@ -221,10 +221,10 @@ def _impact(md, par, st, held, side, ws, counts, wlim, records, t, q, u, h, hitt
 @njit
 def _rest(md, par, st, held, side, ws, counts, wlim, q, u, k, s):  # type: ignore[no-untyped-def]
     """Bring stop row (k, s) to rest with the held rows: a plastic impulse (booked), into u (``_rest``)."""
-    itree, ftree, grav = md[0], md[1], md[2]
+    itree, ftree, grav, flyer = md[0], md[1], md[2], md[8]
     nv = md[3].shape[1]
     M = np.zeros((nv, nv))
-    crba(itree, ftree, grav, q, ws, M)
+    crba(itree, ftree, grav, flyer, q, ws, M)
     nheld = held[0]
     rows = np.empty((nheld + 1, 2), dtype=np.int64)
     for i in range(nheld):

@@ -9,6 +9,8 @@ index in q, index in v. ``ftree`` (n, FCOLS) float64 rows: the ``F_*`` columns. 
 
 from __future__ import annotations
 
+from typing import Any
+
 REVOLUTE, PRISMATIC, CONTINUOUS, FREEFLYER = 0, 1, 2, 3
 
 # ftree columns
@@ -24,3 +26,11 @@ W_LOCK, W_LAMBDA = 86, 87
 W_FD, W_FY, W_FB = 88, 124, 130  # a free flyer's 6 x 6 D (then its Cholesky factor), two 6-vectors
 W_REF = 136  # a free flyer's position in world [m]: the point every world-frame vector is taken at
 WCOLS = 139
+
+
+def flyer_of(itree: Any) -> bool | None:
+    """The kernels' ``flyer`` argument for ``itree`` (n, 4): True when its root row is a free flyer, else None.
+
+    With None the kernels compile no free-flyer code (:mod:`robodyn.engine.tree.algorithms`).
+    """
+    return True if itree.shape[0] > 0 and int(itree[0, 1]) == FREEFLYER else None

@@ -59,7 +59,7 @@ def _callable_torque(cb, t, q, v):  # type: ignore[no-untyped-def]
 
 
 @njit
-def rates(itree, ftree, grav, t, q, u, forces, springs, cb, ws, tau, k):  # type: ignore[no-untyped-def]
+def rates(itree, ftree, grav, flyer, t, q, u, forces, springs, cb, ws, tau, k):  # type: ignore[no-untyped-def]
     """Rates k = [a, P_input, P_damping] at (t, q, u); returns (T, V_gravity) [J] of (q, v).
 
     ``forces`` (4, nv): constant input torque, damping D, friction F, friction velocity (row 3,
@@ -85,7 +85,7 @@ def rates(itree, ftree, grav, t, q, u, forces, springs, cb, ws, tau, k):  # type
         p_loss += loss * vj
     for s in range(springs.shape[1]):
         tau[int(springs[1, s])] -= springs[2, s] * (q[int(springs[0, s])] - springs[3, s])
-    kin, pot = aba(itree, ftree, grav, q, u, tau, ws, k)
+    kin, pot = aba(itree, ftree, grav, flyer, q, u, tau, ws, k)
     k[nv] = p_in
     k[nv + 1] = p_loss
     return kin, pot
@@ -100,20 +100,21 @@ def _finite(x):  # type: ignore[no-untyped-def]
 
 
 @njit
-def step(itree, ftree, grav, method, tab, t, h, q, u, forces, springs, cb, ws, buf, qs, q1, u1, k0):  # type: ignore[no-untyped-def]
+def step(itree, ftree, grav, flyer, method, tab, t, h, q, u, forces, springs, cb, ws, buf, qs, q1, u1, k0):  # type: ignore[no-untyped-def]
     """One step of size h [s] from (t, q, u) into (q1, u1); k0 gets the rates at the start; returns (T, V) there.
 
-    ``tab`` (s + 2, s) holds an explicit tableau's rows a, then b, then c (method RK); RK4 follows the
+    ``tab`` (s + 2, s) holds an explicit tableau's rows a, then b, then c (method RK), or is None for
+    RK4 and semi-implicit Euler (numba then compiles no general-tableau code); RK4 follows the
     classic RK4's own arithmetic, semi-implicit Euler kicks v then drifts q with the new v.
     ``buf`` (2 s + 3, nv + 2) holds the stages' u and k (its last row: scratch for the torque).
     """
-    kin, pot = rates(itree, ftree, grav, t, q, u, forces, springs, cb, ws, buf[-1], k0)
-    stages(itree, ftree, grav, method, tab, t, h, q, u, forces, springs, cb, ws, buf, qs, q1, u1, k0)
+    kin, pot = rates(itree, ftree, grav, flyer, t, q, u, forces, springs, cb, ws, buf[-1], k0)
+    stages(itree, ftree, grav, flyer, method, tab, t, h, q, u, forces, springs, cb, ws, buf, qs, q1, u1, k0)
     return kin, pot
 
 
 @njit
-def stages(itree, ftree, grav, method, tab, t, h, q, u, forces, springs, cb, ws, buf, qs, q1, u1, k0):  # type: ignore[no-untyped-def]
+def stages(itree, ftree, grav, flyer, method, tab, t, h, q, u, forces, springs, cb, ws, buf, qs, q1, u1, k0):  # type: ignore[no-untyped-def]
     """The rest of :func:`step` once ``k0`` holds the rates at (t, q, u): the state at t + h into (q1, u1)."""
     nv = forces.shape[1]
     nu = nv + 2
@@ -123,7 +124,7 @@ def stages(itree, ftree, grav, method, tab, t, h, q, u, forces, springs, cb, ws,
         dq = buf[0]
         for j in range(nv):
             dq[j] = h * u1[j]
-        integrate(itree, q, dq, q1)
+        integrate(itree, flyer, q, dq, q1)
         return
     if method == RK4:
         h2 = 0.5 * h
@@ -132,26 +133,28 @@ def stages(itree, ftree, grav, method, tab, t, h, q, u, forces, springs, cb, ws,
             u2[j] = u[j] + h2 * k0[j]
         for j in range(nv):
             dq[j] = h2 * u[j]
-        integrate(itree, q, dq, qs)
-        rates(itree, ftree, grav, t + h2, qs, u2, forces, springs, cb, ws, buf[-1], k2)
+        integrate(itree, flyer, q, dq, qs)
+        rates(itree, ftree, grav, flyer, t + h2, qs, u2, forces, springs, cb, ws, buf[-1], k2)
         for j in range(nu):
             u3[j] = u[j] + h2 * k2[j]
         for j in range(nv):
             dq[j] = h2 * u2[j]
-        integrate(itree, q, dq, qs)
-        rates(itree, ftree, grav, t + h2, qs, u3, forces, springs, cb, ws, buf[-1], k3)
+        integrate(itree, flyer, q, dq, qs)
+        rates(itree, ftree, grav, flyer, t + h2, qs, u3, forces, springs, cb, ws, buf[-1], k3)
         for j in range(nu):
             u4[j] = u[j] + h * k3[j]
         for j in range(nv):
             dq[j] = h * u3[j]
-        integrate(itree, q, dq, qs)
-        rates(itree, ftree, grav, t + h, qs, u4, forces, springs, cb, ws, buf[-1], k4)
+        integrate(itree, flyer, q, dq, qs)
+        rates(itree, ftree, grav, flyer, t + h, qs, u4, forces, springs, cb, ws, buf[-1], k4)
         h6 = h / 6.0
         for j in range(nv):
             dq[j] = h6 * (u[j] + 2.0 * (u2[j] + u3[j]) + u4[j])
-        integrate(itree, q, dq, q1)
+        integrate(itree, flyer, q, dq, q1)
         for j in range(nu):
             u1[j] = u[j] + h6 * (k0[j] + 2.0 * (k2[j] + k3[j]) + k4[j])
+        return
+    if tab is None:  # RK4 or semi-implicit Euler only: the general tableau's code below is not compiled
         return
     # a general explicit Runge-Kutta tableau: stage i from the non-zero a_ij (as the integrators' _combine)
     s = tab.shape[1]
@@ -186,19 +189,27 @@ def stages(itree, ftree, grav, method, tab, t, h, q, u, forces, springs, cb, ws,
                     dq[m] = 0.0
                 for m in range(nu):
                     du[m] = 0.0
-            integrate(itree, q, dq, q1)
+            integrate(itree, flyer, q, dq, q1)
             for m in range(nu):
                 u1[m] = u[m] + du[m]
             break
         if first:  # a row of zeros: the stage is the start point
             for m in range(nu):
                 U[i, m] = u[m]
-            rates(itree, ftree, grav, t + tab[s + 1, i] * h, q, u, forces, springs, cb, ws, buf[-1], K[i])
+            rates(itree, ftree, grav, flyer, t + tab[s + 1, i] * h, q, u, forces, springs, cb, ws, buf[-1], K[i])
             continue
         for m in range(nu):
             U[i, m] = u[m] + du[m]
-        integrate(itree, q, dq, qs)
-        rates(itree, ftree, grav, t + tab[s + 1, i] * h, qs, U[i], forces, springs, cb, ws, buf[-1], K[i])
+        integrate(itree, flyer, q, dq, qs)
+        rates(itree, ftree, grav, flyer, t + tab[s + 1, i] * h, qs, U[i], forces, springs, cb, ws, buf[-1], K[i])
+
+
+@njit
+def stage_rows(tab):  # type: ignore[no-untyped-def]
+    """The stages s of :func:`step`'s buffer (2 s + 3, nv + 2): the tableau's, at least 7 (RK4's rows)."""
+    if tab is None:
+        return 7
+    return max(tab.shape[1], 7)
 
 
 @njit
@@ -220,19 +231,19 @@ def _pulling(ws, held, release_tol):  # type: ignore[no-untyped-def]
 
 
 @njit
-def sample(itree, ftree, grav, t, q, u, forces, springs, cb, held, release_tol, a):  # type: ignore[no-untyped-def]
+def sample(itree, ftree, grav, flyer, t, q, u, forces, springs, cb, held, release_tol, a):  # type: ignore[no-untyped-def]
     """(T, V) [J], the rates (into ``a``, nv + 2) of one sample, and whether a held stop pulls there.
 
     The joints of ``held`` (2, h) are locked; a stop pulls when side x its force < -``release_tol``.
     """
     ws = np.zeros((itree.shape[0], WCOLS))
     lock(ws, held)
-    kin, pot = rates(itree, ftree, grav, t, q, u, forces, springs, cb, ws, np.empty(forces.shape[1]), a)
+    kin, pot = rates(itree, ftree, grav, flyer, t, q, u, forces, springs, cb, ws, np.empty(forces.shape[1]), a)
     return kin, pot, _pulling(ws, held, release_tol)
 
 
 @jit.njit(nogil=True, error_model="numpy", parallel=True)
-def batch_rollout(itree, ftree, grav, method, tab, h, steps, Q, V, forces, springs, blocks):  # type: ignore[no-untyped-def]
+def batch_rollout(itree, ftree, grav, flyer, method, tab, h, steps, Q, V, forces, springs, blocks):  # type: ignore[no-untyped-def]
     """Step every state of Q (n, nq), V (n, nv) through ``steps`` steps of h [s], in place.
 
     One parallel region: ``blocks`` + 1 boundaries split the batch; each block is stepped
@@ -259,7 +270,7 @@ def batch_rollout(itree, ftree, grav, method, tab, h, steps, Q, V, forces, sprin
             u[nv] = 0.0
             u[nv + 1] = 0.0
             for _ in range(steps):
-                step(itree, ftree, grav, method, tab, 0.0, h, q, u, forces, springs, -1, ws, buf, qs, q1, u1, k0)
+                step(itree, ftree, grav, flyer, method, tab, 0.0, h, q, u, forces, springs, -1, ws, buf, qs, q1, u1, k0)
                 for j in range(nq):
                     q[j] = q1[j]
                 for j in range(nv + 2):

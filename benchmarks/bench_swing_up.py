@@ -18,7 +18,14 @@ and the peak torque (median, max). A Pendubot run also fails when its elbow swep
 
     python benchmarks/bench_swing_up.py --out bench-out
 
-writes swing_up.json and swing_up.png/.svg; ``--n 20`` for a quick look.
+writes swing_up.json and swing_up.png/.svg; ``--n 20`` for a quick look. Each family is drawn from
+its own seed (``FAMILY_SEED`` plus ``--seed``), so ``--families`` picks families without changing
+their systems, and
+
+    python benchmarks/bench_swing_up.py --only "pendubot (Spong-Block):88"
+
+runs system 88 of that family as the whole run draws it (``--n`` keeps the draw), from both starts,
+and prints each run's outcome (no JSON or chart).
 """
 
 from __future__ import annotations

@@ -31,10 +31,10 @@ order), so
 
 drives E2 to its upright value while the PD keeps link 1 up: link 2 then swings up into the LQR's
 region. In units of link 2's pendulum (E2 / (m2 g lc2), time w2 t) the energy a swing gains goes as
-the coupling kappa = m2 l1 lc2 / J2 times the shoulder's swing accel_max / w2^2 [rad]: a Pendubot
-whose link 2 is mostly rotational inertia (kappa 0.11 against 0.90 on Spong and Block's machine)
-needs eight times the swings, so accel_max grows as 1 / kappa below the built-in's coupling, up to
-a shoulder swing of about 1 rad (:func:`pump_ratio`).
+the coupling kappa = m2 l1 lc2 / J2 times the shoulder's swing a = accel_max / w2^2 [rad], and the
+pump takes about pi^2 / (kappa a w2) [s]: a Pendubot whose link 2 is mostly rotational inertia
+(kappa 0.11 against 0.90 on Spong and Block's machine) needs eight times the swings. Where that time
+exceeds ``PUMP_TIME`` the shoulder swings harder, up to about 1 rad (:func:`pump_ratio`).
 
 Fantoni, Lozano and Spong's law (IEEE TAC 45(4), 2000), which pumps the total energy, was
 robodyn's first: its closed loop has a second equilibrium, link 1 upright with link 2 hanging,
@@ -256,8 +256,8 @@ def pendubot(
     * ``k_p`` = (``PD_RATIO`` w2)^2, ``k_d`` = 2 ``PD_RATIO`` w2: link 1 critically damped at
       0.6 w2, slower than link 2 swings, so the pump's shaking of the shoulder reaches link 2;
     * ``accel_max`` = ``PUMP_RATIO`` w2^2 (the shoulder swings about 0.5 rad to pump), raised up to
-      ``PUMP_MAX`` w2^2 on a weakly coupled Pendubot (:func:`pump_ratio`: the energy a swing gains
-      goes as the coupling m2 l1 lc2 / J2 times the shoulder's swing);
+      ``PUMP_MAX`` w2^2 where the pump would take longer than ``PUMP_TIME`` (:func:`pump_ratio`: the
+      energy a swing gains goes as the coupling m2 l1 lc2 / J2 times the shoulder's swing);
     * ``k_energy`` = ``PUMP_GAIN`` / (m2 g lc2 w2): the pump saturates until link 2 is near its target;
     * ``kick`` = ``KICK_RATIO`` w2: starts the pump when link 2 hangs at rest below an upright link 1.
 
@@ -290,7 +290,7 @@ def pendubot(
     omega = float(np.sqrt(weight / inertia))  # [rad/s] link 2's own pendulum frequency
     k_p = (PD_RATIO * omega) ** 2 if k_p is None else k_p
     k_d = 2.0 * PD_RATIO * omega if k_d is None else k_d
-    accel_max = pump_ratio(coupling(plant)) * omega**2 if accel_max is None else accel_max
+    accel_max = pump_ratio(coupling(plant), omega) * omega**2 if accel_max is None else accel_max
     k_energy = PUMP_GAIN / (weight * omega) if k_energy is None else k_energy
     kick = KICK_RATIO * omega if kick is None else kick
     hold = hold_torque(plant)
@@ -315,15 +315,29 @@ def coupling(plant: Plant) -> float:
     return abs(float(straight[0, 1] - folded[0, 1])) / 2.0 / float(straight[1, 1])
 
 
-def pump_ratio(kappa: float) -> float:
-    """The pump's acceleration in units of w2^2 [-] for a Pendubot of coupling ``kappa`` (see :func:`coupling`).
+def pump_ratio(kappa: float, omega: float) -> float:
+    """The pump's acceleration in units of w2^2 [-] for a Pendubot of coupling ``kappa`` and w2 = ``omega`` [rad/s].
 
-    Each swing of link 2 gains energy in proportion to kappa times the shoulder's swing (accel_max /
-    w2^2 [rad]), so the number of swings to the upright goes as 1 / (kappa accel_max / w2^2): the
-    pump keeps that product at ``PUMP_RATIO`` ``COUPLING_REF`` (its value on the built-in Pendubot,
-    where the law was tuned), between ``PUMP_RATIO`` and ``PUMP_MAX`` (link 1 then swings about 1 rad from its upright).
+    Each swing of link 2 gains energy in proportion to kappa times the shoulder's swing a = accel_max /
+    w2^2 [rad]; the saturated pump, a square wave of a w2^2, brings link 2 from hanging to its
+    upright energy in about pi^2 / (kappa a w2) [s] (:func:`pump_time`). The pump keeps ``PUMP_RATIO``
+    where that is within ``PUMP_TIME`` and raises a to bring it there, up to ``PUMP_MAX``.
     """
-    return float(np.clip(PUMP_RATIO * COUPLING_REF / kappa, PUMP_RATIO, PUMP_MAX)) if kappa > 0 else PUMP_MAX
+    if not kappa > 0:
+        return PUMP_MAX
+    needed = PUMP_RATIO * pump_time(kappa, omega, PUMP_RATIO) / PUMP_TIME  # the a whose pump takes PUMP_TIME
+    return float(np.clip(needed, PUMP_RATIO, PUMP_MAX))
+
+
+def pump_time(kappa: float, omega: float, ratio: float) -> float:
+    """About how long [s] the saturated pump takes to bring link 2 from hanging to its upright energy.
+
+    The energy balance dE2/dt = -m2 l1 lc2 w phi' cos psi cos e1, with the shoulder's acceleration w a
+    square wave of ``ratio`` w2^2 in phase with phi' (about half of which passes link 1's PD), adds
+    about 2 kappa ``ratio`` rad of swing per period of link 2: pi^2 / (kappa ``ratio`` w2) [s] from
+    hanging to upright, kappa the coupling, w2 = ``omega`` [rad/s]. Measured times: see ``PUMP_TIME``.
+    """
+    return float(np.pi**2 / (kappa * ratio * omega))
 
 
 def hold_torque(plant: Plant) -> float:
@@ -412,13 +426,16 @@ PD_RATIO = 0.6
 PUMP_RATIO = 0.5
 PUMP_GAIN = 10.0
 # A weakly coupled Pendubot (kappa = m2 l1 lc2 / J2 small: link 2 mostly rotational inertia) gains
-# little energy a swing: the pump's acceleration grows as COUPLING_REF / kappa up to PUMP_MAX w2^2.
-# COUPLING_REF: the built-in's kappa (0.89; Spong and Block's machine's 0.90), where the law was
-# tuned, so both keep PUMP_RATIO. Measured on
-# Spong-Block system 88 of benchmarks/bench_swing_up.py (kappa 0.11, effort 1.3 x its need), from
-# hanging: 0.5 w2^2 balanced at 43 s, 0.75 at 26 s, 1.0 at 16 s, 1.5 at 14 s (the torque then at
-# its limit); PUMP_MAX = 1 keeps link 1's swing near 1 rad from upright, short of horizontal.
-COUPLING_REF = 0.89
+# little energy a swing. The pump's time pi^2 / (kappa a w2) (pump_time) against the time to balance
+# measured from hanging with a = PUMP_RATIO (benchmarks/bench_swing_up.py, seed 0 and 1, the 16
+# slowest drawn Pendubots that balanced): 21.0 s predicted / 22.1 s measured, 20.2 / 23.2, 18.0 / 19.9,
+# 17.1 / 17.7, 24.5 / 27.9, 18.5 / 18.4, ...: the pump is the time. Where it exceeds PUMP_TIME the
+# shoulder swings harder, up to PUMP_MAX w2^2 (link 1 then swings about 1 rad from its upright, short
+# of horizontal). Spong-Block system 88 (kappa 0.11, w2 4.65 rad/s, predicted 38 s) balanced at 43 s
+# with 0.5 w2^2, 26 s with 0.75, 16 s with 1.0, 14 s with 1.5 (the torque at its limit). Raising it
+# on every Pendubot below the built-in's coupling instead (a = 0.5 x 0.89 / kappa) lost four
+# systems of kappa 0.29 to 0.80 whose pump took under 12 s: their link 1 swung too far to catch.
+PUMP_TIME = 20.0  # [s] the longest pump the law accepts before swinging the shoulder harder
 PUMP_MAX = 1.0
 # The kick, as Astrom-Furuta's: a small bias that starts the pump where link 2 is at rest (phi' = 0).
 # At hanging (E2 - E2_up = -2 m2 g lc2) it commands 2 PUMP_GAIN KICK_RATIO of the pump's acceleration,

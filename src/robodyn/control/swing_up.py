@@ -408,7 +408,10 @@ def swing_need(law: PendubotEnergy | CartPoleEnergy) -> tuple[float, str]:
 # 74, whose effort lay between 0.75 x the hold torque, the need first used, and the lift torque):
 # at 0.96 x the lift torque none balanced, link 1 leaning below horizontal with the torque saturated;
 # at 0.97 x two of the four, at 0.99 x and above all four (the built-in's 2 N m is 0.977 x its
-# 2.046 N m and balances: link 2's swing lends the last 2 to 3 %). The swing's reaction, measured
+# 2.046 N m and balances: link 2's swing lends the last 2 to 3 %). Those runs had the kick at 0.05 w2;
+# with 0.01 w2 link 2 lends more and the lift torque is conservative by up to about 10 %: system 62
+# balances at 0.92 x, not at 0.88 x (link 1 swings above horizontal, and leans below it at 0.80 x),
+# and system 44 of the same family at 0.90 x in the benchmark. The swing's reaction, measured
 # the same way on the built-in cart-pole, cart-poles 62 and 82 of seed 20 and the Spong-Block
 # Pendubot 58 of seed 1 (efforts 0.27 to 0.59 x their reaction in the benchmark, where none balanced,
 # the torque saturated): at 0.8 x the reaction none of the four balanced, at 0.9 x and above all four.

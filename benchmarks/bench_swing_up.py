@@ -330,6 +330,9 @@ def main() -> None:
     facts = run_facts()  # taken before the runs: its wall time is the whole benchmark's
     out = output_folder(args.out, overwrite_committed=args.overwrite_committed)
     labels = args.families.split(",")
+    unknown = [label for label in labels if label not in BASES]
+    if unknown:
+        parser.error(f"--families: unknown family {unknown[0]!r}; expected one of {', '.join(map(repr, BASES))}")
     only = parse_only(args.only, args.n, parser) if args.only else None
     if only is not None:
         labels = list(only)

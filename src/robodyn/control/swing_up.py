@@ -251,7 +251,8 @@ def pendubot(
     Link 2 hangs from link 1's tip as a pendulum of weight moment m2 g lc2 = max |G_2| [N m] and
     inertia J2 = M_22 [kg m^2] about the elbow (both read from the model), natural frequency
     w2 = sqrt(m2 g lc2 / J2) [rad/s]. Every gain is that pendulum's scale times a dimensionless
-    number, so the law is the same on every Pendubot up to the scale of masses, lengths and time:
+    number, so the law is the same on every Pendubot up to the scale of masses, lengths and time
+    (but for ``PUMP_TIME``, a time in seconds, which raises the pump of a slow one):
 
     * ``k_p`` = (``PD_RATIO`` w2)^2, ``k_d`` = 2 ``PD_RATIO`` w2: link 1 critically damped at
       0.6 w2, slower than link 2 swings, so the pump's shaking of the shoulder reaches link 2;

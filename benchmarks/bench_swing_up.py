@@ -18,7 +18,14 @@ and the peak torque (median, max). A Pendubot run also fails when its elbow swep
 
     python benchmarks/bench_swing_up.py --out bench-out
 
-writes swing_up.json and swing_up.png/.svg; ``--n 20`` for a quick look.
+writes swing_up.json and swing_up.png/.svg; ``--n 20`` for a quick look. Each family is drawn from
+its own seed (``FAMILY_SEED`` plus ``--seed``), so ``--families`` picks families without changing
+their systems, and
+
+    python benchmarks/bench_swing_up.py --only "pendubot (Spong-Block):88"
+
+runs system 88 of that family as the whole run draws it (``--n`` keeps the draw), from both starts,
+and prints each run's outcome (no JSON or chart).
 """
 
 from __future__ import annotations
@@ -45,6 +52,8 @@ SCALE = (0.3, 3.0)  # each parameter's factor, log-uniform
 EFFORT_RANGE = (0.3, 30.0)  # effort / need, log-uniform: a third of the need to thirty times it
 G = 9.81  # [m/s^2] robodyn's gravity
 ELBOW_LIMIT = 100.0  # [rad] the Spong-Block file's joint limits
+# Each family's seed, added to --seed: the same draws whichever families a run picks.
+FAMILY_SEED = {"pendubot (built-in)": 0, "pendubot (Spong-Block)": 1, "cart_pole (built-in)": 20}
 BASES = {
     "pendubot (built-in)": ("pendubot", dict(m1=1.336, m2=0.5, l1=0.15, lc1=0.10, lc2=0.126, I1=6.19e-3, I2=2.6502e-3)),
     "pendubot (Spong-Block)": (
@@ -119,36 +128,54 @@ def robot_params(robot: Any, kind: str) -> dict[str, float]:
     return params.extract(robot, kind).as_dict()
 
 
-def draw_family(label: str, n: int, seed: int, folder: Path) -> dict[str, Any]:
-    """``n`` systems of the family ``label``: their controllers, parameter vectors and two starts each."""
+def draw_family(label: str, n: int, seed: int, folder: Path, only: list[int] | None = None) -> dict[str, Any]:
+    """``n`` systems of the family ``label``: their controllers, parameter vectors and two starts each.
+
+    ``only`` keeps the systems of those indices (every system is still drawn, so system k is the
+    same system as in the whole family's run).
+    """
     kind, base = BASES[label]
     rng = np.random.default_rng(seed)
-    rows, cs, ps, controllers = [], [], [], []
-    law = ""
-    for k in range(n):
+    drawn = []
+    for _ in range(n):
         p = draw(base, kind, rng)
         ratio = float(np.exp(rng.uniform(np.log(EFFORT_RANGE[0]), np.log(EFFORT_RANGE[1]))))
-        need = need_of(kind, p)
-        controller, need, law, c, pv = build(kind, p, ratio * need, folder, k)
+        drawn.append((p, ratio))
+    keep = list(range(n)) if only is None else only
+    rows, cs, ps, controllers = [], [], [], []
+    law = ""
+    for k in keep:
+        p, ratio = drawn[k]
+        controller, need, law, c, pv = build(kind, p, ratio * need_of(kind, p), folder, k)
         cs.append(c)
         ps.append(pv)
         controllers.append(controller)
-        rows.append({"params": p, "effort": float(controller.lqr.plant.effort[0]), "need": need})
+        rows.append({"system": k, "params": p, "effort": float(controller.lqr.plant.effort[0]), "need": need})
     plant = controllers[0].lqr.plant
     hanging = np.tile(plant.hanging(), (n, 1))
     random_q = hanging + np.column_stack([rng.uniform(-np.pi, np.pi, n) for _ in range(2)]) * plant.angular
     if kind == "cart_pole":
         random_q[:, 0] = rng.uniform(-1.0, 1.0, n)
-    starts = {"hanging": (hanging, np.zeros((n, 2))), "random": (random_q, rng.normal(0.0, 1.0, (n, 2)))}
+    random_v = rng.normal(0.0, 1.0, (n, 2))
+    starts = {"hanging": (hanging[keep], np.zeros((len(keep), 2))), "random": (random_q[keep], random_v[keep])}
     return {"kind": kind, "law": law, "rows": rows, "c": np.array(cs).T, "p": np.array(ps).T,
             "controllers": controllers, "starts": starts, "plant": plant}  # fmt: skip
 
 
-def run_kind(labels: list[str], n: int, seed: int, duration: float) -> dict[str, Any]:
-    """Every family of one kind and both starts in ONE vectorised rollout, then each run judged."""
+def run_kind(
+    labels: list[str], n: int, seed: int, duration: float, only: dict[str, list[int]] | None = None
+) -> dict[str, Any]:
+    """Every family of one kind and both starts in ONE vectorised rollout, then each run judged.
+
+    Family ``label`` is drawn from ``seed + FAMILY_SEED[label]``; ``only`` maps a label to the
+    indices of the systems to run (all when None).
+    """
     with tempfile.TemporaryDirectory() as tmp:
-        drawn = {label: draw_family(label, n, seed + i, Path(tmp) / f"f{i}") for i, label in enumerate(labels)
-                 if (Path(tmp) / f"f{i}").mkdir() is None}  # fmt: skip
+        drawn = {}
+        for i, label in enumerate(labels):
+            (Path(tmp) / f"f{i}").mkdir()
+            picked = None if only is None else only[label]
+            drawn[label] = draw_family(label, n, seed + FAMILY_SEED[label], Path(tmp) / f"f{i}", picked)
     first = next(iter(drawn.values()))
     kind, law, plant = first["kind"], first["law"], first["plant"]
     blocks = [(label, start) for label in drawn for start in ("hanging", "random")]
@@ -161,10 +188,13 @@ def run_kind(labels: list[str], n: int, seed: int, duration: float) -> dict[str,
         duration=duration, dt=DT, upright=plant.upright(), angular=plant.angular, hold=outcome.HOLD,
     )  # fmt: skip
     out: dict[str, Any] = {}
-    for b, (label, start) in enumerate(blocks):
+    offset = 0
+    for label, start in blocks:
         fam = drawn[label]
-        part = slice(b * n, (b + 1) * n)
-        entry = out.setdefault(label, {"kind": kind, "n": n, "duration_s": duration, "starts": {}})
+        size = len(fam["rows"])
+        part = slice(offset, offset + size)
+        offset += size
+        entry = out.setdefault(label, {"kind": kind, "n": size, "duration_s": duration, "starts": {}})
         entry["starts"][start] = judge_family(kind, fam["controllers"], r, part, duration, fam["rows"])
     print(f"{kind}: {c.shape[1]} runs of {duration:g} s in {r.wall_time_s:.1f} s wall")
     return out
@@ -194,6 +224,7 @@ def judge_family(
                 reason = "the hand-over never found the LQR's region of attraction"
         runs.append(
             {
+                "system": rows[i]["system"],
                 "balanced": bool(balanced),
                 "time_to_balance_s": float(r.time_to_balance[k]) if balanced else None,
                 "final_error_rad": float(r.final_error[k]),
@@ -218,6 +249,30 @@ def judge_family(
         "peak_over_effort_max": float(np.max(peaks)),
         "wall_time_s": r.wall_time_s,
     }
+
+
+def parse_only(text: str, n: int, parser: Any) -> dict[str, list[int]]:
+    """``'LABEL:K,K'`` -> {LABEL: [K, K]}; a bad label or index is one line from ``parser`` (exit 2)."""
+    label, _, indices = text.rpartition(":")
+    if label not in BASES:
+        parser.error(f"--only: unknown family {label!r}; expected one of {', '.join(map(repr, BASES))}")
+    try:
+        picked = [int(k) for k in indices.split(",")]
+    except ValueError:
+        parser.error(f"--only: expected LABEL:K[,K...] with integer indices, got {text!r}")
+    bad = [k for k in picked if not 0 <= k < n]
+    if bad:
+        parser.error(f"--only: system {bad[0]} is not drawn with --n {n} (indices 0 to {n - 1})")
+    return {label: picked}
+
+
+def run_line(label: str, start: str, x: dict[str, Any]) -> str:
+    """One run of ``--only``: its outcome, time, final error [rad], peak torque against its limit and need."""
+    verdict = f"balanced at {x['time_to_balance_s']:.2f} s" if x["balanced"] else f"did not balance: {x['reason']}"
+    return (
+        f"{label} #{x['system']} from {start}: {verdict}; final error {x['final_error_rad']:.3g} rad, "
+        f"peak torque {x['peak_torque']:.4g} of {x['effort']:.4g} (need {x['need']:.4g}) [N m | N]"
+    )
 
 
 def table(result: dict[str, Any]) -> str:
@@ -266,18 +321,36 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--duration", type=float, default=DURATION, help="seconds per run (default 30)")
     parser.add_argument("--families", default=",".join(BASES), help="comma-separated family labels")
+    parser.add_argument(
+        "--only",
+        help="run only these systems of a family, as drawn for --n, e.g. 'pendubot (Spong-Block):88,12' "
+        "(prints each run; writes no JSON or chart)",
+    )
     args = parser.parse_args()
+    facts = run_facts()  # taken before the runs: its wall time is the whole benchmark's
     out = output_folder(args.out, overwrite_committed=args.overwrite_committed)
     labels = args.families.split(",")
+    unknown = [label for label in labels if label not in BASES]
+    if unknown:
+        parser.error(f"--families: unknown family {unknown[0]!r}; expected one of {', '.join(map(repr, BASES))}")
+    only = parse_only(args.only, args.n, parser) if args.only else None
+    if only is not None:
+        labels = list(only)
     families: dict[str, Any] = {}
     for kind in ("pendubot", "cart_pole"):
         mine = [label for label in labels if BASES[label][0] == kind]
         if mine:
-            families.update(run_kind(mine, args.n, args.seed + 10 * len(families), args.duration))
+            families.update(run_kind(mine, args.n, args.seed, args.duration, only))
     result = {"families": families, "dt_s": DT, "balance_tol_rad": outcome.BALANCE_TOL, "hold_s": outcome.HOLD}
     print(table(result))
+    if only is not None:  # a look at chosen systems: their runs, not a family's figures
+        for label, fam in families.items():
+            for start, s in fam["starts"].items():
+                for x in s["runs"]:
+                    print(run_line(label, start, x))
+        return
     chart(result, out)
-    write_json(out, "swing_up", result, run_facts())
+    write_json(out, "swing_up", result, facts)
 
 
 if __name__ == "__main__":

@@ -30,7 +30,13 @@ order), so
     w = sat_{a_max}( k_E (E2 - E2_up) (phi' cos psi cos e1 + kick) ) - k_p e1 - k_d q1'
 
 drives E2 to its upright value while the PD keeps link 1 up: link 2 then swings up into the LQR's
-region. Fantoni, Lozano and Spong's law (IEEE TAC 45(4), 2000), which pumps the total energy, was
+region. In units of link 2's pendulum (E2 / (m2 g lc2), time w2 t) the energy a swing gains goes as
+the coupling kappa = m2 l1 lc2 / J2 times the shoulder's swing a = accel_max / w2^2 [rad], and the
+pump takes about pi^2 / (kappa a w2) [s]: a Pendubot whose link 2 is mostly rotational inertia
+(kappa 0.11 against 0.90 on Spong and Block's machine) needs eight times the swings. Where that time
+exceeds ``PUMP_TIME`` the shoulder swings harder, up to about 1 rad (:func:`pump_ratio`).
+
+Fantoni, Lozano and Spong's law (IEEE TAC 45(4), 2000), which pumps the total energy, was
 robodyn's first: its closed loop has a second equilibrium, link 1 upright with link 2 hanging,
 which it leaves only slowly (growth rates of 0.01 to 0.05 per second on drawn Pendubots), and 10
 to 14 % of the benchmark's drawn Pendubots balanced; this one's pump leaves it at once.
@@ -245,11 +251,14 @@ def pendubot(
     Link 2 hangs from link 1's tip as a pendulum of weight moment m2 g lc2 = max |G_2| [N m] and
     inertia J2 = M_22 [kg m^2] about the elbow (both read from the model), natural frequency
     w2 = sqrt(m2 g lc2 / J2) [rad/s]. Every gain is that pendulum's scale times a dimensionless
-    number, so the law is the same on every Pendubot up to the scale of masses, lengths and time:
+    number, so the law is the same on every Pendubot up to the scale of masses, lengths and time
+    (but for ``PUMP_TIME``, a time in seconds, which raises the pump of a slow one):
 
     * ``k_p`` = (``PD_RATIO`` w2)^2, ``k_d`` = 2 ``PD_RATIO`` w2: link 1 critically damped at
       0.6 w2, slower than link 2 swings, so the pump's shaking of the shoulder reaches link 2;
-    * ``accel_max`` = ``PUMP_RATIO`` w2^2 (the shoulder swings about 0.5 rad to pump);
+    * ``accel_max`` = ``PUMP_RATIO`` w2^2 (the shoulder swings about 0.5 rad to pump), raised up to
+      ``PUMP_MAX`` w2^2 where the pump would take longer than ``PUMP_TIME`` (:func:`pump_ratio`: the
+      energy a swing gains goes as the coupling m2 l1 lc2 / J2 times the shoulder's swing);
     * ``k_energy`` = ``PUMP_GAIN`` / (m2 g lc2 w2): the pump saturates until link 2 is near its target;
     * ``kick`` = ``KICK_RATIO`` w2: starts the pump when link 2 hangs at rest below an upright link 1.
 
@@ -282,7 +291,7 @@ def pendubot(
     omega = float(np.sqrt(weight / inertia))  # [rad/s] link 2's own pendulum frequency
     k_p = (PD_RATIO * omega) ** 2 if k_p is None else k_p
     k_d = 2.0 * PD_RATIO * omega if k_d is None else k_d
-    accel_max = PUMP_RATIO * omega**2 if accel_max is None else accel_max
+    accel_max = pump_ratio(coupling(plant), omega) * omega**2 if accel_max is None else accel_max
     k_energy = PUMP_GAIN / (weight * omega) if k_energy is None else k_energy
     kick = KICK_RATIO * omega if kick is None else kick
     hold = hold_torque(plant)
@@ -292,6 +301,44 @@ def pendubot(
         plant, pfl, float(k_energy), float(accel_max), float(k_p), float(k_d), float(kick),
         weight, inertia, float(energy_offset), cap, hold,
     )  # fmt: skip
+
+
+def coupling(plant: Plant) -> float:
+    """The coupling kappa = m2 l1 lc2 / J2 [-], how strongly the shoulder swings link 2, from the model's M.
+
+    M_12 = J2 + m2 l1 lc2 cos q2 (q2 the elbow's angle from straight), so m2 l1 lc2 is half the
+    difference of M_12 with the arm straight and folded; J2 = M_22.
+    """
+    robot = plant.robot
+    up = plant.upright()
+    straight = dynamics.mass_matrix(robot.model, robot.data, np.array([up[0], 0.0]))
+    folded = dynamics.mass_matrix(robot.model, robot.data, np.array([up[0], np.pi]))
+    return abs(float(straight[0, 1] - folded[0, 1])) / 2.0 / float(straight[1, 1])
+
+
+def pump_ratio(kappa: float, omega: float) -> float:
+    """The pump's acceleration in units of w2^2 [-] for a Pendubot of coupling ``kappa`` and w2 = ``omega`` [rad/s].
+
+    Each swing of link 2 gains energy in proportion to kappa times the shoulder's swing a = accel_max /
+    w2^2 [rad]; the saturated pump, a square wave of a w2^2, brings link 2 from hanging to its
+    upright energy in about pi^2 / (kappa a w2) [s] (:func:`pump_time`). The pump keeps ``PUMP_RATIO``
+    where that is within ``PUMP_TIME`` and raises a to bring it there, up to ``PUMP_MAX``.
+    """
+    if not kappa > 0:
+        return PUMP_MAX
+    needed = PUMP_RATIO * pump_time(kappa, omega, PUMP_RATIO) / PUMP_TIME  # the a whose pump takes PUMP_TIME
+    return float(np.clip(needed, PUMP_RATIO, PUMP_MAX))
+
+
+def pump_time(kappa: float, omega: float, ratio: float) -> float:
+    """About how long [s] the saturated pump takes to bring link 2 from hanging to its upright energy.
+
+    The energy balance dE2/dt = -m2 l1 lc2 w phi' cos psi cos e1, with the shoulder's acceleration w a
+    square wave of ``ratio`` w2^2 in phase with phi' (about half of which passes link 1's PD), adds
+    about 2 kappa ``ratio`` rad of swing per period of link 2: pi^2 / (kappa ``ratio`` w2) [s] from
+    hanging to upright, kappa the coupling, w2 = ``omega`` [rad/s]. Measured times: see ``PUMP_TIME``.
+    """
+    return float(np.pi**2 / (kappa * ratio * omega))
 
 
 def hold_torque(plant: Plant) -> float:
@@ -362,7 +409,10 @@ def swing_need(law: PendubotEnergy | CartPoleEnergy) -> tuple[float, str]:
 # 74, whose effort lay between 0.75 x the hold torque, the need first used, and the lift torque):
 # at 0.96 x the lift torque none balanced, link 1 leaning below horizontal with the torque saturated;
 # at 0.97 x two of the four, at 0.99 x and above all four (the built-in's 2 N m is 0.977 x its
-# 2.046 N m and balances: link 2's swing lends the last 2 to 3 %). The swing's reaction, measured
+# 2.046 N m and balances: link 2's swing lends the last 2 to 3 %). Those runs had the kick at 0.05 w2;
+# with 0.01 w2 link 2 lends more and the lift torque is conservative by up to about 10 %: system 62
+# balances at 0.92 x, not at 0.88 x (link 1 swings above horizontal, and leans below it at 0.80 x),
+# and system 44 of the same family at 0.90 x in the benchmark. The swing's reaction, measured
 # the same way on the built-in cart-pole, cart-poles 62 and 82 of seed 20 and the Spong-Block
 # Pendubot 58 of seed 1 (efforts 0.27 to 0.59 x their reaction in the benchmark, where none balanced,
 # the torque saturated): at 0.8 x the reaction none of the four balanced, at 0.9 x and above all four.
@@ -379,8 +429,24 @@ NEED_CART_POLE = 0.2
 PD_RATIO = 0.6
 PUMP_RATIO = 0.5
 PUMP_GAIN = 10.0
+# A weakly coupled Pendubot (kappa = m2 l1 lc2 / J2 small: link 2 mostly rotational inertia) gains
+# little energy a swing. The pump's time pi^2 / (kappa a w2) (pump_time) against the time to balance
+# measured from hanging with a = PUMP_RATIO (benchmarks/bench_swing_up.py, seed 0 and 1, the 16
+# slowest drawn Pendubots that balanced): 21.0 s predicted / 22.1 s measured, 20.2 / 23.2, 18.0 / 19.9,
+# 17.1 / 17.7, 24.5 / 27.9, 18.5 / 18.4, ...: the pump is the time. Where it exceeds PUMP_TIME the
+# shoulder swings harder, up to PUMP_MAX w2^2 (link 1 then swings about 1 rad from its upright, short
+# of horizontal). Spong-Block system 88 (kappa 0.11, w2 4.65 rad/s, predicted 38 s) balanced at 43 s
+# with 0.5 w2^2, 26 s with 0.75, 16 s with 1.0, 14 s with 1.5 (the torque at its limit). Raising it
+# on every Pendubot below the built-in's coupling instead (a = 0.5 x 0.89 / kappa) lost four
+# systems of kappa 0.29 to 0.80 whose pump took under 12 s: their link 1 swung too far to catch.
+PUMP_TIME = 20.0  # [s] the longest pump the law accepts before swinging the shoulder harder
+PUMP_MAX = 1.0
 # The kick, as Astrom-Furuta's: a small bias that starts the pump where link 2 is at rest (phi' = 0).
-KICK_RATIO = 0.05
+# At hanging (E2 - E2_up = -2 m2 g lc2) it commands 2 PUMP_GAIN KICK_RATIO of the pump's acceleration,
+# which the PD answers by leaning link 1 PUMP_RATIO / PD_RATIO^2 times that [rad] off its upright:
+# 0.2 of the pump, 0.28 rad. (0.05, the first value, saturated the pump there and held link 1 at
+# 1.4 rad, near horizontal, until link 2 moved: 8 s of the 43 s on system 88.)
+KICK_RATIO = 0.01
 
 
 def _positive(**gains: float) -> None:

@@ -405,7 +405,7 @@ def _prepare_basin(robot: Any, kind: str, fast: Any) -> dict[str, Any]:
 def _basin(kind: str, models: Any, n: int, seconds: float) -> dict[str, Any]:
     """The swing-up basin map of n runs on the GPU (time to balance on the device) against the CPU's cores."""
     from robodyn.engine.cuda import closed_loop as cuda_closed
-    from robodyn.kinds.formulas import closed_form
+    from robodyn.kinds.catalog import closed_form
 
     p, b = models[f"{kind}.params"], np.zeros(2)
     b[: models[f"{kind}.damping"].size] = models[f"{kind}.damping"]

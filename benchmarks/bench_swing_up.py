@@ -41,7 +41,7 @@ import robodyn.control as control
 from robodyn.control import outcome, rollout
 from robodyn.control.compiled import law_of
 from robodyn.control.swing_up import NEED_CART_POLE, swing_need
-from robodyn.kinds.formulas import closed_form
+from robodyn.kinds.catalog import closed_form
 from robodyn.sim.fast import FastDynamics
 
 from _common import argument_parser, output_folder, pyplot, run_facts, save_figure, write_json

@@ -14,8 +14,8 @@ import pytest
 import robodyn
 from robodyn.cli import main
 from robodyn.cli.params import DECIMAL_ULPS
+from robodyn.kinds.catalog import get
 from robodyn.kinds.edit import SETTABLE
-from robodyn.kinds.formulas import get
 from robodyn.kinds.params import extract
 
 from . import _urdf

@@ -1,7 +1,7 @@
 """A kind is one object: a kind registered once reaches every place a kind must reach.
 
 The fixture registers a toy kind (a simple pendulum: URDF, closed form, reader, units) at run time,
-in :data:`robodyn.kinds.formulas.KINDS` alone, and the tests find it in the parameter reader, the
+in :data:`robodyn.kinds.catalog.KINDS` alone, and the tests find it in the parameter reader, the
 units ``robodyn params`` prints, ``robodyn check --formula``, the help strings and the messages
 that list the kinds. A place that kept its own list of kinds would miss it and fail here.
 """
@@ -15,7 +15,7 @@ import pytest
 
 import robodyn
 from robodyn.cli import get_argument_parser, main
-from robodyn.kinds import formulas, params
+from robodyn.kinds import catalog, params
 from robodyn.kinds.bodies import EY, EZ, along, axis_inertia, require_axis, require_gravity, require_joints
 from robodyn.kinds.formula import ClosedForm
 from robodyn.kinds.kind import Kind
@@ -67,7 +67,7 @@ TOY = Kind(
 @pytest.fixture
 def toy(tmp_path, monkeypatch):
     """The toy kind registered for one test; the path of its URDF."""
-    monkeypatch.setitem(formulas.KINDS._items, TOY.name, TOY)
+    monkeypatch.setitem(catalog.KINDS._items, TOY.name, TOY)
     urdf = tmp_path / "toy_pendulum.urdf"
     urdf.write_text(TOY_URDF, encoding="utf-8")
     return urdf
@@ -76,7 +76,7 @@ def toy(tmp_path, monkeypatch):
 def test_the_parameter_reader_reads_the_toy_kind(toy):
     read = params.extract(robodyn.load(toy), "toy_pendulum").as_dict()
     assert read == pytest.approx(BOB, rel=READ_RTOL)
-    assert formulas.get("toy_pendulum") is TOY.formula
+    assert catalog.get("toy_pendulum") is TOY.formula
 
 
 def test_robodyn_params_prints_the_toy_kinds_units(toy, capsys):
@@ -93,7 +93,7 @@ def test_robodyn_check_compares_the_toy_kinds_closed_form(toy, capsys):
 
 
 def test_every_help_string_that_lists_the_kinds_lists_the_toy_kind(toy):
-    assert "toy_pendulum" in formulas.listed()
+    assert "toy_pendulum" in catalog.listed()
     parser = get_argument_parser()
     listing = []
     for sub in next(a for a in parser._actions if a.choices and "check" in a.choices).choices.values():
@@ -109,7 +109,7 @@ def test_each_built_in_kind_has_its_urdf_and_its_compiled_code():
     from robodyn.engine import closed_form as fast
     from robodyn.model.files import BUILTIN_NAMES
 
-    for kind in formulas.kinds():
+    for kind in catalog.kinds():
         assert kind.name in BUILTIN_NAMES, f"models/{kind.name}.urdf is missing"
         assert kind.code is None or fast.CODES[kind.name] == kind.code, kind.name
-    assert {k.name: k.code for k in formulas.kinds() if k.code is not None} == fast.CODES
+    assert {k.name: k.code for k in catalog.kinds() if k.code is not None} == fast.CODES

@@ -15,8 +15,8 @@ import pytest
 
 from robodyn.engine.rk4 import rk4_step
 from robodyn.integrators import ArrayProblem, get
+from robodyn.kinds.catalog import closed_form
 from robodyn.kinds.formula import solve_2x2
-from robodyn.kinds.formulas import closed_form
 
 ENGINE = Path(__file__).resolve().parents[1] / "src" / "robodyn" / "engine"
 # The same stages and weights in float64; the reference groups 2 (u2 + u3) where the step adds

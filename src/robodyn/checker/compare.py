@@ -375,7 +375,7 @@ def check(
     Args:
         robot: a loaded model (see :func:`robodyn.load`).
         formula: a kind name (``"pendubot"``...), a path to a user's formula file, a
-            :class:`robodyn.kinds.formulas.Formula`, or None for the structural checks only.
+            :class:`robodyn.kinds.catalog.Formula`, or None for the structural checks only.
         samples: number of random states, 1 to ``MAX_SAMPLES``.
         seed: seed of the random states.
         rtol: relative tolerance for exact comparisons (finite-difference rows use

@@ -31,8 +31,8 @@ from robodyn.checker.constrained_kind import KIND as CONSTRAINED
 from robodyn.checker.constrained_kind import ConstrainedFormula, independent_names
 from robodyn.checker.velocity_terms import BOTH_OPTIONS, coriolis_function, defines_coriolis
 from robodyn.errors import FormulaError
+from robodyn.kinds.catalog import KINDS, get
 from robodyn.kinds.formula import Array, Formula
-from robodyn.kinds.formulas import KINDS, get
 from robodyn.kinds.geared_arm import from_motor_coordinates
 from robodyn.kinds.units import RENAMED, RENAMED_MEANING
 from robodyn.user_import import at_line, exit_call, import_user_file, real_path

@@ -27,8 +27,8 @@ from robodyn.checker.constrained_kind import LoopStates, checked_parameters
 from robodyn.checker.evaluation import Points, Values
 from robodyn.checker.sandbox import DEFAULT_TIMEOUT, FormulaProcess
 from robodyn.errors import FormulaError
+from robodyn.kinds.catalog import get
 from robodyn.kinds.formula import Array, Formula
-from robodyn.kinds.formulas import get
 
 
 def looks_like_file(spec: str) -> bool:

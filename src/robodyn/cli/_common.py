@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from robodyn.kinds import formulas
+from robodyn.kinds import catalog
 
 
 def shown(text: str, limit: int = 40) -> str:
@@ -113,7 +113,7 @@ def add_model_arguments(parser: argparse.ArgumentParser, *, many: bool = False) 
         type=model_argument,
         metavar="URDF_OR_NAME",
         nargs="+" if many else None,
-        help=f"built-in model ({formulas.listed()}), an example-robot-data robot (panda, talos, ...) "
+        help=f"built-in model ({catalog.listed()}), an example-robot-data robot (panda, talos, ...) "
         "or a path to a .urdf file",
     )
     parser.add_argument("--srdf", type=file_path, default=None, help="SRDF file (default: same stem as the URDF)")

@@ -26,7 +26,7 @@ from robodyn.cli._common import (
 )
 from robodyn.errors import EXIT_MISMATCH, EXIT_OK, InputError
 from robodyn.fileio import read_user_file
-from robodyn.kinds import formulas
+from robodyn.kinds import catalog
 from robodyn.wording import count
 
 if TYPE_CHECKING:
@@ -54,7 +54,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument(
         "--formula",
         metavar="KIND_OR_FILE",
-        help=f"built-in kind ({formulas.listed()}), 'auto' (the kind each model meets, if any) or a "
+        help=f"built-in kind ({catalog.listed()}), 'auto' (the kind each model meets, if any) or a "
         ".py file with your own derivation (KIND = a built-in kind, or 'any': any tree robot in your own joints "
         "and coordinates); without it only the structural properties and Pinocchio's identities are checked",
     )
@@ -235,7 +235,7 @@ _DIMENSION_UNITS = {(1, 0, 0): "kg", (0, 1, 0): "m", (1, 2, 0): "kg m^2", (0, 1,
 
 def _unit(name: str, kind: str | None) -> str:
     """`` kg`` for a parameter: a built-in kind's table, or (KIND = "any") guessed from the name as --explain does."""
-    unit = formulas.units().get(name, "")
+    unit = catalog.units().get(name, "")
     unit = "" if unit == "1" else unit
     if not unit and kind == "any":
         from robodyn.checker.explain_names import parameter_dimension

@@ -26,7 +26,7 @@ from robodyn.cli._common import (
     warn_unchecked,
 )
 from robodyn.errors import EXIT_MISMATCH, EXIT_OK
-from robodyn.kinds import formulas
+from robodyn.kinds import catalog
 
 FORMATS = ("text", "latex", "python")
 MAX_SAMPLES = 1000  # the self-check's states: 20 by default, ~0.1 s each on a 6-joint arm
@@ -49,7 +49,7 @@ def add_parser(sub: Any) -> None:
         "model",
         type=model_argument,
         metavar="URDF_OR_NAME",
-        help=f"built-in model ({formulas.listed()}), an example-robot-data robot (ur5, ...) or a .urdf path",
+        help=f"built-in model ({catalog.listed()}), an example-robot-data robot (ur5, ...) or a .urdf path",
     )
     p.add_argument("--srdf", type=file_path, default=None, help="SRDF file (default: same stem as the URDF)")
     p.add_argument(

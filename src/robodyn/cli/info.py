@@ -10,7 +10,7 @@ import numpy as np
 from robodyn.cli._common import add_physics_argument, file_path, physics_checked, print_json, warn_unchecked
 from robodyn.cli._parse import parse_keep, parse_lock
 from robodyn.errors import InputError
-from robodyn.kinds import formulas
+from robodyn.kinds import catalog
 
 
 def add_parser(sub: Any) -> None:
@@ -31,7 +31,7 @@ def add_parser(sub: Any) -> None:
         metavar="URDF_OR_NAME",
         nargs="?",
         default=None,
-        help=f"built-in model ({formulas.listed()}), an example-robot-data robot (panda, talos, ...) "
+        help=f"built-in model ({catalog.listed()}), an example-robot-data robot (panda, talos, ...) "
         "or a path to a .urdf file",
     )
     p.add_argument("--srdf", type=file_path, default=None, help="SRDF file (default: same stem as the URDF)")

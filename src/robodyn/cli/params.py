@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from robodyn.cli._common import add_model_arguments, file_path, load_robot, print_json
-from robodyn.kinds import formulas
+from robodyn.kinds import catalog
 
 
 def assignments(text: str) -> list[tuple[str, float]]:
@@ -68,7 +68,7 @@ def add_parser(sub: Any) -> None:
         "modified model; --write also writes it, once it has been loaded back and checked.",
     )
     add_model_arguments(p)
-    p.add_argument("--kind", help=f"{formulas.listed('or')} (default: detect)")
+    p.add_argument("--kind", help=f"{catalog.listed('or')} (default: detect)")
     p.add_argument(
         "--set",
         metavar="NAME=VALUE",
@@ -94,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
     kind = args.kind or detect_kind(robot)
     if kind is None:
         raise AssumptionError(
-            f"{robot.name} meets the assumptions of none of the kinds {formulas.listed()}; "
+            f"{robot.name} meets the assumptions of none of the kinds {catalog.listed()}; "
             "name one with --kind to see which assumption it breaks"
         )
     params = extract(robot, kind)
@@ -118,6 +118,6 @@ def run(args: argparse.Namespace) -> int:
         report["set"] = changes
         params = written.params
     report["params"] = {name: decimal(value) for name, value in params.as_dict().items()}
-    report["units"] = {name: formulas.kind(kind).units[name] for name in params}
+    report["units"] = {name: catalog.kind(kind).units[name] for name in params}
     print_json(report)
     return 0

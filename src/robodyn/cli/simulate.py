@@ -51,7 +51,7 @@ from robodyn.cli._summary import _report, note_clamped_q0
 from robodyn.cli.view import add_ground_argument
 from robodyn.errors import EXIT_DIVERGED, EXIT_NOT_BALANCED, EXIT_OK, InputError, UnknownNameError
 from robodyn.fileio import read_user_file
-from robodyn.kinds import formulas
+from robodyn.kinds import catalog
 from robodyn.registry import BACKENDS
 
 EXIT_INTERRUPTED = 130
@@ -91,8 +91,7 @@ def _add_model_arguments(p: argparse.ArgumentParser) -> None:
         "model",
         metavar="URDF_OR_NAME",
         nargs="?",
-        help=f"built-in model ({formulas.listed()}), an example-robot-data robot (panda, ...) "
-        "or a path to a .urdf file",
+        help=f"built-in model ({catalog.listed()}), an example-robot-data robot (panda, ...) or a path to a .urdf file",
     )
     p.add_argument("--srdf", type=file_path, default=None, help="SRDF file (default: same stem as the URDF)")
     p.add_argument("--free-flyer", action="store_true", help="mount the root on a free-flyer joint")

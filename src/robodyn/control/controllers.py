@@ -31,7 +31,7 @@ from robodyn.control.plant import plant
 from robodyn.control.switch import Switched
 from robodyn.control.user_controller import load_user_controller, looks_like_file
 from robodyn.errors import InputError, UnknownNameError
-from robodyn.kinds import formulas
+from robodyn.kinds import catalog
 from robodyn.registry import Registry
 from robodyn.robot import Robot
 
@@ -145,7 +145,7 @@ def _require_drive(robot: Robot, kind: str) -> None:
     system): a robot read with more actuators (a URDF without the SRDF that declares the passive
     joint) would give the law a torque per actuator that it has no rule for.
     """
-    balance = formulas.kind(kind).balance
+    balance = catalog.kind(kind).balance
     assert balance is not None  # a kind with a swing-up law has its Balance
     driven = robot.joint_names[balance.driven]  # every other joint must be passive
     if driven in robot.passive_joints:

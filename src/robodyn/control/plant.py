@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robodyn.errors import InputError
-from robodyn.kinds import formulas, params
+from robodyn.kinds import catalog, params
 from robodyn.robot import Robot
 
 Array = NDArray[np.float64]
@@ -34,7 +34,7 @@ RAIL_MARGIN = 0.1
 
 def controlled_kinds() -> tuple[str, ...]:
     """The built-in kinds a controller knows the upright and hanging states of (those with a ``Balance``)."""
-    return tuple(kind.name for kind in formulas.kinds() if kind.balance is not None)
+    return tuple(kind.name for kind in catalog.kinds() if kind.balance is not None)
 
 
 @dataclass(frozen=True, eq=False)
@@ -72,7 +72,7 @@ class Plant:
         return self._seed_state("hanging")
 
     def _seed_state(self, what: str) -> Array:
-        balance = None if self.kind is None else formulas.kind(self.kind).balance
+        balance = None if self.kind is None else catalog.kind(self.kind).balance
         if balance is None:
             raise InputError(
                 f"{self.robot.name} is none of {', '.join(controlled_kinds())}: it has no known {what} state; "

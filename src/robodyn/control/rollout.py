@@ -213,7 +213,7 @@ def closed_loop_family(
     """
     from robodyn.control import outcome
     from robodyn.engine import torque_laws as tl
-    from robodyn.kinds.formulas import closed_form
+    from robodyn.kinds.catalog import closed_form
 
     form = closed_form(kind)
     torque = tl.law(kind, law)

@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robodyn.errors import MissingDependencyError
-from robodyn.kinds.formulas import closed_form
+from robodyn.kinds.catalog import closed_form
 
 Array = NDArray[np.float64]
 

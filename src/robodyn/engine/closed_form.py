@@ -25,8 +25,8 @@ from robodyn.engine import jit
 from robodyn.engine.rk4 import rk4_step
 from robodyn.errors import MissingDependencyError
 from robodyn.kinds import cart_pole, geared_arm, pendubot
+from robodyn.kinds.catalog import closed_form, kinds
 from robodyn.kinds.formula import solve_2x2
-from robodyn.kinds.formulas import closed_form, kinds
 
 # Kind -> the integer code that selects it inside the compiled kernels: each Kind object's own ``code``.
 CODES: dict[str, int] = {kind.name: kind.code for kind in kinds() if kind.code is not None}

@@ -17,7 +17,7 @@ The laws (the controllers of :mod:`robodyn.control`, which build ``c`` from thei
 * ``"cart_pole_energy"``: the LQR where e^T P e < rho, else the Astrom-Furuta cart acceleration with
   its rail guard, through collocated PFL (:class:`robodyn.control.swing_up.CartPoleEnergy`).
 
-M, C v and G come from the kind's own closed form (:func:`robodyn.kinds.formulas.closed_form`): no
+M, C v and G come from the kind's own closed form (:func:`robodyn.kinds.catalog.closed_form`): no
 formula is copied. This module needs only NumPy and :mod:`robodyn.kinds` (no Pinocchio), so a GPU
 worker builds the laws from arrays alone (``benchmarks/bench_gpu.py --run``).
 """
@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from robodyn.errors import InputError
-from robodyn.kinds.formulas import closed_form
+from robodyn.kinds.catalog import closed_form
 
 LAWS = ("lqr", "pendubot_energy", "cart_pole_energy")
 # The kinds a law's energy part is written for (the LQR serves both).

@@ -42,7 +42,7 @@ from numpy.typing import NDArray
 from robodyn import dynamics
 from robodyn.errors import AssumptionError, InputError, ModelError, UnknownNameError
 from robodyn.fileio import is_number, write_text_atomically
-from robodyn.kinds import formulas
+from robodyn.kinds import catalog
 from robodyn.kinds.bodies import EX, EY, EZ
 from robodyn.kinds.params import Params, extract
 from robodyn.kinds.units import RENAMED
@@ -81,7 +81,7 @@ def check_changes(kind: str, assignments: Iterable[tuple[str, float]]) -> dict[s
         UnknownNameError: a name that is not one of the kind's settable parameters.
         InputError: ``g``, a name given twice, a non-finite value or one of the wrong sign.
     """
-    formulas.kind(kind)
+    catalog.kind(kind)
     if kind not in SETTABLE:
         raise InputError(
             f"--set edits the URDF of the {' and the '.join(SETTABLE)}; the {kind}'s file edits are not written, "

@@ -1,7 +1,7 @@
 """A built-in kind as one object: closed form, parameters and units, URDF, controller defaults, code.
 
 Every place that knows a kind reads it from its :class:`Kind` (registered once, in
-:mod:`robodyn.kinds.formulas`): the parameter reader (:func:`robodyn.kinds.params.extract`), the
+:mod:`robodyn.kinds.catalog`): the parameter reader (:func:`robodyn.kinds.params.extract`), the
 checker, the units printed beside each parameter, the help strings of the command line, the
 controller's upright and hanging states, and the integer code that the compiled closed-form loop
 branches on. Adding a kind is a module holding its ``KIND``, its URDF in ``models/`` and one line in

@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 from robodyn import dynamics
 from robodyn.errors import AssumptionError, InputError
 from robodyn.fileio import is_number
-from robodyn.kinds import formulas
+from robodyn.kinds import catalog
 from robodyn.kinds.bodies import Body
 from robodyn.kinds.units import RENAMED
 from robodyn.robot import Robot
@@ -87,7 +87,7 @@ def bodies(robot: Robot) -> list[Body]:
 
 
 def _read(robot: Robot, kind: str) -> dict[str, float]:
-    return formulas.kind(kind).read(bodies(robot), np.array(robot.model.gravity.linear, dtype=np.float64))
+    return catalog.kind(kind).read(bodies(robot), np.array(robot.model.gravity.linear, dtype=np.float64))
 
 
 def extract(robot: Robot, kind: str) -> Params:
@@ -98,7 +98,7 @@ def extract(robot: Robot, kind: str) -> Params:
 
 def from_mapping(kind: str, values: Mapping[str, object]) -> Params:
     """Parameters given by the user (e.g. a datasheet), checked against the kind's names."""
-    names = formulas.kind(kind).params
+    names = catalog.kind(kind).params
     missing = [n for n in names if n not in values]
     extra = [n for n in values if n not in names]
     if missing or extra:
@@ -118,7 +118,7 @@ def from_mapping(kind: str, values: Mapping[str, object]) -> Params:
 
 def detect_kind(robot: Robot) -> str | None:
     """The first built-in kind whose assumptions ``robot`` meets, or None."""
-    for kind in formulas.names():
+    for kind in catalog.names():
         try:
             _read(robot, kind)
         except AssumptionError:

@@ -92,7 +92,7 @@ def example(relative: str | Path = "") -> Path:
 
 
 BUILTIN_NAMES = tuple(sorted(path.stem for path in models_dir().glob("*.urdf")))
-"""The built-in models: every URDF in ``models/`` (one per kind, :mod:`robodyn.kinds.formulas`)."""
+"""The built-in models: every URDF in ``models/`` (one per kind, :mod:`robodyn.kinds.catalog`)."""
 
 
 def opening_line(urdf: Path) -> str:

@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from robodyn import dynamics
 from robodyn.errors import InputError, RobodynError
-from robodyn.kinds import formulas, params
+from robodyn.kinds import catalog, params
 from robodyn.registry import BACKENDS
 from robodyn.sim import tree
 
@@ -34,10 +34,10 @@ def formula_of(robot: Robot) -> tuple[Any, Any]:
     kind = params.detect_kind(robot)
     if kind is None:
         raise InputError(
-            f"backend 'formula' needs one of the built-in kinds ({formulas.listed()}); "
+            f"backend 'formula' needs one of the built-in kinds ({catalog.listed()}); "
             f"{robot.name} is none of them: use backend 'aba' or 'crba'"
         )
-    return formulas.get(kind), params.extract(robot, kind)
+    return catalog.get(kind), params.extract(robot, kind)
 
 
 def backend_function(

@@ -371,7 +371,7 @@ def sweep(
     ``progress(done, total, label)`` is called after every run. A Ctrl-C raises
     :class:`~robodyn.errors.BenchInterrupted` holding the runs finished so far.
     """
-    from robodyn.kinds import formulas
+    from robodyn.kinds import catalog
     from robodyn.kinds.params import detect_kind
     from robodyn.sim import energy
 
@@ -385,7 +385,7 @@ def sweep(
     fast = None
     for backend in plan.backends:
         if backend == "formula" and kind is None:
-            skipped.append(f"{backend}: {robot.name} is not a built-in kind ({formulas.listed()})")
+            skipped.append(f"{backend}: {robot.name} is not a built-in kind ({catalog.listed()})")
             continue
         if backend == "fast" and kind is None:
             why = _compiled_loop_refusal(robot, q0, v0, plan)

@@ -59,9 +59,9 @@ from robodyn.integrators.stability import (
     spectral_radius,
     step_matrix,
 )
-from robodyn.kinds import formulas, params
+from robodyn.kinds import catalog, params
+from robodyn.kinds.catalog import closed_form
 from robodyn.kinds.formula import accelerations
-from robodyn.kinds.formulas import closed_form
 from robodyn.studies.chaos import Chaos, chaos
 
 if TYPE_CHECKING:
@@ -269,7 +269,7 @@ def backend_accuracy(robot: Robot, *, states: int = 50, seed: int = 0) -> Backen
     so float64 round-off shows as ~1e-16 and loss to conditioning as more.
     """
     p = params.extract(robot, "pendubot").as_dict()
-    formula = formulas.get("pendubot")
+    formula = catalog.get("pendubot")
     rng = np.random.default_rng(seed)
     errors = {"aba": 0.0, "crba": 0.0, "formula": 0.0}
     cond = 0.0

@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 
 from robodyn import integrators
 from robodyn.errors import InputError, UnknownNameError
-from robodyn.kinds import formulas
+from robodyn.kinds import catalog
 from robodyn.kinds.edit import check_changes, write_params
 from robodyn.kinds.params import detect_kind
 from robodyn.model.load import PASSIVE_JOINT
@@ -309,7 +309,7 @@ def _check_params(spec: SweepSpec, robot: Any) -> str | None:
         return None
     kind = detect_kind(robot)
     if kind is None:
-        raise InputError(f"{spec.source}: [params] needs a model of a built-in kind ({formulas.listed()})")
+        raise InputError(f"{spec.source}: [params] needs a model of a built-in kind ({catalog.listed()})")
     for name, values in spec.params.items():
         for value in values:
             try:

@@ -48,8 +48,8 @@ from numpy.typing import NDArray
 from robodyn.engine.rk4 import rk4_step
 from robodyn.errors import InputError, MissingDependencyError, UnavailableError
 from robodyn.integrators.twins import compiled_normal
+from robodyn.kinds.catalog import closed_form
 from robodyn.kinds.formula import solve_2x2
-from robodyn.kinds.formulas import closed_form
 
 Array = NDArray[np.float64]
 

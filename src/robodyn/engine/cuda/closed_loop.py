@@ -6,7 +6,7 @@ stage, integrates the work of the torques and the joint damping with the RK4 wei
 run once |E - E0 - W| passes its bound or its state stops being finite, and counts the last step
 outside the upright band (the time to balance). Only the final states, each coordinate's range,
 the time to balance and a divergence flag come back. The kind's closed form is compiled from its
-own functions (:func:`robodyn.kinds.formulas.closed_form`), as in :mod:`robodyn.engine.cuda.batch`,
+own functions (:func:`robodyn.kinds.catalog.closed_form`), as in :mod:`robodyn.engine.cuda.batch`,
 whose :func:`~robodyn.engine.cuda.batch.cuda_module` finds the GPU (or numba's CUDA simulator).
 """
 
@@ -24,8 +24,8 @@ from robodyn.engine.cuda import batch as cuda_batch
 from robodyn.engine.rk4 import rk4_step
 from robodyn.engine.torque_laws import forces
 from robodyn.errors import InputError
+from robodyn.kinds.catalog import closed_form
 from robodyn.kinds.formula import solve_2x2
-from robodyn.kinds.formulas import closed_form
 
 Array = NDArray[np.float64]
 

@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 
 from robodyn.engine.cuda import batch as cuda_batch
 from robodyn.errors import InputError
-from robodyn.kinds.formulas import closed_form
+from robodyn.kinds.catalog import closed_form
 
 Array = NDArray[np.float64]
 

@@ -163,6 +163,39 @@ def test_a_long_compile_says_it_is_still_compiling() -> None:
     assert len(said) == len(notes) and max(said) >= compiling, notes  # through the whole compile
 
 
+def test_the_notes_come_out_while_numba_records_warnings() -> None:
+    """numba compiles inside catch_warnings(record=True): a note warned then would wait for the compile's end."""
+    import time
+
+    printed: list[str] = []
+
+    def show(
+        message: object, category: object, filename: str, lineno: int, file: object = None, line: object = None
+    ) -> None:
+        printed.append(str(message))  # as the command line's hook prints a note line
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")
+        warnings.showwarning = show
+        watch = jit.CompileWatch("the test kernels", every=0.3)
+        watch.start()
+        watch.compile_started()
+        with warnings.catch_warnings(record=True):  # what numba does around a compile
+            time.sleep(1.2)
+            during = list(printed)
+        watch.compile_ended()
+    assert during and during[0].startswith("still compiling the test kernels: "), during
+
+
+def test_ignored_notes_stay_ignored() -> None:
+    """PYTHONWARNINGS=ignore (or a filter on CompileNotice) silences the watch's notes as it does the first."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert jit._notice_printer() is None
+        warnings.simplefilter("always", CompileNotice)
+        assert jit._notice_printer() is not None
+
+
 def test_the_compile_watch_hears_numba_compile() -> None:
     import numba
 

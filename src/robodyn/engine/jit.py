@@ -212,6 +212,34 @@ STILL_EVERY = 20.0
 QUIET_S = 2.0
 NEVER_STARTED_S = 30.0
 _BUSY: set[CompileWatch] = set()  # the watches whose compile is under way
+_LATEST: CompileWatch | None = None  # the watch that notes
+
+
+def _notice_printer() -> Callable[[str], None] | None:
+    """How a watch's note reaches the user, as warnings' filters and hook stand now; None: they ignore it.
+
+    Taken in the thread that announced the compile, before it starts: numba compiles inside
+    ``warnings.catch_warnings(record=True)`` and shows what it recorded only at the end, so a note
+    warned from the watch thread during a compile would wait for it. The filters are read as
+    :func:`warnings.warn` reads them (the first that matches decides; ``PYTHONWARNINGS=ignore``
+    silences the notes, as it does the first one); the hook is the current ``showwarning`` (the
+    command line's prints one ``note:`` line), or the display that warnings' own hook calls.
+    """
+    for action, message, category, module, lineno in warnings.filters:
+        if (
+            issubclass(CompileNotice, category)
+            and (message is None or message.match("still compiling"))
+            and (module is None or module.match(__name__))
+            and lineno == 0
+        ):
+            if action == "ignore":
+                return None
+            break
+    show = warnings.showwarning
+    if show is getattr(warnings, "_showwarning_orig", None):
+        display = warnings._showwarnmsg_impl  # type: ignore[attr-defined]
+        return lambda text: display(warnings.WarningMessage(CompileNotice(text), CompileNotice, __file__, 0))
+    return lambda text: show(CompileNotice(text), CompileNotice, __file__, 0)
 
 
 def compiling() -> bool:
@@ -266,8 +294,11 @@ class CompileWatch:
             def on_end(self, event: Any) -> None:
                 watch.compile_ended()
 
+        global _LATEST
+        self.show = _notice_printer()  # taken here, outside numba's compile (which records warnings)
         self.listener = Listener()
         event.register("numba:compile", self.listener)
+        _LATEST = self  # an earlier watch still running says no more: one note at a time
         threading.Thread(target=self._watch, name="robodyn-compile-watch", daemon=True).start()
 
     def _over(self, now: float, begun: float) -> bool:
@@ -289,10 +320,12 @@ class CompileWatch:
                 now = time.monotonic()
                 if self._over(now, begun):
                     return
+                if _LATEST is not self:
+                    return
                 if now - said >= self.every:
                     said = now
-                    warnings.warn(
-                        f"still compiling {self.what}: {now - begun:.0f} s so far", CompileNotice, stacklevel=1
-                    )
+                    if self.show is not None:
+                        self.show(f"still compiling {self.what}: {now - begun:.0f} s so far")
         finally:
             event.unregister("numba:compile", self.listener)
+            _BUSY.discard(self)

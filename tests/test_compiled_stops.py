@@ -16,7 +16,7 @@ import pytest
 
 import robodyn
 from robodyn.cli import main
-from robodyn.errors import DivergenceError, SimulationInterrupted
+from robodyn.errors import AssumptionError, DivergenceError, SimulationInterrupted
 from robodyn.sim import tree, whole_run
 from robodyn.sim.system import robot_system
 from tests.test_limits import PENDULUM_URDF
@@ -291,3 +291,38 @@ def test_a_run_that_meets_no_stop_never_compiles_the_stop_events(
     monkeypatch.setattr(tree, "event_kernels", refuse)
     assert main(["simulate", "pendubot", "--duration", "0.2"]) == 0  # the README's first run
     assert "compiled loop" in capsys.readouterr().out
+
+
+def test_a_run_that_meets_a_stop_checks_the_compiled_crba_first(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The stop events solve with the compiled CRBA: it is compared with Pinocchio's before the first stop is taken,
+    and a CRBA that differs hands the run back to the Python loop (here: planted by a failing check)."""
+    robot = robodyn.load("cart_pole")  # rail +-2.4 m
+    got = robodyn.simulate(robot, [2.3, 0.0], [1.0, 0.0], duration=0.2, dt=1e-3)
+    assert got.meta["loop"] == "compiled" and got.meta["impacts"] >= 1
+    assert "crba" in tree.compiled_of(robot).check
+
+    def differs(self: tree.CompiledDynamics, part: str) -> None:
+        raise AssumptionError(f"{robot.name}: the compiled tree algorithms differ from Pinocchio's ({part} by 1)")
+
+    monkeypatch.setattr(tree.CompiledDynamics, "ensure_checked", differs)
+    handed = robodyn.simulate(robot, [2.3, 0.0], [1.0, 0.0], duration=0.2, dt=1e-3)
+    assert handed.meta["loop"] == "python" and "crba by 1" in handed.meta["compiled_loop"]
+    assert handed.meta["impacts"] == got.meta["impacts"]
+
+
+def test_a_free_flying_robot_loads_only_the_free_flyer_kernels(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Each variant is compiled apart (tens of seconds): a free-flying robot must not ask for the fixed-base one."""
+    asked: list[bool] = []
+    kernels = tree.kernels
+
+    def recorded(flyer: bool = False):  # type: ignore[no-untyped-def]
+        asked.append(flyer)
+        return kernels(flyer)
+
+    monkeypatch.setattr(tree, "kernels", recorded)
+    robot = robodyn.load("panda", free_flyer=True)
+    compiled = tree.compiled_of(robot)
+    q, v = robot.random_state(np.random.default_rng(3))
+    compiled.acceleration(q, v, np.zeros(robot.nv))
+    compiled.energies(q, v)
+    assert asked and all(asked), asked

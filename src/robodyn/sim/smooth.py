@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodyn import dynamics
+from robodyn.engine.tree.layout import WCOLS
 from robodyn.errors import InputError, RobodynError
 from robodyn.kinds import catalog, params
 from robodyn.registry import BACKENDS
@@ -71,7 +72,7 @@ def compiled_function(robot: Robot) -> Callable[[Array, Array, Array], Array]:
     t = compiled.tree
     kernel = tree.kernels(t.flyer is not None).aba
     itree, ftree, grav, flyer = t.itree, t.ftree, t.grav, t.flyer
-    ws = np.zeros((itree.shape[0], tree.kernels().WCOLS))
+    ws = np.zeros((itree.shape[0], WCOLS))
 
     def forward(q: Array, v: Array, tau: Array) -> Array:
         out = np.empty(t.nv)

@@ -55,6 +55,7 @@ from robodyn.engine.tree.layout import (
     FREEFLYER,
     PRISMATIC,
     REVOLUTE,
+    WCOLS,
     flyer_of,
 )
 from robodyn.errors import AssumptionError, InputError, MissingDependencyError
@@ -344,10 +345,14 @@ class CompiledDynamics:
     source: weakref.ref[Robot] | None = field(default=None, repr=False)
 
     def _ws(self) -> Array:
-        return np.zeros((self.tree.itree.shape[0], kernels().WCOLS))
+        return np.zeros((self.tree.itree.shape[0], WCOLS))
 
-    def _checked(self, part: str) -> None:
-        """Check ``part`` against Pinocchio before its first use, when :func:`compiled_of` made this object."""
+    def ensure_checked(self, part: str) -> None:
+        """Check ``part`` against Pinocchio before its first use, when :func:`compiled_of` made this object.
+
+        Raises:
+            AssumptionError: it differs from Pinocchio's (as :meth:`verify` says).
+        """
         robot = self.source() if self.source is not None else None
         if robot is not None and part not in self.check:
             self.check.update(self.verify(robot, parts=(part,)))
@@ -376,7 +381,7 @@ class CompiledDynamics:
         Raises:
             AssumptionError: at the first call, RNEA fails its check against Pinocchio (:meth:`verify`).
         """
-        self._checked("rnea")
+        self.ensure_checked("rnea")
         return self._rnea(q, v, a)
 
     def _rnea(self, q: ArrayLike, v: ArrayLike, a: ArrayLike) -> Array:
@@ -393,7 +398,7 @@ class CompiledDynamics:
         Raises:
             AssumptionError: at the first call, CRBA fails its check against Pinocchio (:meth:`verify`).
         """
-        self._checked("crba")
+        self.ensure_checked("crba")
         return self._crba(q)
 
     def _crba(self, q: ArrayLike) -> Array:

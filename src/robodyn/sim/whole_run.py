@@ -41,7 +41,7 @@ from types import ModuleType
 import numpy as np
 from numpy.typing import NDArray
 
-from robodyn.errors import RobodynError
+from robodyn.errors import AssumptionError, RobodynError
 from robodyn.integrators import Integrator
 from robodyn.integrators.explicit import ClassicRK4, ExplicitEuler, ExplicitRungeKutta
 from robodyn.integrators.symplectic import SemiImplicitEuler
@@ -206,6 +206,7 @@ class Work:
 
     run: Run
     system: RobotSystem
+    compiled: tree.CompiledDynamics
     kernels: ModuleType
     events: ModuleType
     tree: tree.TreeModel
@@ -259,6 +260,7 @@ def _setup(plan: Plan, system: RobotSystem, run: Run) -> Work:
     return Work(
         run=run,
         system=system,
+        compiled=plan.compiled,
         kernels=kernels,
         events=events,
         tree=tr,
@@ -302,6 +304,7 @@ def _block(w: Work) -> tuple[int, int]:
         if status != ev.EVENTS:
             return status, lo  # type: ignore[no-any-return]
     compile_start = time.perf_counter()
+    w.compiled.ensure_checked("crba")  # the stop events' compiled CRBA, checked against Pinocchio at first use
     # loaded, or compiled with its notice, the first time a run meets a stop
     tree.event_kernels(w.tree.flyer is not None, w.md[5] == _RK)
     w.start += time.perf_counter() - compile_start
@@ -384,6 +387,8 @@ def attempt(plan: Plan, system: RobotSystem, run: Run) -> Outcome:
         _last_sample(w)
     except KeyboardInterrupt:
         interrupted = True
+    except AssumptionError as exc:  # the compiled CRBA, checked at the first stop met, differs from Pinocchio's
+        return _hand_back(w, held0, evaluations0, str(exc))
     except np.linalg.LinAlgError as exc:  # an impact's solve on a state blown up inside the block
         failed = _failed_solve(w, exc)
         w.done = int(w.counts[w.events.AT])  # the steps before the one that raised were taken

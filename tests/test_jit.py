@@ -149,9 +149,9 @@ def test_a_long_compile_says_it_is_still_compiling() -> None:
     with warnings.catch_warnings(record=True) as seen:
         warnings.simplefilter("always")
         watch.start()
-        watch.compile_started()  # as numba's compile event would
+        jit._COMPILES.begin()  # as numba's compile event would
         time.sleep(compiling)
-        watch.compile_ended()
+        jit._COMPILES.end()
         time.sleep(jit.QUIET_S + 1.0)  # the watch has ended: no more notes
         count = len(seen)
         time.sleep(0.7)
@@ -179,11 +179,11 @@ def test_the_notes_come_out_while_numba_records_warnings() -> None:
         warnings.showwarning = show
         watch = jit.CompileWatch("the test kernels", every=0.3)
         watch.start()
-        watch.compile_started()
+        jit._COMPILES.begin()
         with warnings.catch_warnings(record=True):  # what numba does around a compile
             time.sleep(1.2)
             during = list(printed)
-        watch.compile_ended()
+        jit._COMPILES.end()
     assert during and during[0].startswith("still compiling the test kernels: "), during
 
 
@@ -191,18 +191,29 @@ def test_ignored_notes_stay_ignored() -> None:
     """PYTHONWARNINGS=ignore (or a filter on CompileNotice) silences the watch's notes as it does the first."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        assert jit._notice_printer() is None
+        assert jit._notice_printer("the test kernels") is None
         warnings.simplefilter("always", CompileNotice)
-        assert jit._notice_printer() is not None
+        assert jit._notice_printer("the test kernels") is not None
 
 
 def test_the_compile_watch_hears_numba_compile() -> None:
     import numba
 
-    watch = jit.CompileWatch("the test kernels", every=60.0)
-    watch.start()
+    jit.CompileWatch("the test kernels", every=60.0).start()
+    started = jit._COMPILES.started
     numba.njit(lambda x: x + 1)(1)  # a fresh function: compiled now
-    assert watch.started and watch.depth == 0
+    assert jit._COMPILES.started > started and not jit.compiling()
+
+
+def test_no_note_once_the_compile_is_over() -> None:
+    """A watch whose compile has ended (or never began) says nothing more, even before it ends itself."""
+    import time
+
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        jit.CompileWatch("the test kernels", every=0.2).start()
+        time.sleep(1.0)  # no compile under way: no note
+    assert seen == []
 
 
 @pytest.mark.timeout(900)
@@ -222,3 +233,14 @@ def test_warmup_refuses_an_unknown_group_in_one_line(capsys: pytest.CaptureFixtu
     assert main(["warmup", "--only", "closed-forms,tres"]) == 2
     err = capsys.readouterr().err.splitlines()
     assert len(err) == 1 and "unknown kernel group 'tres'" in err[0] and "tree" in err[0]
+
+
+def test_a_forked_child_counts_its_own_compiles() -> None:
+    """A fork while the count's lock is held (by a watch thread) must not leave the child's compiles blocked."""
+    with jit._COMPILES.lock:
+        pid = os.fork()
+        if pid == 0:  # the child: its first compile event takes the lock
+            got = jit._COMPILES.lock.acquire(timeout=2.0)
+            os._exit(0 if got and not jit.compiling() and jit._COMPILES.latest is None else 1)
+    _, status = os.waitpid(pid, 0)
+    assert os.waitstatus_to_exitcode(status) == 0

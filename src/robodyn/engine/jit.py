@@ -211,121 +211,145 @@ STILL_EVERY = 20.0
 # ...until numba has compiled nothing for this long [s] (or, if no compile starts, this long after the notice)
 QUIET_S = 2.0
 NEVER_STARTED_S = 30.0
-_BUSY: set[CompileWatch] = set()  # the watches whose compile is under way
-_LATEST: CompileWatch | None = None  # the watch that notes
 
 
-def _notice_printer() -> Callable[[str], None] | None:
-    """How a watch's note reaches the user, as warnings' filters and hook stand now; None: they ignore it.
+class _Compiles:
+    """numba's compiles under way in this process, counted from its compile events by one listener, never removed.
+
+    Global on purpose: a listener removed while numba broadcasts an event to the list of listeners
+    could make another miss the end of a compile and count it under way for ever. A forked child
+    starts its own count (:func:`os.register_at_fork`): a lock held in the parent at the fork is
+    never released in the child.
+    """
+
+    def __init__(self) -> None:
+        import threading
+
+        self.lock = threading.Lock()
+        self.depth = 0  # compiles under way (nested: a kernel's callees compile inside it)
+        self.started = 0  # compiles begun since the process started
+        self.quiet_since = time.monotonic()  # when the last one ended
+        self.listening = False
+        self.latest: CompileWatch | None = None  # the watch that notes
+
+    def begin(self) -> None:
+        with self.lock:
+            self.depth += 1
+            self.started += 1
+
+    def end(self) -> None:
+        with self.lock:
+            self.depth = max(0, self.depth - 1)
+            self.quiet_since = time.monotonic()
+
+    def listen(self) -> None:
+        """Register the one listener of numba's compile events (once per process)."""
+        with self.lock:
+            if self.listening:
+                return
+            self.listening = True
+        from numba.core import event
+
+        class Listener(event.Listener):  # type: ignore[misc]
+            def on_start(self, event: Any) -> None:
+                _COMPILES.begin()
+
+            def on_end(self, event: Any) -> None:
+                _COMPILES.end()
+
+        event.register("numba:compile", Listener())
+
+    def reset_in_child(self) -> None:
+        """After a fork: a fresh lock and no watch (the listener, if any, stays registered and counts on)."""
+        import threading
+
+        self.lock = threading.Lock()
+        self.depth = 0
+        self.latest = None
+
+
+_COMPILES = _Compiles()
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_COMPILES.reset_in_child)
+
+
+def _notice_printer(what: str) -> Callable[[str], None] | None:
+    """How a watch's notes on ``what`` reach the user, as warnings' filters and hook stand now; None: ignored.
 
     Taken in the thread that announced the compile, before it starts: numba compiles inside
     ``warnings.catch_warnings(record=True)`` and shows what it recorded only at the end, so a note
     warned from the watch thread during a compile would wait for it. The filters are read as
-    :func:`warnings.warn` reads them (the first that matches decides; ``PYTHONWARNINGS=ignore``
-    silences the notes, as it does the first one); the hook is the current ``showwarning`` (the
-    command line's prints one ``note:`` line), or the display that warnings' own hook calls.
+    :func:`warnings.warn` reads them, the first that matches the note's text decides
+    (``PYTHONWARNINGS=ignore`` silences the notes, as it does the first one; ``error`` too, since a
+    thread cannot raise into the command); the hook is the current ``showwarning`` (the command
+    line's prints one ``note:`` line), or the display that warnings' own hook calls.
     """
+    text = f"still compiling {what}: "
     for action, message, category, module, lineno in warnings.filters:
         if (
             issubclass(CompileNotice, category)
-            and (message is None or message.match("still compiling"))
+            and (message is None or message.match(text))
             and (module is None or module.match(__name__))
             and lineno == 0
         ):
-            if action == "ignore":
+            if action in ("ignore", "error"):
                 return None
             break
     show = warnings.showwarning
     if show is getattr(warnings, "_showwarning_orig", None):
         display = warnings._showwarnmsg_impl  # type: ignore[attr-defined]
-        return lambda text: display(warnings.WarningMessage(CompileNotice(text), CompileNotice, __file__, 0))
-    return lambda text: show(CompileNotice(text), CompileNotice, __file__, 0)
+        return lambda note: display(warnings.WarningMessage(CompileNotice(note), CompileNotice, __file__, 0))
+    return lambda note: show(CompileNotice(note), CompileNotice, __file__, 0)
 
 
 def compiling() -> bool:
-    """True while an announced compile is under way (a run's progress lines wait: the notes speak for it)."""
-    return bool(_BUSY)
+    """True while numba compiles (a run's progress lines wait then: the compile's notes speak for it)."""
+    return _COMPILES.depth > 0
 
 
 class CompileWatch:
     """A thread that says ``still compiling WHAT: 40 s so far`` every STILL_EVERY s while numba compiles.
 
-    It counts numba's own compile events (``numba.core.event``, kind ``numba:compile``) and ends
-    once none has run for QUIET_S seconds. Its notes are :class:`CompileNotice` warnings, as the
-    first one (the command line prints each as one ``note:`` line).
+    It reads the process's count of numba's compiles under way (:class:`_Compiles`) and ends once
+    none has run for QUIET_S seconds, or when a later watch starts. Its notes are
+    :class:`CompileNotice` warnings, as the first one (the command line prints each as one ``note:``
+    line), and come only while a compile is under way.
     """
 
     def __init__(self, what: str, *, every: float | None = None) -> None:
-        import threading
-
         self.what, self.every = what, STILL_EVERY if every is None else every
-        self.depth = 0  # compiles under way
-        self.started = False
-        self.quiet_since = time.monotonic()
-        self.lock = threading.Lock()
-
-    def compile_started(self) -> None:
-        """A compile of one function begins (a numba event)."""
-        with self.lock:
-            self.depth += 1
-            self.started = True
-            _BUSY.add(self)
-
-    def compile_ended(self) -> None:
-        """A compile of one function ends (a numba event)."""
-        with self.lock:
-            self.depth -= 1
-            self.quiet_since = time.monotonic()
-            if self.depth <= 0:
-                _BUSY.discard(self)
+        self.begun = time.monotonic()
+        self.started0 = _COMPILES.started  # a compile begun after this one counts
+        self.show: Callable[[str], None] | None = None
 
     def start(self) -> None:
-        """Listen to numba's compile events and watch them from a daemon thread."""
+        """Take the notes' printer, make sure numba's compiles are counted, and watch from a daemon thread."""
         import threading
 
-        from numba.core import event
-
-        watch = self
-
-        class Listener(event.Listener):  # type: ignore[misc]
-            def on_start(self, event: Any) -> None:
-                watch.compile_started()
-
-            def on_end(self, event: Any) -> None:
-                watch.compile_ended()
-
-        global _LATEST
-        self.show = _notice_printer()  # taken here, outside numba's compile (which records warnings)
-        self.listener = Listener()
-        event.register("numba:compile", self.listener)
-        _LATEST = self  # an earlier watch still running says no more: one note at a time
+        self.show = _notice_printer(self.what)  # taken here, outside numba's compile (which records warnings)
+        _COMPILES.listen()
+        _COMPILES.latest = self  # an earlier watch still running says no more: one note at a time
         threading.Thread(target=self._watch, name="robodyn-compile-watch", daemon=True).start()
 
-    def _over(self, now: float, begun: float) -> bool:
-        with self.lock:
-            if self.depth > 0:
-                return False
-            if not self.started:
-                return now - begun > NEVER_STARTED_S
-            return now - self.quiet_since > QUIET_S
+    def _state(self, now: float) -> tuple[bool, bool]:
+        """(over, compiling now)."""
+        c = _COMPILES
+        with c.lock:
+            if c.depth > 0:
+                return False, True
+            if c.started == self.started0:
+                return now - self.begun > NEVER_STARTED_S, False
+            return now - c.quiet_since > QUIET_S, False
 
     def _watch(self) -> None:
-        from numba.core import event
-
-        begun = time.monotonic()
-        said = begun
-        try:
-            while True:
-                time.sleep(min(0.5, self.every / 4.0))
-                now = time.monotonic()
-                if self._over(now, begun):
-                    return
-                if _LATEST is not self:
-                    return
-                if now - said >= self.every:
-                    said = now
-                    if self.show is not None:
-                        self.show(f"still compiling {self.what}: {now - begun:.0f} s so far")
-        finally:
-            event.unregister("numba:compile", self.listener)
-            _BUSY.discard(self)
+        said = self.begun
+        while _COMPILES.latest is self:
+            time.sleep(min(0.5, self.every / 4.0))
+            now = time.monotonic()
+            over, busy = self._state(now)
+            if over:
+                return
+            if busy and now - said >= self.every and _COMPILES.latest is self:
+                said = now
+                if self.show is not None:
+                    self.show(f"still compiling {self.what}: {now - self.begun:.0f} s so far")

@@ -61,7 +61,8 @@ class ProgressLines:
     def _print_if_due(self, now: float) -> None:
         if now < self.next or self.start is None:
             return
-        if jit.compiling():  # a compile inside the run (the stop events, met late): its notes speak
+        if jit.compiling():  # a compile inside the run (the stop events, met late): its notes speak, and the
+            self.next = now + self.every  # next line comes a period after it ends
             return
         self.next = now + self.every
         share = 100.0 * self.t / self.duration if self.duration > 0 else 100.0

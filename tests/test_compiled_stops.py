@@ -326,3 +326,13 @@ def test_a_free_flying_robot_loads_only_the_free_flyer_kernels(monkeypatch: pyte
     compiled.acceleration(q, v, np.zeros(robot.nv))
     compiled.energies(q, v)
     assert asked and all(asked), asked
+
+
+def test_compiled_dynamics_kept_across_an_edit_of_the_model_say_so() -> None:
+    """RNEA and CRBA are checked at first use: on an edited model the refusal names the edit, not a disagreement."""
+    robot = robodyn.load("pendubot")
+    compiled = tree.compiled_of(robot)
+    robot.model.inertias[2].mass = 2.0 * robot.model.inertias[2].mass
+    with pytest.raises(AssumptionError, match="was edited after its compiled dynamics were made"):
+        compiled.mass_matrix(robot.neutral())
+    assert tree.compiled_of(robot).mass_matrix(robot.neutral()).shape == (2, 2)  # made again: checked and served

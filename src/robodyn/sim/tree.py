@@ -351,10 +351,16 @@ class CompiledDynamics:
         """Check ``part`` against Pinocchio before its first use, when :func:`compiled_of` made this object.
 
         Raises:
-            AssumptionError: it differs from Pinocchio's (as :meth:`verify` says).
+            AssumptionError: it differs from Pinocchio's (as :meth:`verify` says), or the robot's model
+                was edited since this object was made (it holds the arrays read then).
         """
         robot = self.source() if self.source is not None else None
         if robot is not None and part not in self.check:
+            if not extract(robot).same_as(self.tree):
+                raise AssumptionError(
+                    f"{robot.name}: its model was edited after its compiled dynamics were made; "
+                    "expected robodyn.sim.tree.compiled_of(robot) again for the model as it is now"
+                )
             self.check.update(self.verify(robot, parts=(part,)))
 
     def _state(self, q: ArrayLike, v: ArrayLike, name: str = "v") -> tuple[Array, Array]:

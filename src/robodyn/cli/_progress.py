@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import threading
+import time
 from typing import Any
 
 from robodyn.engine import jit
@@ -25,9 +27,6 @@ class ProgressLines:
     """
 
     def __init__(self, stream: Any, duration: float, *, clock: Any = None, every: float = PROGRESS_EVERY) -> None:
-        import threading
-        import time
-
         self.stream, self.duration, self.every = stream, float(duration), float(every)
         self.clock = clock if clock is not None else time.monotonic
         self.start: float | None = None
@@ -45,8 +44,6 @@ class ProgressLines:
             if self.start is None:
                 self.start, self.next = now, now + self.every
                 if self._watch:
-                    import threading
-
                     threading.Thread(target=self._beat, name="robodyn-progress", daemon=True).start()
                 return
             self._print_if_due(now)
@@ -61,10 +58,9 @@ class ProgressLines:
     def _print_if_due(self, now: float) -> None:
         if now < self.next or self.start is None:
             return
-        if jit.compiling():  # a compile inside the run (the stop events, met late): its notes speak, and the
-            self.next = now + self.every  # next line comes a period after it ends
-            return
         self.next = now + self.every
+        if jit.compiling():  # a compile inside the run (the stop events, met late): its notes speak
+            return
         share = 100.0 * self.t / self.duration if self.duration > 0 else 100.0
         print(
             f"robodyn simulate: t = {self.t:.6g} s of {self.duration:g} s ({share:.3g} %), "

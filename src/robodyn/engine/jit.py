@@ -21,6 +21,7 @@ from __future__ import annotations
 import hashlib
 import os
 import shutil
+import threading
 import time
 import warnings
 from collections.abc import Callable
@@ -223,8 +224,6 @@ class _Compiles:
     """
 
     def __init__(self) -> None:
-        import threading
-
         self.lock = threading.Lock()
         self.depth = 0  # compiles under way (nested: a kernel's callees compile inside it)
         self.started = 0  # compiles begun since the process started
@@ -261,8 +260,6 @@ class _Compiles:
 
     def reset_in_child(self) -> None:
         """After a fork: a fresh lock and no watch (the listener, if any, stays registered and counts on)."""
-        import threading
-
         self.lock = threading.Lock()
         self.depth = 0
         self.latest = None
@@ -324,8 +321,6 @@ class CompileWatch:
 
     def start(self) -> None:
         """Take the notes' printer, make sure numba's compiles are counted, and watch from a daemon thread."""
-        import threading
-
         self.show = _notice_printer(self.what)  # taken here, outside numba's compile (which records warnings)
         _COMPILES.listen()
         _COMPILES.latest = self  # an earlier watch still running says no more: one note at a time

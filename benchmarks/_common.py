@@ -23,6 +23,11 @@ from typing import Any, TypeVar
 
 T = TypeVar("T")
 
+# The benchmarks measure the compiled loop itself: a run compiles its kernels the first time, whatever its
+# length (robodyn.sim.compile_choice), rather than take the Python loop while they are not built.
+# bench_first_run.py measures the default choice too, in processes of its own.
+os.environ.setdefault("ROBODYN_COMPILE", "always")
+
 DEFAULT_OUT = Path("bench-out")
 
 

@@ -1,9 +1,16 @@
 """pytest's set-up for every test of robodyn."""
 
+import os
 import signal
 from collections.abc import Iterator
 
 import pytest
+
+# The suite tests the compiled loop wherever it applies, whatever numba's cache holds and in whatever
+# order the tests run: a run compiles its kernels the first time (ROBODYN_COMPILE=always), as every
+# command a test starts does too (they inherit it). The default choice, the Python loop while the
+# kernels are not built and compiling would cost more, is tested in test_compile_choice.py.
+os.environ["ROBODYN_COMPILE"] = "always"
 
 
 @pytest.fixture(autouse=True)

@@ -39,8 +39,8 @@ print(json.dumps({
     "rnea": len(algorithms.rnea.signatures),
     "crba": len(algorithms.crba.signatures),
     "cached": {
-        "aba": [jit.is_cached(steps.aba, tree._variant(f)) for f in (False, True)],
-        "run_steps": [jit.is_cached(events.run_steps, tree._run_variant(False, t)) for t in (False, True)],
+        "aba": [jit.is_cached(steps.aba, tree.variant(f)) for f in (False, True)],
+        "run_steps": [jit.is_cached(events.run_steps, tree.run_variant(False, t)) for t in (False, True)],
     },
 }))
 """

@@ -38,7 +38,7 @@ from robodyn.errors import DivergenceError, InputError, ModelError, SimulationIn
 from robodyn.fileio import is_number
 from robodyn.integrators import Integrator
 from robodyn.robot import as_vector
-from robodyn.sim import energy, whole_run
+from robodyn.sim import compile_choice, energy, whole_run
 from robodyn.sim.chatter import chattering
 from robodyn.sim.constraints import Constraints, Coupling, Loop, Spring
 from robodyn.sim.loops import close_initial_state
@@ -174,7 +174,8 @@ def simulate(
     run, check = _first_run(setup)
     run, outcome, wall = _integrate(setup, run, backend)
     loop = _loop_meta(system, outcome)
-    if outcome is not None and outcome.steps and "stiff_friction" in start.notes and run.failure is None:
+    handed_back = outcome is not None and not outcome.ran and outcome.steps
+    if handed_back and "stiff_friction" in start.notes and run.failure is None:
         loop["compiled_loop"] += (  # handed back mid-run; the Python loop's run is no sounder (exact zeros kept it)
             "; the stiff joint losses of the warning amplify any round-off at every step, and the Python loop "
             "got through only where its round-off is exactly 0"
@@ -282,9 +283,17 @@ def _first_run(setup: _Setup) -> tuple[Run, energy.EnergyCheck]:
 def _integrate(setup: _Setup, run: Run, backend: str | None) -> tuple[Run, whole_run.Outcome | None, float]:
     """Take the steps: in the compiled loop where it applies (and ran), else in ``run``'s Python loop.
 
+    Left to its default, a run whose kernels are not built yet takes the Python loop while that
+    costs less than compiling them (:mod:`robodyn.sim.compile_choice`).
     Returns the run that holds the steps, the compiled loop's outcome (None: not asked) and the wall time [s].
     """
     system = setup.start.system
+    rent = _rent(setup, run) if backend is None else None
+    if rent is not None:
+        rented = _rented(setup, run, rent)
+        if rented is not None:
+            return rented
+        run = setup.new_run()  # over its budget: the run starts again, compiled
     plan = whole_run.prepare(system, setup.method) if backend in (None, "numba") else None
     start = time.perf_counter()
     outcome = None
@@ -297,6 +306,39 @@ def _integrate(setup: _Setup, run: Run, backend: str | None) -> tuple[Run, whole
     if outcome is None or not outcome.ran:
         run.integrate()
     return run, outcome, time.perf_counter() - start
+
+
+def _rent(setup: _Setup, run: Run) -> compile_choice.Rent | None:
+    """The Python loop's budget when this run should not wait for the compiled loop's kernels, else None."""
+    system, method = setup.start.system, setup.method
+    if whole_run.refusal(system, method) is not None:
+        return None
+    stages, tableau = whole_run.stages(method)
+    return compile_choice.choose(system, run, stages, tableau)
+
+
+def _rented(setup: _Setup, run: Run, rent: compile_choice.Rent) -> tuple[Run, whole_run.Outcome, float] | None:
+    """``run`` in the Python loop within ``rent``'s budget; None when it ran past it (the system as it was, noted)."""
+    system = setup.start.system
+    held0, evaluations0 = dict(system.held), (system.evaluations, system.jacobian_evaluations)
+    run.progress = compile_choice.budgeted(setup.progress, rent.budget)
+    start = time.perf_counter()
+    try:
+        run.integrate()
+    except compile_choice.OverBudgetError:
+        compile_choice.book(time.perf_counter() - start)
+        if system.held != held0:
+            system.hold(held0, run.Q[0])
+        system.evaluations, system.jacobian_evaluations = evaluations0
+        setup.start.notes["python_loop_abandoned"] = (
+            f"the Python loop ran past {rent.budget:.3g} s, about what compiling the kernels costs; the run "
+            "started again in the compiled loop"
+        )
+        return None
+    wall = time.perf_counter() - start
+    compile_choice.book(wall)
+    run.progress = setup.progress
+    return run, whole_run.Outcome(False, rent.reason), wall
 
 
 def _result(run: Run, wall: float, meta: dict[str, Any]) -> Trajectory:

@@ -95,9 +95,10 @@ _TYPES: dict[str, tuple[int, tuple[float, float, float] | None]] = {
 # one sample and the loop of steps clear of the stops, for the tree's base (fixed, or a free-flyer root)
 # and the run's method (RK4, or a tableau): about 20 s of CPU for the Pendubot (benchmarks/bench_first_run.py)
 COMPILING = ("the tree-robot kernels", "about 20 s")
-# ... and the stop events, when a run first meets a joint stop: about a minute of CPU more (the Panda's
-# first run, which starts held at a stop, less the Pendubot's; bench_first_run.py)
+# ... and the stop events, when a run first meets a stop: the Panda's first run less the Pendubot's
 COMPILING_EVENTS = ("the tree-robot kernels of joint stops", "about a minute")
+# The two in s of CPU (a quiet 2-core machine), weighed against the Python loop (robodyn.sim.compile_choice)
+COMPILE_S = (20.0, 60.0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -255,12 +256,17 @@ def _module() -> ModuleType:
     return steps
 
 
-def _variant(flyer: bool) -> Callable[[tuple[Any, ...]], bool]:
+def run_kernels(k: ModuleType) -> tuple[Any, ...]:
+    """The kernels every run uses (ABA, the kinematics of the energies, one sample) of kernels module ``k``."""
+    return (k.aba, k.kinematics, k.sample)
+
+
+def variant(flyer: bool) -> Callable[[tuple[Any, ...]], bool]:
     """Whether a cached signature of an algorithm or ``sample`` (``flyer`` its 4th argument) is this variant's."""
     return lambda sig: (str(sig[3]) == "none") != flyer
 
 
-def _run_variant(flyer: bool, tableau: bool) -> Callable[[tuple[Any, ...]], bool]:
+def run_variant(flyer: bool, tableau: bool) -> Callable[[tuple[Any, ...]], bool]:
     """Whether a cached signature of a whole run (its ``md``: ``tab`` 7th, ``flyer`` 9th) is this variant's."""
     return lambda sig: (str(sig[0].types[8]) == "none") != flyer and (str(sig[0].types[6]) == "none") != tableau
 
@@ -275,7 +281,7 @@ def kernels(flyer: bool = False) -> ModuleType:
     here, so that no timed run pays for loading it.
     """
     k = _module()
-    if not all(jit.is_cached(f, _variant(flyer)) for f in (k.aba, k.kinematics, k.sample)):
+    if not all(jit.is_cached(f, variant(flyer)) for f in run_kernels(k)):
         jit.announce(*COMPILING)
     t = one_joint(flyer)
     warm.algorithms(k, t.itree, t.ftree, t.grav, t.nq, t.nv)
@@ -286,7 +292,7 @@ def kernels(flyer: bool = False) -> ModuleType:
 def dynamics_kernels(flyer: bool = False) -> ModuleType:
     """:func:`kernels` with RNEA and CRBA loaded or compiled too (no run uses them: :class:`CompiledDynamics` does)."""
     k = kernels(flyer)
-    if not all(jit.is_cached(f, _variant(flyer)) for f in (k.rnea, k.crba)):
+    if not all(jit.is_cached(f, variant(flyer)) for f in (k.rnea, k.crba)):
         jit.announce(*COMPILING)
     t = one_joint(flyer)
     warm.dynamics(k, t.itree, t.ftree, t.grav, t.nq, t.nv)
@@ -306,7 +312,7 @@ def step_kernels(flyer: bool = False, tableau: bool = False) -> ModuleType:
     kernels(flyer)
     from robodyn.engine.tree import events as k
 
-    if not jit.is_cached(k.run_steps, _run_variant(flyer, tableau)):
+    if not jit.is_cached(k.run_steps, run_variant(flyer, tableau)):
         jit.announce(*COMPILING)
     t = one_joint(flyer)
     warm.run(k, t.itree, t.ftree, t.grav, t.nq, t.nv, tableau=tableau, events=False)
@@ -323,7 +329,7 @@ def event_kernels(flyer: bool = False, tableau: bool = False) -> ModuleType:
     kernels(flyer)
     from robodyn.engine.tree import events as k
 
-    if not jit.is_cached(k.run_events, _run_variant(flyer, tableau)):
+    if not jit.is_cached(k.run_events, run_variant(flyer, tableau)):
         jit.announce(*COMPILING_EVENTS)
     t = one_joint(flyer)
     warm.run(k, t.itree, t.ftree, t.grav, t.nq, t.nv, tableau=tableau, events=True)

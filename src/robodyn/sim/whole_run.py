@@ -23,12 +23,9 @@ the stops booked; the held joints are locked in the compiled ABA (qdd = 0, their
 computed in the same pass). The impacts, releases and held set are handed to the run's event
 stepper at the end, where the run's metadata reads them.
 
-What it does not handle it hands back, and the run is then taken by the Python pipeline
-from its start (``Run.integrate``): a state that is not finite, an energy error above the
-run's bound, or a step with more stop events than the event stepper allows (chattering; the
-Python pipeline then writes the canonical divergence report).
-
-Ctrl-C is honoured between blocks of ``BLOCK`` steps.
+What it does not handle (a state that is not finite, an energy error above the run's bound, a
+step with more stop events than the event stepper allows) it hands back to the Python pipeline,
+which takes the run from its start and writes the canonical report. Ctrl-C is honoured between blocks.
 """
 
 from __future__ import annotations
@@ -63,15 +60,10 @@ from robodyn.sim.system import V_FRICTION, RobotSystem
 Array = NDArray[np.float64]
 
 _KEYS = itertools.count()
+_EK_PCOLS = 10  # entries of the event kernels' constants (events.PCOLS, without loading numba here)
+BLOCK = 4096  # steps per call of the compiled loop: between calls Ctrl-C is seen (Talos: ~0.15 s a block)
 
-# entries of the event kernels' constants (tree_events.PCOLS, without loading numba here)
-_EK_PCOLS = 10
-
-# Steps per call of the compiled loop: between calls Ctrl-C is seen (Talos: ~0.15 s a block).
-BLOCK = 4096
-
-# Method codes of tree_steps (RK, RK4, SEMI_IMPLICIT_EULER).
-_RK, _RK4, _SIE = 0, 1, 2
+_RK, _RK4, _SIE = 0, 1, 2  # method codes of the kernels (RK, RK4, SEMI_IMPLICIT_EULER)
 # The methods whose step the kernels mirror, with the class that defines that step.
 _OWN = {
     ClassicRK4: "ClassicRK4",
@@ -112,6 +104,12 @@ def method_code(method: Integrator) -> tuple[int, Array] | None:
         np.asarray(tab.c, dtype=np.float64),
     ]
     return _RK, np.ascontiguousarray(np.vstack(rows))
+
+
+def stages(method: Integrator) -> tuple[int, bool]:
+    """(evaluations a step of a compiled ``method`` takes, whether the kernels take it by its tableau)."""
+    code, tab = method_code(method) or (-1, np.zeros((1, 0)))
+    return tab.shape[1], code == _RK
 
 
 def refusal(system: RobotSystem, method: Integrator) -> str | None:
@@ -244,7 +242,7 @@ def _setup(plan: Plan, system: RobotSystem, run: Run) -> Work:
     kernels, events = tree.kernels(tr.flyer is not None), tree.step_kernels(tr.flyer is not None, plan.method == _RK)
     forces, springs = _inputs(system)
     stops, par = _event_arrays(system, tr)
-    par[events.P_STAGES] = 1 if plan.method == _SIE else (4 if plan.method == _RK4 else plan.tableau.shape[1])
+    par[events.P_STAGES] = plan.tableau.shape[1]  # RK4's (6, 4), semi-implicit Euler's (3, 1): no tableau
     cb = -1
     if system.torque.kind == "callable":  # called in object mode, stage by stage, as RobotSystem.input_torque
         cb = next(_KEYS)

@@ -154,7 +154,8 @@ def _add_solver_arguments(p: argparse.ArgumentParser) -> None:
         choices=BACKENDS.names(),
         default=None,
         help="forward dynamics (default: the whole run in numba's compiled loop where it applies, else aba; "
-        "crba on a model loaded with --mimic, which aba refuses); the summary says which ran",
+        "crba on a model loaded with --mimic, which aba refuses; while the compiled kernels are not built, "
+        "a run shorter than their compile takes aba's Python loop); the summary says which ran",
     )
     p.add_argument(
         "--rtol",

@@ -115,7 +115,9 @@ def simulate(
             (the default) runs the whole run in the compiled loop of :mod:`robodyn.sim.whole_run`
             (backend ``"numba"``: ABA compiled, checked against Pinocchio) wherever it applies,
             and otherwise ``"aba"`` (``"crba"`` on a model with mimic joints, which ABA refuses)
-            in the Python pipeline. ``"numba"`` asks for the compiled loop, and for the compiled
+            in the Python pipeline; while the compiled loop's kernels are not built on this
+            machine, a run that costs less than their compile takes the Python pipeline instead
+            (:mod:`robodyn.sim.compile_choice`). ``"numba"`` asks for the compiled loop, and for the compiled
             ABA as the smooth stage of the Python pipeline where the loop does not apply. The
             metadata say which ran: ``backend``, ``loop`` ("compiled" | "python"),
             ``compiled_loop`` (why not, when it did not) and ``event_steps`` (steps with a stop

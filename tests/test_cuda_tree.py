@@ -84,11 +84,13 @@ def test_talos_with_a_fixed_base_on_cuda_equals_the_cpu_batch_path():
     assert out["dq"] <= CUDA_VS_CPU_ATOL and out["dv"] <= CUDA_VS_CPU_ATOL
 
 
-def test_a_free_flyer_on_cuda_equals_the_cpu_kernel_and_its_range_is_the_steps_range():
+@pytest.mark.parametrize("passes", ["world axes", "joint axes"])
+def test_a_free_flyer_on_cuda_equals_the_cpu_kernel_and_its_range_is_the_steps_range(passes):
     """The Panda on a free-flyer base (q 16, v 15) through cuda_tree.rollout against tree_steps.batch_rollout.
 
     batch.rollout takes nq == nv only; the kernels take the free flyer, so the module is compared with
-    the CPU kernel itself, stepped one step a call to record each coordinate's range on the way.
+    the CPU kernel itself, stepped one step a call to record each coordinate's range on the way. With
+    the ABA's passes in each joint's axes (the model's choice where world axes fail the check) too.
     """
     out = _simulated(
         f"""
@@ -100,6 +102,9 @@ def test_a_free_flyer_on_cuda_equals_the_cpu_kernel_and_its_range_is_the_steps_r
 
         robot = robodyn.load("panda", free_flyer=True)
         t = tree.compiled_of(robot).tree
+        if "{passes}" == "joint axes":
+            t = t.with_local_passes()
+        assert t.local == ("{passes}" == "joint axes")
         k = tree.kernels()
         rng = np.random.default_rng(3)
         n, steps = 2, 60

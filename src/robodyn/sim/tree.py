@@ -17,10 +17,11 @@ compares ABA, RNEA and CRBA with Pinocchio's (:mod:`robodyn.dynamics`) on seeded
 (``VERIFY_STATES`` of them) and refuses the model if any differs by more than ``VERIFY_RTOL``
 relative to the largest entry (ABA: or by more than ``VERIFY_SPREAD`` times Pinocchio's own
 ABA-CRBA spread, at a state where M is so ill-conditioned that the spread is larger). The
-ABA's passes 2 and 3 work in world axes; on a model where those fail the check (iCub's neck,
-Stretch's wheels: an exact zero of the model only nearly one after rounding), :func:`compiled_of`
-checks them again in each joint's own axes (:meth:`TreeModel.with_local_passes`, about 15 to 30 %
-slower), and refuses the model only if those fail too. The check runs once per model and is
+ABA's passes 2 and 3 work in world axes; on a model where those fail the check (iCub's neck: an
+exact zero of the model only nearly one after rounding) or leave round-off where Pinocchio's ABA
+at rest is exactly 0 (Stretch's wheels), :func:`compiled_of` checks them again in each joint's own
+axes (:meth:`TreeModel.with_local_passes`, about 15 to 30 % slower), and refuses the model only
+if both fail the check. The check runs once per model and is
 cached while the arrays read from the model stay the same.
 
 numba is imported on first use (the kernels' module), never at ``import robodyn``.
@@ -334,14 +335,28 @@ def _relative(got: Array, ref: Array) -> float:
     return float(np.max(np.abs(got - ref))) / scale if np.all(np.isfinite(got)) else float("inf")
 
 
+def _keeps_zeros_at_rest(compiled: CompiledDynamics, robot: Robot) -> bool:
+    """Whether the compiled ABA at rest (the neutral pose, v = 0, no torque) is exactly 0 wherever Pinocchio's is.
+
+    A joint whose bodies' weight passes through its axis (a wheel's centre of mass on its axis) has
+    an exact 0 there in Pinocchio's local frames; the world axes' passes may leave 1e-30 of round-off,
+    which passes the relative check but which stiff Coulomb friction amplifies 1e5-fold a step
+    (Stretch's wheels: a compiled run blown up at its third step).
+    """
+    q, zero = robot.neutral(), np.zeros(robot.nv)
+    ref = dynamics.aba(robot.model, robot.data, q, zero, zero)
+    return bool(np.all(compiled.acceleration(q, zero, zero)[ref == 0.0] == 0.0))
+
+
 _CACHE: weakref.WeakKeyDictionary[Any, CompiledDynamics] = weakref.WeakKeyDictionary()
 
 
 def compiled_of(robot: Robot) -> CompiledDynamics:
     """The compiled dynamics of ``robot``, checked against Pinocchio (once while its model stays the same).
 
-    The ABA's passes in world axes where they pass the check (the faster ones), else in each
-    joint's own axes (:attr:`CompiledDynamics.passes` says which).
+    The ABA's passes in world axes (the faster ones) where they pass the check and keep
+    Pinocchio's exact zeros at rest (:func:`_keeps_zeros_at_rest`), else in each joint's own axes
+    where those do (:attr:`CompiledDynamics.passes` says which).
 
     Raises:
         AssumptionError: the model has a joint the compiled path does not take, or the check fails
@@ -352,11 +367,21 @@ def compiled_of(robot: Robot) -> CompiledDynamics:
     cached = _CACHE.get(robot)
     if cached is not None and cached.tree.same_as(tree):
         return cached
+    failed: AssumptionError | None = None
     try:
         check = CompiledDynamics(tree, {}).verify(robot, parts=RUN_PARTS)
-    except AssumptionError:
-        tree = tree.with_local_passes()
-        check = CompiledDynamics(tree, {}).verify(robot, parts=RUN_PARTS)
+    except AssumptionError as exc:
+        failed = exc
+    if failed is not None or not _keeps_zeros_at_rest(CompiledDynamics(tree, {}), robot):
+        local = CompiledDynamics(tree.with_local_passes(), {})
+        try:
+            local_check = local.verify(robot, parts=RUN_PARTS)
+        except AssumptionError:
+            if failed is not None:
+                raise
+        else:
+            if failed is not None or _keeps_zeros_at_rest(local, robot):
+                tree, check = local.tree, local_check
     compiled = CompiledDynamics(tree, check, weakref.ref(robot))
     _CACHE[robot] = compiled
     return compiled

@@ -20,9 +20,9 @@ ABA-CRBA spread, at a state where M is so ill-conditioned that the spread is lar
 ABA's passes 2 and 3 work in world axes; on a model where those fail the check (iCub's neck: an
 exact zero of the model only nearly one after rounding) or leave round-off where Pinocchio's ABA
 at rest is exactly 0 (Stretch's wheels), :func:`compiled_of` checks them again in each joint's own
-axes (:meth:`TreeModel.with_local_passes`, about 15 to 30 % slower), and refuses the model only
-if both fail the check. The check runs once per model and is
-cached while the arrays read from the model stay the same.
+axes (:meth:`TreeModel.with_local_passes`: the Panda's step 22 % slower without its stops), and
+refuses the model only if both fail the check. The check runs once per model and is cached while
+the arrays read from the model stay the same.
 
 numba is imported on first use (the kernels' module), never at ``import robodyn``.
 """

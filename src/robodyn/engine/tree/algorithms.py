@@ -25,8 +25,8 @@ Where the model's ``F_LOCAL`` is set, ABA's passes 2 and 3 work in each joint's 
 (:mod:`robodyn.engine.tree.local`): in world axes an exact zero or alignment of the model (a
 wheel's centre of mass on its axis, a head's point mass on crossing neck axes) is only nearly one
 after rounding, which an ill-conditioned M amplifies (iCub's neck: 1.6e-9 relative to Pinocchio);
-:func:`robodyn.sim.tree.compiled_of` sets it only where the world axes fail its check, as they
-are faster (the Panda's step: 15 to 30 % less).
+:func:`robodyn.sim.tree.compiled_of` sets it only where the world axes fail its check (or keep
+no exact 0 of Pinocchio's at rest), as they are faster (the Panda's step without stops: 22 % more in joint axes).
 On a free-flyer tree the positions are taken from the free flyer's origin (its world position in
 ``ws[i, W_REF]``, ``W_POS`` relative to it).
 

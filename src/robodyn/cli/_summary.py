@@ -98,7 +98,9 @@ def _loop_phrase(meta: dict[str, Any]) -> str:
     """'compiled loop', or 'Python loop: <why the compiled loop was not used>' (from the run's metadata)."""
     if meta.get("loop") == "compiled":
         events = int(meta.get("event_steps") or 0)
-        return f"compiled loop, {count(events, 'step')} with stop events" if events else "compiled loop"
+        # the ABA's passes named where they are not the usual world axes (robodyn.sim.tree.compiled_of)
+        local = ", ABA in each joint's axes" if meta.get("aba_passes") == "joint axes" else ""
+        return f"compiled loop{local}, {count(events, 'step')} with stop events" if events else f"compiled loop{local}"
     why = str(meta.get("compiled_loop") or "").removeprefix("not used: ")
     return f"Python loop: {why}" if why else "Python loop"
 

@@ -43,6 +43,7 @@ KERNEL_SOURCES = (
     "engine/tree/impacts.py",
     "engine/tree/algorithms.py",
     "engine/tree/layout.py",
+    "engine/tree/local.py",
     "engine/tree/steps.py",
     "kinds/cart_pole.py",
     "kinds/formula.py",

@@ -120,8 +120,9 @@ def simulate(
             (:mod:`robodyn.sim.compile_choice`). ``"numba"`` asks for the compiled loop, and for the compiled
             ABA as the smooth stage of the Python pipeline where the loop does not apply. The
             metadata say which ran: ``backend``, ``loop`` ("compiled" | "python"),
-            ``compiled_loop`` (why not, when it did not) and ``event_steps`` (steps with a stop
-            event, taken by the Python event stepper inside a compiled run).
+            ``compiled_loop`` (why not, when it did not), ``event_steps`` (steps with a stop
+            event, taken by the Python event stepper inside a compiled run) and ``aba_passes``
+            (when it ran: "world axes", or "joint axes" on a model where those fail the check).
         losses: apply the URDF joint damping and friction (their work is booked).
         limits: enforce the URDF joint limits as stops (False: joints pass through them).
         restitution: e in [0, 1] at every stop: 0 (the default) perfectly inelastic, 1 elastic.
@@ -364,7 +365,8 @@ def _result(run: Run, wall: float, meta: dict[str, Any]) -> Trajectory:
 def _loop_meta(system: RobotSystem, outcome: whole_run.Outcome | None) -> dict[str, Any]:
     """Which loop ran (``loop``: "compiled" or "python"), the backend it used, and why not the compiled one."""
     if outcome is not None and outcome.ran:
-        return {"backend": "numba", "loop": "compiled", "compiled_loop": "ran", "event_steps": outcome.event_steps}
+        ran = {"backend": "numba", "loop": "compiled", "compiled_loop": "ran", "event_steps": outcome.event_steps}
+        return {**ran, "aba_passes": outcome.passes}
     why = "backend " + system.backend + " asked" if outcome is None else outcome.note
     out: dict[str, Any] = {"backend": system.backend, "loop": "python", "compiled_loop": f"not used: {why}"}
     if outcome is not None and outcome.steps:

@@ -1,9 +1,9 @@
 """A compiled path for any tree robot: the recursive algorithms in numba, over arrays read from the model.
 
-:func:`extract` reads a Pinocchio model's data (``robot.model``: parents, joint types and
-axes, joint placements, inertias, armature, gravity) into a :class:`TreeModel` of three
-arrays; it calls no Pinocchio algorithm. The kernels of :mod:`robodyn.engine.tree.algorithms`
-(articulated-body algorithm, RNEA, CRBA, energies) and of
+:func:`extract` (:mod:`robodyn.sim.tree_arrays`) reads a Pinocchio model's data (``robot.model``:
+parents, joint types and axes, joint placements, inertias, armature, gravity) into a
+:class:`TreeModel` of three arrays; it calls no Pinocchio algorithm. The kernels of
+:mod:`robodyn.engine.tree.algorithms` (articulated-body algorithm, RNEA, CRBA, energies) and of
 :mod:`robodyn.engine.tree.steps` (steps and whole runs) then run on those arrays.
 
 It serves trees of revolute, prismatic and continuous joints (one degree of freedom each),
@@ -16,8 +16,13 @@ It is a second implementation, so it is checked before it is trusted: :func:`com
 compares ABA, RNEA and CRBA with Pinocchio's (:mod:`robodyn.dynamics`) on seeded random states
 (``VERIFY_STATES`` of them) and refuses the model if any differs by more than ``VERIFY_RTOL``
 relative to the largest entry (ABA: or by more than ``VERIFY_SPREAD`` times Pinocchio's own
-ABA-CRBA spread, at a state where M is so ill-conditioned that the spread is larger). The check
-runs once per model and is cached while the arrays read from the model stay the same.
+ABA-CRBA spread, at a state where M is so ill-conditioned that the spread is larger). The
+ABA's passes 2 and 3 work in world axes; on a model where those fail the check (iCub's neck: an
+exact zero of the model only nearly one after rounding) or leave round-off where Pinocchio's ABA
+at rest is exactly 0 (Stretch's wheels), :func:`compiled_of` checks them again in each joint's own
+axes (:meth:`TreeModel.with_local_passes`: the Panda's step 22 % slower without its stops), and
+refuses the model only if both fail the check. The check runs once per model and is cached while
+the arrays read from the model stay the same.
 
 numba is imported on first use (the kernels' module), never at ``import robodyn``.
 """
@@ -37,28 +42,10 @@ from numpy.typing import ArrayLike, NDArray
 from robodyn import dynamics
 from robodyn.engine import jit
 from robodyn.engine.tree import warm
-from robodyn.engine.tree.layout import (
-    CONTINUOUS,
-    F_ARM6,
-    F_ARMATURE,
-    F_AXIS,
-    F_INERTIA,
-    F_K,
-    F_LEVER,
-    F_MASS,
-    F_N,
-    F_POS,
-    F_RA,
-    F_ROT,
-    F_TOTAL,
-    FCOLS,
-    FREEFLYER,
-    PRISMATIC,
-    REVOLUTE,
-    WCOLS,
-    flyer_of,
-)
+from robodyn.engine.tree.layout import WCOLS
 from robodyn.errors import AssumptionError, InputError, MissingDependencyError
+from robodyn.sim.tree_arrays import TreeModel, extract, one_joint
+from robodyn.sim.tree_arrays import unsupported as unsupported  # robodyn.sim.tree's since it was one module
 
 if TYPE_CHECKING:
     from robodyn.robot import Robot
@@ -80,17 +67,6 @@ VERIFY_SPREAD = 2.0
 VERIFY_PARTS = ("aba", "rnea", "crba", "energy")
 RUN_PARTS = ("aba", "energy")
 
-# Joint types of the kernels (tree_layout), by Pinocchio's shortname; a free flyer has no axis.
-_AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
-_TYPES: dict[str, tuple[int, tuple[float, float, float] | None]] = {
-    **{f"JointModelR{a}": (REVOLUTE, _AXES[a]) for a in "XYZ"},
-    **{f"JointModelP{a}": (PRISMATIC, _AXES[a]) for a in "XYZ"},
-    **{f"JointModelRUB{a}": (CONTINUOUS, _AXES[a]) for a in "XYZ"},
-    "JointModelRevoluteUnaligned": (REVOLUTE, None),
-    "JointModelPrismaticUnaligned": (PRISMATIC, None),
-    "JointModelRevoluteUnboundedUnaligned": (CONTINUOUS, None),
-    "JointModelFreeFlyer": (FREEFLYER, (0.0, 0.0, 0.0)),
-}
 # What a first compile of the tree kernels says it does (robodyn.engine.jit.announce): ABA, the energies,
 # one sample and the loop of steps clear of the stops, for the tree's base (fixed, or a free-flyer root)
 # and the run's method (RK4, or a tableau): about 20 s of CPU for the Pendubot (benchmarks/bench_first_run.py)
@@ -99,152 +75,6 @@ COMPILING = ("the tree-robot kernels", "about 20 s")
 COMPILING_EVENTS = ("the tree-robot kernels of joint stops", "about a minute")
 # The two in s of CPU (a quiet 2-core machine), weighed against the Python loop (robodyn.sim.compile_choice)
 COMPILE_S = (20.0, 60.0)
-
-
-@dataclass(frozen=True, eq=False)
-class TreeModel:
-    """A kinematic tree as arrays: ``itree`` (n, 4) int64, ``ftree`` (n, 57) float64, ``grav`` (3,) [m/s^2].
-
-    Row i of ``itree``: parent row (-1 for the world), type (0 revolute, 1 prismatic, 2
-    continuous, 3 free flyer), index in q, index in v. Row i of ``ftree``: unit joint axis (3),
-    the joint placement in its parent's frame (rotation row-major (9), translation [m] (3)),
-    mass [kg], lever (centre of mass in the joint frame) [m] (3), rotational inertia about the
-    centre of mass [kg m^2] (9), armature [kg m^2 | kg], and from the placement R_p and the
-    axis a: R_p [a]x (9), (R_p a) a^T (9) and R_p a (3), the terms of Rodrigues' formula the
-    kernels turn the joint with; then a free flyer's six armatures [kg | kg m^2] (6) and its
-    mass with every body below it [kg] (the whole tree: a free flyer is its root). A free
-    flyer's row has no axis (zeros in the axis and Rodrigues columns) and armature 0 in the
-    one-coordinate column.
-    """
-
-    name: str
-    nq: int
-    nv: int
-    itree: NDArray[np.int64]
-    ftree: Array
-    grav: Array
-
-    @property
-    def flyer(self) -> bool | None:
-        """The kernels' ``flyer`` argument: True when the root row is a free flyer, else None.
-
-        With None the kernels compile no free-flyer code (:mod:`robodyn.engine.tree.algorithms`).
-        """
-        return flyer_of(self.itree)
-
-    def same_as(self, other: TreeModel) -> bool:
-        """True when both hold the same numbers (a model edited since extraction is not)."""
-        return (
-            self.nq == other.nq
-            and np.array_equal(self.itree, other.itree)
-            and np.array_equal(self.ftree, other.ftree)
-            and np.array_equal(self.grav, other.grav)
-        )
-
-
-def unsupported(robot: Robot) -> str | None:
-    """Why the compiled tree path cannot serve ``robot``, or None when it can."""
-    parents = robot.model.parents
-    for index, j in enumerate(robot.joints, start=1):
-        if j.kind not in _TYPES:
-            return (
-                f"joint {j.name!r} is a {j.kind}; the compiled path takes revolute, prismatic and continuous "
-                "joints, and a free flyer at the root"
-            )
-        if _TYPES[j.kind][0] == FREEFLYER:
-            others = [k.name for n, k in enumerate(robot.joints, start=1) if n != index and int(parents[n]) == 0]
-            if int(parents[index]) != 0 or others:
-                where = (
-                    f"below joint {robot.joints[int(parents[index]) - 1].name!r}"
-                    if int(parents[index]) != 0
-                    else f"beside the root joint {others[0]!r}"
-                )
-                return (
-                    f"joint {j.name!r} is a free flyer {where}; the compiled path takes a free flyer only as "
-                    "the root of the whole tree (parent: the world, every other joint below it)"
-                )
-    if robot.nv == 0:
-        return "the model has no degree of freedom"
-    return None
-
-
-def _unaligned_axis(joint: Any) -> NDArray[np.float64]:
-    """The unit axis of an unaligned joint, read from its motion subspace S at the neutral q.
-
-    Pinocchio's binding of ``JointModelRevoluteUnboundedUnaligned`` has no ``axis`` (the
-    aligned-free revolute and prismatic ones do), while S holds the axis for all three: the
-    angular rows of a revolute joint, the linear rows of a prismatic one.
-    """
-    inner = joint.extract()
-    if hasattr(inner, "axis"):
-        return np.asarray(inner.axis, dtype=np.float64)
-    data = joint.createData()
-    q = np.zeros(joint.nq)
-    q[0] = 1.0  # cos = 1, sin = 0: the neutral configuration of a continuous joint
-    joint.calc(data, q)
-    S = np.asarray(data.S, dtype=np.float64).reshape(6)
-    return S[3:6] if np.linalg.norm(S[3:6]) > 0 else S[0:3]
-
-
-def extract(robot: Robot) -> TreeModel:
-    """Read ``robot.model``'s tree into arrays (no Pinocchio algorithm is called).
-
-    Raises:
-        AssumptionError: a joint the compiled path does not take (see :func:`unsupported`).
-    """
-    reason = unsupported(robot)
-    if reason is not None:
-        raise AssumptionError(f"{robot.name}: {reason}")
-    model = robot.model
-    n = model.njoints - 1
-    itree = np.zeros((n, 4), dtype=np.int64)
-    ftree = np.zeros((n, FCOLS))
-    armature = np.asarray(model.armature, dtype=np.float64)
-    for i in range(n):
-        j = i + 1
-        joint = model.joints[j]
-        code, aligned = _TYPES[joint.shortname()]
-        axis = np.asarray(aligned if aligned is not None else _unaligned_axis(joint), dtype=np.float64)
-        placement = model.jointPlacements[j]
-        inertia = model.inertias[j]
-        itree[i] = (int(model.parents[j]) - 1, code, int(joint.idx_q), int(joint.idx_v))
-        ftree[i, F_AXIS : F_AXIS + 3] = axis
-        ftree[i, F_ROT : F_ROT + 9] = np.asarray(placement.rotation, dtype=np.float64).reshape(9)
-        ftree[i, F_POS : F_POS + 3] = np.asarray(placement.translation, dtype=np.float64)
-        ftree[i, F_MASS] = float(inertia.mass)
-        ftree[i, F_LEVER : F_LEVER + 3] = np.asarray(inertia.lever, dtype=np.float64)
-        ftree[i, F_INERTIA : F_INERTIA + 9] = np.asarray(inertia.inertia, dtype=np.float64).reshape(9)
-        if code == FREEFLYER:
-            ftree[i, F_ARM6 : F_ARM6 + 6] = armature[int(joint.idx_v) : int(joint.idx_v) + 6]
-            ftree[i, F_TOTAL] = sum(float(model.inertias[k].mass) for k in range(j, model.njoints))
-        else:
-            ftree[i, F_ARMATURE] = armature[int(joint.idx_v)]
-        # products of the placement with the axis (Rodrigues' formula of the joint's rotation)
-        rot = ftree[i, F_ROT : F_ROT + 9].reshape(3, 3)
-        cross = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
-        ftree[i, F_K : F_K + 9] = (rot @ cross).reshape(9)
-        ftree[i, F_N : F_N + 9] = np.outer(rot @ axis, axis).reshape(9)
-        ftree[i, F_RA : F_RA + 3] = rot @ axis
-    grav = np.asarray(model.gravity.linear, dtype=np.float64).copy()
-    return TreeModel(robot.name, int(model.nq), int(model.nv), itree, ftree, grav)
-
-
-def one_joint(flyer: bool = False) -> TreeModel:
-    """A one-joint tree (a unit revolute about z), to load or compile the kernels with.
-
-    With ``flyer``, the joint hangs below a free-flyer root (unit mass and inertia): the kernels'
-    free-flyer variant.
-    """
-    rows = 2 if flyer else 1
-    itree = np.array([[-1, FREEFLYER, 0, 0], [0, REVOLUTE, 7, 6]] if flyer else [[-1, REVOLUTE, 0, 0]], dtype=np.int64)
-    ftree = np.zeros((rows, FCOLS))
-    ftree[:, [F_ROT, F_ROT + 4, F_ROT + 8, F_MASS, F_INERTIA, F_INERTIA + 4, F_INERTIA + 8]] = 1.0
-    ftree[-1, [F_AXIS + 2, F_RA + 2]] = 1.0  # the revolute's axis z; R_p = 1, so R_p a = a
-    ftree[-1, F_K + 1], ftree[-1, F_K + 3], ftree[-1, F_N + 8] = -1.0, 1.0, 1.0  # R_p [z]x and (R_p z) z^T
-    if flyer:
-        ftree[0, F_TOTAL] = 2.0
-    nq, nv = (8, 7) if flyer else (1, 1)
-    return TreeModel("one joint", nq, nv, itree, ftree, np.array([0.0, 0.0, -9.81]))
 
 
 def _module() -> ModuleType:
@@ -349,6 +179,11 @@ class CompiledDynamics:
     tree: TreeModel
     check: dict[str, float]
     source: weakref.ref[Robot] | None = field(default=None, repr=False)
+
+    @property
+    def passes(self) -> str:
+        """The axes the ABA's passes 2 and 3 work in: ``"world axes"`` or ``"joint axes"`` (:func:`compiled_of`)."""
+        return "joint axes" if self.tree.local else "world axes"
 
     def _ws(self) -> Array:
         return np.zeros((self.tree.itree.shape[0], WCOLS))
@@ -460,8 +295,9 @@ class CompiledDynamics:
         bad = {k: worst[k] for k, x in excess.items() if not x <= 1.0}
         if bad:
             what = ", ".join(f"{k} by {x:.3g}" for k, x in bad.items())
+            passes = f" (ABA in {self.passes})" if self.tree.local else ""
             raise AssumptionError(
-                f"{robot.name}: the compiled tree algorithms differ from Pinocchio's ({what}, relative to the "
+                f"{robot.name}: the compiled tree algorithms{passes} differ from Pinocchio's ({what}, relative to the "
                 f"largest entry), expected <= {VERIFY_RTOL:g} (or {VERIFY_SPREAD:g} x Pinocchio's own ABA-CRBA "
                 "spread where M is ill-conditioned)"
             )
@@ -499,22 +335,53 @@ def _relative(got: Array, ref: Array) -> float:
     return float(np.max(np.abs(got - ref))) / scale if np.all(np.isfinite(got)) else float("inf")
 
 
+def _keeps_zeros_at_rest(compiled: CompiledDynamics, robot: Robot) -> bool:
+    """Whether the compiled ABA at rest (the neutral pose, v = 0, no torque) is exactly 0 wherever Pinocchio's is.
+
+    A joint whose bodies' weight passes through its axis (a wheel's centre of mass on its axis) has
+    an exact 0 there in Pinocchio's local frames; the world axes' passes may leave 1e-30 of round-off,
+    which passes the relative check but which stiff Coulomb friction amplifies 1e5-fold a step
+    (Stretch's wheels: a compiled run blown up at its third step).
+    """
+    q, zero = robot.neutral(), np.zeros(robot.nv)
+    ref = dynamics.aba(robot.model, robot.data, q, zero, zero)
+    return bool(np.all(compiled.acceleration(q, zero, zero)[ref == 0.0] == 0.0))
+
+
 _CACHE: weakref.WeakKeyDictionary[Any, CompiledDynamics] = weakref.WeakKeyDictionary()
 
 
 def compiled_of(robot: Robot) -> CompiledDynamics:
     """The compiled dynamics of ``robot``, checked against Pinocchio (once while its model stays the same).
 
+    The ABA's passes in world axes (the faster ones) where they pass the check and keep
+    Pinocchio's exact zeros at rest (:func:`_keeps_zeros_at_rest`), else in each joint's own axes
+    where those do (:attr:`CompiledDynamics.passes` says which).
+
     Raises:
-        AssumptionError: the model has a joint the compiled path does not take, or the check fails.
+        AssumptionError: the model has a joint the compiled path does not take, or the check fails
+            in both axes (the message is the joint axes' check).
         MissingDependencyError: numba is not installed.
     """
     tree = extract(robot)
     cached = _CACHE.get(robot)
     if cached is not None and cached.tree.same_as(tree):
         return cached
-    compiled = CompiledDynamics(tree, {})
-    check = compiled.verify(robot, parts=RUN_PARTS)
+    failed: AssumptionError | None = None
+    try:
+        check = CompiledDynamics(tree, {}).verify(robot, parts=RUN_PARTS)
+    except AssumptionError as exc:
+        failed = exc
+    if failed is not None or not _keeps_zeros_at_rest(CompiledDynamics(tree, {}), robot):
+        local = CompiledDynamics(tree.with_local_passes(), {})
+        try:
+            local_check = local.verify(robot, parts=RUN_PARTS)
+        except AssumptionError:
+            if failed is not None:
+                raise
+        else:
+            if failed is not None or _keeps_zeros_at_rest(local, robot):
+                tree, check = local.tree, local_check
     compiled = CompiledDynamics(tree, check, weakref.ref(robot))
     _CACHE[robot] = compiled
     return compiled

@@ -82,6 +82,7 @@ class Outcome:
     steps: int = 0  # steps the compiled loop took
     wall_time_s: float = 0.0  # its wall time, even when the run was handed back
     event_steps: int = 0  # steps with a stop event (an impact, a hold, a release) when ``ran``
+    passes: str = ""  # the axes of the compiled ABA's passes 2 and 3 when ``ran`` (CompiledDynamics.passes)
 
 
 def method_code(method: Integrator) -> tuple[int, Array] | None:
@@ -454,7 +455,7 @@ def _close(w: Work, interrupted: bool, evaluations: int) -> Outcome:
     if interrupted:
         t_stop = float(run.t[keep - 1])
         run.interrupted = (keep - 1, t_stop, f"interrupted after step {keep - 1} (t = {t_stop:.6g} s)")
-    return Outcome(True, "compiled loop", w.done, wall, int(w.counts[w.events.EVENT_STEPS]))
+    return Outcome(True, "compiled loop", w.done, wall, int(w.counts[w.events.EVENT_STEPS]), w.compiled.passes)
 
 
 def _held_rows(w: Work) -> Array:

@@ -7,7 +7,8 @@ in float64, from the arrays :mod:`robodyn.sim.tree` extracts from Pinocchio (``i
 here by :func:`robodyn.sim.batch.cuda_tree_rollout`.
 
 No formula is written here. :func:`device_functions` rebuilds each kernel of
-:mod:`robodyn.engine.tree.body`, :mod:`~robodyn.engine.tree.flyer`, :mod:`~robodyn.engine.tree.algorithms`
+:mod:`robodyn.engine.tree.body`, :mod:`~robodyn.engine.tree.flyer`, :mod:`~robodyn.engine.tree.local`
+(the ABA's passes in each joint's axes, where the model's ``F_LOCAL`` asks), :mod:`~robodyn.engine.tree.algorithms`
 (``offset``, ``parent_acceleration``, ``pass_to_parent``, ``kinematics``, ``aba_passes``, ``aba``,
 ``integrate``) and :mod:`~robodyn.engine.tree.steps` (``rates``, ``stages``, ``step``) from its Python
 source (``py_func``) with the names it calls bound to
@@ -69,6 +70,18 @@ CHAIN = (
     ),
     ("tree_flyer", ("ff_kinematics",)),
     (
+        "tree_local",
+        (
+            "_offset",
+            "local_inertia",
+            "frame",
+            "to_local",
+            "pass_to_parent_local",
+            "parent_acceleration_local",
+            "root_gravity_local",
+        ),
+    ),
+    (
         "tree_kernels",
         ("offset", "parent_acceleration", "pass_to_parent", "kinematics", "aba_passes", "aba", "integrate"),
     ),
@@ -101,9 +114,16 @@ def device_functions(jit: Callable[[Any], Any]) -> dict[str, Any]:
     from robodyn.engine.tree import algorithms as tree_kernels
     from robodyn.engine.tree import body as tree_body
     from robodyn.engine.tree import flyer as tree_flyer
+    from robodyn.engine.tree import local as tree_local
     from robodyn.engine.tree import steps as tree_steps
 
-    modules = {"tree_body": tree_body, "tree_flyer": tree_flyer, "tree_kernels": tree_kernels, "tree_steps": tree_steps}
+    modules = {
+        "tree_body": tree_body,
+        "tree_flyer": tree_flyer,
+        "tree_local": tree_local,
+        "tree_kernels": tree_kernels,
+        "tree_steps": tree_steps,
+    }
     made: dict[str, Any] = {"_callable_torque": jit(_no_torque)}
     for module_name, names in CHAIN:
         module = modules[module_name]

@@ -21,6 +21,12 @@ length. Taken about one point for the whole tree (the world origin), a light bod
 carried terms m d^2 that cancel in the solve: the round-off grew as d^2 and as m d^2 over the
 body's own inertia about its axis (Stretch's wrist, 1e-6 kg m^2 a metre out: ABA 7e-11 relative;
 Talos at 100 m: 3e-10); taken at each joint, as Pinocchio's local frames do, it does not.
+Where the model's ``F_LOCAL`` is set, ABA's passes 2 and 3 work in each joint's own axes instead
+(:mod:`robodyn.engine.tree.local`): in world axes an exact zero or alignment of the model (a
+wheel's centre of mass on its axis, a head's point mass on crossing neck axes) is only nearly one
+after rounding, which an ill-conditioned M amplifies (iCub's neck: 1.6e-9 relative to Pinocchio);
+:func:`robodyn.sim.tree.compiled_of` sets it only where the world axes fail its check (or keep
+no exact 0 of Pinocchio's at rest), as they are faster (the Panda's step without stops: 22 % more in joint axes).
 On a free-flyer tree the positions are taken from the free flyer's origin (its world position in
 ``ws[i, W_REF]``, ``W_POS`` relative to it).
 
@@ -31,9 +37,9 @@ On a free-flyer tree the positions are taken from the free flyer's origin (its w
   T = sum 1/2 v_i . I_i v_i + 1/2 sum armature qd^2, V = -sum m_i g . c_i;
 * ABA pass 2 (leaves to root): U = IA S, D = S . U + armature, u = tau - S . pA, and the
   parent collects IA - U U^T / D (its upper triangle, mirrored) and
-  pA + IA c + U (u - U . c) / D, moved to its origin;
+  pA + IA c + U (u - U . c) / D, moved to its origin (in local axes: turned into its axes first);
 * ABA pass 3 (root to leaves): qdd = (u - U . (a_parent + c)) / D, a = a_parent + c + S qdd
-  (a_parent moved to o_i), starting from a_0 = (-g, 0).
+  (a_parent moved to o_i, and turned into row i's axes in local axes), starting from a_0 = (-g, 0).
 
 A joint held at its stop is locked: ``ws[i, W_LOCK]`` = 1 (the caller sets it; a fresh zero
 workspace locks nothing). Its articulated inertia passes to the parent whole, its qdd is 0,
@@ -81,6 +87,7 @@ from robodyn.engine.tree.layout import (
     F_ARM6,
     F_ARMATURE,
     F_K,
+    F_LOCAL,
     F_MASS,
     F_N,
     F_POS,
@@ -103,6 +110,7 @@ from robodyn.engine.tree.layout import (
     W_UU,
     W_V,
 )
+from robodyn.engine.tree.local import parent_acceleration_local, pass_to_parent_local, root_gravity_local, to_local
 
 njit = jit.njit(nogil=True, error_model="numpy")
 
@@ -280,8 +288,16 @@ def kinematics(itree, ftree, grav, flyer, q, v, ws):  # type: ignore[no-untyped-
 
 @njit
 def aba_passes(itree, ftree, grav, flyer, tau, ws, out):  # type: ignore[no-untyped-def]
-    """ABA passes 2 and 3 after :func:`kinematics`: the accelerations into ``out`` (nv,)."""
+    """ABA passes 2 and 3 after :func:`kinematics`: the accelerations into ``out`` (nv,).
+
+    In world axes, or in each joint's own axes where the model's ``F_LOCAL`` is set (:mod:`robodyn.engine.tree.local`).
+    """
     n = itree.shape[0]
+    local = n > 0 and ftree[0, F_LOCAL] != 0.0
+    if local:
+        for i in range(n):  # each joint in its own axes (a free flyer stays in world axes)
+            if flyer is None or itree[i, 1] != FREEFLYER:
+                to_local(itree, ftree, ws, i)
     for i in range(n - 1, -1, -1):
         par, iv = itree[i, 0], itree[i, 3]
         s0, s1, s2 = ws[i, W_S], ws[i, W_S + 1], ws[i, W_S + 2]
@@ -325,7 +341,10 @@ def aba_passes(itree, ftree, grav, flyer, tau, ws, out):  # type: ignore[no-unty
                     x = ws[i, W_IA + 6 * r + k] - ui * ws[i, W_U + k]
                     ws[i, W_IA + 6 * r + k] = x
                     ws[i, W_IA + 6 * k + r] = x
-        pass_to_parent(ws, i, par)
+        if local:
+            pass_to_parent_local(itree, ws, i, par)
+        else:
+            pass_to_parent(ws, i, par)
     for i in range(n):
         par, iv = itree[i, 0], itree[i, 3]
         if par < 0:
@@ -333,6 +352,10 @@ def aba_passes(itree, ftree, grav, flyer, tau, ws, out):  # type: ignore[no-unty
                 ff_root_acceleration(ftree, grav, tau, ws, out, i, iv)
                 continue
             a0, a1, a2, a3, a4, a5 = -grav[0], -grav[1], -grav[2], 0.0, 0.0, 0.0
+            if local:  # a_0 = (-g, 0) in the root joint's axes
+                a0, a1, a2 = root_gravity_local(ws, i, grav)
+        elif local:
+            a0, a1, a2, a3, a4, a5 = parent_acceleration_local(ws, i, par)
         else:
             a0, a1, a2, a3, a4, a5 = parent_acceleration(ws, i, par)
         a0 += ws[i, W_C]

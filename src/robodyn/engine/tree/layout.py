@@ -18,7 +18,10 @@ F_AXIS, F_ROT, F_POS, F_MASS, F_LEVER, F_INERTIA, F_ARMATURE = 0, 3, 12, 15, 16,
 F_K, F_N, F_RA = 29, 38, 47
 F_ARM6 = 50  # a free flyer's six armatures [kg | kg m^2], zero on other rows
 F_TOTAL = 56  # a free flyer's mass with all the bodies below it [kg], zero on other rows
-FCOLS = 57
+# the model's choice of ABA passes 2 and 3, the same on every row: 0 in world axes, 1 in each joint's
+# own axes (robodyn.engine.tree.local; robodyn.sim.tree.compiled_of sets it where world axes fail the check)
+F_LOCAL = 57
+FCOLS = 58
 
 # workspace columns, one row per joint
 W_ROT, W_POS, W_S, W_V, W_C, W_IA, W_PA, W_U, W_D, W_UU, W_A = 0, 9, 12, 18, 24, 30, 66, 72, 78, 79, 80

@@ -244,3 +244,30 @@ def test_a_forked_child_counts_its_own_compiles() -> None:
             os._exit(0 if got and not jit.compiling() and jit._COMPILES.latest is None else 1)
     _, status = os.waitpid(pid, 0)
     assert os.waitstatus_to_exitcode(status) == 0
+
+
+def test_a_module_filter_on_the_first_notice_takes_the_notes_too(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The notes follow the first notice: a filter on the module it was warned from silences them as well."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", CompileNotice)  # shown, as on a terminal, but...
+        warnings.filterwarnings("ignore", category=CompileNotice, module="a_users_module")  # ...from there
+        assert jit._notice_printer("the test kernels", "a_users_module") is None
+        assert jit._notice_printer("the test kernels", "another_module") is not None
+    watches: list[str] = []
+
+    class Recorder:
+        def __init__(self, what: str, *, module: str) -> None:
+            watches.append(module)
+
+        def start(self) -> None:
+            pass
+
+    monkeypatch.setattr(jit, "CompileWatch", Recorder)
+
+    def kernels_loader() -> None:  # as robodyn.sim.tree's loaders call announce
+        jit.announce("the module test's kernels", "about 0 s")
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        kernels_loader()  # the notice is warned from here (stacklevel 3): this test's module
+    assert watches == [__name__]

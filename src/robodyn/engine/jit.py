@@ -21,6 +21,7 @@ from __future__ import annotations
 import hashlib
 import os
 import shutil
+import sys
 import threading
 import time
 import warnings
@@ -205,7 +206,8 @@ def announce(what: str, duration: str) -> None:
         return
     _ANNOUNCED.add(what)
     warnings.warn(f"compiling {what} for this machine ({duration}, {WARMUP_HINT})", CompileNotice, stacklevel=3)
-    CompileWatch(what).start()
+    # the notes are the first one's followers: a filter on the module it is warned from (stacklevel 3) takes them too
+    CompileWatch(what, module=sys._getframe(2).f_globals.get("__name__", __name__)).start()
 
 
 # While a compile goes on, a further note this often [s] (no command is silent for a minute)...
@@ -271,7 +273,7 @@ if hasattr(os, "register_at_fork"):
     os.register_at_fork(after_in_child=_COMPILES.reset_in_child)
 
 
-def _notice_printer(what: str) -> Callable[[str], None] | None:
+def _notice_printer(what: str, module_name: str = __name__) -> Callable[[str], None] | None:
     """How a watch's notes on ``what`` reach the user, as warnings' filters and hook stand now; None: ignored.
 
     Taken in the thread that announced the compile, before it starts: numba compiles inside
@@ -279,7 +281,8 @@ def _notice_printer(what: str) -> Callable[[str], None] | None:
     warned from the watch thread during a compile would wait for it. The filters are read as
     :func:`warnings.warn` reads them, the first that matches the note's text decides
     (``PYTHONWARNINGS=ignore`` silences the notes, as it does the first one; ``error`` too, since a
-    thread cannot raise into the command); the hook is the current ``showwarning`` (the command
+    thread cannot raise into the command), a filter's module matched against ``module_name`` (the
+    module the first notice was warned from); the hook is the current ``showwarning`` (the command
     line's prints one ``note:`` line), or the display that warnings' own hook calls.
     """
     text = f"still compiling {what}: "
@@ -287,7 +290,7 @@ def _notice_printer(what: str) -> Callable[[str], None] | None:
         if (
             issubclass(CompileNotice, category)
             and (message is None or message.match(text))
-            and (module is None or module.match(__name__))
+            and (module is None or module.match(module_name))
             and lineno == 0
         ):
             if action in ("ignore", "error"):
@@ -314,15 +317,15 @@ class CompileWatch:
     line), and come only while a compile is under way.
     """
 
-    def __init__(self, what: str, *, every: float | None = None) -> None:
-        self.what, self.every = what, STILL_EVERY if every is None else every
+    def __init__(self, what: str, *, every: float | None = None, module: str = __name__) -> None:
+        self.what, self.every, self.module = what, STILL_EVERY if every is None else every, module
         self.begun = time.monotonic()
         self.started0 = _COMPILES.started  # a compile begun after this one counts
         self.show: Callable[[str], None] | None = None
 
     def start(self) -> None:
         """Take the notes' printer, make sure numba's compiles are counted, and watch from a daemon thread."""
-        self.show = _notice_printer(self.what)  # taken here, outside numba's compile (which records warnings)
+        self.show = _notice_printer(self.what, self.module)  # here, outside numba's compile (which records warnings)
         _COMPILES.listen()
         _COMPILES.latest = self  # an earlier watch still running says no more: one note at a time
         threading.Thread(target=self._watch, name="robodyn-compile-watch", daemon=True).start()

@@ -304,3 +304,11 @@ def test_bench_gpu_panda_prepares_the_tree_arrays_and_runs_them_without_pinocchi
     (row,) = entry["batches"]
     assert row["states"] == 3 and row["gpu_state_steps_per_s"] > 0 and row["cpu_state_steps_per_s"] > 0
     assert row["gpu_vs_cpu_max_abs_diff"] <= CUDA_VS_CPU_ATOL
+
+
+def test_tree_arrays_of_another_layout_are_one_input_error():
+    """An ftree saved by a robodyn whose layout had fewer columns (bench_gpu's panda.npz) is refused, not read past."""
+    t = tree.extract(robodyn.load("panda"))
+    q = np.zeros((2, t.nq))
+    with pytest.raises(InputError, match=r"ftree has shape \(\d+, 57\), expected \(bodies, 58\)"):
+        cuda_tree.rollout(t.itree, t.ftree[:, :-1], t.grav, q, np.zeros((2, t.nv)), dt=1e-3, steps=1)

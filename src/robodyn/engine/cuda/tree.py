@@ -45,7 +45,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodyn.engine.cuda import batch as cuda_batch
-from robodyn.engine.tree.layout import WCOLS
+from robodyn.engine.tree.layout import FCOLS, WCOLS
+from robodyn.errors import InputError
 
 Array = NDArray[np.float64]
 
@@ -217,7 +218,15 @@ def rollout(
     ``method``, ``tab``: a code and tableau of :func:`robodyn.sim.whole_run.method_code` (default: RK4,
     code 1). q_min, q_max (n, nq) are each coordinate's range over the steps. The wall time covers
     the launches alone (compiled beforehand), not the copies.
+
+    Raises:
+        InputError: ``ftree`` is not in this robodyn's layout (arrays saved by another version).
     """
+    if ftree.ndim != 2 or ftree.shape[1] != FCOLS:
+        raise InputError(
+            f"ftree has shape {ftree.shape}, expected (bodies, {FCOLS}): the tree's arrays of another robodyn "
+            "version; read them from the model again (robodyn.sim.tree.extract)"
+        )
     module = _cuda()
     kernel = rollout_kernel()
     tab = np.zeros((6, 4)) if tab is None else np.ascontiguousarray(tab, dtype=np.float64)

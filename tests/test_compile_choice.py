@@ -131,3 +131,21 @@ def test_an_abandoned_run_leaves_the_counts_as_they_were(auto: pytest.MonkeyPatc
     assert "python_loop_abandoned" in got.meta and got.meta["loop"] == "python"
     assert got.evaluations == ref.evaluations
     np.testing.assert_array_equal(got.q, ref.q)
+
+
+def test_a_variant_found_built_is_not_read_from_the_cache_again(monkeypatch: pytest.MonkeyPatch) -> None:
+    """numba's index files are read until a variant is found built, then never again in the process (a short run's hot path)."""
+    from robodyn.engine import jit
+
+    reads: list[object] = []
+    monkeypatch.setattr(compile_choice, "_BUILT", set())
+    monkeypatch.setattr(jit, "is_cached", lambda f, where=None: reads.append(f) or True)
+    assert compile_choice.built(False, False, events=True)
+    first = len(reads)
+    assert first == 5  # ABA, the kinematics, one sample, the steps, the stop events
+    assert compile_choice.built(False, False) and compile_choice.built(False, False, events=True)
+    assert len(reads) == first
+    monkeypatch.setattr(jit, "is_cached", lambda f, where=None: reads.append(f) and False)
+    assert not compile_choice.built(True, False)  # another variant, not built: read, and not remembered
+    assert not compile_choice.built(True, False)
+    assert len(reads) == first + 2

@@ -73,19 +73,34 @@ def mode() -> str:
     return value
 
 
+# The variants (flyer, tableau, events) found built in this process: a cache's files stay, so every later
+# run of the process skips reading numba's index files again (about 2 ms, as much as a short run's steps).
+_BUILT: set[tuple[bool, bool, bool]] = set()
+
+
 def built(flyer: bool, tableau: bool, *, events: bool = False) -> bool:
     """Whether a whole run's kernels are in numba's cache on this machine: a run would compile nothing.
 
     ``flyer`` and ``tableau`` as :func:`robodyn.sim.tree.step_kernels`'s; ``events``: the stop
-    events' too. Imports the kernels' modules (numba with them) but compiles and loads nothing.
+    events' too. Imports the kernels' modules (numba with them) but compiles and loads nothing;
+    a variant found built is remembered for the process.
     """
+    if (flyer, tableau, events) in _BUILT:
+        return True
     from robodyn.engine.tree import events as ev
     from robodyn.engine.tree import steps
 
-    if not all(jit.is_cached(f, tree.variant(flyer)) for f in tree.run_kernels(steps)):
-        return False
     variant = tree.run_variant(flyer, tableau)
-    return jit.is_cached(ev.run_steps, variant) and (not events or jit.is_cached(ev.run_events, variant))
+    if (flyer, tableau, False) not in _BUILT:
+        if not all(jit.is_cached(f, tree.variant(flyer)) for f in tree.run_kernels(steps)):
+            return False
+        if not jit.is_cached(ev.run_steps, variant):
+            return False
+        _BUILT.add((flyer, tableau, False))
+    if events and not jit.is_cached(ev.run_events, variant):
+        return False
+    _BUILT.add((flyer, tableau, events))
+    return True
 
 
 def compile_cost(system: RobotSystem, tableau: bool) -> float:

@@ -226,6 +226,7 @@ def test_the_swing_up_example_scene_balances(tmp_path: Path, capsys: pytest.Capt
     out = capsys.readouterr().out
     assert "control: swing_up" in out
     assert "  outcome: balanced from t = " in out  # the one decision, as simulate prints it
+    assert " N of " in out.split("outcome: balanced", 1)[1].splitlines()[0]  # the cart's force is in newtons
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["simulate"]["outcome"]["balanced"] is True
     traj = robodyn.Trajectory.load(tmp_path / "cart_pole_swing_up.npz")

@@ -60,6 +60,7 @@ def test_the_spong_block_pendubot_balances_on_the_command_line(capsys: pytest.Ca
     out = capsys.readouterr().out
     assert code == 0
     assert "outcome: balanced from t = " in out
+    assert " N m of 1000 N m)" in out  # the peak torque and the effort limit with their unit
     assert "stops: 0 impacts" in out
 
 

@@ -63,7 +63,8 @@ class Outcome:
     """Whether a run balanced, and from when.
 
     From ``time`` [s] (NaN: never), the largest angle ``error`` [rad] over the last ``hold`` [s], the
-    ``peak_torque`` [N m | N] against the ``effort`` limit, and the ``reason`` when it did not.
+    ``peak_torque`` [N m | N] against the ``effort`` limit, both in ``unit`` (N m, or N for a
+    prismatic joint's force), and the ``reason`` when it did not.
     """
 
     balanced: bool
@@ -73,13 +74,15 @@ class Outcome:
     effort: float
     hold: float
     reason: str | None
+    unit: str = "N m"
 
     def line(self) -> str:
         """One line for a run's summary."""
         if self.balanced:
             return (
                 f"outcome: balanced from t = {self.time:.3f} s (last {self.hold:g} s within {self.error:.2e} rad of "
-                f"upright, tolerance {BALANCE_TOL:g} rad; peak |u| = {self.peak_torque:.4g} of {self.effort:.4g})"
+                f"upright, tolerance {BALANCE_TOL:g} rad; "
+                f"peak |u| = {self.peak_torque:.4g} {self.unit} of {self.effort:.4g} {self.unit})"
             )
         error = "not finite" if not np.isfinite(self.error) else f"{self.error:.3g} rad"
         why = f": {self.reason}" if self.reason else ""
@@ -93,6 +96,7 @@ class Outcome:
             "final_error_rad": None if not np.isfinite(self.error) else self.error,
             "peak_torque": self.peak_torque,
             "effort": self.effort,
+            "unit": self.unit,
             "reason": self.reason,
         }
 
@@ -120,7 +124,13 @@ def judge(controller: Any, t: Array, q: Array, v: Array, tau: Array, *, hold: fl
     within = peak <= effort * (1.0 + 1e-9)
     balanced = finite and within and is_balanced(time, duration, hold=hold)
     reason = None if balanced else diagnose(controller, q, v, peak_ok=within)
-    return Outcome(balanced, time if balanced else math.nan, error, peak, effort, hold, reason)
+    unit = "N" if _prismatic_drive(plant) else "N m"
+    return Outcome(balanced, time if balanced else math.nan, error, peak, effort, hold, reason, unit)
+
+
+def _prismatic_drive(plant: Any) -> bool:
+    """True when an actuated joint of ``plant`` is prismatic (its effort is a force [N])."""
+    return any(j.actuated and j.kind.startswith("JointModelP") for j in plant.robot.joints)
 
 
 def diagnose(controller: Any, q: Array, v: Array, *, peak_ok: bool = True) -> str:

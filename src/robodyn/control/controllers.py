@@ -149,7 +149,12 @@ def _require_drive(robot: Robot, kind: str) -> None:
     assert balance is not None  # a kind with a swing-up law has its Balance
     driven = robot.joint_names[balance.driven]  # every other joint must be passive
     if driven in robot.passive_joints:
-        acrobot = " (an Acrobot, its elbow driven: robodyn has no swing-up for it)" if kind == "pendubot" else ""
+        acrobot = (
+            " (an Acrobot, its elbow driven: robodyn has no swing-up for it; --controller lqr balances it from near "
+            "upright)"
+            if kind == "pendubot"
+            else ""
+        )
         raise InputError(f"swing_up drives {driven} of the {kind}, but {robot.name} declares it passive{acrobot}")
     extra = [j.name for j in robot.joints if j.actuated and j.name != driven]
     if extra:

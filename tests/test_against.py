@@ -264,6 +264,23 @@ def test_a_formula_and_an_unknown_engine_are_refused_with_against(capsys: pytest
     assert "expected one or more of mujoco, pybullet, drake" in capsys.readouterr().err
 
 
+def test_a_root_link_named_world_on_a_fixed_base(folder: Path) -> None:
+    # pybullet_data's pendulum5.urdf: Drake's Parser welds the robot to its own world body `world` by itself; welding
+    # it again was refused ("would connect body world to itself") where Drake reads the file as robodyn does
+    report = _report(folder, "world_root", ("mujoco", "drake"))
+    for c in report.comparisons:
+        assert _causes(report, c.engine, c.reading) == [] and c.status == "agree", (c.engine, c.reading)
+
+
+def test_a_robot_without_a_moving_joint_is_one_line(folder: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # a single link (pybullet_data's cube.urdf, plane.urdf): no M, C v, G to compare, so bad input, not a traceback
+    path = folder / "block.urdf"
+    path.write_text(f'<robot name="block"><link name="block">{urdfs.inertial(0.37)}{urdfs.BOX}</link></robot>')
+    assert main(["check", str(path), "--against", "mujoco,drake"]) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err
+    assert "block: no moving joint" in err and len(err.strip().splitlines()) == 1
+
+
 def test_a_real_run() -> None:
     run = subprocess.run(
         [sys.executable, "-m", "robodyn", "check", "pendubot", "--against", "mujoco,drake", "--samples", "5"],

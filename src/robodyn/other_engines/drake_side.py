@@ -1,9 +1,9 @@
 """Drake's reading of a URDF: ``pydrake.multibody.parsing.Parser`` on a continuous ``MultibodyPlant``.
 
-The root link is welded to the world (fixed base). Drake keeps links welded by fixed joints as bodies of
-their own; they are summed here into the moving body they hang from. Drake reads rotor inertia from
-``<drake:rotor_inertia>`` and ``<drake:gear_ratio>`` in a ``<transmission>``, not from an SRDF. Drake has
-no option that changes how it reads inertia, so its trusted reading is its default one.
+The root link is welded to the world (fixed base); a root link named ``world`` is Drake's world body already.
+Drake keeps links welded by fixed joints as bodies of their own; they are summed here into the moving body they hang
+from. Drake reads rotor inertia from ``<drake:rotor_inertia>`` and ``<drake:gear_ratio>`` in a ``<transmission>``,
+not from an SRDF. Drake has no option that changes how it reads inertia, so its trusted reading is its default one.
 """
 
 from __future__ import annotations
@@ -45,7 +45,7 @@ def read(
     with portable_copy(urdf, package_dirs) as path, _unsupported_tags_unsaid():
         try:
             Parser(plant).AddModels(path)
-            if not free_flyer:
+            if not free_flyer and root_link != "world":  # Drake's Parser welds a root link named world itself
                 plant.WeldFrames(plant.world_frame(), plant.GetBodyByName(root_link).body_frame())
             plant.Finalize()
         except (RuntimeError, ValueError) as exc:

@@ -72,7 +72,7 @@ def test_effort_velocity_and_friction_joint_by_joint(folder: Path) -> None:
     ]
     assert _causes(report, "pybullet", "trusted") == []  # jointMaxForce 0, jointMaxVelocity 3, jointFriction 0.4
     assert _causes(report, "drake", "default") == [
-        "joint2: friction read differently: robodyn 0.4, drake 0 N m (Drake's MultibodyPlant has no joint friction: "
+        "joint2: friction read differently: robodyn 0.4 N m, drake 0 N m (Drake's MultibodyPlant has no joint friction: "
         "its parser drops it) (no effect on M, C v, G; acts in simulation)"
     ]
     (mujoco,) = [c for c in report.comparisons if c.engine == "mujoco" and c.reading == "default"]
@@ -141,7 +141,7 @@ def test_armature_from_an_srdf(folder: Path) -> None:
     for engine in ENGINES:
         said = [c for c in _causes(report, engine, "default") if c.startswith("joint2: armature")]
         assert said == [
-            f"joint2: armature: robodyn 0.0032 kg m^2 (SRDF <rotor_params>), {engine} 0"
+            f"joint2: armature: robodyn 0.0032 kg m^2 (SRDF <rotor_params>), {engine} 0 kg m^2"
             + (" (PyBullet has no armature)" if engine == "pybullet" else "")
         ]
     cause = next(c for c in report.comparisons[0].causes if c.what.startswith("armature"))
@@ -162,6 +162,22 @@ def test_a_limit_without_bounds_is_read_differently(folder: Path) -> None:
 def test_damping_is_read_alike(folder: Path) -> None:
     report = _report(folder, "damping")
     assert not [c for c in report.comparisons for cause in c.causes if "damping" in cause.what]
+
+
+def test_a_prismatic_joint_s_causes_carry_its_units() -> None:
+    # damping [N s/m], armature [kg], friction [N] on a prismatic joint; each value printed with its unit
+    from robodyn.other_engines.causes import joint_causes
+    from robodyn.other_engines.reading import JointReading
+
+    axis = np.array([0.0, 0.6, 0.8])
+    mine = JointReading(axis, -0.1, 0.15, 0.7, 0.0032, effort=20.0, velocity=1.0, friction=0.4)
+    theirs = JointReading(axis, -0.1, 0.15, 0.0, 0.0, effort=20.0, velocity=1.0, friction=0.0)
+    said = [what for what, _ in joint_causes("mujoco", "prismatic", mine, theirs)]
+    assert said == [
+        "damping read differently: robodyn 0.7 N s/m, mujoco 0 N s/m (no effect on M, C v, G; acts in simulation)",
+        "friction read differently: robodyn 0.4 N, mujoco 0 N (no effect on M, C v, G; acts in simulation)",
+        "armature: robodyn 0.0032 kg (SRDF <rotor_params>), mujoco 0 kg",
+    ]
 
 
 def test_a_dropped_rotation_is_named_and_explains_the_whole_difference(

@@ -249,6 +249,15 @@ def test_cli_json_and_rows(folder: Path, capsys: pytest.CaptureFixture[str]) -> 
     assert {row["cause"] for row in report.rows()} >= {"inertia taken from the collision shape"}
 
 
+def test_json_stays_json_when_pybullet_prints(folder: Path, capfd: pytest.CaptureFixture[str]) -> None:
+    # the shoulder's axis (0.267, 0.535, 0.802) is not quite unit: PyBullet's inverse dynamics prints a b3Warning
+    # on file descriptor 1 when it builds its tree, which landed in the middle of --json's output
+    path = str(urdfs.write("floating_base", folder))
+    assert main(["check", path, "--against", "pybullet", "--samples", "2", "--json"]) == EXIT_MISMATCH
+    printed = json.loads(capfd.readouterr().out)
+    assert [c["engine"] for c in printed["comparisons"]] == ["pybullet", "pybullet"]
+
+
 def test_to_dataframe_holds_the_rows(folder: Path) -> None:
     pd = pytest.importorskip("pandas", reason="to_dataframe needs pandas (in the test extra)")
     report = _report(folder, "collision", ("pybullet",))

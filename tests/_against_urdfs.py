@@ -97,6 +97,15 @@ CASES = {
     "continuous": arm(inertial(0.5), joint2="").replace(
         'type="revolute"><parent link="link1"', 'type="continuous"><parent link="link1"'
     ),
+    # a carriage on a vertical rail: its rotational inertia enters no M, C v or G (nothing rotates)
+    "rail": f"""<?xml version="1.0"?>
+<robot name="rail">
+  <link name="base">{inertial(2.0)}</link>
+  <link name="carriage">{inertial(0.731, xyz="0.013 0 0.021")}{BOX}</link>
+  <joint name="rail" type="prismatic"><parent link="base"/><child link="carriage"/><axis xyz="0 0 1"/>
+    <limit lower="-0.2" upper="0.2" effort="50" velocity="1"/></joint>
+</robot>
+""",
 }
 
 # A free-flying base with a rotated, non-diagonal inertia off its origin and a rotated sensor welded to it (merged

@@ -180,6 +180,18 @@ def test_a_prismatic_joint_s_causes_carry_its_units() -> None:
     ]
 
 
+def test_a_cause_without_effect_says_so(folder: Path) -> None:
+    # PyBullet's collision-shape inertia on a carriage that only slides: the body differs, M, C v and G do not
+    from robodyn.other_engines import format_report
+
+    report = _report(folder, "rail", ("pybullet",))
+    assert _causes(report, "pybullet", "default") == ["carriage (rail): inertia taken from the collision shape"]
+    assert (
+        "    carriage (rail): inertia taken from the collision shape [effect: none on M, C v, G beyond rtol 1e-09]; "
+        "removed by flags=URDF_USE_INERTIA_FROM_FILE"
+    ) in format_report(report).splitlines()
+
+
 def test_a_dropped_rotation_is_named_and_explains_the_whole_difference(
     folder: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

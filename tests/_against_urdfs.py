@@ -2,7 +2,21 @@
 
 from __future__ import annotations
 
+import importlib.util
+from collections.abc import Iterable
 from pathlib import Path
+
+import pytest
+
+MODULES = {"mujoco": "mujoco", "pybullet": "pybullet", "drake": "pydrake"}
+
+
+def needs(engines: Iterable[str]) -> None:
+    """Skip the test, saying why, where one of ``engines`` is not installed (Drake, a 42 MB wheel, has its own extra)."""
+    missing = [e for e in engines if importlib.util.find_spec(MODULES[e]) is None]
+    if missing:
+        pytest.skip(f"{missing[0]} is not installed: pip install 'robodyn[{missing[0]}]' (or the test extra) runs this")
+
 
 BOX = '<collision><geometry><box size="0.1 0.05 0.3"/></geometry></collision>'
 

@@ -1,7 +1,8 @@
 """robodyn check MODEL --against ENGINE: each engine's reading of a URDF, and the cause of each difference.
 
 Engine versions: the causes below are what mujoco 4.0.0, pybullet 3.2.7 and drake 1.51.1 do. MuJoCo and PyBullet
-are in the test extra, so these tests run in CI; Drake (a 42 MB wheel) is too.
+are in the test extra, so these tests run in CI; Drake (a 42 MB wheel) is too. Where an engine is not installed,
+the tests that read it skip, saying which extra installs it.
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def _report(folder: Path, case: str, engines: tuple[str, ...] = ENGINES) -> robodyn.AgainstReport:
+    urdfs.needs(engines)
     return against(robodyn.load(urdfs.write(case, folder)), engines, samples=SAMPLES, rtol=RTOL)
 
 
@@ -51,6 +53,7 @@ def test_versions_are_the_ones_these_causes_were_seen_with(folder: Path) -> None
 
 
 def test_pendubot_reads_alike_in_mujoco_and_drake_but_for_a_zero_effort_limit() -> None:
+    urdfs.needs(("mujoco", "drake"))
     report = against(robodyn.load("pendubot"), ("mujoco", "drake"), samples=SAMPLES)
     assert [(c.engine, c.reading) for c in report.comparisons] == [
         ("mujoco", "default"),
@@ -311,6 +314,7 @@ def test_a_root_link_named_world_on_a_fixed_base(folder: Path) -> None:
 
 def test_a_robot_without_a_moving_joint_is_one_line(folder: Path, capsys: pytest.CaptureFixture[str]) -> None:
     # a single link (pybullet_data's cube.urdf, plane.urdf): no M, C v, G to compare, so bad input, not a traceback
+    urdfs.needs(("mujoco", "drake"))
     path = folder / "block.urdf"
     path.write_text(f'<robot name="block"><link name="block">{urdfs.inertial(0.37)}{urdfs.BOX}</link></robot>')
     assert main(["check", str(path), "--against", "mujoco,drake"]) == EXIT_BAD_INPUT
@@ -319,6 +323,7 @@ def test_a_robot_without_a_moving_joint_is_one_line(folder: Path, capsys: pytest
 
 
 def test_a_real_run() -> None:
+    urdfs.needs(("mujoco", "drake"))
     run = subprocess.run(
         [sys.executable, "-m", "robodyn", "check", "pendubot", "--against", "mujoco,drake", "--samples", "5"],
         capture_output=True,

@@ -82,6 +82,14 @@ def test_effort_velocity_and_friction_joint_by_joint(folder: Path) -> None:
     assert mujoco.causes[0].effect == {"M": 0.0, "Cv": 0.0, "G": 0.0}
 
 
+def test_drake_s_friction_warning_is_said_once_as_a_cause(folder: Path, caplog: pytest.LogCaptureFixture) -> None:
+    # Drake's parser logs a warning per joint with <dynamics friction>; the report names the same thing as a cause
+    with caplog.at_level("WARNING"):
+        report = _report(folder, "effort_friction", ("drake",))
+    assert [cause.what.split(":")[0] for cause in report.comparisons[0].causes] == ["friction read differently"]
+    assert not [r for r in caplog.records if "friction" in r.getMessage()]
+
+
 def test_pybullet_takes_inertia_from_the_collision_shape_unless_told(folder: Path) -> None:
     report = _report(folder, "collision", ("pybullet",))
     said = _causes(report, "pybullet", "default")
@@ -302,6 +310,19 @@ def test_a_formula_and_an_unknown_engine_are_refused_with_against(capsys: pytest
         main(["check", "pendubot", "--against", "bullet"])
     assert exited.value.code == EXIT_BAD_INPUT
     assert "expected one or more of mujoco, pybullet, drake" in capsys.readouterr().err
+
+
+def test_drake_s_refusal_names_the_user_s_file_not_robodyn_s_copy(folder: Path) -> None:
+    # talos_arm's fixed gripper joints carry <mimic>: Drake's Parser refuses the file. Its message began with the
+    # temporary copy's path and line (gone, and not the file's line), now with the file's name only.
+    urdfs.needs(("drake",))
+    path = folder / "mimic.urdf"
+    path.write_text(urdfs.CASES["no_inertial"].replace('type="fixed"><parent link="link2"/>',
+                                                       'type="fixed"><mimic joint="joint2"/><parent link="link2"/>'))  # fmt: skip
+    report = against(robodyn.load(path), "drake", samples=SAMPLES)
+    assert report.comparisons[0].refused == (
+        "drake refuses mimic.urdf: error: Joint 'tip_joint' which has 0 DOF cannot mimic joint 'joint2' which has 1 DOF."
+    )
 
 
 def test_a_root_link_named_world_on_a_fixed_base(folder: Path) -> None:

@@ -8,6 +8,7 @@ not from an SRDF. Drake has no option that changes how it reads inertia, so its 
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -42,14 +43,15 @@ def read(
     from pydrake.multibody.plant import MultibodyPlant
 
     plant = MultibodyPlant(0.0)
-    with portable_copy(urdf, package_dirs) as path, _unsupported_tags_unsaid():
+    with portable_copy(urdf, package_dirs) as path, _warnings_unsaid():
         try:
             Parser(plant).AddModels(path)
             if not free_flyer and root_link != "world":  # Drake's Parser welds a root link named world itself
                 plant.WeldFrames(plant.world_frame(), plant.GetBodyByName(root_link).body_frame())
             plant.Finalize()
         except (RuntimeError, ValueError) as exc:
-            raise EngineRefusedError(f"drake refuses {urdf.name}: {' '.join(str(exc).split())}") from None
+            said = re.sub(re.escape(str(path)) + r"(:\d+)*: ", "", " ".join(str(exc).split()))  # the copy's path, line
+            raise EngineRefusedError(f"drake refuses {urdf.name}: {said}") from None
     context = plant.CreateDefaultContext()
     joints = [plant.get_joint(i) for i in plant.GetJointIndices()]
     moving = [j for j in joints if j.num_velocities() == 1]
@@ -100,12 +102,17 @@ def _bodies(plant: Any, context: Any, joints: list[Any], moving: list[Any], free
 
 
 @contextmanager
-def _unsupported_tags_unsaid() -> Iterator[None]:
-    """Hide Drake's warnings about tags it ignores (``safety_controller``...); its other warnings still show."""
+def _warnings_unsaid() -> Iterator[None]:
+    """Hide Drake's warnings about tags it ignores (``safety_controller``...) and the joint friction it drops.
+
+    The report names a dropped friction as a cause; Drake's other warnings (an inertia it replaces) still show.
+    """
     import logging
 
+    unsaid = ("is currently unsupported and will be ignored", "does not currently support non-zero joint friction")
+
     def said(record: logging.LogRecord) -> bool:
-        return "is currently unsupported and will be ignored" not in record.getMessage()
+        return not any(text in record.getMessage() for text in unsaid)
 
     logger = logging.getLogger("drake")
     logger.addFilter(said)

@@ -325,6 +325,14 @@ def test_drake_s_refusal_names_the_user_s_file_not_robodyn_s_copy(folder: Path) 
     )
 
 
+def test_drake_s_warnings_name_the_user_s_file(folder: Path, caplog: pytest.LogCaptureFixture) -> None:
+    # the base's invalid inertia: Drake warns that it replaces it, naming the file it parsed (robodyn's copy)
+    with caplog.at_level("WARNING"):
+        _report(folder, "invalid_base", ("drake",))
+    said = [r.getMessage() for r in caplog.records if r.name == "drake"]
+    assert said and all(m.startswith("invalid_base.urdf: warning: ") and "robodyn-against" not in m for m in said)
+
+
 def test_a_root_link_named_world_on_a_fixed_base(folder: Path) -> None:
     # pybullet_data's pendulum5.urdf: Drake's Parser welds the robot to its own world body `world` by itself; welding
     # it again was refused ("would connect body world to itself") where Drake reads the file as robodyn does

@@ -43,14 +43,14 @@ def read(
     from pydrake.multibody.plant import MultibodyPlant
 
     plant = MultibodyPlant(0.0)
-    with portable_copy(urdf, package_dirs) as path, _warnings_unsaid():
+    with portable_copy(urdf, package_dirs) as path, _warnings_unsaid(path, urdf):
         try:
             Parser(plant).AddModels(path)
             if not free_flyer and root_link != "world":  # Drake's Parser welds a root link named world itself
                 plant.WeldFrames(plant.world_frame(), plant.GetBodyByName(root_link).body_frame())
             plant.Finalize()
         except (RuntimeError, ValueError) as exc:
-            said = re.sub(re.escape(str(path)) + r"(:\d+)*: ", "", " ".join(str(exc).split()))  # the copy's path, line
+            said = _unlocated(" ".join(str(exc).split()), path, "")
             raise EngineRefusedError(f"drake refuses {urdf.name}: {said}") from None
     context = plant.CreateDefaultContext()
     joints = [plant.get_joint(i) for i in plant.GetJointIndices()]
@@ -102,17 +102,20 @@ def _bodies(plant: Any, context: Any, joints: list[Any], moving: list[Any], free
 
 
 @contextmanager
-def _warnings_unsaid() -> Iterator[None]:
+def _warnings_unsaid(copy: Path, urdf: Path) -> Iterator[None]:
     """Hide Drake's warnings about tags it ignores (``safety_controller``...) and the joint friction it drops.
 
-    The report names a dropped friction as a cause; Drake's other warnings (an inertia it replaces) still show.
+    The report names a dropped friction as a cause; Drake's other warnings (an inertia it replaces) still show,
+    naming ``urdf`` where Drake names the temporary ``copy`` it parsed.
     """
     import logging
 
     unsaid = ("is currently unsupported and will be ignored", "does not currently support non-zero joint friction")
 
     def said(record: logging.LogRecord) -> bool:
-        return not any(text in record.getMessage() for text in unsaid)
+        text = record.getMessage()
+        record.msg, record.args = _unlocated(text, copy, f"{urdf.name}: "), ()
+        return not any(words in text for words in unsaid)
 
     logger = logging.getLogger("drake")
     logger.addFilter(said)
@@ -120,6 +123,11 @@ def _warnings_unsaid() -> Iterator[None]:
         yield
     finally:
         logger.removeFilter(said)
+
+
+def _unlocated(text: str, copy: Path, name: str) -> str:
+    """``text`` with the temporary copy's path and line (neither means anything to the user) replaced by ``name``."""
+    return re.sub(re.escape(str(copy)) + r"(:\d+)*: ", name, text)
 
 
 def _body(plant: Any, b: int) -> Any:

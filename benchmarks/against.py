@@ -165,7 +165,7 @@ def merge(parts: list[Path]) -> dict[str, Any]:
     run = dict(main["run"])
     run["command"] = " + ".join(part["run"]["command"] for part in loaded)
     run["wall_time_s"] = max(part["run"]["wall_time_s"] for part in loaded)
-    run["other_runs"] = [
+    run["other_runs"] = main["run"].get("other_runs", []) + [
         {**part["run"], "files": [row["file"] for row in part["rows"]]} for part in loaded if part is not main
     ]
     return {

@@ -3,6 +3,7 @@
     python benchmarks/against.py [--sets erd,pybullet] [--engines mujoco,pybullet,drake] [--limit N]
                                  [--samples 5] [--timeout 300] [--jobs 1] [--free-flyer] [--out bench-out]
     python benchmarks/against.py --merge ERD.json PYBULLET.json --out DIR
+    python benchmarks/against.py --only FILE[,FILE...] --out DIR   (those files only, e.g. to re-run rows after a fix)
 
 For each file robodyn loads (fixed base, revolute, continuous and prismatic joints only), each installed
 engine reads it with its defaults and trusting the file (``robodyn.against``). The table counts, per engine
@@ -150,7 +151,9 @@ def survey(
 def merge(parts: list[Path]) -> dict[str, Any]:
     """Surveys run side by side (e.g. one of both sets, one of ``--sets pybullet``) as one table of both sets.
 
-    A file in several parts keeps its row of the first; the table's ``files`` are those of both sets.
+    A file in several parts keeps its row of the first (a re-run with ``--only`` goes first); the table's
+    ``files`` are those of both sets. The run's facts (date, load) are those of the part with the most rows, the
+    other parts' kept under ``other_runs``.
     """
     loaded = [json.loads(part.read_text(encoding="utf-8")) for part in parts]
     rows: dict[str, dict[str, Any]] = {}
@@ -158,10 +161,13 @@ def merge(parts: list[Path]) -> dict[str, Any]:
         for row in part["rows"]:
             rows.setdefault(row["file"], row)
     everything = [label_of(path) for path in erd_files() + pybullet_files(random_only=False)]
-    run = dict(loaded[0]["run"])
+    main = max(loaded, key=lambda part: len(part["rows"]))
+    run = dict(main["run"])
     run["command"] = " + ".join(part["run"]["command"] for part in loaded)
     run["wall_time_s"] = max(part["run"]["wall_time_s"] for part in loaded)
-    run["load_after"] = loaded[-1]["run"]["load_after"]
+    run["other_runs"] = main["run"].get("other_runs", []) + [
+        {**part["run"], "files": [row["file"] for row in part["rows"]]} for part in loaded if part is not main
+    ]
     return {
         "run": run,
         "engines": loaded[0]["engines"],
@@ -182,6 +188,7 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=1, help="files compared at once, each in a child (default 1)")
     parser.add_argument("--merge", type=Path, nargs="+", help="write these saved surveys as one against.json, and stop")
     parser.add_argument("--free-flyer", action="store_true", help="float each root link (MuJoCo and Drake only)")
+    parser.add_argument("--only", default="", help="these files only (comma-separated, as the table names them)")
     args = parser.parse_args()
     table = "against_free_flyer" if args.free_flyer else "against"
     out = output_folder(args.out, overwrite_committed=args.overwrite_committed)
@@ -201,6 +208,12 @@ def main() -> None:
     for name in args.sets.split(","):
         found = erd_files() if name == "erd" else pybullet_files(random_only=False)
         files += found[: args.limit] if args.limit else found
+    if args.only:
+        wanted_files = set(args.only.split(","))
+        files = [path for path in files if label_of(path) in wanted_files]
+        unknown = wanted_files - {label_of(path) for path in files}
+        if unknown:
+            parser.error(f"--only: no such file in --sets {args.sets}: {', '.join(sorted(unknown))}")
     rows: list[dict[str, Any]] = []
     order = {label_of(path): k for k, path in enumerate(files)}
     for row in survey(files, engines, args.samples, args.timeout, args.jobs, args.free_flyer):

@@ -2,7 +2,21 @@
 
 from __future__ import annotations
 
+import importlib.util
+from collections.abc import Iterable
 from pathlib import Path
+
+import pytest
+
+MODULES = {"mujoco": "mujoco", "pybullet": "pybullet", "drake": "pydrake"}
+
+
+def needs(engines: Iterable[str]) -> None:
+    """Skip the test, saying why, where one of ``engines`` is not installed (Drake, a 42 MB wheel, has its own extra)."""
+    missing = [e for e in engines if importlib.util.find_spec(MODULES[e]) is None]
+    if missing:
+        pytest.skip(f"{missing[0]} is not installed: pip install 'robodyn[{missing[0]}]' (or the test extra) runs this")
+
 
 BOX = '<collision><geometry><box size="0.1 0.05 0.3"/></geometry></collision>'
 
@@ -97,6 +111,15 @@ CASES = {
     "continuous": arm(inertial(0.5), joint2="").replace(
         'type="revolute"><parent link="link1"', 'type="continuous"><parent link="link1"'
     ),
+    # a carriage on a vertical rail: its rotational inertia enters no M, C v or G (nothing rotates)
+    "rail": f"""<?xml version="1.0"?>
+<robot name="rail">
+  <link name="base">{inertial(2.0)}</link>
+  <link name="carriage">{inertial(0.731, xyz="0.013 0 0.021")}{BOX}</link>
+  <joint name="rail" type="prismatic"><parent link="base"/><child link="carriage"/><axis xyz="0 0 1"/>
+    <limit lower="-0.2" upper="0.2" effort="50" velocity="1"/></joint>
+</robot>
+""",
 }
 
 # A free-flying base with a rotated, non-diagonal inertia off its origin and a rotated sensor welded to it (merged

@@ -1,7 +1,8 @@
 """robodyn check MODEL --against ENGINE: each engine's reading of a URDF, and the cause of each difference.
 
 Engine versions: the causes below are what mujoco 4.0.0, pybullet 3.2.7 and drake 1.51.1 do. MuJoCo and PyBullet
-are in the test extra, so these tests run in CI; Drake (a 42 MB wheel) is too.
+are in the test extra, so these tests run in CI; Drake (a 42 MB wheel) is too. Where an engine is not installed,
+the tests that read it skip, saying which extra installs it.
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def _report(folder: Path, case: str, engines: tuple[str, ...] = ENGINES) -> robodyn.AgainstReport:
+    urdfs.needs(engines)
     return against(robodyn.load(urdfs.write(case, folder)), engines, samples=SAMPLES, rtol=RTOL)
 
 
@@ -51,6 +53,7 @@ def test_versions_are_the_ones_these_causes_were_seen_with(folder: Path) -> None
 
 
 def test_pendubot_reads_alike_in_mujoco_and_drake_but_for_a_zero_effort_limit() -> None:
+    urdfs.needs(("mujoco", "drake"))
     report = against(robodyn.load("pendubot"), ("mujoco", "drake"), samples=SAMPLES)
     assert [(c.engine, c.reading) for c in report.comparisons] == [
         ("mujoco", "default"),
@@ -72,11 +75,19 @@ def test_effort_velocity_and_friction_joint_by_joint(folder: Path) -> None:
     ]
     assert _causes(report, "pybullet", "trusted") == []  # jointMaxForce 0, jointMaxVelocity 3, jointFriction 0.4
     assert _causes(report, "drake", "default") == [
-        "joint2: friction read differently: robodyn 0.4, drake 0 N m (Drake's MultibodyPlant has no joint friction: "
+        "joint2: friction read differently: robodyn 0.4 N m, drake 0 N m (Drake's MultibodyPlant has no joint friction: "
         "its parser drops it) (no effect on M, C v, G; acts in simulation)"
     ]
     (mujoco,) = [c for c in report.comparisons if c.engine == "mujoco" and c.reading == "default"]
     assert mujoco.causes[0].effect == {"M": 0.0, "Cv": 0.0, "G": 0.0}
+
+
+def test_drake_s_friction_warning_is_said_once_as_a_cause(folder: Path, caplog: pytest.LogCaptureFixture) -> None:
+    # Drake's parser logs a warning per joint with <dynamics friction>; the report names the same thing as a cause
+    with caplog.at_level("WARNING"):
+        report = _report(folder, "effort_friction", ("drake",))
+    assert [cause.what.split(":")[0] for cause in report.comparisons[0].causes] == ["friction read differently"]
+    assert not [r for r in caplog.records if "friction" in r.getMessage()]
 
 
 def test_pybullet_takes_inertia_from_the_collision_shape_unless_told(folder: Path) -> None:
@@ -141,7 +152,7 @@ def test_armature_from_an_srdf(folder: Path) -> None:
     for engine in ENGINES:
         said = [c for c in _causes(report, engine, "default") if c.startswith("joint2: armature")]
         assert said == [
-            f"joint2: armature: robodyn 0.0032 kg m^2 (SRDF <rotor_params>), {engine} 0"
+            f"joint2: armature: robodyn 0.0032 kg m^2 (SRDF <rotor_params>), {engine} 0 kg m^2"
             + (" (PyBullet has no armature)" if engine == "pybullet" else "")
         ]
     cause = next(c for c in report.comparisons[0].causes if c.what.startswith("armature"))
@@ -162,6 +173,34 @@ def test_a_limit_without_bounds_is_read_differently(folder: Path) -> None:
 def test_damping_is_read_alike(folder: Path) -> None:
     report = _report(folder, "damping")
     assert not [c for c in report.comparisons for cause in c.causes if "damping" in cause.what]
+
+
+def test_a_prismatic_joint_s_causes_carry_its_units() -> None:
+    # damping [N s/m], armature [kg], friction [N] on a prismatic joint; each value printed with its unit
+    from robodyn.other_engines.causes import joint_causes
+    from robodyn.other_engines.reading import JointReading
+
+    axis = np.array([0.0, 0.6, 0.8])
+    mine = JointReading(axis, -0.1, 0.15, 0.7, 0.0032, effort=20.0, velocity=1.0, friction=0.4)
+    theirs = JointReading(axis, -0.1, 0.15, 0.0, 0.0, effort=20.0, velocity=1.0, friction=0.0)
+    said = [what for what, _ in joint_causes("mujoco", "prismatic", mine, theirs)]
+    assert said == [
+        "damping read differently: robodyn 0.7 N s/m, mujoco 0 N s/m (no effect on M, C v, G; acts in simulation)",
+        "friction read differently: robodyn 0.4 N, mujoco 0 N (no effect on M, C v, G; acts in simulation)",
+        "armature: robodyn 0.0032 kg (SRDF <rotor_params>), mujoco 0 kg",
+    ]
+
+
+def test_a_cause_without_effect_says_so(folder: Path) -> None:
+    # PyBullet's collision-shape inertia on a carriage that only slides: the body differs, M, C v and G do not
+    from robodyn.other_engines import format_report
+
+    report = _report(folder, "rail", ("pybullet",))
+    assert _causes(report, "pybullet", "default") == ["carriage (rail): inertia taken from the collision shape"]
+    assert (
+        "    carriage (rail): inertia taken from the collision shape [effect: none on M, C v, G beyond rtol 1e-09]; "
+        "removed by flags=URDF_USE_INERTIA_FROM_FILE"
+    ) in format_report(report).splitlines()
 
 
 def test_a_dropped_rotation_is_named_and_explains_the_whole_difference(
@@ -233,6 +272,15 @@ def test_cli_json_and_rows(folder: Path, capsys: pytest.CaptureFixture[str]) -> 
     assert {row["cause"] for row in report.rows()} >= {"inertia taken from the collision shape"}
 
 
+def test_json_stays_json_when_pybullet_prints(folder: Path, capfd: pytest.CaptureFixture[str]) -> None:
+    # the shoulder's axis (0.267, 0.535, 0.802) is not quite unit: PyBullet's inverse dynamics prints a b3Warning
+    # on file descriptor 1 when it builds its tree, which landed in the middle of --json's output
+    path = str(urdfs.write("floating_base", folder))
+    assert main(["check", path, "--against", "pybullet", "--samples", "2", "--json"]) == EXIT_MISMATCH
+    printed = json.loads(capfd.readouterr().out)
+    assert [c["engine"] for c in printed["comparisons"]] == ["pybullet", "pybullet"]
+
+
 def test_to_dataframe_holds_the_rows(folder: Path) -> None:
     pd = pytest.importorskip("pandas", reason="to_dataframe needs pandas (in the test extra)")
     report = _report(folder, "collision", ("pybullet",))
@@ -264,7 +312,47 @@ def test_a_formula_and_an_unknown_engine_are_refused_with_against(capsys: pytest
     assert "expected one or more of mujoco, pybullet, drake" in capsys.readouterr().err
 
 
+def test_drake_s_refusal_names_the_user_s_file_not_robodyn_s_copy(folder: Path) -> None:
+    # talos_arm's fixed gripper joints carry <mimic>: Drake's Parser refuses the file. Its message began with the
+    # temporary copy's path and line (gone, and not the file's line), now with the file's name only.
+    urdfs.needs(("drake",))
+    path = folder / "mimic.urdf"
+    path.write_text(urdfs.CASES["no_inertial"].replace('type="fixed"><parent link="link2"/>',
+                                                       'type="fixed"><mimic joint="joint2"/><parent link="link2"/>'))  # fmt: skip
+    report = against(robodyn.load(path), "drake", samples=SAMPLES)
+    assert report.comparisons[0].refused == (
+        "drake refuses mimic.urdf: error: Joint 'tip_joint' which has 0 DOF cannot mimic joint 'joint2' which has 1 DOF."
+    )
+
+
+def test_drake_s_warnings_name_the_user_s_file(folder: Path, caplog: pytest.LogCaptureFixture) -> None:
+    # the base's invalid inertia: Drake warns that it replaces it, naming the file it parsed (robodyn's copy)
+    with caplog.at_level("WARNING"):
+        _report(folder, "invalid_base", ("drake",))
+    said = [r.getMessage() for r in caplog.records if r.name == "drake"]
+    assert said and all(m.startswith("invalid_base.urdf: warning: ") and "robodyn-against" not in m for m in said)
+
+
+def test_a_root_link_named_world_on_a_fixed_base(folder: Path) -> None:
+    # pybullet_data's pendulum5.urdf: Drake's Parser welds the robot to its own world body `world` by itself; welding
+    # it again was refused ("would connect body world to itself") where Drake reads the file as robodyn does
+    report = _report(folder, "world_root", ("mujoco", "drake"))
+    for c in report.comparisons:
+        assert _causes(report, c.engine, c.reading) == [] and c.status == "agree", (c.engine, c.reading)
+
+
+def test_a_robot_without_a_moving_joint_is_one_line(folder: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # a single link (pybullet_data's cube.urdf, plane.urdf): no M, C v, G to compare, so bad input, not a traceback
+    urdfs.needs(("mujoco", "drake"))
+    path = folder / "block.urdf"
+    path.write_text(f'<robot name="block"><link name="block">{urdfs.inertial(0.37)}{urdfs.BOX}</link></robot>')
+    assert main(["check", str(path), "--against", "mujoco,drake"]) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err
+    assert "block: no moving joint" in err and len(err.strip().splitlines()) == 1
+
+
 def test_a_real_run() -> None:
+    urdfs.needs(("mujoco", "drake"))
     run = subprocess.run(
         [sys.executable, "-m", "robodyn", "check", "pendubot", "--against", "mujoco,drake", "--samples", "5"],
         capture_output=True,

@@ -33,6 +33,7 @@ def _largest(report: robodyn.AgainstReport) -> float:
 
 @pytest.mark.parametrize("model", ["solo12", "a1"])
 def test_example_robot_data_free_flyers_agree(model: str) -> None:
+    urdfs.needs(ENGINES)
     report = against(robodyn.load(model, free_flyer=True), ENGINES, samples=SAMPLES, rtol=RTOL)
     assert [c.status for c in report.comparisons] == ["agree"] * 3, report.rows()
     assert _largest(report) < RTOL
@@ -40,6 +41,7 @@ def test_example_robot_data_free_flyers_agree(model: str) -> None:
 
 def test_a_rotated_off_centre_base_with_a_welded_sensor_agrees(folder: Path) -> None:
     robot = robodyn.load(urdfs.write("floating_base", folder), free_flyer=True)
+    urdfs.needs(ENGINES)
     report = against(robot, ENGINES, samples=SAMPLES, rtol=RTOL)
     assert report.status == "agree", report.rows()
     assert _largest(report) < RTOL
@@ -52,6 +54,7 @@ def test_a_root_link_named_world_floats_in_mujoco_at_its_child(folder: Path) -> 
     # Pinocchio floats the root link `world`; MuJoCo's freejoint is on `trunk`, 0.06 m and a quarter turn away.
     robot = robodyn.load(urdfs.write("world_root", folder), free_flyer=True)
     assert robot.model.frames[robot.model.getFrameId("world")].parentJoint == 1
+    urdfs.needs(ENGINES)
     report = against(robot, ENGINES, samples=SAMPLES, rtol=RTOL)
     mujoco = [c for c in report.comparisons if c.engine == "mujoco"]
     assert [c.status for c in mujoco] == ["agree", "agree"], report.rows()
@@ -65,6 +68,7 @@ def test_the_base_body_is_compared(folder: Path) -> None:
     # Drake replaces a base link's physically invalid inertia (as it does ANYmal's and Go1's): the difference is in
     # the free flyer's body, and named; MuJoCo refuses the file with its own message.
     robot = robodyn.load(urdfs.write("invalid_base", folder), free_flyer=True, check_physics=False)
+    urdfs.needs(ENGINES)
     report = against(robot, ENGINES, samples=SAMPLES, rtol=RTOL)
     by = {(c.engine, c.reading): c for c in report.comparisons}
     assert "inertia must have positive eigenvalues" in str(by["mujoco", "default"].refused)

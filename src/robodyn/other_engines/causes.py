@@ -125,6 +125,7 @@ def joint_causes(engine: str, kind: str, mine: JointReading, theirs: JointReadin
     Its axis, position limits, damping, effort and velocity limits, friction and armature.
     """
     unit = "m" if kind == "prismatic" else "rad"
+    damping, rotor = ("N s/m", "kg") if kind == "prismatic" else ("N m s/rad", "kg m^2")
     found: list[tuple[str, str | None]] = []
     if float(np.abs(theirs.axis / np.linalg.norm(theirs.axis) - mine.axis).max()) > 1e-9:
         found.append((f"axis read differently: robodyn {_vec(mine.axis)}, {engine} {_vec(theirs.axis)}", None))
@@ -139,8 +140,8 @@ def joint_causes(engine: str, kind: str, mine: JointReading, theirs: JointReadin
     if not _same(mine.damping, theirs.damping):
         found.append(
             (
-                f"damping read differently: robodyn {mine.damping:.6g}, {engine} {theirs.damping:.6g} N m s/{unit} "
-                "(no effect on M, C v, G; acts in simulation)",
+                f"damping read differently: robodyn {mine.damping:.6g} {damping}, "
+                f"{engine} {theirs.damping:.6g} {damping} (no effect on M, C v, G; acts in simulation)",
                 None,
             )
         )
@@ -152,8 +153,8 @@ def joint_causes(engine: str, kind: str, mine: JointReading, theirs: JointReadin
         }.get(engine)
         found.append(
             (
-                f"armature: robodyn {mine.armature:.6g} kg m^2 (SRDF <rotor_params>), {engine} {theirs.armature:.6g}"
-                + (" (PyBullet has no armature)" if engine == "pybullet" else ""),
+                f"armature: robodyn {mine.armature:.6g} {rotor} (SRDF <rotor_params>), {engine} "
+                f"{theirs.armature:.6g} {rotor}" + (" (PyBullet has no armature)" if engine == "pybullet" else ""),
                 option,
             )
         )
@@ -180,8 +181,8 @@ def _limit_causes(engine: str, kind: str, mine: JointReading, theirs: JointReadi
         why = " (Drake's MultibodyPlant has no joint friction: its parser drops it)" if engine == "drake" else ""
         found.append(
             (
-                f"friction read differently: robodyn {mine.friction:.6g}, {engine} {theirs.friction:.6g} {force}{why} "
-                "(no effect on M, C v, G; acts in simulation)",
+                f"friction read differently: robodyn {mine.friction:.6g} {force}, "
+                f"{engine} {theirs.friction:.6g} {force}{why} (no effect on M, C v, G; acts in simulation)",
                 None,
             )
         )

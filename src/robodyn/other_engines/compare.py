@@ -67,8 +67,8 @@ def against(
     Raises:
         UnknownNameError: an engine that is not one of mujoco, pybullet, drake.
         MissingDependencyError: an engine that is not installed (the message names the extra).
-        InputError: a robot without a URDF file, or with a joint other than revolute, continuous, prismatic
-            (and a free flyer at its root); a free flyer compared with PyBullet.
+        InputError: a robot without a URDF file or without a moving joint, or with a joint other than revolute,
+            continuous, prismatic (and a free flyer at its root); a free flyer compared with PyBullet.
     """
     start = time.perf_counter()
     chosen = (engines,) if isinstance(engines, str) else tuple(engines)
@@ -92,6 +92,11 @@ def against(
 def _require_tree(robot: Robot, engines: Sequence[str]) -> None:
     if robot.urdf_path is None:
         raise InputError(f"{robot.name}: --against reads the robot's URDF file, and this robot has none")
+    if robot.nv == 0:
+        raise InputError(
+            f"{robot.name}: no moving joint: --against compares M, C v and G, which a robot without one does not "
+            "have; expected a URDF with a revolute, continuous or prismatic joint (or --free-flyer)"
+        )
     odd = [j.name for j in robot.joints[1 if free_flyer(robot) else 0 :] if j.nv != 1]
     if odd:
         raise InputError(

@@ -1,13 +1,14 @@
 """Drake's reading of a URDF: ``pydrake.multibody.parsing.Parser`` on a continuous ``MultibodyPlant``.
 
-The root link is welded to the world (fixed base). Drake keeps links welded by fixed joints as bodies of
-their own; they are summed here into the moving body they hang from. Drake reads rotor inertia from
-``<drake:rotor_inertia>`` and ``<drake:gear_ratio>`` in a ``<transmission>``, not from an SRDF. Drake has
-no option that changes how it reads inertia, so its trusted reading is its default one.
+The root link is welded to the world (fixed base); a root link named ``world`` is Drake's world body already.
+Drake keeps links welded by fixed joints as bodies of their own; they are summed here into the moving body they hang
+from. Drake reads rotor inertia from ``<drake:rotor_inertia>`` and ``<drake:gear_ratio>`` in a ``<transmission>``,
+not from an SRDF. Drake has no option that changes how it reads inertia, so its trusted reading is its default one.
 """
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -42,14 +43,15 @@ def read(
     from pydrake.multibody.plant import MultibodyPlant
 
     plant = MultibodyPlant(0.0)
-    with portable_copy(urdf, package_dirs) as path, _unsupported_tags_unsaid():
+    with portable_copy(urdf, package_dirs) as path, _warnings_unsaid(path, urdf):
         try:
             Parser(plant).AddModels(path)
-            if not free_flyer:
+            if not free_flyer and root_link != "world":  # Drake's Parser welds a root link named world itself
                 plant.WeldFrames(plant.world_frame(), plant.GetBodyByName(root_link).body_frame())
             plant.Finalize()
         except (RuntimeError, ValueError) as exc:
-            raise EngineRefusedError(f"drake refuses {urdf.name}: {' '.join(str(exc).split())}") from None
+            said = _unlocated(" ".join(str(exc).split()), path, "")
+            raise EngineRefusedError(f"drake refuses {urdf.name}: {said}") from None
     context = plant.CreateDefaultContext()
     joints = [plant.get_joint(i) for i in plant.GetJointIndices()]
     moving = [j for j in joints if j.num_velocities() == 1]
@@ -100,12 +102,20 @@ def _bodies(plant: Any, context: Any, joints: list[Any], moving: list[Any], free
 
 
 @contextmanager
-def _unsupported_tags_unsaid() -> Iterator[None]:
-    """Hide Drake's warnings about tags it ignores (``safety_controller``...); its other warnings still show."""
+def _warnings_unsaid(copy: Path, urdf: Path) -> Iterator[None]:
+    """Hide Drake's warnings about tags it ignores (``safety_controller``...) and the joint friction it drops.
+
+    The report names a dropped friction as a cause; Drake's other warnings (an inertia it replaces) still show,
+    naming ``urdf`` where Drake names the temporary ``copy`` it parsed.
+    """
     import logging
 
+    unsaid = ("is currently unsupported and will be ignored", "does not currently support non-zero joint friction")
+
     def said(record: logging.LogRecord) -> bool:
-        return "is currently unsupported and will be ignored" not in record.getMessage()
+        text = record.getMessage()
+        record.msg, record.args = _unlocated(text, copy, f"{urdf.name}: "), ()
+        return not any(words in text for words in unsaid)
 
     logger = logging.getLogger("drake")
     logger.addFilter(said)
@@ -113,6 +123,11 @@ def _unsupported_tags_unsaid() -> Iterator[None]:
         yield
     finally:
         logger.removeFilter(said)
+
+
+def _unlocated(text: str, copy: Path, name: str) -> str:
+    """``text`` with the temporary copy's path and line (neither means anything to the user) replaced by ``name``."""
+    return re.sub(re.escape(str(copy)) + r"(:\d+)*: ", name, text)
 
 
 def _body(plant: Any, b: int) -> Any:

@@ -122,9 +122,10 @@ def _joint(p: Any, client: int, body: int, info: Any) -> JointReading:
 def _evaluator(p: Any, client: int, body: int, moving: list[int], count: int) -> Any:
     def evaluate(q: Array, v: Array) -> tuple[Array, Array, Array]:
         qs, vs, zero = [float(x) for x in q], [float(x) for x in v], [0.0] * len(moving)
-        M = np.array(p.calculateMassMatrix(body, qs, physicsClientId=client))
-        G = np.array(p.calculateInverseDynamics(body, qs, zero, zero, physicsClientId=client))
-        bias = np.array(p.calculateInverseDynamics(body, qs, vs, zero, physicsClientId=client))
+        with quiet_native_output():  # its inverse dynamics prints b3Warnings (a non-unit axis) on stdout
+            M = np.array(p.calculateMassMatrix(body, qs, physicsClientId=client))
+            G = np.array(p.calculateInverseDynamics(body, qs, zero, zero, physicsClientId=client))
+            bias = np.array(p.calculateInverseDynamics(body, qs, vs, zero, physicsClientId=client))
         return M, bias - G, G
 
     weakref.finalize(evaluate, p.disconnect, client)  # the client lives as long as its evaluator

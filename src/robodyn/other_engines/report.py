@@ -137,7 +137,10 @@ def format_report(report: AgainstReport) -> str:
         )
         for cause in c.causes:
             effect = ", ".join(f"{_name(k)} {v:.1e}" for k, v in cause.effect.items())
-            shown = f" [effect: {effect}]" if any(cause.effect.values()) else ""
+            shown = f" [effect: {effect}]"
+            if not any(cause.effect.values()):  # a joint's limit or friction says so in its own words
+                nil = "no effect on M, C v, G" in cause.what
+                shown = "" if nil else f" [effect: none on M, C v, G beyond rtol {report.rtol:g}]"
             removed = f"; removed by {cause.option}" if cause.option else ""
             lines.append(f"    {cause.where}: {cause.what}{shown}{removed}")
         if c.unexplained is not None:

@@ -95,6 +95,23 @@ class Plant:
         return np.clip(u, -self.effort, self.effort)
 
 
+def _not_plain(robot: Robot) -> str:
+    """Which joints of ``robot`` have more coordinates than velocities, and what would give them one."""
+    continuous = [j.name for j in robot.joints if j.nq == 2 and j.nv == 1]
+    other = [f"{j.name} ({j.nq} coordinates)" for j in robot.joints if j.nq != j.nv and j.name not in continuous]
+    said = []
+    if continuous:
+        said.append(
+            f"{', '.join(continuous)} {'is' if len(continuous) == 1 else 'are'} continuous (cos, sin): declare "
+            f'{"it" if len(continuous) == 1 else "them"} type="revolute" with wide limits '
+            '(<limit lower="-1000" upper="1000" .../>) in the URDF'
+        )
+    if other:
+        verb = "holds" if len(other) == 1 else "hold"
+        said.append(f"{', '.join(other)} {verb} a quaternion (a free-flyer or spherical joint): none is taken")
+    return f"{robot.name} has nq={robot.nq}, nv={robot.nv}: " + "; ".join(said)
+
+
 def wrap(angle: ArrayLike) -> Array:
     """Angles [rad] wrapped to [-pi, pi)."""
     return np.asarray((np.asarray(angle, dtype=np.float64) + np.pi) % (2.0 * np.pi) - np.pi, dtype=np.float64)
@@ -103,9 +120,7 @@ def wrap(angle: ArrayLike) -> Array:
 def plant(robot: Robot) -> Plant:
     """The :class:`Plant` of ``robot``; InputError if nq != nv or nothing is actuated."""
     if not robot.nq_equals_nv:
-        raise InputError(
-            f"controllers need plain coordinates (nq == nv); {robot.name} has nq={robot.nq}, nv={robot.nv}"
-        )
+        raise InputError(f"controllers need one coordinate per joint (nq == nv); {_not_plain(robot)}")
     mask = robot.actuated
     if not np.any(mask):
         raise InputError(f"{robot.name} has no actuated joint: there is nothing to control")

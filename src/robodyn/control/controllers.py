@@ -30,8 +30,8 @@ from robodyn.control import lqr, region, swing_up
 from robodyn.control.plant import plant
 from robodyn.control.switch import Switched
 from robodyn.control.user_controller import load_user_controller, looks_like_file
-from robodyn.errors import InputError, UnknownNameError
-from robodyn.kinds import catalog
+from robodyn.errors import AssumptionError, InputError, UnknownNameError
+from robodyn.kinds import catalog, params
 from robodyn.registry import Registry
 from robodyn.robot import Robot
 
@@ -118,7 +118,10 @@ def _make_lqr(robot: Robot, **gains: Any) -> lqr.LQR:
 def _make_swing_up(robot: Robot, **gains: Any) -> Switched:
     p = plant(robot)
     if p.kind not in SWING_UP_GAINS:
-        raise InputError(f"controller 'swing_up' knows the {' and the '.join(SWING_UP_GAINS)}; {robot.name} is neither")
+        raise InputError(
+            f"controller 'swing_up' knows the {' and the '.join(SWING_UP_GAINS)}; {robot.name} is neither "
+            f"({'; '.join(_why_not(robot, kind) for kind in SWING_UP_GAINS)})"
+        )
     _require_drive(robot, p.kind)
     own = SWING_UP_GAINS[p.kind]
     _check_gains(f"swing_up ({p.kind})", gains, LQR_GAINS[:3] + REGION_GAINS + own)
@@ -136,6 +139,15 @@ def _make_swing_up(robot: Robot, **gains: Any) -> Switched:
     law_gains = {k: gains[k] for k in own if k in gains}
     law = swing_up.cart_pole(p, **law_gains) if p.kind == "cart_pole" else swing_up.pendubot(p, **law_gains)
     return Switched(law, balance, estimated)
+
+
+def _why_not(robot: Robot, kind: str) -> str:
+    """The first assumption of ``kind`` that ``robot`` breaks, as its reader says it ("not a pendubot: ...")."""
+    try:
+        params.extract(robot, kind)
+    except AssumptionError as exc:
+        return str(exc)
+    return f"a {kind} by its parameters"  # read as one, but detected as an earlier kind
 
 
 def _require_drive(robot: Robot, kind: str) -> None:

@@ -16,6 +16,7 @@ the limits less ``RAIL_MARGIN`` of the half-length at each end.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,7 +44,9 @@ class Plant:
 
     ``kind`` is the built-in kind or None; ``angular`` (nq,) marks the revolute coordinates whose
     errors wrap; ``effort`` (n_act,) the effort limits [N m | N] (inf: none); ``rail`` the usable
-    interval [m] of the actuated prismatic joint ``rail_index`` (into q), margin taken off, or None.
+    interval [m] of the actuated prismatic joint ``rail_index`` (into q), margin taken off, or None;
+    ``rests`` the (upright, hanging) configurations of a built-in kind, read from the model's potential
+    energy (:func:`rests`), or None.
     """
 
     robot: Robot
@@ -52,6 +55,7 @@ class Plant:
     effort: Array
     rail: tuple[float, float] | None
     rail_index: int | None
+    rests: tuple[Array, Array] | None = None
 
     @property
     def n(self) -> int:
@@ -72,13 +76,12 @@ class Plant:
         return self._seed_state("hanging")
 
     def _seed_state(self, what: str) -> Array:
-        balance = None if self.kind is None else catalog.kind(self.kind).balance
-        if balance is None:
+        if self.rests is None:
             raise InputError(
                 f"{self.robot.name} is none of {', '.join(controlled_kinds())}: it has no known {what} state; "
                 "give the equilibrium q_eq"
             )
-        return np.array(balance.upright if what == "upright" else balance.hanging, dtype=np.float64)
+        return (self.rests[0] if what == "upright" else self.rests[1]).copy()
 
     def error(self, q: ArrayLike, v: ArrayLike, q_eq: Array) -> Array:
         """The state error e = x - x_eq = [q - q_eq (revolute entries wrapped to [-pi, pi)), v].
@@ -141,4 +144,33 @@ def plant(robot: Robot) -> Plant:
                 rail, rail_index = (lo + margin, hi - margin), joint.idx_q
     effort = np.array(robot.model.effortLimit, dtype=np.float64)[mask]
     effort = np.where(np.isfinite(effort) & (effort > 0), effort, np.inf)
-    return Plant(robot, kind, angular, effort, rail, rail_index)
+    return Plant(robot, kind, angular, effort, rail, rail_index, None if kind is None else rests(robot, kind, angular))
+
+
+def rests(robot: Robot, kind: str, angular: NDArray[np.bool_]) -> tuple[Array, Array]:
+    """(upright, hanging) q of a robot of the built-in ``kind``: the highest and lowest potential energy.
+
+    The kind's convention (:class:`robodyn.kinds.kind.Balance`) names them for links whose centres of
+    mass lie along the link from its joint (l > 0). A URDF that puts a centre of mass on the other
+    side of its joint (a cart-pole's pole hanging at q = 0, l < 0) meets the kind's assumptions with
+    its rests half a turn away: each revolute coordinate of the convention's upright is tried as given
+    and turned by pi, and the configurations of highest and lowest potential energy are the upright
+    and the hanging rest. The convention's own values are kept wherever they are those.
+    """
+    balance = catalog.kind(kind).balance
+    assert balance is not None  # controlled_kinds() has a Balance
+    up = np.array(balance.upright, dtype=np.float64)
+    down = np.array(balance.hanging, dtype=np.float64)
+    turns = [np.array(t, dtype=np.float64) * np.pi for t in itertools.product((0, 1), repeat=int(angular.sum()))]
+    candidates = []
+    for turn in turns:
+        q = up.copy()
+        q[angular] = wrap(up[angular] + turn)
+        candidates.append(q)
+    energy = np.array([robot.potential_energy(q) for q in candidates])
+    tie = 1e-9 * max(float(np.max(np.abs(energy))), 1e-300)
+    top = candidates[int(np.argmax(energy))]
+    bottom = candidates[int(np.argmin(energy))]
+    upright = up if robot.potential_energy(up) >= float(np.max(energy)) - tie else top
+    hanging = down if robot.potential_energy(down) <= float(np.min(energy)) + tie else bottom
+    return upright, hanging

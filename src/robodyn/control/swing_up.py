@@ -15,7 +15,9 @@ acceleration
 makes dE/dt = -m l k_E (E - E_up) (theta' cos theta)^2 <= 0 towards E_up (the small ``kick``
 starts the swing from rest, where theta' = 0, and vanishes with E - E_up). The PD terms keep the
 cart near the middle; a rail guard brakes at ``a_max`` when the cart could not otherwise stop
-inside the rail's usable interval. Assumes: the pole's hinge is frictionless (the energy law
+inside the rail's usable interval. A pole whose centre of mass lies below its hinge at q = 0
+(l < 0) has its upright at theta = pi (:func:`robodyn.control.plant.rests`): the energy is measured
+from cos theta_up and the pump's sign follows l's. Assumes: the pole's hinge is frictionless (the energy law
 ignores its damping), the cart's force is its only input, the state is measured.
 
 **Pendubot** (M. W. Spong, "The swing up control problem for the Acrobot", IEEE Control Systems
@@ -86,16 +88,22 @@ class CartPoleEnergy:
     g: float
     m_total: float
     energy_up: float = 0.0
-    energy_name: ClassVar[str] = "the pole's ½ J θ̇² + m g l (cos θ − 1), zero upright at rest"
+    cos_up: float = 1.0
+    energy_name: ClassVar[str] = "the pole's ½ J θ̇² + m g l (cos θ − cos θ_up), zero upright at rest"
 
     def energy(self, q: Array, v: Array) -> float:
-        """The pole's energy 1/2 J theta'^2 + m g l (cos theta - 1) [J], 0 upright at rest."""
-        return 0.5 * self.J * float(v[1]) ** 2 + self.m * self.g * self.l * (float(np.cos(q[1])) - 1.0)
+        """The pole's energy 1/2 J theta'^2 + m g l (cos theta - cos theta_up) [J], 0 upright at rest.
+
+        theta_up is the plant's upright: 0 for a pole above its hinge at q = 0 (l > 0), pi for one
+        below it (l < 0); ``cos_up`` holds its cosine.
+        """
+        return 0.5 * self.J * float(v[1]) ** 2 + self.m * self.g * self.l * (float(np.cos(q[1])) - self.cos_up)
 
     def acceleration(self, q: Array, v: Array) -> float:
         """The commanded cart acceleration [m/s^2], rail guard applied."""
         sigma = float(v[1] * np.cos(q[1])) + self.kick
-        pump = float(np.clip(self.k_energy * (self.energy(q, v) - self.energy_up) * sigma, -1.0, 1.0))
+        side = -1.0 if self.l < 0 else 1.0  # dE/dt = -m l y'' theta' cos theta: a pole below its hinge pumps reversed
+        pump = float(np.clip(side * self.k_energy * (self.energy(q, v) - self.energy_up) * sigma, -1.0, 1.0))
         accel = self.accel_max * pump - self.k_position * float(q[0]) - self.k_velocity * float(v[0])
         return rail_guard(self.plant, float(q[0]), float(v[0]), accel, self.accel_max)
 
@@ -222,6 +230,7 @@ def cart_pole(
         g,
         m_total,
         energy_offset,
+        float(np.cos(plant.upright()[1])),
     )
 
 

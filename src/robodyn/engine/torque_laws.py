@@ -158,9 +158,10 @@ def law(kind: str, name: str, jit: Any = None) -> Callable[..., Any]:
         k_energy, accel_max, k_position = c[GAINS], c[GAINS + 1], c[GAINS + 2]
         k_velocity, kick = c[GAINS + 3], c[GAINS + 4]
         m, length, J, g, energy_up = c[GAINS + 5], c[GAINS + 6], c[GAINS + 7], c[GAINS + 8], c[GAINS + 9]
-        energy = 0.5 * J * (v1 * v1) + m * g * length * (np.cos(q1) - 1.0)
+        energy = 0.5 * J * (v1 * v1) + m * g * length * (np.cos(q1) - np.cos(c[Q_EQ + 1]))  # 0 upright at rest
         sigma = v1 * np.cos(q1) + kick
-        pump = smaller(larger(k_energy * (energy - energy_up) * sigma, -1.0), 1.0)
+        side = pick(length < 0.0, -1.0, 1.0)  # a pole below its hinge at q = 0 pumps reversed
+        pump = smaller(larger(side * k_energy * (energy - energy_up) * sigma, -1.0), 1.0)
         accel = accel_max * pump - k_position * q0 - k_velocity * v0
         rail = c[GAINS + 10] > 0.5  # robodyn.control.swing_up.rail_guard, braking at accel_max
         stop = q0 + v0 * abs(v0) / (2.0 * accel_max)

@@ -1,0 +1,91 @@
+"""The upright and the hanging rest read from the model's potential energy, not from the kind's convention alone.
+
+A cart-pole whose pole hangs below its hinge at q = 0 (its centre of mass at z = -0.37 m: l < 0 in the
+kind's parameters) meets the cart-pole's assumptions, but its upright is theta = pi. Before the rests
+were read from the model, such a file started "balanced from t = 0 s" while hanging, and exited 0.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numba
+import numpy as np
+import pytest
+
+import robodyn
+import robodyn.control
+from robodyn.control.compiled import law_of
+from robodyn.control.outcome import judge
+from robodyn.control.plant import plant, wrap
+from robodyn.engine import torque_laws as tl
+from robodyn.kinds import params
+from robodyn.sim.fast import FastDynamics
+from robodyn.sweep.policy import batch_policy
+
+POLE_BELOW = """<robot name="pole_below"><link name="rail"/>
+<link name="cart"><inertial><mass value="0.83"/>
+<inertia ixx="1e-3" iyy="1e-3" izz="1e-3" ixy="0" ixz="0" iyz="0"/></inertial></link>
+<link name="pole"><inertial><origin xyz="0 0 -0.37"/><mass value="0.137"/>
+<inertia ixx="6.1e-3" iyy="6.1e-3" izz="1e-6" ixy="0" ixz="0" iyz="0"/></inertial></link>
+<joint name="slider" type="prismatic"><parent link="rail"/><child link="cart"/><axis xyz="1 0 0"/>
+<limit lower="-1.8" upper="1.8" effort="12" velocity="100"/></joint>
+<joint name="hinge" type="revolute"><parent link="cart"/><child link="pole"/><axis xyz="0 1 0"/>
+<limit lower="-1000" upper="1000" effort="0" velocity="100"/></joint>
+</robot>"""
+UPRIGHT_TOL = 0.05  # [rad] the swing-up's "upright" (robodyn.control.outcome.BALANCE_TOL)
+DURATION_S = 8.0  # [s] it balances at 2.93 s from hanging (12 N on a 0.97 kg cart and pole)
+# The controller's __call__ takes M, C v, G from Pinocchio, the compiled law from the closed form:
+# round-off, a few ulps of the largest force (12 N), as tests/test_torque_laws.py.
+POLICY_ATOL = 1e-12
+
+
+@pytest.fixture()
+def pole_below(tmp_path: Path) -> robodyn.Robot:
+    path = tmp_path / "pole_below.urdf"
+    path.write_text(POLE_BELOW, encoding="utf-8")
+    return robodyn.load(path, passive=["hinge"])
+
+
+def test_a_pole_below_its_hinge_has_its_upright_half_a_turn_away(pole_below: robodyn.Robot) -> None:
+    assert params.extract(pole_below, "cart_pole")["l"] == pytest.approx(-0.37)
+    p = plant(pole_below)
+    assert abs(float(wrap(p.upright()[1] - np.pi))) < 1e-15
+    np.testing.assert_array_equal(p.hanging(), [0.0, 0.0])
+    assert pole_below.potential_energy(p.upright()) > pole_below.potential_energy(p.hanging())
+
+
+@pytest.mark.parametrize(
+    ("kind", "upright", "hanging"), [("cart_pole", (0, 0), (0, np.pi)), ("pendubot", (np.pi / 2, 0), (-np.pi / 2, 0))]
+)
+def test_the_built_in_kinds_keep_their_convention_to_the_bit(kind: str, upright: tuple, hanging: tuple) -> None:
+    p = plant(robodyn.load(kind))
+    np.testing.assert_array_equal(p.upright(), upright)
+    np.testing.assert_array_equal(p.hanging(), hanging)
+
+
+def test_a_pole_below_its_hinge_swings_up_from_hanging(pole_below: robodyn.Robot) -> None:
+    controller = robodyn.control.make("swing_up", pole_below)
+    run = robodyn.simulate(pole_below, [0.0, 0.0], [0.0, 0.0], duration=DURATION_S, dt=1e-3, torque=controller)
+    verdict = judge(controller, run.t, run.q, run.v, run.tau)
+    assert verdict.balanced, verdict.line()
+    assert verdict.time > 1.0  # it starts hanging: not "balanced from t = 0"
+    assert abs(float(wrap(run.q[-1, 1] - np.pi))) < UPRIGHT_TOL
+    assert verdict.unit == "N"
+
+
+def test_the_compiled_law_pumps_a_pole_below_its_hinge_as_the_controller_does(pole_below: robodyn.Robot) -> None:
+    fast = FastDynamics.from_robot(pole_below)
+    controller = robodyn.control.make("swing_up", pole_below)
+    law, c = law_of(controller, fast)
+    scalar = tl.law("cart_pole", law, numba.njit)
+    rng = np.random.default_rng(5)
+    q = np.column_stack([rng.uniform(-1.0, 1.0, 200), rng.uniform(-3.0, 3.0, 200)])
+    v = rng.uniform(-3.0, 3.0, (200, 2))
+    p, b = fast.param_vector, np.zeros(2)
+    got = np.array([scalar(c, p, b, q[k, 0], q[k, 1], v[k, 0], v[k, 1]) for k in range(q.shape[0])])
+    batch = batch_policy(controller, fast)(q, v)[:, 0]
+    ref = np.array([controller(0.0, q[k], v[k])[0] for k in range(q.shape[0])])
+    assert np.array_equal(got, batch)
+    np.testing.assert_allclose(got, ref, rtol=0, atol=POLICY_ATOL * max(1.0, float(np.abs(ref).max())))
+    assert np.any(controller.modes(q, v) == 0)  # the energy law gives some of those torques

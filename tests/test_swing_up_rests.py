@@ -89,3 +89,19 @@ def test_the_compiled_law_pumps_a_pole_below_its_hinge_as_the_controller_does(po
     assert np.array_equal(got, batch)
     np.testing.assert_allclose(got, ref, rtol=0, atol=POLICY_ATOL * max(1.0, float(np.abs(ref).max())))
     assert np.any(controller.modes(q, v) == 0)  # the energy law gives some of those torques
+
+
+def test_a_pendubot_whose_link_2_mass_sits_behind_its_elbow(tmp_path: Path) -> None:
+    # link 2's centre of mass at x = -0.1262 m (lc2 < 0): its upright is the elbow folded, q2 = pi;
+    # relabelled q2 - pi it is Spong and Block's machine, and its law is that machine's law
+    spong = Path(__file__).parent / "fixtures" / "spong_pendubot.urdf"
+    text = spong.read_text(encoding="utf-8").replace('<origin xyz="0.1262 0 0"', '<origin xyz="-0.1262 0 0"')
+    path = tmp_path / "behind.urdf"
+    path.write_text(text, encoding="utf-8")
+    robot = robodyn.load(path, passive=["joint2"])
+    p = plant(robot)
+    np.testing.assert_allclose(wrap(p.upright() - [np.pi / 2, np.pi]), 0.0, atol=1e-15)
+    np.testing.assert_allclose(wrap(p.hanging() - [-np.pi / 2, np.pi]), 0.0, atol=1e-15)
+    controller = robodyn.control.make("swing_up", robot)
+    run = robodyn.simulate(robot, p.hanging(), [0.0, 0.0], duration=0.5, dt=1e-3, torque=controller)
+    assert not judge(controller, run.t, run.q, run.v, run.tau).balanced  # hanging is not upright

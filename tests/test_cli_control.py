@@ -354,3 +354,12 @@ def test_a_continuous_pole_is_named_with_the_change_that_lets_a_controller_drive
     assert main([*argv, "--out", str(tmp_path / "run.npz")]) == 0
     q = np.load(tmp_path / "run.npz")["q"]
     assert abs(q[-1, 1]) < UPRIGHT_TOL
+
+
+def test_every_joint_passive_names_them_and_where_they_were_declared(capsys: pytest.CaptureFixture[str]) -> None:
+    # the built-in Pendubot's SRDF declares joint2 passive; --passive joint1 leaves nothing actuated
+    argv = ["simulate", "pendubot", "--passive", "joint1", "--controller", "swing_up", "--duration", "0.1"]
+    assert main(argv) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert "(joint1, joint2 declared passive by its SRDF pendubot.srdf or --passive)" in err

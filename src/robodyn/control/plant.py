@@ -126,7 +126,11 @@ def plant(robot: Robot) -> Plant:
         raise InputError(f"controllers need one coordinate per joint (nq == nv); {_not_plain(robot)}")
     mask = robot.actuated
     if not np.any(mask):
-        raise InputError(f"{robot.name} has no actuated joint: there is nothing to control")
+        where = f"its SRDF {robot.srdf_path.name} or --passive" if robot.srdf_path is not None else "--passive"
+        raise InputError(
+            f"{robot.name} has no actuated joint ({', '.join(robot.passive_joints)} declared passive by {where}): "
+            "there is nothing to control"
+        )
     kind = params.detect_kind(robot)
     kind = kind if kind in controlled_kinds() else None
     angular = np.zeros(robot.nq, dtype=bool)

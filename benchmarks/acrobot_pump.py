@@ -22,9 +22,7 @@ saves ``acrobot_pump.json``.
 
 from __future__ import annotations
 
-import argparse
 import itertools
-import json
 import sys
 import tempfile
 from pathlib import Path
@@ -36,7 +34,9 @@ import robodyn
 from robodyn import dynamics
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_swing_up import BASES, PENDUBOT, draw  # the swing-up benchmark's families
+from bench_swing_up import BASES, PENDUBOT, draw
+
+from _common import argument_parser, output_folder, run_facts, write_json
 
 FAMILIES = ("pendubot (built-in)", "pendubot (Spong-Block)")
 SPONG_GAINS = list(itertools.product((2.0, 4.0, 10.0, 25.0), (1.0, 2.0, 4.0, 7.0), (1.0, 3.0, 10.0, -1.0, -3.0)))
@@ -140,16 +140,15 @@ def summary(rows: list[dict[str, Any]]) -> dict[str, Any]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("bench-out"), help="folder for acrobot_pump.json")
+    parser = argument_parser(__doc__ or "")
     parser.add_argument("--n", type=int, default=20, help="systems per family (the first is the family's base)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the draws")
     args = parser.parse_args()
-    args.out.mkdir(parents=True, exist_ok=True)
+    out = output_folder(args.out, overwrite_committed=args.overwrite_committed)
+    facts = run_facts()
     with tempfile.TemporaryDirectory() as tmp:
         result = {"families": [family(label, args.n, args.seed + i, Path(tmp)) for i, label in enumerate(FAMILIES)]}
-    path = args.out / "acrobot_pump.json"
-    path.write_text(json.dumps(result, indent=1) + "\n", encoding="utf-8")
+    path = write_json(out, "acrobot_pump", result, facts)
     for fam in result["families"]:
         for law in ("spong", "xin_kaneda"):
             s = fam[law]

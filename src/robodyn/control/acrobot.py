@@ -101,7 +101,7 @@ class AcrobotEnergy:
         return self.k_p * (self.reference(q, v) - bend) - self.k_d * float(v[1])
 
     def __call__(self, t: float, q: Array, v: Array) -> Array:
-        """The elbow torque [N m] (1,), from the commanded acceleration by collocated PFL, clipped to the effort limit."""
+        """The elbow torque [N m] (1,): the commanded acceleration by collocated PFL, clipped to the effort limit."""
         return self.plant.saturate(self.pfl.torque(q, v, np.array([self.acceleration(q, v)])))
 
 

@@ -15,6 +15,7 @@ import pytest
 
 import robodyn
 from robodyn import control
+from robodyn.control.acrobot import AcrobotEnergy
 from robodyn.control.plant import wrap
 from robodyn.errors import InputError
 from robodyn.kinds.edit import write_params
@@ -65,12 +66,11 @@ def test_swing_up_refuses_a_pendubot_whose_elbow_is_actuated_naming_the_joint_to
         control.make("swing_up", robot)
 
 
-def test_swing_up_refuses_a_pendubot_whose_shoulder_is_passive():
+def test_swing_up_of_a_pendubot_whose_shoulder_is_passive_is_the_acrobot_law():
     robot = robodyn.load(str(OTHER), passive=["joint1"])
-    with pytest.raises(
-        InputError, match=r"declares it passive \(an Acrobot, its elbow driven: robodyn has no swing-up"
-    ):
-        control.make("swing_up", robot)
+    controller = control.make("swing_up", robot)
+    assert isinstance(controller.swing_up, AcrobotEnergy)  # the elbow driven (tests/test_acrobot.py swings it)
+    assert controller.swing_up.plant.effort.tolist() == [OTHER_EFFORT]
 
 
 @pytest.mark.slow

@@ -9,7 +9,10 @@ Built in:
   ``Q``, ``R``, ``K`` of the LQR, ``rho`` (the region's level; default estimated), ``samples`` and
   ``seed`` of that estimate, and the swing-up law's own: for the cart-pole ``k_energy``,
   ``accel_max``, ``k_position``, ``k_velocity``, ``kick``, ``energy_offset``; for the Pendubot
-  ``k_energy``, ``accel_max``, ``k_p``, ``k_d``, ``kick``, ``energy_offset``, ``swing_effort``.
+  ``k_energy``, ``accel_max``, ``k_p``, ``k_d``, ``kick``, ``energy_offset``, ``swing_effort``; for
+  the Acrobot (a Pendubot with the elbow driven, :mod:`robodyn.control.acrobot`) ``k_p``, ``k_d``,
+  ``k_energy``, ``amplitude``, ``kick``, ``energy_offset``, and its LQR's default ``Q``, ``R`` are
+  scaled from the model (:func:`robodyn.control.acrobot.lqr_weights`).
 
 A name that ends in ``.py`` or holds a path separator is a user's controller file
 (:mod:`robodyn.control.user_controller`). An unknown name, or an unknown gain, raises
@@ -26,7 +29,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from robodyn.control import lqr, region, swing_up
+from robodyn.control import acrobot, lqr, region, swing_up
 from robodyn.control.plant import plant
 from robodyn.control.switch import Switched
 from robodyn.control.user_controller import load_user_controller, looks_like_file
@@ -54,6 +57,7 @@ REGION_GAINS = ("rho", "samples", "seed")
 SWING_UP_GAINS = {
     "cart_pole": ("accel_max", "energy_offset", "k_energy", "k_position", "k_velocity", "kick"),
     "pendubot": ("accel_max", "energy_offset", "k_d", "k_energy", "k_p", "kick", "swing_effort"),
+    "acrobot": ("amplitude", "energy_offset", "k_d", "k_energy", "k_p", "kick"),
 }
 
 
@@ -117,15 +121,21 @@ def _make_lqr(robot: Robot, **gains: Any) -> lqr.LQR:
 
 def _make_swing_up(robot: Robot, **gains: Any) -> Switched:
     p = plant(robot)
-    if p.kind not in SWING_UP_GAINS:
+    kinds = ("cart_pole", "pendubot")
+    if p.kind not in kinds:
         raise InputError(
-            f"controller 'swing_up' knows the {' and the '.join(SWING_UP_GAINS)}; {robot.name} is neither "
-            f"({'; '.join(_why_not(robot, kind) for kind in SWING_UP_GAINS)})"
+            f"controller 'swing_up' knows the {' and the '.join(kinds)}; {robot.name} is neither "
+            f"({'; '.join(_why_not(robot, kind) for kind in kinds)})"
         )
-    _require_drive(robot, p.kind)
-    own = SWING_UP_GAINS[p.kind]
-    _check_gains(f"swing_up ({p.kind})", gains, LQR_GAINS[:3] + REGION_GAINS + own)
-    balance = lqr.design(robot, **{k: gains[k] for k in LQR_GAINS[:3] if k in gains})
+    law_kind = "acrobot" if acrobot.is_acrobot(p) else p.kind
+    if law_kind != "acrobot":
+        _require_drive(robot, p.kind)
+    own = SWING_UP_GAINS[law_kind]
+    _check_gains(f"swing_up ({law_kind})", gains, LQR_GAINS[:3] + REGION_GAINS + own)
+    weights = {k: gains[k] for k in LQR_GAINS[:3] if k in gains}
+    if law_kind == "acrobot" and not weights:  # its region must hold the straight arm's orbit (see lqr_weights)
+        weights["Q"], weights["R"] = acrobot.lqr_weights(p)
+    balance = lqr.design(robot, **weights)
     rho = gains.get("rho")
     estimated = region.estimate(
         balance,
@@ -137,7 +147,11 @@ def _make_swing_up(robot: Robot, **gains: Any) -> Switched:
             raise InputError(f"swing_up gain rho must be a positive number (a level of e^T P e), got {rho!r}")
         estimated = region.Region(float(rho), estimated.rho_lyapunov, estimated.rho_rail, estimated.c_max, 0, 0)
     law_gains = {k: gains[k] for k in own if k in gains}
-    law = swing_up.cart_pole(p, **law_gains) if p.kind == "cart_pole" else swing_up.pendubot(p, **law_gains)
+    law: Controller
+    if law_kind == "acrobot":
+        law = acrobot.acrobot(p, **law_gains)
+    else:
+        law = swing_up.cart_pole(p, **law_gains) if p.kind == "cart_pole" else swing_up.pendubot(p, **law_gains)
     return Switched(law, balance, estimated)
 
 
@@ -161,13 +175,7 @@ def _require_drive(robot: Robot, kind: str) -> None:
     assert balance is not None  # a kind with a swing-up law has its Balance
     driven = robot.joint_names[balance.driven]  # every other joint must be passive
     if driven in robot.passive_joints:
-        acrobot = (
-            " (an Acrobot, its elbow driven: robodyn has no swing-up for it; --controller lqr balances it from near "
-            "upright)"
-            if kind == "pendubot"
-            else ""
-        )
-        raise InputError(f"swing_up drives {driven} of the {kind}, but {robot.name} declares it passive{acrobot}")
+        raise InputError(f"swing_up drives {driven} of the {kind}, but {robot.name} declares it passive")
     extra = [j.name for j in robot.joints if j.actuated and j.name != driven]
     if extra:
         raise InputError(

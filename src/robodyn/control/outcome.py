@@ -11,6 +11,8 @@ A run that did not balance gets the reason where one is known, checked in this o
 * the effort limit is below what the swing needs (:func:`robodyn.control.swing_up.swing_need`, with
   how much is needed);
 * the cart reached the end of its rail's usable interval (the rail is too short for the swing);
+* an Acrobot's swing never came within ``ENERGY_SHORT`` of its upright energy (its elbow's coupling
+  kappa, :func:`robodyn.control.acrobot.scales`, is too weak to pump it in the run's time);
 * the hand-over never found the LQR's region of attraction (e^T P e never fell below rho);
 * the LQR took over but the state left the region again (the swing-up then resumed);
 * else none is known (the run was too short, or the swing-up is still on its way).
@@ -32,6 +34,11 @@ BALANCE_TOL = 0.05
 # A run has balanced when it stays upright over its last HOLD [s]: one second, many times the
 # built-in kinds' LQR time constants (0.1 to 0.5 s), so a pass through the upright does not count.
 HOLD = 1.0
+# An Acrobot whose total energy never came within this fraction of W (the hold torque's energy,
+# half the energy of a turn) of E_up never swung near the upright: the drawn Acrobots whose pump
+# is too weak stay at 1.8 to 2 W short (hanging is 2 W short); those that reach the region pass
+# within 0.01 W of it.
+ENERGY_SHORT = 0.1
 
 
 def angle_error(q: Array, upright: Array, angular: NDArray[np.bool_]) -> Array:
@@ -162,6 +169,9 @@ def diagnose(controller: Any, q: Array, v: Array, *, peak_ok: bool = True) -> st
                 f"the rail is too short: the cart reached y = {reached:.3f} m, "
                 f"the end of its usable interval [{lo:.3f}, {hi:.3f}] m (joint limits [{limits[0]:g}, {limits[1]:g}] m)"
             )
+    short = _acrobot_short(law, q, v)
+    if short is not None:
+        return short
     value = controller.lqr.value(q, v)
     rho = controller.region.rho
     if not np.any(value < rho):
@@ -172,3 +182,25 @@ def diagnose(controller: Any, q: Array, v: Array, *, peak_ok: bool = True) -> st
     if value[-1] >= rho:
         return "the LQR took over but the state left its region of attraction; the swing-up resumed"
     return "the LQR holds the state in its region but it has not settled within tolerance by the end"
+
+
+def _acrobot_short(law: Any, q: Array, v: Array) -> str | None:
+    """The clause for an Acrobot whose energy never came within ``ENERGY_SHORT`` W of E_up, else None."""
+    from robodyn.control.acrobot import AcrobotEnergy, scales
+
+    if not isinstance(law, AcrobotEnergy) or q.shape[0] == 0:
+        return None
+    step = max(1, q.shape[0] // ENERGY_SAMPLES)
+    energies = [law.energy(qi, vi) for qi, vi in zip(q[::step], v[::step], strict=True)]
+    highest = float(np.nanmax(energies)) if np.any(np.isfinite(energies)) else math.nan
+    if np.isfinite(highest) and highest >= law.energy_up - ENERGY_SHORT * law.hold_torque:
+        return None
+    _, _, kappa = scales(law.plant)
+    return (
+        f"the swing never reached the upright's energy (it came to {highest - law.energy_up:.4g} J of E_up, "
+        f"2 W = {2 * law.hold_torque:.4g} J below it hanging): the elbow's coupling kappa = {kappa:.3g} "
+        "pumps too little a swing"
+    )
+
+
+ENERGY_SAMPLES = 3000  # states of the run whose energy is evaluated (every k-th)

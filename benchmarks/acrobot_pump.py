@@ -1,4 +1,4 @@
-"""How fast a pump through the elbow starts an Acrobot's swing from hanging: why robodyn has no Acrobot swing-up.
+"""How fast a pump through the elbow starts an Acrobot's swing from hanging: why the Acrobot law starts with a kick.
 
 An Acrobot is the Pendubot's two links with the shoulder passive and the elbow driven. From hanging
 at rest a swing-up law must first make the hanging rest unstable, and how fast the swing grows from

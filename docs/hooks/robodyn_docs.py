@@ -1079,6 +1079,27 @@ def _acrobot_pump(data: dict[str, Any]) -> str:
     return "\n".join(out) + "\n\n" + reading + "\n"
 
 
+def _acrobot_family(data: dict[str, Any]) -> str:
+    """benchmarks/acrobot_family.py: drawn Acrobots swung up from hanging by robodyn.control.acrobot."""
+    out = [
+        "| family | systems | balanced | time to balance median / max | peak elbow torque / hold torque (max) "
+        "| did not, with its coupling κ and reason |",
+        "|---|---:|---:|---:|---:|---|",
+    ]
+    for label, s in data["families"].items():
+        times = "-" if s["time_median_s"] is None else f"{s['time_median_s']:.1f} s / {s['time_max_s']:.1f} s"
+        failed = "; ".join(
+            f"#{f['system']} (κ {f['kappa']:.3f}): {f['reason'].split(':')[0]}" for f in s["not_balanced"]
+        )
+        peak = f"{s['peak_over_hold_max']:.2f}"
+        out.append(f"| {label} | {s['systems']} | {s['balanced']} | {times} | {peak} | {failed or '-'} |")
+    reading = (
+        f"Each run {data['duration_s']:g} s from the hanging rest at zero velocity, RK4 at dt = {data['dt_s']:g} s, "
+        f"the elbow's limit {data['elbow_effort_n_m']:g} N m; balanced as `robodyn.control.outcome` judges it."
+    )
+    return "\n".join(out) + "\n\n" + reading + "\n"
+
+
 RENDERERS: dict[str, Callable[[dict[str, Any]], str]] = {
     "explain": _explain,
     "explain_before": _explain,
@@ -1101,6 +1122,7 @@ RENDERERS: dict[str, Callable[[dict[str, Any]], str]] = {
     "against_free_flyer": _against,
     "first_run": _first_run,
     "acrobot_pump": _acrobot_pump,
+    "acrobot_family": _acrobot_family,
 }
 
 

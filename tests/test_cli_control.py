@@ -21,6 +21,9 @@ from robodyn.cli import main
 from robodyn.errors import EXIT_BAD_INPUT, EXIT_NOT_BALANCED, SceneError
 from robodyn.scene import read_scene
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+import bench_swing_up  # the swing-up benchmark's cart-pole template
+
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 # The issue's "upright": the pole within 0.05 rad of the upward vertical over the last second.
@@ -321,17 +324,13 @@ def test_bad_scene_control_exits_2_through_run(
     assert not (tmp_path / "out" / "scene.npz").exists()
 
 
-# A cart-pole as pybullet_data's cartpole.urdf writes it: the pole on a continuous joint, so its
-# configuration is (y, cos theta, sin theta), nq = 3 against nv = 2.
-CONTINUOUS_CART_POLE = """<robot name="continuous_cart_pole"><link name="rail"/>
-<link name="cart"><inertial><mass value="1.0"/>
-<inertia ixx="1e-3" iyy="1e-3" izz="1e-3" ixy="0" ixz="0" iyz="0"/></inertial></link>
-<link name="pole"><inertial><origin xyz="0 0 0.5"/><mass value="0.1"/>
-<inertia ixx="8.3e-3" iyy="8.3e-3" izz="1e-6" ixy="0" ixz="0" iyz="0"/></inertial></link>
-<joint name="slider" type="prismatic"><parent link="rail"/><child link="cart"/><axis xyz="1 0 0"/>
-<limit lower="-2.4" upper="2.4" effort="10" velocity="100"/></joint>
-<joint name="hinge" type="continuous"><parent link="cart"/><child link="pole"/><axis xyz="0 1 0"/></joint>
-</robot>"""
+# The swing-up benchmark's cart-pole (revolute hinge) and the same with the hinge continuous, as
+# pybullet_data's cartpole.urdf writes it: its configuration is (y, cos theta, sin theta), nq = 3 against nv = 2.
+REVOLUTE_CART_POLE = bench_swing_up.CART_POLE.format(m_cart=1.0, m=0.1, l=0.5, I=8.3e-3, effort=10)
+REVOLUTE_HINGE = 'type="revolute"><parent link="cart"/><child link="pole"/><axis xyz="0 1 0"/>\n<limit lower="-1000" upper="1000" effort="0" velocity="100"/>'
+CONTINUOUS_CART_POLE = REVOLUTE_CART_POLE.replace(
+    REVOLUTE_HINGE, 'type="continuous"><parent link="cart"/><child link="pole"/><axis xyz="0 1 0"/>'
+)
 
 
 def test_a_continuous_pole_is_named_with_the_change_that_lets_a_controller_drive_it(
@@ -345,12 +344,7 @@ def test_a_continuous_pole_is_named_with_the_change_that_lets_a_controller_drive
     assert err.count("\n") == 1
     assert "hinge is continuous (cos, sin)" in err and 'type="revolute"' in err
     # the change it names works: the same file with the hinge revolute balances under the LQR
-    fixed = CONTINUOUS_CART_POLE.replace(
-        'type="continuous"><parent link="cart"/><child link="pole"/><axis xyz="0 1 0"/>',
-        'type="revolute"><parent link="cart"/><child link="pole"/><axis xyz="0 1 0"/>'
-        '<limit lower="-1000" upper="1000" effort="0" velocity="100"/>',
-    )
-    path.write_text(fixed, encoding="utf-8")
+    path.write_text(REVOLUTE_CART_POLE, encoding="utf-8")
     assert main([*argv, "--out", str(tmp_path / "run.npz")]) == 0
     q = np.load(tmp_path / "run.npz")["q"]
     assert abs(q[-1, 1]) < UPRIGHT_TOL

@@ -7,6 +7,7 @@ were read from the model, such a file started "balanced from t = 0 s" while hang
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numba
@@ -23,16 +24,10 @@ from robodyn.kinds import params
 from robodyn.sim.fast import FastDynamics
 from robodyn.sweep.policy import batch_policy
 
-POLE_BELOW = """<robot name="pole_below"><link name="rail"/>
-<link name="cart"><inertial><mass value="0.83"/>
-<inertia ixx="1e-3" iyy="1e-3" izz="1e-3" ixy="0" ixz="0" iyz="0"/></inertial></link>
-<link name="pole"><inertial><origin xyz="0 0 -0.37"/><mass value="0.137"/>
-<inertia ixx="6.1e-3" iyy="6.1e-3" izz="1e-6" ixy="0" ixz="0" iyz="0"/></inertial></link>
-<joint name="slider" type="prismatic"><parent link="rail"/><child link="cart"/><axis xyz="1 0 0"/>
-<limit lower="-1.8" upper="1.8" effort="12" velocity="100"/></joint>
-<joint name="hinge" type="revolute"><parent link="cart"/><child link="pole"/><axis xyz="0 1 0"/>
-<limit lower="-1000" upper="1000" effort="0" velocity="100"/></joint>
-</robot>"""
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+import bench_swing_up  # the swing-up benchmark's cart-pole template, its pole at z = l
+
+POLE_BELOW = bench_swing_up.CART_POLE.format(m_cart=0.83, m=0.137, l=-0.37, I=6.1e-3, effort=12)
 UPRIGHT_TOL = 0.05  # [rad] the swing-up's "upright" (robodyn.control.outcome.BALANCE_TOL)
 DURATION_S = 8.0  # [s] it balances at 2.93 s from hanging (12 N on a 0.97 kg cart and pole)
 # The controller's __call__ takes M, C v, G from Pinocchio, the compiled law from the closed form:

@@ -50,8 +50,8 @@ from numpy.typing import NDArray
 from robodyn import dynamics
 from robodyn.control.pfl import Collocated, collocated
 from robodyn.control.plant import Plant, wrap
+from robodyn.control.swing_up import require_finite, require_non_negative, require_positive
 from robodyn.errors import InputError
-from robodyn.fileio import is_number
 
 Array = NDArray[np.float64]
 
@@ -160,11 +160,10 @@ def acrobot(
     ``energy_offset`` [J] shifts the target E_up (for experiments; the upright needs 0).
     """
     given = {"k_p": k_p, "k_d": k_d, "k_energy": k_energy, "amplitude": amplitude}
-    _positive(**{name: value for name, value in given.items() if value is not None})
-    if kick is not None and not (is_number(kick) and kick >= 0):
-        raise InputError(f"swing_up gain kick must be a number >= 0, got {kick!r}")
-    if not is_number(energy_offset):
-        raise InputError(f"swing_up gain energy_offset must be a finite number, got {energy_offset!r:.40}")
+    require_positive(**{name: value for name, value in given.items() if value is not None})
+    if kick is not None:
+        require_non_negative(kick=kick)
+    require_finite(energy_offset=energy_offset)
     hold, omega, kappa = scales(plant)
     robot = plant.robot
     default_amplitude = AMPLITUDE_MAX if kappa == 0 else min(AMPLITUDE_MAX, AMPLITUDE / abs(kappa))
@@ -183,12 +182,6 @@ def acrobot(
         robot.potential_energy(plant.upright()) + float(energy_offset),
         robot.potential_energy(plant.hanging()),
     )
-
-
-def _positive(**gains: float | None) -> None:
-    for name, value in gains.items():
-        if not (is_number(value) and value is not None and value > 0):
-            raise InputError(f"swing_up gain {name} must be a positive number, got {value!r}")
 
 
 # The dimensionless gains, tuned from hanging at rest, 30 s, in a NumPy batch of the closed-form

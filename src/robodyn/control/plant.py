@@ -175,6 +175,6 @@ def rests(robot: Robot, kind: str, angular: NDArray[np.bool_]) -> tuple[Array, A
     tie = 1e-9 * max(float(np.max(np.abs(energy))), 1e-300)
     top = candidates[int(np.argmax(energy))]
     bottom = candidates[int(np.argmin(energy))]
-    upright = up if robot.potential_energy(up) >= float(np.max(energy)) - tie else top
+    upright = up if energy[0] >= float(np.max(energy)) - tie else top  # candidates[0] is the convention's upright
     hanging = down if robot.potential_energy(down) <= float(np.min(energy)) + tie else bottom
     return upright, hanging

@@ -214,8 +214,8 @@ def cart_pole(
     kick = 0.1 * (omega / ref_omega) if kick is None else kick
     if accel_max is None:
         accel_max = min(g, 0.8 * float(plant.effort[0]) / m_total)
-    _positive(k_energy=k_energy, accel_max=accel_max)
-    _non_negative(k_position=k_position, k_velocity=k_velocity, kick=kick)
+    require_positive(k_energy=k_energy, accel_max=accel_max)
+    require_non_negative(k_position=k_position, k_velocity=k_velocity, kick=kick)
     return CartPoleEnergy(
         plant,
         collocated(plant.robot),
@@ -282,11 +282,10 @@ def pendubot(
         )
         if value is not None
     }  # fmt: skip
-    _positive(**given)  # before any arithmetic on them (the defaults come from the model)
+    require_positive(**given)  # before any arithmetic on them (the defaults come from the model)
     if kick is not None:
-        _non_negative(kick=kick)
-    if not is_number(energy_offset):
-        raise InputError(f"swing_up gain energy_offset must be a finite number, got {energy_offset!r:.40}")
+        require_non_negative(kick=kick)
+    require_finite(energy_offset=energy_offset)
     robot = plant.robot
     up = plant.upright()
     M = dynamics.mass_matrix(robot.model, robot.data, up)
@@ -458,13 +457,22 @@ PUMP_MAX = 1.0
 KICK_RATIO = 0.01
 
 
-def _positive(**gains: float) -> None:
+def require_positive(**gains: float) -> None:
+    """Raise InputError, naming the gain, unless every one of ``gains`` is a positive number."""
     for name, value in gains.items():
         if not (is_number(value) and value > 0):
             raise InputError(f"swing_up gain {name} must be a positive number, got {value!r}")
 
 
-def _non_negative(**gains: float) -> None:
+def require_non_negative(**gains: float) -> None:
+    """Raise InputError, naming the gain, unless every one of ``gains`` is a number >= 0."""
     for name, value in gains.items():
         if not (is_number(value) and value >= 0):
             raise InputError(f"swing_up gain {name} must be a number >= 0, got {value!r}")
+
+
+def require_finite(**gains: float) -> None:
+    """Raise InputError, naming the gain, unless every one of ``gains`` is a finite number."""
+    for name, value in gains.items():
+        if not is_number(value):
+            raise InputError(f"swing_up gain {name} must be a finite number, got {value!r:.40}")
